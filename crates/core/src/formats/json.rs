@@ -1,0 +1,447 @@
+//! Checked JSON getters and a matrix-friendly writer shared by all formats.
+//!
+//! ```
+//! use kestrel_core::formats::json;
+//! let obj = json::parse_object(r#"{"format": "x", "A": [[1, 2], [3, 4]]}"#).unwrap();
+//! let a = json::matrix(&obj, "A", Some(2), Some(2)).unwrap();
+//! assert_eq!(a[(1, 0)], 3.0);
+//! let err = json::matrix(&obj, "A", Some(3), Some(2)).unwrap_err();
+//! assert!(err.to_string().contains("\"A\""));
+//! assert!(err.to_string().contains("3 x 2"));
+//! ```
+
+#[allow(unused_imports)]
+use std::{borrow::ToOwned, format, string::String, string::ToString, vec, vec::Vec};
+
+use super::FormatError;
+use nalgebra::{DMatrix, DVector};
+use serde_json::{Map, Value};
+
+/// A parsed JSON object.
+pub type Object = Map<String, Value>;
+
+/// Parses text into a JSON object.
+///
+/// Bare `NaN`/`Infinity` tokens (as Python's `json.dump` writes them) are
+/// not JSON; rather than a bare syntax error, they are read as strings so
+/// that the getters can name the key holding the non-finite value.
+pub fn parse_object(text: &str) -> Result<Object, FormatError> {
+    let value: Value = match serde_json::from_str(text) {
+        Ok(v) => v,
+        Err(e) => {
+            let quoted = quote_non_finite_tokens(text);
+            match serde_json::from_str(&quoted) {
+                Ok(v) if quoted != text => v,
+                _ => return Err(FormatError::Json(e)),
+            }
+        }
+    };
+    match value {
+        Value::Object(m) => Ok(m),
+        _ => Err(FormatError::NotAnObject),
+    }
+}
+
+/// Replaces bare `NaN`, `Infinity` and `-Infinity` outside strings by quoted strings.
+fn quote_non_finite_tokens(text: &str) -> String {
+    let mut out = String::with_capacity(text.len() + 16);
+    let mut in_str = false;
+    let mut escaped = false;
+    let mut rest = text;
+    while let Some(c) = rest.chars().next() {
+        if in_str {
+            out.push(c);
+            if escaped {
+                escaped = false;
+            } else if c == '\\' {
+                escaped = true;
+            } else if c == '"' {
+                in_str = false;
+            }
+            rest = &rest[c.len_utf8()..];
+            continue;
+        }
+        let mut matched = false;
+        for tok in ["-Infinity", "Infinity", "NaN"] {
+            if rest.starts_with(tok) {
+                out.push('"');
+                out.push_str(tok);
+                out.push('"');
+                rest = &rest[tok.len()..];
+                matched = true;
+                break;
+            }
+        }
+        if matched {
+            continue;
+        }
+        if c == '"' {
+            in_str = true;
+        }
+        out.push(c);
+        rest = &rest[c.len_utf8()..];
+    }
+    out
+}
+
+/// Checks the `format` key.
+pub fn check_format(obj: &Object, expected: &'static str) -> Result<(), FormatError> {
+    match obj.get("format") {
+        None => Err(FormatError::MissingKey {
+            key: "format".into(),
+            expected: format!("\"{expected}\""),
+        }),
+        Some(Value::String(s)) if s == expected => Ok(()),
+        Some(v) => Err(FormatError::WrongFormat {
+            expected,
+            found: v.to_string(),
+        }),
+    }
+}
+
+fn describe(v: &Value) -> String {
+    match v {
+        Value::Null => "null".into(),
+        Value::Bool(b) => format!("the boolean {b}"),
+        Value::Number(n) => format!("the number {n}"),
+        Value::String(s) => format!("the string {s:?}"),
+        Value::Array(a) => format!("an array of {} entries", a.len()),
+        Value::Object(_) => "an object".into(),
+    }
+}
+
+/// Reads one finite number at `path` (used for error messages).
+pub fn number_value(v: &Value, path: &str) -> Result<f64, FormatError> {
+    match v {
+        Value::Number(n) => match n.as_f64() {
+            Some(x) if x.is_finite() => Ok(x),
+            _ => Err(FormatError::NonFinite {
+                key: path.into(),
+                found: n.to_string(),
+            }),
+        },
+        Value::String(s)
+            if matches!(
+                s.as_str(),
+                "NaN" | "Infinity" | "-Infinity" | "nan" | "inf" | "-inf"
+            ) =>
+        {
+            Err(FormatError::NonFinite {
+                key: path.into(),
+                found: s.clone(),
+            })
+        }
+        other => Err(FormatError::Shape {
+            key: path.into(),
+            expected: "a finite number".into(),
+            found: describe(other),
+        }),
+    }
+}
+
+fn required<'a>(obj: &'a Object, key: &str, expected: &str) -> Result<&'a Value, FormatError> {
+    obj.get(key).ok_or_else(|| FormatError::MissingKey {
+        key: key.into(),
+        expected: expected.into(),
+    })
+}
+
+fn dim(d: Option<usize>) -> String {
+    d.map_or_else(|| "n".to_string(), |v| v.to_string())
+}
+
+fn matrix_shape(rows: Option<usize>, cols: Option<usize>) -> String {
+    format!(
+        "a {} x {} matrix (array of {} rows of {} numbers)",
+        dim(rows),
+        dim(cols),
+        dim(rows),
+        dim(cols)
+    )
+}
+
+/// Reads a required number.
+pub fn number(obj: &Object, key: &str) -> Result<f64, FormatError> {
+    number_value(required(obj, key, "a finite number")?, key)
+}
+
+/// Reads an optional number.
+pub fn opt_number(obj: &Object, key: &str) -> Result<Option<f64>, FormatError> {
+    obj.get(key).map(|v| number_value(v, key)).transpose()
+}
+
+/// Reads a matrix value (row-major array of rows) with optional fixed sizes.
+/// An empty array is a `0 x cols` matrix (cols taken from `cols`, else 0).
+pub fn matrix_value(
+    v: &Value,
+    key: &str,
+    rows: Option<usize>,
+    cols: Option<usize>,
+) -> Result<DMatrix<f64>, FormatError> {
+    let shape_err = |found: String| FormatError::Shape {
+        key: key.into(),
+        expected: matrix_shape(rows, cols),
+        found,
+    };
+    let arr = v.as_array().ok_or_else(|| shape_err(describe(v)))?;
+    if let Some(r) = rows
+        && arr.len() != r
+    {
+        return Err(shape_err(format!("{} rows", arr.len())));
+    }
+    let ncols = match (arr.first(), cols) {
+        (Some(Value::Array(first)), None) => first.len(),
+        (_, Some(c)) => c,
+        (None, None) => 0,
+        (Some(other), None) => return Err(shape_err(format!("row 0 is {}", describe(other)))),
+    };
+    let mut m = DMatrix::zeros(arr.len(), ncols);
+    for (i, row) in arr.iter().enumerate() {
+        let row = row
+            .as_array()
+            .ok_or_else(|| shape_err(format!("row {i} is {}", describe(row))))?;
+        if row.len() != ncols {
+            return Err(shape_err(format!("row {i} with {} entries", row.len())));
+        }
+        for (j, x) in row.iter().enumerate() {
+            m[(i, j)] = number_value(x, &format!("{key}[{i}][{j}]"))?;
+        }
+    }
+    Ok(m)
+}
+
+/// Reads a required matrix.
+pub fn matrix(
+    obj: &Object,
+    key: &str,
+    rows: Option<usize>,
+    cols: Option<usize>,
+) -> Result<DMatrix<f64>, FormatError> {
+    matrix_value(
+        required(obj, key, &matrix_shape(rows, cols))?,
+        key,
+        rows,
+        cols,
+    )
+}
+
+/// Reads an optional matrix.
+pub fn opt_matrix(
+    obj: &Object,
+    key: &str,
+    rows: Option<usize>,
+    cols: Option<usize>,
+) -> Result<Option<DMatrix<f64>>, FormatError> {
+    obj.get(key)
+        .map(|v| matrix_value(v, key, rows, cols))
+        .transpose()
+}
+
+/// Reads a vector value (plain array of numbers) with an optional fixed length.
+pub fn vector_value(v: &Value, key: &str, len: Option<usize>) -> Result<DVector<f64>, FormatError> {
+    let expected = format!("a vector of {} numbers", dim(len));
+    let arr = v.as_array().ok_or_else(|| FormatError::Shape {
+        key: key.into(),
+        expected: expected.clone(),
+        found: describe(v),
+    })?;
+    if let Some(n) = len
+        && arr.len() != n
+    {
+        return Err(FormatError::Shape {
+            key: key.into(),
+            expected,
+            found: format!("{} entries", arr.len()),
+        });
+    }
+    let mut out = DVector::zeros(arr.len());
+    for (i, x) in arr.iter().enumerate() {
+        out[i] = number_value(x, &format!("{key}[{i}]"))?;
+    }
+    Ok(out)
+}
+
+/// Reads a required vector.
+pub fn vector(obj: &Object, key: &str, len: Option<usize>) -> Result<DVector<f64>, FormatError> {
+    let expected = format!("a vector of {} numbers", dim(len));
+    vector_value(required(obj, key, &expected)?, key, len)
+}
+
+/// Reads an optional vector.
+pub fn opt_vector(
+    obj: &Object,
+    key: &str,
+    len: Option<usize>,
+) -> Result<Option<DVector<f64>>, FormatError> {
+    obj.get(key).map(|v| vector_value(v, key, len)).transpose()
+}
+
+/// Reads an optional array of strings with an optional fixed length.
+pub fn opt_strings(
+    obj: &Object,
+    key: &str,
+    len: Option<usize>,
+) -> Result<Option<Vec<String>>, FormatError> {
+    let Some(v) = obj.get(key) else {
+        return Ok(None);
+    };
+    let expected = format!("an array of {} strings", dim(len));
+    let err = |found: String| FormatError::Shape {
+        key: key.into(),
+        expected: expected.clone(),
+        found,
+    };
+    let arr = v.as_array().ok_or_else(|| err(describe(v)))?;
+    if let Some(n) = len
+        && arr.len() != n
+    {
+        return Err(err(format!("{} entries", arr.len())));
+    }
+    arr.iter()
+        .map(|s| {
+            s.as_str()
+                .map(str::to_owned)
+                .ok_or_else(|| err(describe(s)))
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map(Some)
+}
+
+/// A JSON value for a matrix (array of rows).
+pub fn matrix_to_value(m: &DMatrix<f64>) -> Value {
+    Value::Array(
+        m.row_iter()
+            .map(|r| Value::Array(r.iter().map(|&x| Value::from(x)).collect()))
+            .collect(),
+    )
+}
+
+/// A JSON value for a vector.
+pub fn vector_to_value(v: &DVector<f64>) -> Value {
+    Value::Array(v.iter().map(|&x| Value::from(x)).collect())
+}
+
+/// Writes an object as readable JSON: one key per line, and arrays of
+/// numbers (vectors, matrix rows) each on one line.
+pub fn to_pretty_string(obj: &Object) -> String {
+    let mut out = String::new();
+    write_value(&Value::Object(obj.clone()), 0, &mut out);
+    out.push('\n');
+    out
+}
+
+fn is_flat(v: &Value) -> bool {
+    match v {
+        Value::Array(a) => a.iter().all(|x| !x.is_array() && !x.is_object()),
+        Value::Object(_) => false,
+        _ => true,
+    }
+}
+
+fn write_value(v: &Value, indent: usize, out: &mut String) {
+    let pad = |n: usize| "  ".repeat(n);
+    match v {
+        Value::Object(m) if !m.is_empty() => {
+            out.push_str("{\n");
+            for (i, (k, val)) in m.iter().enumerate() {
+                out.push_str(&pad(indent + 1));
+                out.push_str(&Value::String(k.clone()).to_string());
+                out.push_str(": ");
+                write_value(val, indent + 1, out);
+                if i + 1 < m.len() {
+                    out.push(',');
+                }
+                out.push('\n');
+            }
+            out.push_str(&pad(indent));
+            out.push('}');
+        }
+        Value::Array(a) if !is_flat(v) => {
+            out.push_str("[\n");
+            for (i, val) in a.iter().enumerate() {
+                out.push_str(&pad(indent + 1));
+                write_value(val, indent + 1, out);
+                if i + 1 < a.len() {
+                    out.push(',');
+                }
+                out.push('\n');
+            }
+            out.push_str(&pad(indent));
+            out.push(']');
+        }
+        Value::Array(a) => {
+            let items: Vec<String> = a.iter().map(Value::to_string).collect();
+            out.push('[');
+            out.push_str(&items.join(", "));
+            out.push(']');
+        }
+        other => out.push_str(&other.to_string()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nan_literal_is_reported_with_its_key() {
+        let obj = parse_object(r#"{"A": [[1, NaN]], "s": "NaN, Infinity"}"#).unwrap();
+        let e = matrix(&obj, "A", None, None).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "key \"A[0][1]\": expected a finite number, found NaN"
+        );
+        // Strings are left alone.
+        assert_eq!(obj["s"], Value::String("NaN, Infinity".into()));
+    }
+
+    #[test]
+    fn shape_errors_name_key_and_shape() {
+        let obj = parse_object(r#"{"B": [[1], [2, 3]], "v": [1, 2], "x": "a"}"#).unwrap();
+        let e = matrix(&obj, "B", None, None).unwrap_err().to_string();
+        assert!(
+            e.contains("\"B\"") && e.contains("row 1 with 2 entries"),
+            "{e}"
+        );
+        let e = vector(&obj, "v", Some(3)).unwrap_err().to_string();
+        assert!(
+            e.contains("a vector of 3 numbers") && e.contains("2 entries"),
+            "{e}"
+        );
+        let e = matrix(&obj, "C", Some(2), Some(2)).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "missing key \"C\" (expected a 2 x 2 matrix (array of 2 rows of 2 numbers))"
+        );
+        let e = number(&obj, "x").unwrap_err().to_string();
+        assert!(e.contains("the string \"a\""), "{e}");
+        assert!(matches!(parse_object("[1]"), Err(FormatError::NotAnObject)));
+        assert!(matches!(parse_object("{"), Err(FormatError::Json(_))));
+    }
+
+    #[test]
+    fn huge_numbers_are_non_finite_errors() {
+        let r = parse_object(r#"{"a": 1e999}"#);
+        // serde_json refuses numbers out of range at parse time: an error either way.
+        match r {
+            Err(FormatError::Json(_)) => {}
+            Ok(obj) => assert!(number(&obj, "a").is_err()),
+            Err(e) => panic!("unexpected {e}"),
+        }
+    }
+
+    #[test]
+    fn pretty_writer_round_trips() {
+        let mut obj = Object::new();
+        obj.insert("format".into(), "t".into());
+        obj.insert(
+            "A".into(),
+            matrix_to_value(&DMatrix::from_row_slice(2, 2, &[1.0, 0.1, -3e-20, 4.0])),
+        );
+        obj.insert("v".into(), vector_to_value(&DVector::from_vec(vec![])));
+        let text = to_pretty_string(&obj);
+        assert!(text.contains("[1.0, 0.1]"), "{text}");
+        let back = parse_object(&text).unwrap();
+        assert_eq!(back, obj);
+    }
+}

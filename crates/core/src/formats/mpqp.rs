@@ -1,0 +1,291 @@
+//! `kestrel.mpqp.v1`: a multi-parametric quadratic program.
+
+#[allow(unused_imports)]
+use std::{borrow::ToOwned, format, string::String, string::ToString, vec, vec::Vec};
+
+use super::FormatError;
+use super::json::{self, Object};
+use nalgebra::{DMatrix, DVector};
+
+/// A multi-parametric QP in the thesis form (6.19)-(6.21):
+///
+/// minimise over `z`: `1/2 z'Hz + (F'theta + f)'z`
+/// subject to `G z <= W + E theta`, `theta_lb <= theta <= theta_ub`
+/// and, optionally, `theta_A theta <= theta_b`.
+///
+/// `n` decision variables, `p` parameters, `m` constraints.
+///
+/// ```
+/// use kestrel_core::formats::MpqpProblem;
+/// let p = MpqpProblem::from_json_str(r#"{"format": "kestrel.mpqp.v1",
+///   "H": [[2]], "F": [[1]], "G": [[1], [-1]], "W": [1, 1], "E": [[0], [0]],
+///   "theta_lb": [-5], "theta_ub": [5]}"#).unwrap();
+/// assert_eq!((p.n(), p.p(), p.m()), (1, 1, 2));
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct MpqpProblem {
+    /// Hessian, `n x n`, symmetric.
+    pub h: DMatrix<f64>,
+    /// Parameter-to-linear-term map, `p x n`.
+    pub f_theta: DMatrix<f64>,
+    /// Constant linear term, `n`.
+    pub f: DVector<f64>,
+    /// Constraint matrix, `m x n`.
+    pub g: DMatrix<f64>,
+    /// Constraint right-hand side, `m`.
+    pub w: DVector<f64>,
+    /// Parameter dependence of the right-hand side, `m x p`.
+    pub e: DMatrix<f64>,
+    /// Lower bounds of the parameter box, `p`.
+    pub theta_lb: DVector<f64>,
+    /// Upper bounds of the parameter box, `p`.
+    pub theta_ub: DVector<f64>,
+    /// Optional extra parameter polytope `theta_A theta <= theta_b`: (`q x p`, `q`).
+    pub theta_poly: Option<(DMatrix<f64>, DVector<f64>)>,
+}
+
+impl MpqpProblem {
+    /// The format name.
+    pub const FORMAT: &'static str = "kestrel.mpqp.v1";
+
+    /// Number of decision variables.
+    pub fn n(&self) -> usize {
+        self.h.nrows()
+    }
+    /// Number of parameters.
+    pub fn p(&self) -> usize {
+        self.f_theta.nrows()
+    }
+    /// Number of constraints.
+    pub fn m(&self) -> usize {
+        self.g.nrows()
+    }
+
+    /// Checks shapes, finiteness, symmetry of `H` and the parameter box.
+    /// (Positive definiteness is the solvers' check.)
+    pub fn validate(&self) -> Result<(), FormatError> {
+        let (n, p, m) = (self.n(), self.p(), self.m());
+        let check = |key: &str, rows: usize, cols: usize, mat: &DMatrix<f64>| {
+            if mat.shape() != (rows, cols) {
+                return Err(FormatError::Shape {
+                    key: key.into(),
+                    expected: format!("a {rows} x {cols} matrix"),
+                    found: format!("a {} x {} matrix", mat.nrows(), mat.ncols()),
+                });
+            }
+            match mat.iter().position(|v| !v.is_finite()) {
+                Some(i) => Err(FormatError::NonFinite {
+                    key: format!("{key}[{}][{}]", i % rows.max(1), i / rows.max(1)),
+                    found: mat[i].to_string(),
+                }),
+                None => Ok(()),
+            }
+        };
+        let vcheck = |key: &str, len: usize, v: &DVector<f64>| {
+            check(
+                key,
+                len,
+                1,
+                &DMatrix::from_column_slice(v.len(), 1, v.as_slice()),
+            )
+            .map_err(|e| match e {
+                FormatError::Shape { key, .. } => FormatError::Shape {
+                    key,
+                    expected: format!("a vector of {len} numbers"),
+                    found: format!("{} entries", v.len()),
+                },
+                other => other,
+            })
+        };
+        check("H", n, n, &self.h)?;
+        check("F", p, n, &self.f_theta)?;
+        vcheck("f", n, &self.f)?;
+        check("G", m, n, &self.g)?;
+        vcheck("W", m, &self.w)?;
+        check("E", m, p, &self.e)?;
+        vcheck("theta_lb", p, &self.theta_lb)?;
+        vcheck("theta_ub", p, &self.theta_ub)?;
+        let asym = (&self.h - self.h.transpose()).amax();
+        if asym > 1e-9 * self.h.amax().max(1.0) {
+            return Err(FormatError::invalid(
+                "H",
+                format!("must be symmetric (largest asymmetry {asym:e})"),
+            ));
+        }
+        if let Some(i) = (0..p).find(|&i| self.theta_lb[i] > self.theta_ub[i]) {
+            return Err(FormatError::invalid(
+                "theta_lb",
+                format!(
+                    "entry {i} ({}) exceeds theta_ub[{i}] ({})",
+                    self.theta_lb[i], self.theta_ub[i]
+                ),
+            ));
+        }
+        if let Some((a, b)) = &self.theta_poly {
+            check("theta_A", a.nrows(), p, a)?;
+            vcheck("theta_b", a.nrows(), b)?;
+        }
+        Ok(())
+    }
+
+    /// Reads a problem from a parsed JSON object.
+    pub fn from_object(obj: &Object) -> Result<Self, FormatError> {
+        json::check_format(obj, Self::FORMAT)?;
+        let h = json::matrix(obj, "H", None, None)?;
+        let n = h.nrows();
+        if h.ncols() != n {
+            return Err(FormatError::Shape {
+                key: "H".into(),
+                expected: "a square matrix".into(),
+                found: format!("a {} x {} matrix", n, h.ncols()),
+            });
+        }
+        let f_theta = json::matrix(obj, "F", None, Some(n))?;
+        let p = f_theta.nrows();
+        let f = json::opt_vector(obj, "f", Some(n))?.unwrap_or_else(|| DVector::zeros(n));
+        let g = json::matrix(obj, "G", None, Some(n))?;
+        let m = g.nrows();
+        let w = json::vector(obj, "W", Some(m))?;
+        let e = json::matrix(obj, "E", Some(m), Some(p))?;
+        let theta_lb = json::vector(obj, "theta_lb", Some(p))?;
+        let theta_ub = json::vector(obj, "theta_ub", Some(p))?;
+        let theta_poly = match json::opt_matrix(obj, "theta_A", None, Some(p))? {
+            Some(a) => {
+                let b = json::vector(obj, "theta_b", Some(a.nrows()))?;
+                Some((a, b))
+            }
+            None => {
+                if obj.contains_key("theta_b") {
+                    return Err(FormatError::MissingKey {
+                        key: "theta_A".into(),
+                        expected: format!("a q x {p} matrix to go with \"theta_b\""),
+                    });
+                }
+                None
+            }
+        };
+        let prob = MpqpProblem {
+            h,
+            f_theta,
+            f,
+            g,
+            w,
+            e,
+            theta_lb,
+            theta_ub,
+            theta_poly,
+        };
+        prob.validate()?;
+        Ok(prob)
+    }
+
+    /// Reads a problem from JSON text.
+    pub fn from_json_str(text: &str) -> Result<Self, FormatError> {
+        Self::from_object(&json::parse_object(text)?)
+    }
+
+    /// Reads a problem from a file.
+    pub fn read(path: &std::path::Path) -> Result<Self, FormatError> {
+        Self::from_json_str(&super::read_text(path)?)
+    }
+
+    /// The problem as a JSON object.
+    pub fn to_object(&self) -> Object {
+        let mut o = Object::new();
+        o.insert("format".into(), Self::FORMAT.into());
+        o.insert("H".into(), json::matrix_to_value(&self.h));
+        o.insert("F".into(), json::matrix_to_value(&self.f_theta));
+        o.insert("f".into(), json::vector_to_value(&self.f));
+        o.insert("G".into(), json::matrix_to_value(&self.g));
+        o.insert("W".into(), json::vector_to_value(&self.w));
+        o.insert("E".into(), json::matrix_to_value(&self.e));
+        o.insert("theta_lb".into(), json::vector_to_value(&self.theta_lb));
+        o.insert("theta_ub".into(), json::vector_to_value(&self.theta_ub));
+        if let Some((a, b)) = &self.theta_poly {
+            o.insert("theta_A".into(), json::matrix_to_value(a));
+            o.insert("theta_b".into(), json::vector_to_value(b));
+        }
+        o
+    }
+
+    /// The problem as readable JSON text.
+    pub fn to_json_string(&self) -> String {
+        json::to_pretty_string(&self.to_object())
+    }
+
+    /// The linear term `F'theta + f` at a parameter value.
+    pub fn linear_term(&self, theta: &DVector<f64>) -> DVector<f64> {
+        self.f_theta.tr_mul(theta) + &self.f
+    }
+
+    /// The constraint right-hand side `W + E theta` at a parameter value.
+    pub fn rhs(&self, theta: &DVector<f64>) -> DVector<f64> {
+        &self.w + &self.e * theta
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"{"format": "kestrel.mpqp.v1",
+        "H": [[2, 0], [0, 1]], "F": [[1, 0], [0, 1], [1, 1]], "f": [0.5, 0],
+        "G": [[1, 0], [-1, 0], [0, 1]], "W": [1, 1, 2], "E": [[0, 0, 1], [0, 0, 0], [1, 0, 0]],
+        "theta_lb": [-1, -1, 0], "theta_ub": [1, 1, 1],
+        "theta_A": [[1, 1, 0]], "theta_b": [1.5]}"#;
+
+    #[test]
+    fn reads_round_trips_and_evaluates() {
+        let p = MpqpProblem::from_json_str(GOOD).unwrap();
+        assert_eq!((p.n(), p.p(), p.m()), (2, 3, 3));
+        assert_eq!(MpqpProblem::from_json_str(&p.to_json_string()).unwrap(), p);
+        let th = DVector::from_vec(vec![1.0, 2.0, 3.0]);
+        // F'theta + f = [1 + 3 + 0.5, 2 + 3].
+        assert_eq!(p.linear_term(&th).as_slice(), &[4.5, 5.0]);
+        // W + E theta = [1 + 3, 1, 2 + 1].
+        assert_eq!(p.rhs(&th).as_slice(), &[4.0, 1.0, 3.0]);
+    }
+
+    #[test]
+    fn bad_files_name_key_and_shape() {
+        let edit = |from: &str, to: &str| GOOD.replace(from, to);
+        let cases = [
+            (
+                edit(r#""H": [[2, 0], [0, 1]]"#, r#""H": [[2, 1], [0, 1]]"#),
+                "key \"H\": must be symmetric",
+            ),
+            (
+                edit(r#""f": [0.5, 0]"#, r#""f": [0.5]"#),
+                "key \"f\": expected a vector of 2 numbers",
+            ),
+            (
+                edit(r#""W": [1, 1, 2]"#, r#""W": [1, 1]"#),
+                "key \"W\": expected a vector of 3 numbers",
+            ),
+            (
+                edit(r#""E": [[0, 0, 1],"#, r#""E": [[0, 0],"#),
+                "key \"E\": expected a 3 x 3 matrix",
+            ),
+            (
+                edit(r#""theta_lb": [-1, -1, 0]"#, r#""theta_lb": [-1, -1, 2]"#),
+                "key \"theta_lb\": entry 2",
+            ),
+            (
+                edit(r#""theta_ub": [1, 1, 1]"#, r#""theta_ub": [1, 1, NaN]"#),
+                "key \"theta_ub[2]\": expected a finite number",
+            ),
+            (
+                edit(r#""theta_A": [[1, 1, 0]], "#, ""),
+                "missing key \"theta_A\"",
+            ),
+            (
+                edit(r#""G": [[1, 0], [-1, 0], [0, 1]], "#, ""),
+                "missing key \"G\"",
+            ),
+        ];
+        for (text, want) in cases {
+            let e = MpqpProblem::from_json_str(&text).unwrap_err().to_string();
+            assert!(e.starts_with(want), "got {e:?}, want prefix {want:?}");
+        }
+    }
+}

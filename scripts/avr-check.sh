@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Builds the no_std crates for the ATmega2560 (avr-none) with the pinned nightly.
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+cd "$root/avr"   # picks up avr/rust-toolchain.toml and avr/.cargo/config.toml
+# The no_std crates that must build for the AVR.
+crates=(kestrel-core)
+for c in "${crates[@]}"; do
+  echo "== avr-none build: $c"
+  cargo build --release --manifest-path "$root/Cargo.toml" -p "$c" --no-default-features
+done
+echo "avr-check: ${#crates[@]} crate(s) built for avr-none"

@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Runs every test of the workspace, the AVR builds and the simavr tests
+# included. Installs what it needs first (scripts/setup.sh).
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+cd "$root"
+bash scripts/setup.sh
+
+echo "== cargo fmt --all --check"
+cargo fmt --all --check
+echo "== cargo clippy --workspace --all-targets -- -D warnings"
+cargo clippy --workspace --all-targets -- -D warnings
+echo "== cargo test --workspace (unit, integration and doc tests)"
+cargo test --workspace
+echo "== AVR builds"
+bash scripts/avr-check.sh
