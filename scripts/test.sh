@@ -14,3 +14,5 @@ echo "== cargo test --workspace (unit, integration and doc tests)"
 cargo test --workspace
 echo "== AVR builds"
 bash scripts/avr-check.sh
+echo "== cargo package (publishable crates)"
+cargo package --workspace --no-verify --quiet --allow-dirty --exclude kestrel-benches --exclude kestrel-tests
