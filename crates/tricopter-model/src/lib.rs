@@ -1,0 +1,32 @@
+#![doc = include_str!("../README.md")]
+#![cfg_attr(not(feature = "std"), no_std)]
+
+mod mixer;
+mod pid;
+
+pub use mixer::{
+    C_PITCH, C_ROLL, C_YAW, ESC_PWM_RANGE, MIX_MATRIX, Mixer, MixerOutput, SERVO_PWM_RANGE,
+    VirtualInput,
+};
+pub use pid::{RatePid, RatePidGains};
+
+#[cfg(feature = "std")]
+mod error;
+#[cfg(feature = "std")]
+mod model;
+#[cfg(feature = "std")]
+mod params;
+#[cfg(feature = "std")]
+mod trim;
+
+#[cfg(feature = "std")]
+pub use error::ModelError;
+#[cfg(feature = "std")]
+pub use model::{
+    Disturbance, INPUT_NAMES, Input, Linearization, NU, NX, NY, OUTPUT_NAMES, Output, STATE_NAMES,
+    State, Tricopter, idx, rotation_matrix,
+};
+#[cfg(feature = "std")]
+pub use params::{Params, R_EARTH};
+#[cfg(feature = "std")]
+pub use trim::Trim;
