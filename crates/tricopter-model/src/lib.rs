@@ -17,6 +17,8 @@ mod model;
 #[cfg(feature = "std")]
 mod params;
 #[cfg(feature = "std")]
+mod reduced;
+#[cfg(feature = "std")]
 mod trim;
 
 #[cfg(feature = "std")]
@@ -28,5 +30,10 @@ pub use model::{
 };
 #[cfg(feature = "std")]
 pub use params::{Params, R_EARTH};
+#[cfg(feature = "std")]
+pub use reduced::{
+    GreyBoxParams, RateInputs, RateModelKind, grey_box_rate_model, rate_model, rate_model_at,
+    rate_model_discrete,
+};
 #[cfg(feature = "std")]
 pub use trim::Trim;

@@ -72,9 +72,14 @@ impl Default for Params {
     /// `k_t = 1.5e-5`, about 1490 us: roughly half throttle. Inertias are those of
     /// three 0.1 kg motors at the arm tips plus a 0.8 kg central body
     /// (`I_zz <= I_xx + I_yy` holds). `k_tau/k_t = 0.02 m` is typical of a 10"
-    /// propeller. The front rotors counter-rotate (`spin = [-1, 1, -1]`), so at
-    /// hover the servo tilt cancels the reaction torque of the odd (rear)
-    /// rotor; the servo is reversed (`servo_gain < 0`) so that a positive
+    /// propeller. All three rotors spin the same way, as in (3.14b) (here
+    /// `spin = [-1, -1, -1]`, i.e. the other way round than the thesis's
+    /// sign, which puts the hover servo pulse below centre like (7.2)): the
+    /// odd rotor count leaves a net reaction torque that the rear tilt (about
+    /// 7 degrees) cancels, and the reduced rate models have the zero pattern
+    /// of (7.7) and (C.1). (With a counter-rotating front pair, the tilt
+    /// cancels the rear rotor alone and `dq'/dalpha`, `dr'/dw1` vanish at
+    /// trim.) The servo is reversed (`servo_gain < 0`) so that a positive
     /// virtual yaw input gives a positive yaw moment.
     fn default() -> Self {
         Params {
@@ -86,7 +91,7 @@ impl Default for Params {
             izz: 0.080,
             k_t: 1.5e-5,
             k_tau: 3.0e-7,
-            spin: [-1.0, 1.0, -1.0],
+            spin: [-1.0, -1.0, -1.0],
             motor_tau: 0.05,
             omega_max: 1000.0,
             servo_wn: 30.0,

@@ -169,7 +169,7 @@ mod tests {
         assert!(dx.iter().all(|v| v.abs() < 1e-9));
         // Roughly half throttle, a small tilt, a small roll.
         assert!((t.throttle - 1500.0).abs() < 100.0, "{t}");
-        assert!(t.alpha.abs() < 0.1 && t.alpha != 0.0);
+        assert!(t.alpha.abs() < 0.2 && t.alpha.abs() > 0.01);
         assert!(t.phi.abs() < 0.05);
         // Vertical balance: sum of vertical thrust equals weight (closed form check).
         let p = m.params();
