@@ -1,0 +1,304 @@
+//! kestrel example firmware for the ATmega2560 (see README.md).
+//!
+//! Peripherals (16 MHz):
+//! - Timer1: free-running cycle counter (prescaler 1, overflow interrupt);
+//! - Timer4: fast PWM mode 14, 0.5 us ticks, TOP 39999 (50 Hz): servo on
+//!   OC4A (PH3); its overflow flag paces the 50 Hz loop;
+//! - Timer5: fast PWM mode 14, 0.5 us ticks, TOP 4999 (400 Hz): ESC 1-3 on
+//!   OC5A/OC5B/OC5C (PL3/PL4/PL5);
+//! - USART0: 250000 baud 8N1 (UBRR 3, exact at 16 MHz), receive interrupt
+//!   into a ring buffer, transmit by polling.
+#![no_std]
+#![no_main]
+#![feature(abi_avr_interrupt, asm_experimental_arch)]
+
+use core::cell::UnsafeCell;
+use core::ptr::{read_volatile, write_volatile};
+use kestrel_avr_rt::control::{Mixer, RateLoop};
+use kestrel_avr_rt::cycles::CycleClock;
+use kestrel_avr_rt::cycles::timer1::{self, Timer1Clock};
+use kestrel_avr_rt::frame::{
+    Boot, Command, Frame, FrameDecoder, Kind, MAX_FRAME, Reply, SeqTracker, status,
+};
+use kestrel_avr_rt::interim::{PiRateLaw, RateObserver};
+use kestrel_avr_rt::output::{PwmLimits, RtScalar, SafeOutput};
+use kestrel_avr_rt::progmem::{FarTable, TableRead, f32_bytes};
+use kestrel_avr_rt::{crc16, far_table};
+use kestrel_core::Matrix;
+
+#[cfg(feature = "fixed")]
+type S = kestrel_core::Q16;
+#[cfg(not(feature = "fixed"))]
+type S = f32;
+
+const CONFIG: u8 = if cfg!(feature = "fixed") { 1 } else { 0 };
+
+/// Controller tables (see tables.rs).
+mod tables;
+use tables::{INTERIM_TABLE, N_VALUES};
+
+#[cfg(feature = "far-selftest")]
+#[unsafe(link_section = ".progmem.data.filler0")]
+#[used]
+static FILLER0: [u8; 32000] = [0x5A; 32000];
+#[cfg(feature = "far-selftest")]
+#[unsafe(link_section = ".progmem.data.filler1")]
+#[used]
+static FILLER1: [u8; 32000] = [0xA5; 32000];
+
+// ---- registers (data-space addresses) ----
+const SREG: *mut u8 = 0x5F as *mut u8;
+const UCSR0A: *mut u8 = 0xC0 as *mut u8;
+const UCSR0B: *mut u8 = 0xC1 as *mut u8;
+const UCSR0C: *mut u8 = 0xC2 as *mut u8;
+const UBRR0L: *mut u8 = 0xC4 as *mut u8;
+const UBRR0H: *mut u8 = 0xC5 as *mut u8;
+const UDR0: *mut u8 = 0xC6 as *mut u8;
+const TCCR4A: *mut u8 = 0xA0 as *mut u8;
+const TCCR4B: *mut u8 = 0xA1 as *mut u8;
+const ICR4L: *mut u8 = 0xA6 as *mut u8;
+const OCR4AL: *mut u8 = 0xA8 as *mut u8;
+const TIFR4: *mut u8 = 0x39 as *mut u8;
+const TCCR5A: *mut u8 = 0x120 as *mut u8;
+const TCCR5B: *mut u8 = 0x121 as *mut u8;
+const ICR5L: *mut u8 = 0x126 as *mut u8;
+const OCR5AL: *mut u8 = 0x128 as *mut u8;
+const OCR5BL: *mut u8 = 0x12A as *mut u8;
+const OCR5CL: *mut u8 = 0x12C as *mut u8;
+const DDRH: *mut u8 = 0x101 as *mut u8;
+const DDRL: *mut u8 = 0x10A as *mut u8;
+
+/// Writes a 16-bit timer register: high byte first (through TEMP).
+#[inline(always)]
+unsafe fn write16(low: *mut u8, v: u16) {
+    // SAFETY: `low` is the low byte of a 16-bit timer register pair.
+    unsafe {
+        write_volatile(low.add(1), (v >> 8) as u8);
+        write_volatile(low, v as u8);
+    }
+}
+
+// ---- receive ring buffer, filled by the USART0 receive interrupt ----
+const RING: usize = 128;
+struct Ring {
+    buf: UnsafeCell<[u8; RING]>,
+    head: UnsafeCell<u8>,
+    tail: UnsafeCell<u8>,
+}
+// SAFETY: single core; the ISR writes buf/head, the main loop reads buf and
+// writes tail; each index is a single byte (atomic on the AVR).
+unsafe impl Sync for Ring {}
+static RX: Ring = Ring {
+    buf: UnsafeCell::new([0; RING]),
+    head: UnsafeCell::new(0),
+    tail: UnsafeCell::new(0),
+};
+
+fn rx_pop() -> Option<u8> {
+    // SAFETY: see `Ring`.
+    unsafe {
+        let t = read_volatile(RX.tail.get());
+        if t == read_volatile(RX.head.get()) {
+            return None;
+        }
+        let b = read_volatile((RX.buf.get() as *const u8).add(t as usize));
+        write_volatile(RX.tail.get(), ((t as usize + 1) % RING) as u8);
+        Some(b)
+    }
+}
+
+/// USART0 receive complete.
+#[unsafe(no_mangle)]
+pub unsafe extern "avr-interrupt" fn __vector_25() {
+    // SAFETY: interrupt context, see `Ring`.
+    unsafe {
+        let b = read_volatile(UDR0);
+        let h = read_volatile(RX.head.get());
+        let next = ((h as usize + 1) % RING) as u8;
+        if next != read_volatile(RX.tail.get()) {
+            write_volatile((RX.buf.get() as *mut u8).add(h as usize), b);
+            write_volatile(RX.head.get(), next);
+        }
+    }
+}
+
+/// Timer1 overflow: extends the cycle counter.
+#[unsafe(no_mangle)]
+pub unsafe extern "avr-interrupt" fn __vector_20() {
+    // SAFETY: called only as the TIMER1_OVF handler.
+    unsafe { timer1::on_overflow() }
+}
+
+fn tx(bytes: &[u8]) {
+    for &b in bytes {
+        // SAFETY: USART0 registers; wait for an empty data register.
+        unsafe {
+            while read_volatile(UCSR0A) & (1 << 5) == 0 {}
+            write_volatile(UDR0, b);
+        }
+    }
+}
+
+fn send(kind: Kind, seq: u8, payload: &[u8]) {
+    let mut buf = [0u8; MAX_FRAME];
+    if let Some(f) = Frame::new(kind, seq, payload) {
+        if let Ok(n) = f.encode(&mut buf) {
+            tx(buf.get(..n).unwrap_or(&[]));
+        }
+    }
+}
+
+fn set_pwm(p: &[u16; 4]) {
+    // SAFETY: Timer4/Timer5 compare registers; 2 ticks per microsecond.
+    unsafe {
+        write16(OCR5AL, p[0] * 2);
+        write16(OCR5BL, p[1] * 2);
+        write16(OCR5CL, p[2] * 2);
+        write16(OCR4AL, p[3] * 2);
+    }
+}
+
+fn init_hw() {
+    // SAFETY: one-time peripheral set-up before interrupts are enabled.
+    unsafe {
+        write_volatile(UBRR0H, 0);
+        write_volatile(UBRR0L, 3); // 16 MHz / (16 * (3 + 1)) = 250000 baud
+        write_volatile(UCSR0A, 0);
+        write_volatile(UCSR0C, 0x06); // 8N1
+        write_volatile(UCSR0B, (1 << 7) | (1 << 4) | (1 << 3)); // RXCIE, RXEN, TXEN
+        // Timer5: ESCs, fast PWM mode 14, clk/8, TOP 4999 (400 Hz).
+        write16(ICR5L, 4999);
+        write_volatile(TCCR5A, 0xAA);
+        write_volatile(TCCR5B, 0x1A);
+        // Timer4: servo, fast PWM mode 14, clk/8, TOP 39999 (50 Hz).
+        write16(ICR4L, 39999);
+        write_volatile(TCCR4A, 0x82);
+        write_volatile(TCCR4B, 0x1A);
+        write_volatile(DDRL, read_volatile(DDRL) | 0x38);
+        write_volatile(DDRH, read_volatile(DDRH) | 0x08);
+    }
+}
+
+fn v(t: &FarTable, i: usize) -> S {
+    S::from_f32_fast(t.read_f32(4 * i as u32).unwrap_or(f32::NAN))
+}
+fn v3(t: &FarTable, i: usize) -> [S; 3] {
+    [v(t, i), v(t, i + 1), v(t, i + 2)]
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn main() -> ! {
+    init_hw();
+    // Keep the fillers (the linker drops unreferenced sections).
+    #[cfg(feature = "far-selftest")]
+    {
+        core::hint::black_box(FILLER0.as_ptr());
+        core::hint::black_box(FILLER1.as_ptr());
+    }
+    // SAFETY: Timer1 is ours; interrupts are still off.
+    let clock = unsafe { Timer1Clock::start() };
+    let table = far_table!(INTERIM_TABLE);
+    let limits = PwmLimits::default();
+    let safe = SafeOutput::default();
+    set_pwm(&safe.pwm(&limits));
+
+    // Table layout: see tables.rs.
+    let observer = RateObserver::new(v3(&table, 0), v3(&table, 3));
+    let law = PiRateLaw::new(v3(&table, 6), v3(&table, 9), v3(&table, 12));
+    let bias = v3(&table, 15);
+    let mixer = Mixer::<S, 3> {
+        m: Matrix::from_fn(|i, j| v(&table, 18 + 3 * i + j)),
+        offset: [v(&table, 30), v(&table, 31), v(&table, 32), v(&table, 33)],
+        throttle_gain: [v(&table, 34), v(&table, 35), v(&table, 36), v(&table, 37)],
+    };
+    let Ok(mut rate_loop) = RateLoop::new(observer, law, bias, mixer, limits, safe) else {
+        loop {}
+    };
+
+    // SAFETY: enable interrupts now that the handlers' state is initialised.
+    unsafe { core::arch::asm!("sei") };
+
+    // Boot report: read the table back through ELPM and compare CRCs.
+    let mut crc = 0xFFFFu16;
+    for i in 0..table.len_bytes() {
+        crc = kestrel_avr_rt::crc::crc16_update(crc, &[table.read_u8(i).unwrap_or(0)]);
+    }
+    let boot = Boot {
+        table_address: table.address(),
+        table_len: table.len_bytes() as u16,
+        crc_read: crc,
+        crc_expected: const { crc16(&INTERIM_TABLE) },
+        config: CONFIG,
+    };
+    send(Kind::Boot, 0, &boot.to_payload());
+
+    let mut decoder = FrameDecoder::new();
+    let mut seqs = SeqTracker::new();
+    let mut fresh: Option<(u8, Command)> = None;
+    let mut last_seq = 0u8;
+    let mut reply_seq = 0u8;
+    let mut overrun = false;
+    loop {
+        // Idle: decode bytes until the next 50 Hz tick.
+        // SAFETY: TIFR4 read; TOV4 is bit 0.
+        while unsafe { read_volatile(TIFR4) } & 1 == 0 {
+            while let Some(b) = rx_pop() {
+                if let Some(Ok(f)) = decoder.push(b) {
+                    if let Ok(c) = Command::from_frame(&f) {
+                        if seqs.accept(f.seq) {
+                            fresh = Some((f.seq, c));
+                        }
+                    }
+                }
+            }
+        }
+        let t0 = clock.now();
+        // SAFETY: clear TOV4 by writing a one.
+        unsafe { write_volatile(TIFR4, 1) };
+        let _ = decoder.reset(); // inter-frame timeout: drop a half frame
+        let cmd = fresh.take();
+        if let Some((s, _)) = cmd {
+            last_seq = s;
+        }
+        let out = rate_loop.period(cmd.as_ref().map(|(_, c)| c), &clock);
+        set_pwm(&out.pwm);
+        let mut st = out.status;
+        if overrun {
+            st |= status::OVERRUN;
+        }
+        let reply = Reply {
+            cmd_seq: last_seq,
+            status: st,
+            pwm: out.pwm,
+            kalman_cycles: out.kalman_cycles,
+            solver_cycles: out.solver_cycles,
+            period_cycles: clock.now().wrapping_sub(t0),
+            iterations: out.iterations,
+            frame_errors: decoder.errors,
+        };
+        send(Kind::Reply, reply_seq, &reply.to_payload());
+        reply_seq = reply_seq.wrapping_add(1);
+        // A tick that came while we were busy is a missed deadline.
+        // SAFETY: TIFR4 read.
+        overrun = unsafe { read_volatile(TIFR4) } & 1 != 0;
+        let _ = read_volatile_sreg();
+    }
+}
+
+#[inline(always)]
+fn read_volatile_sreg() -> u8 {
+    // SAFETY: reading SREG has no side effects.
+    unsafe { read_volatile(SREG) }
+}
+
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    // Outputs to the safe pulses and stop.
+    set_pwm(&SafeOutput::default().pwm(&PwmLimits::default()));
+    loop {}
+}
+
+#[allow(dead_code)]
+fn _assert_sizes() {
+    let _: [u8; 4 * N_VALUES] = f32_bytes([0.0; N_VALUES]);
+}

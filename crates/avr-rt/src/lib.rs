@@ -1,0 +1,13 @@
+#![doc = include_str!("../README.md")]
+#![cfg_attr(not(feature = "std"), no_std)]
+#![cfg_attr(target_arch = "avr", feature(asm_experimental_arch))]
+
+pub mod control;
+pub mod crc;
+pub mod cycles;
+pub mod frame;
+pub mod interim;
+pub mod output;
+pub mod progmem;
+
+pub use crc::crc16;

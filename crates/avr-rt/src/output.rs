@@ -1,0 +1,344 @@
+//! Output limits, saturation and the failsafe.
+//!
+//! # The failsafe
+//!
+//! Once per control period [`Failsafe::on_tick`] is told whether a fresh,
+//! valid command frame arrived since the previous tick:
+//!
+//! - a valid command with finite values: run the controller (after a failsafe
+//!   the loop is told to restart its estimator and integrators: *recovery*);
+//! - no valid frame this period, the first time: hold the previous outputs;
+//! - no valid frame for **two** periods in a row (dropped or corrupted
+//!   frames), or any **non-finite** value (in the command or in the
+//!   controller's result): output the [`SafeOutput`] (by default motors at
+//!   1000 us, i.e. stopped, and the servo centred at 1500 us) until a valid
+//!   frame comes.
+//!
+//! Whatever happens, [`PwmLimits::saturate`] keeps the ESC pulses within
+//! 1000-2000 us and the servo pulse within 1200-1800 us (thesis section 2.1.2).
+
+use kestrel_core::{Fixed, Scalar};
+
+/// The scalar conversions the run-time loop needs beyond [`Scalar`], done
+/// without double-precision arithmetic (which the AVR would emulate slowly).
+pub trait RtScalar: Scalar {
+    /// Converts from `f32` (fixed point saturates, NaN becomes zero).
+    fn from_f32_fast(v: f32) -> Self;
+    /// Rounds to the nearest integer microsecond; `None` if not finite.
+    fn to_us(self) -> Option<i32>;
+}
+
+impl RtScalar for f32 {
+    #[inline]
+    fn from_f32_fast(v: f32) -> Self {
+        v
+    }
+    #[inline]
+    fn to_us(self) -> Option<i32> {
+        if !self.is_finite() {
+            return None;
+        }
+        let c = self.clamp(-1.0e9, 1.0e9);
+        Some(if c >= 0.0 {
+            (c + 0.5) as i32
+        } else {
+            (c - 0.5) as i32
+        })
+    }
+}
+
+impl RtScalar for f64 {
+    #[inline]
+    fn from_f32_fast(v: f32) -> Self {
+        v as f64
+    }
+    #[inline]
+    fn to_us(self) -> Option<i32> {
+        if !self.is_finite() {
+            return None;
+        }
+        let c = self.clamp(-1.0e9, 1.0e9);
+        Some(if c >= 0.0 {
+            (c + 0.5) as i32
+        } else {
+            (c - 0.5) as i32
+        })
+    }
+}
+
+impl<const FRAC: u32> RtScalar for Fixed<FRAC> {
+    #[inline]
+    fn from_f32_fast(v: f32) -> Self {
+        // Scaling by a power of two is exact; `as` saturates and maps NaN to 0.
+        Fixed((v * (1u32 << FRAC) as f32) as i32)
+    }
+    #[inline]
+    fn to_us(self) -> Option<i32> {
+        let half = 1i64 << (FRAC - 1);
+        Some(((self.0 as i64 + half) >> FRAC) as i32)
+    }
+}
+
+/// Pulse-width limits in microseconds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PwmLimits {
+    /// Lowest ESC pulse (motor stopped).
+    pub esc_min: u16,
+    /// Highest ESC pulse (full speed).
+    pub esc_max: u16,
+    /// Lowest servo pulse.
+    pub servo_min: u16,
+    /// Highest servo pulse.
+    pub servo_max: u16,
+}
+
+impl Default for PwmLimits {
+    /// The thesis's limits: ESC 1000-2000 us, servo 1200-1800 us.
+    fn default() -> Self {
+        PwmLimits {
+            esc_min: 1000,
+            esc_max: 2000,
+            servo_min: 1200,
+            servo_max: 1800,
+        }
+    }
+}
+
+impl PwmLimits {
+    /// Rounds and clamps ESC 1-3 and the servo (in that order) to their
+    /// limits; `None` if any value is not finite (the caller then goes to
+    /// the failsafe).
+    pub fn saturate<S: RtScalar>(&self, pwm: &[S; 4]) -> Option<[u16; 4]> {
+        let mut out = [0u16; 4];
+        for (i, (o, v)) in out.iter_mut().zip(pwm).enumerate() {
+            let us = v.to_us()?;
+            let (lo, hi) = if i < 3 {
+                (self.esc_min, self.esc_max)
+            } else {
+                (self.servo_min, self.servo_max)
+            };
+            *o = us.clamp(lo as i32, hi as i32) as u16;
+        }
+        Some(out)
+    }
+}
+
+/// The output held while the failsafe is active.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SafeOutput {
+    /// ESC pulse for the three motors.
+    pub esc: u16,
+    /// Servo pulse.
+    pub servo: u16,
+}
+
+impl Default for SafeOutput {
+    /// Motors stopped (1000 us), servo centred (1500 us).
+    fn default() -> Self {
+        SafeOutput {
+            esc: 1000,
+            servo: 1500,
+        }
+    }
+}
+
+impl SafeOutput {
+    /// The four pulses, clamped to `limits` (so a misconfigured safe output
+    /// still cannot leave them).
+    pub fn pwm(&self, limits: &PwmLimits) -> [u16; 4] {
+        let e = self.esc.clamp(limits.esc_min, limits.esc_max);
+        [
+            e,
+            e,
+            e,
+            self.servo.clamp(limits.servo_min, limits.servo_max),
+        ]
+    }
+}
+
+/// What the loop does this period.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Decision {
+    /// Run the controller; `recovered` is true on the first period after a failsafe.
+    Run {
+        /// Restart estimator and integrators before running.
+        recovered: bool,
+    },
+    /// Hold the previous outputs (one missing frame).
+    Hold,
+    /// Output the safe pulses.
+    Safe,
+}
+
+/// Why the failsafe is active.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FailsafeReason {
+    /// No valid frame for [`Failsafe::TIMEOUT_PERIODS`] periods.
+    Timeout,
+    /// A non-finite value in the command or the controller output.
+    NonFinite,
+}
+
+/// The failsafe state machine (see the module documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Failsafe {
+    missed: u8,
+    active: Option<FailsafeReason>,
+    started: bool,
+    /// How many times the failsafe was entered.
+    pub entries: u16,
+}
+
+impl Default for Failsafe {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Failsafe {
+    /// Periods without a valid frame after which the safe output is held.
+    pub const TIMEOUT_PERIODS: u8 = 2;
+
+    /// A failsafe that is active until the first valid command arrives.
+    pub const fn new() -> Self {
+        Failsafe {
+            missed: 0,
+            active: Some(FailsafeReason::Timeout),
+            started: false,
+            entries: 0,
+        }
+    }
+
+    /// The reason the failsafe is active, if it is.
+    pub fn active(&self) -> Option<FailsafeReason> {
+        self.active
+    }
+
+    fn enter(&mut self, why: FailsafeReason) {
+        if self.active.is_none() {
+            self.entries = self.entries.wrapping_add(1);
+        }
+        self.active = Some(why);
+    }
+
+    /// Decides this period's action. `fresh` is `Some(finite)` if a new valid
+    /// frame arrived since the last tick (`finite` tells whether all its values are finite).
+    pub fn on_tick(&mut self, fresh: Option<bool>) -> Decision {
+        match fresh {
+            Some(true) => {
+                self.missed = 0;
+                let recovered = self.active.is_some() && self.started;
+                self.started = true;
+                self.active = None;
+                Decision::Run { recovered }
+            }
+            Some(false) => {
+                self.missed = 0;
+                self.enter(FailsafeReason::NonFinite);
+                Decision::Safe
+            }
+            None => {
+                self.missed = self.missed.saturating_add(1);
+                if self.missed >= Self::TIMEOUT_PERIODS {
+                    self.enter(FailsafeReason::Timeout);
+                }
+                if self.active.is_some() {
+                    Decision::Safe
+                } else {
+                    Decision::Hold
+                }
+            }
+        }
+    }
+
+    /// Reports a non-finite controller output in a period that ran: the
+    /// failsafe becomes active at once.
+    pub fn non_finite_output(&mut self) {
+        self.enter(FailsafeReason::NonFinite);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use kestrel_core::Q16;
+    use proptest::prelude::*;
+
+    #[test]
+    fn failsafe_sequence() {
+        let mut f = Failsafe::new();
+        assert_eq!(f.on_tick(None), Decision::Safe); // nothing received yet
+        assert_eq!(f.on_tick(Some(true)), Decision::Run { recovered: false });
+        assert_eq!(f.on_tick(None), Decision::Hold); // one frame lost: hold
+        assert_eq!(f.on_tick(Some(true)), Decision::Run { recovered: false });
+        assert_eq!(f.on_tick(None), Decision::Hold);
+        assert_eq!(f.on_tick(None), Decision::Safe); // two periods: failsafe
+        assert_eq!(f.active(), Some(FailsafeReason::Timeout));
+        assert_eq!(f.on_tick(None), Decision::Safe);
+        assert_eq!(f.on_tick(Some(true)), Decision::Run { recovered: true });
+        assert_eq!(f.active(), None);
+        assert_eq!(f.on_tick(Some(false)), Decision::Safe); // NaN in the frame
+        assert_eq!(f.active(), Some(FailsafeReason::NonFinite));
+        assert_eq!(f.on_tick(None), Decision::Safe);
+        assert_eq!(f.on_tick(Some(true)), Decision::Run { recovered: true });
+        f.non_finite_output();
+        assert_eq!(f.active(), Some(FailsafeReason::NonFinite));
+        assert_eq!(f.entries, 3);
+    }
+
+    #[test]
+    fn non_finite_output_is_refused() {
+        let l = PwmLimits::default();
+        assert_eq!(l.saturate(&[1500.0f32, f32::NAN, 1500.0, 1500.0]), None);
+        assert_eq!(l.saturate(&[f64::INFINITY, 0.0, 0.0, 0.0]), None);
+        assert_eq!(
+            l.saturate(&[1500.4f32, 999.0, 2600.0, 1100.0]),
+            Some([1500, 1000, 2000, 1200])
+        );
+    }
+
+    #[test]
+    fn fixed_conversions() {
+        assert_eq!(Q16::from_f32_fast(1.5), Q16::from_f64(1.5));
+        assert_eq!(Q16::from_f32_fast(f32::NAN), Q16::ZERO);
+        assert_eq!(Q16::from_f32_fast(1e9), Q16::MAX);
+        assert_eq!(Q16::from_f64(1499.5).to_us(), Some(1500));
+        assert_eq!(Q16::from_f64(-2.6).to_us(), Some(-3));
+    }
+
+    #[test]
+    fn safe_output_is_clamped() {
+        let l = PwmLimits::default();
+        assert_eq!(SafeOutput::default().pwm(&l), [1000, 1000, 1000, 1500]);
+        let odd = SafeOutput {
+            esc: 0,
+            servo: 5000,
+        };
+        assert_eq!(odd.pwm(&l), [1000, 1000, 1000, 1800]);
+    }
+
+    proptest! {
+        #[test]
+        fn saturated_pwm_never_leaves_limits(v in proptest::array::uniform4(-1e7f32..1e7)) {
+            let l = PwmLimits::default();
+            let p = l.saturate(&v).unwrap();
+            for (i, w) in p.iter().enumerate() {
+                if i < 3 { prop_assert!((1000..=2000).contains(w)); }
+                else { prop_assert!((1200..=1800).contains(w)); }
+            }
+            let q = l.saturate(&v.map(|x| Q16::from_f64(x as f64))).unwrap();
+            for (i, w) in q.iter().enumerate() {
+                if i < 3 { prop_assert!((1000..=2000).contains(w)); }
+                else { prop_assert!((1200..=1800).contains(w)); }
+            }
+        }
+
+        #[test]
+        fn saturate_matches_clamped_round(v in -3000.0f64..3000.0) {
+            let l = PwmLimits::default();
+            let p = l.saturate(&[v, v, v, v]).unwrap();
+            prop_assert_eq!(p[0] as f64, v.round().clamp(1000.0, 2000.0));
+            prop_assert_eq!(p[3] as f64, v.round().clamp(1200.0, 1800.0));
+        }
+    }
+}

@@ -1,0 +1,593 @@
+//! Hardware-in-the-loop test: the example firmware (`avr/firmware`) runs in
+//! simavr (through avr-tester) at 16 MHz while the host integrates a
+//! nonlinear tricopter rate model, sends the noisy gyro measurement, the
+//! rate references and the throttle each 20 ms, and applies the PWMs the
+//! firmware returns.
+//!
+//! The plant is **test-local** (`Plant` below) until `kestrel-tricopter-model`
+//! is available; the controller is the **interim** one of
+//! `kestrel_avr_rt::interim` until the Kalman / explicit-MPC / fast-gradient
+//! crates are.
+//!
+//! Loop timing: the host sends the command for sample k, runs the simulator
+//! for one 20 ms window in which the firmware's timer tick falls, reads the
+//! reply, then integrates the plant over 20 ms with those PWMs (the
+//! zero-order-hold sampled loop the controller is designed for).
+//!
+//! Set `KESTREL_HIL_REPORT=1` to print one `HIL-REPORT {json}` line per
+//! configuration (scripts/avr-report.sh collects them).
+
+use avr_tester::AvrTester;
+use kestrel_avr_rt::control::{Mixer, RateLoop};
+use kestrel_avr_rt::cycles::{CycleClock, CycleStats};
+use kestrel_avr_rt::frame::{Boot, Command, Frame, FrameDecoder, Kind, MAX_FRAME, Reply, status};
+use kestrel_avr_rt::interim::{PiRateLaw, RateObserver};
+use kestrel_avr_rt::output::{PwmLimits, SafeOutput};
+use kestrel_avr_rt::progmem::{FarTable, TableRead};
+use kestrel_core::Matrix;
+use std::path::{Path, PathBuf};
+use std::process::Command as Process;
+use std::sync::Mutex;
+
+#[allow(dead_code)]
+mod tables {
+    include!("../../../avr/firmware/src/tables.rs");
+}
+
+const TS: f64 = 0.02;
+const CYCLES_PER_PERIOD: u64 = 320_000;
+
+// ---------------------------------------------------------------- firmware
+
+static BUILD_LOCK: Mutex<()> = Mutex::new(());
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// Builds the firmware with the pinned nightly (avr/rust-toolchain.toml) and
+/// returns a copy of the ELF private to this configuration.
+///
+/// With `generic_float` the avr-libc float routines are not linked (the
+/// firmware's .cargo/config.toml flags are replaced by RUSTFLAGS), so the
+/// generic soft-float of compiler-builtins is used; it builds in its own
+/// target directory.
+fn build_firmware(features: &[&str], generic_float: bool) -> PathBuf {
+    let _guard = BUILD_LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    let root = repo_root();
+    let fw = root.join("avr/firmware");
+    let toolchain = std::fs::read_to_string(root.join("avr/rust-toolchain.toml")).unwrap();
+    let channel = toolchain
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("channel"))
+        .and_then(|l| l.split('"').nth(1))
+        .expect("channel in avr/rust-toolchain.toml")
+        .to_string();
+    let mut cmd = Process::new("rustup");
+    cmd.args(["run", &channel, "cargo", "build", "--release", "--quiet"]);
+    if !features.is_empty() {
+        cmd.args(["--features", &features.join(",")]);
+    }
+    for var in [
+        "RUSTUP_TOOLCHAIN",
+        "CARGO_TARGET_DIR",
+        "CARGO_BUILD_TARGET",
+        "RUSTC",
+        "RUSTDOC",
+        "RUSTC_WRAPPER",
+        "RUSTFLAGS",
+        "CARGO_ENCODED_RUSTFLAGS",
+        "CARGO",
+    ] {
+        cmd.env_remove(var);
+    }
+    let mut target = root.join("avr/target");
+    if generic_float {
+        target = target.join("generic-float");
+        cmd.env("RUSTFLAGS", "-C target-cpu=atmega2560");
+        cmd.arg("--target-dir").arg(&target);
+    }
+    let status = cmd.current_dir(&fw).status().expect("run rustup/cargo");
+    assert!(status.success(), "firmware build failed ({features:?})");
+    let elf = target.join("avr-none/release/kestrel-avr-firmware.elf");
+    let mut name = if features.is_empty() {
+        "f32".to_string()
+    } else {
+        features.join("-")
+    };
+    if generic_float {
+        name.push_str("-generic-float");
+    }
+    let dir = root.join("avr/target/hil");
+    std::fs::create_dir_all(&dir).unwrap();
+    let copy = dir.join(format!("{name}.elf"));
+    std::fs::copy(&elf, &copy).unwrap();
+    copy
+}
+
+/// Flash (text + data) and RAM (data + bss) bytes from avr-size.
+fn avr_size(elf: &Path) -> (u64, u64) {
+    let out = Process::new("avr-size")
+        .arg(elf)
+        .output()
+        .expect("avr-size");
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text.lines().nth(1).expect("avr-size output");
+    let f: Vec<u64> = line
+        .split_whitespace()
+        .take(3)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    (f[0] + f[1], f[1] + f[2])
+}
+
+// ---------------------------------------------------------------- plant
+
+/// Test-local nonlinear tricopter rate model (FRD body frame): rigid-body
+/// rotation with gyroscopic coupling, first-order motor and servo lags,
+/// thrust and drag quadratic in rotor speed, the tail rotor tilted by the
+/// servo. Parameters as documented in avr/firmware/src/tables.rs.
+#[derive(Clone, Copy, Debug)]
+struct Plant {
+    w: [f64; 3],
+    rotor: [f64; 3],
+    tilt: f64,
+}
+
+const KT: f64 = 1.96e-5;
+const KQ: f64 = 0.02 * KT;
+const W_MAX: f64 = 1000.0;
+const INERTIA: [f64; 3] = [0.02, 0.02, 0.035];
+const ARM: [[f64; 2]; 3] = [[0.25, 0.4330127], [0.25, -0.4330127], [-0.5, 0.0]];
+const TAU_MOTOR: f64 = 0.05;
+const TAU_SERVO: f64 = 0.03;
+const TILT_PER_US: f64 = 0.5 / 300.0;
+
+impl Plant {
+    fn hover(w: [f64; 3]) -> Plant {
+        let wh = 0.5 * W_MAX;
+        let q = 3.0 * KQ * wh * wh;
+        Plant {
+            w,
+            rotor: [wh; 3],
+            tilt: (q / (0.5 * KT * wh * wh)).asin(),
+        }
+    }
+
+    fn deriv(&self, pwm: &[u16; 4]) -> Plant {
+        let mut torque = [0.0; 3];
+        let mut drag = 0.0;
+        let mut d = *self;
+        for i in 0..3 {
+            let t = KT * self.rotor[i] * self.rotor[i];
+            drag += KQ * self.rotor[i] * self.rotor[i];
+            let [x, y] = ARM[i];
+            // Force in the body frame; the tail rotor is tilted about x.
+            let f = if i == 2 {
+                [0.0, t * self.tilt.sin(), -t * self.tilt.cos()]
+            } else {
+                [0.0, 0.0, -t]
+            };
+            // r x F with r = (x, y, 0).
+            torque[0] += y * f[2];
+            torque[1] += -x * f[2];
+            torque[2] += x * f[1] - y * f[0];
+            let target = W_MAX * ((pwm[i] as f64 - 1000.0) / 1000.0).clamp(0.0, 1.0);
+            d.rotor[i] = (target - self.rotor[i]) / TAU_MOTOR;
+        }
+        torque[2] += drag;
+        let iw = [
+            INERTIA[0] * self.w[0],
+            INERTIA[1] * self.w[1],
+            INERTIA[2] * self.w[2],
+        ];
+        let gyro = [
+            self.w[1] * iw[2] - self.w[2] * iw[1],
+            self.w[2] * iw[0] - self.w[0] * iw[2],
+            self.w[0] * iw[1] - self.w[1] * iw[0],
+        ];
+        for a in 0..3 {
+            d.w[a] = (torque[a] - gyro[a]) / INERTIA[a];
+        }
+        d.tilt = ((pwm[3] as f64 - 1500.0) * TILT_PER_US - self.tilt) / TAU_SERVO;
+        d
+    }
+
+    fn axpy(&self, h: f64, d: &Plant) -> Plant {
+        let mut p = *self;
+        for i in 0..3 {
+            p.w[i] += h * d.w[i];
+            p.rotor[i] += h * d.rotor[i];
+        }
+        p.tilt += h * d.tilt;
+        p
+    }
+
+    /// Integrates one period with classical RK4 in 1 ms steps.
+    fn step(&mut self, pwm: &[u16; 4]) {
+        let h = 0.001;
+        for _ in 0..20 {
+            let k1 = self.deriv(pwm);
+            let k2 = self.axpy(h / 2.0, &k1).deriv(pwm);
+            let k3 = self.axpy(h / 2.0, &k2).deriv(pwm);
+            let k4 = self.axpy(h, &k3).deriv(pwm);
+            let mut n = *self;
+            for i in 0..3 {
+                n.w[i] += h / 6.0 * (k1.w[i] + 2.0 * k2.w[i] + 2.0 * k3.w[i] + k4.w[i]);
+                n.rotor[i] +=
+                    h / 6.0 * (k1.rotor[i] + 2.0 * k2.rotor[i] + 2.0 * k3.rotor[i] + k4.rotor[i]);
+            }
+            n.tilt += h / 6.0 * (k1.tilt + 2.0 * k2.tilt + 2.0 * k3.tilt + k4.tilt);
+            *self = n;
+        }
+    }
+}
+
+/// Deterministic Gaussian noise (xorshift64* and Box-Muller).
+struct Noise(u64);
+impl Noise {
+    fn uniform(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        ((self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    }
+    fn gauss(&mut self) -> f64 {
+        let (u, v) = (self.uniform(), self.uniform());
+        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+    }
+}
+
+/// Gyro bias e_0 (thesis 7.5) and noise standard deviations from the diagonal of R (7.6).
+const BIAS: [f64; 3] = [-9.72e-4, -4.92e-5, 4.27e-3];
+const SIGMA: [f64; 3] = [1.14e-3, 2.65e-3, 3.56e-3];
+
+// ---------------------------------------------------------------- host reference loop
+
+struct NoClock;
+impl CycleClock for NoClock {
+    fn now(&self) -> u32 {
+        0
+    }
+}
+
+type HostLoop = RateLoop<f64, RateObserver<f64>, PiRateLaw<f64>, 3>;
+
+/// The same composition and tables in f64 on the host, as an independent
+/// reference for the firmware's arithmetic.
+fn host_loop() -> HostLoop {
+    let t = FarTable::from_slice(&tables::INTERIM_TABLE);
+    let v = |i: usize| t.read_f32(4 * i as u32).unwrap() as f64;
+    let v3 = |i: usize| [v(i), v(i + 1), v(i + 2)];
+    RateLoop::new(
+        RateObserver::new(v3(0), v3(3)),
+        PiRateLaw::new(v3(6), v3(9), v3(12)),
+        v3(15),
+        Mixer {
+            m: Matrix::from_fn(|i, j| v(18 + 3 * i + j)),
+            offset: [v(30), v(31), v(32), v(33)],
+            throttle_gain: [v(34), v(35), v(36), v(37)],
+        },
+        PwmLimits::default(),
+        SafeOutput::default(),
+    )
+    .unwrap()
+}
+
+// ---------------------------------------------------------------- the flight
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Fault {
+    None,
+    Corrupt,
+    Drop,
+    NaN,
+}
+
+/// Faults injected at these periods (t = k * 20 ms), before the step.
+fn fault_at(k: usize) -> Fault {
+    match k {
+        150 => Fault::Corrupt,       // one bad frame: hold, no failsafe
+        200 | 201 => Fault::Corrupt, // two: failsafe, then recovery
+        250..=252 => Fault::Drop,    // three dropped: failsafe, then recovery
+        300 => Fault::NaN,           // a non-finite value: failsafe at once
+        _ => Fault::None,
+    }
+}
+
+fn reference_at(t: f64) -> [f64; 3] {
+    if t < 8.0 { [0.0; 3] } else { [1.0, -1.0, 0.5] }
+}
+
+struct Flight {
+    replies: Vec<Option<Reply>>,
+    rates: Vec<[f64; 3]>,
+    pwm_diff_max: u16,
+    boot: Boot,
+}
+
+fn read_frames(avr: &mut AvrTester, dec: &mut FrameDecoder) -> Vec<Frame> {
+    let bytes: Vec<u8> = avr.uart0().read();
+    bytes
+        .iter()
+        .filter_map(|&b| dec.push(b))
+        .filter_map(Result::ok)
+        .collect()
+}
+
+const BOOT_WAIT_MS: u64 = 6;
+
+/// Runs the first milliseconds after reset and returns the boot report.
+fn wait_boot(avr: &mut AvrTester, dec: &mut FrameDecoder) -> Boot {
+    avr.run_for_ms(BOOT_WAIT_MS);
+    read_frames(avr, dec)
+        .iter()
+        .find_map(|f| Boot::from_frame(f).ok())
+        .expect("boot frame after reset")
+}
+
+fn fly(elf: &Path, periods: usize) -> Flight {
+    let mut avr = AvrTester::atmega2560().with_clock_of_16_mhz().load(elf);
+    let mut dec = FrameDecoder::new();
+    let boot = wait_boot(&mut avr, &mut dec);
+    // Align: the first tick comes 20 ms after reset; windows start 5 ms before a tick.
+    avr.run_for_ms(15 - BOOT_WAIT_MS);
+
+    let mut plant = Plant::hover([2.0, 2.0, 2.0]);
+    let mut noise = Noise(0x9E37_79B9_7F4A_7C15);
+    let mut host = host_loop();
+    let mut replies = Vec::with_capacity(periods);
+    let mut rates = Vec::with_capacity(periods);
+    let mut pwm = SafeOutput::default().pwm(&PwmLimits::default());
+    let mut pwm_diff_max = 0u16;
+    for k in 0..periods {
+        let t = k as f64 * TS;
+        let gyro: [f64; 3] =
+            std::array::from_fn(|i| plant.w[i] + BIAS[i] + SIGMA[i] * noise.gauss());
+        let r = reference_at(t);
+        let mut cmd = Command {
+            gyro: gyro.map(|g| g as f32),
+            reference: r.map(|x| x as f32),
+            throttle: 1500.0,
+        };
+        let fault = fault_at(k);
+        if fault == Fault::NaN {
+            cmd.gyro[1] = f32::NAN;
+        }
+        let mut wire = [0u8; MAX_FRAME];
+        let n = Frame::new(Kind::Command, k as u8, &cmd.to_payload())
+            .unwrap()
+            .encode(&mut wire)
+            .unwrap();
+        match fault {
+            Fault::Drop => {}
+            Fault::Corrupt => {
+                wire[9] ^= 0x04;
+                avr.uart0().write(&wire[..n]);
+            }
+            _ => avr.uart0().write(&wire[..n]),
+        }
+        avr.run_for(CYCLES_PER_PERIOD);
+        let frames = read_frames(&mut avr, &mut dec);
+        let reply = frames.iter().find_map(|f| Reply::from_frame(f).ok());
+        // The host reference sees exactly what the firmware accepted.
+        let host_cmd = match fault {
+            Fault::Drop | Fault::Corrupt => None,
+            _ => Some(cmd),
+        };
+        let host_out = host.period(host_cmd.as_ref(), &NoClock);
+        if let Some(rep) = reply {
+            pwm = rep.pwm;
+            for (a, b) in rep.pwm.iter().zip(host_out.pwm) {
+                pwm_diff_max = pwm_diff_max.max(a.abs_diff(b));
+            }
+        }
+        replies.push(reply);
+        plant.step(&pwm);
+        rates.push(plant.w);
+    }
+    Flight {
+        replies,
+        rates,
+        pwm_diff_max,
+        boot,
+    }
+}
+
+fn stats(replies: &[Option<Reply>], f: impl Fn(&Reply) -> u32) -> CycleStats {
+    let mut s = CycleStats::new();
+    for r in replies.iter().flatten() {
+        if r.status & (status::FAILSAFE | status::HOLD) == 0 {
+            s.add(f(r));
+        }
+    }
+    s
+}
+
+fn json_stats(s: &CycleStats) -> String {
+    format!(
+        "{{\"min\": {}, \"mean\": {:.1}, \"max\": {}}}",
+        s.min,
+        s.mean().unwrap_or(0.0),
+        s.max
+    )
+}
+
+/// Flies the step scenario and checks everything the issue asks of the HIL run.
+fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u16) {
+    let elf = build_firmware(features, generic_float);
+    let periods = 1000; // 20 simulated seconds
+    let fl = fly(&elf, periods);
+
+    // Tables read back through ELPM/RAMPZ match the build.
+    assert_eq!(
+        fl.boot.crc_read, fl.boot.crc_expected,
+        "ELPM table read-back"
+    );
+    assert_eq!(fl.boot.table_len as usize, tables::INTERIM_TABLE.len());
+
+    // Every period answered, in time, within the PWM limits.
+    for (k, r) in fl.replies.iter().enumerate() {
+        let r = r.unwrap_or_else(|| panic!("no reply in period {k}"));
+        assert_eq!(
+            r.status & status::OVERRUN,
+            0,
+            "deadline missed at period {k}"
+        );
+        assert!(
+            r.period_cycles < CYCLES_PER_PERIOD as u32,
+            "period {k} took {} cycles",
+            r.period_cycles
+        );
+        for w in &r.pwm[..3] {
+            assert!((1000..=2000).contains(w), "ESC pulse {w} at period {k}");
+        }
+        assert!(
+            (1200..=1800).contains(&r.pwm[3]),
+            "servo pulse {} at period {k}",
+            r.pwm[3]
+        );
+        if fault_at(k) == Fault::None && fault_at(k.wrapping_sub(1)) == Fault::None {
+            assert_eq!(
+                r.cmd_seq, k as u8,
+                "reply {k} answers command {}",
+                r.cmd_seq
+            );
+        }
+    }
+    let st = |k: usize| fl.replies[k].unwrap().status;
+    // One corrupted frame: hold, not failsafe.
+    assert_eq!(st(150), status::HOLD);
+    assert_eq!(st(151), 0);
+    // Two corrupted frames: hold, then failsafe (safe pulses), then recovery.
+    assert_eq!(st(200), status::HOLD);
+    assert_ne!(st(201) & status::FAILSAFE, 0);
+    assert_ne!(st(201) & status::TIMEOUT, 0);
+    assert_eq!(
+        fl.replies[201].unwrap().pwm,
+        SafeOutput::default().pwm(&PwmLimits::default())
+    );
+    assert_eq!(st(202), 0, "recovery after corrupted frames");
+    // Dropped frames likewise.
+    assert_eq!(st(250), status::HOLD);
+    assert_ne!(st(251) & status::FAILSAFE, 0);
+    assert_ne!(st(252) & status::FAILSAFE, 0);
+    assert_eq!(st(253), 0, "recovery after dropped frames");
+    // A NaN: failsafe at once, recovery with the next frame.
+    assert_ne!(st(300) & status::NON_FINITE, 0);
+    assert_eq!(
+        fl.replies[300].unwrap().pwm,
+        SafeOutput::default().pwm(&PwmLimits::default())
+    );
+    assert_eq!(st(301), 0);
+    assert!(fl.replies[301].unwrap().frame_errors >= 3);
+
+    // The firmware's PWMs equal the host f64 reference of the same loop.
+    assert!(
+        fl.pwm_diff_max <= pwm_tol,
+        "{scalar}: PWM differs from the f64 reference by {} us",
+        fl.pwm_diff_max
+    );
+
+    // Tracking (section 7.7.1 scenario): from [2, 2, 2] rad/s to zero, then
+    // the step [1, -1, 0.5] at t = 8 s. Tolerances: within 0.1 rad/s of
+    // the reference 1.5 s after each change (except around the injected
+    // faults), and a mean absolute error below 0.03 rad/s once settled.
+    let mut worst: f64 = 0.0;
+    let mut sum = 0.0;
+    let mut n = 0;
+    for (k, w) in fl.rates.iter().enumerate() {
+        let t = (k + 1) as f64 * TS;
+        let settled = (1.5..4.0).contains(&t) || (6.5..8.0).contains(&t) || t >= 9.5;
+        if settled {
+            let r = reference_at(t - TS);
+            for i in 0..3 {
+                let e = (w[i] - r[i]).abs();
+                worst = worst.max(e);
+                sum += e;
+                n += 1;
+            }
+        }
+    }
+    let mean = sum / n as f64;
+    assert!(
+        worst < 0.1,
+        "{scalar}: worst settled rate error {worst} rad/s"
+    );
+    assert!(
+        mean < 0.03,
+        "{scalar}: mean settled rate error {mean} rad/s"
+    );
+
+    let (flash, ram) = avr_size(&elf);
+    let k = stats(&fl.replies, |r| r.kalman_cycles);
+    let s = stats(&fl.replies, |r| r.solver_cycles);
+    let p = stats(&fl.replies, |r| r.period_cycles);
+    let ms = |c: f64| c / 16_000.0;
+    println!(
+        "{scalar} interim: kalman {}/{:.0}/{} cycles, solver {}/{:.0}/{} cycles, period {}/{:.0}/{} cycles (max {:.3} ms at 16 MHz); flash {flash} B, RAM {ram} B; table at 0x{:05x}; max |PWM - f64 ref| = {} us; rate error worst {worst:.4} mean {mean:.4} rad/s",
+        k.min,
+        k.mean().unwrap_or(0.0),
+        k.max,
+        s.min,
+        s.mean().unwrap_or(0.0),
+        s.max,
+        p.min,
+        p.mean().unwrap_or(0.0),
+        p.max,
+        ms(p.max as f64),
+        fl.boot.table_address,
+        fl.pwm_diff_max,
+    );
+    if std::env::var_os("KESTREL_HIL_REPORT").is_some() {
+        println!(
+            "HIL-REPORT {{\"scalar\": \"{scalar}\", \"solver\": \"interim\", \"kalman_cycles\": {}, \"solver_cycles\": {}, \"period_cycles\": {}, \"iterations\": 0, \"flash_bytes\": {flash}, \"ram_bytes\": {ram}, \"table_address\": {}}}",
+            json_stats(&k),
+            json_stats(&s),
+            json_stats(&p),
+            fl.boot.table_address
+        );
+    }
+}
+
+#[test]
+fn hil_step_scenario_f32() {
+    check_flight(&[], false, "f32", 1);
+}
+
+#[test]
+fn hil_step_scenario_fixed_q16() {
+    check_flight(&["fixed"], false, "fixed", 2);
+}
+
+/// The f32 firmware with Rust's generic soft-float instead of avr-libc's
+/// routines, to measure the speed-up (run by scripts/avr-report.sh).
+#[test]
+#[ignore = "measurement for scripts/avr-report.sh"]
+fn hil_step_scenario_f32_generic_soft_float() {
+    check_flight(&[], true, "f32-generic-soft-float", 1);
+}
+
+/// With 64 kB of filler in low flash the controller table lands above
+/// 64 kB; reading it back through ELPM/RAMPZ must still give its bytes.
+#[test]
+fn far_table_above_64k_reads_back() {
+    let elf = build_firmware(&["far-selftest"], false);
+    let mut avr = AvrTester::atmega2560().with_clock_of_16_mhz().load(&elf);
+    let boot = wait_boot(&mut avr, &mut FrameDecoder::new());
+    assert!(
+        boot.table_address > 0xFFFF,
+        "table at 0x{:x} is not above 64 kB",
+        boot.table_address
+    );
+    assert_eq!(boot.crc_read, boot.crc_expected);
+    // The address the firmware used is the linker's, not a truncated one.
+    let nm = Process::new("avr-nm").arg(&elf).output().expect("avr-nm");
+    let syms = String::from_utf8_lossy(&nm.stdout);
+    let addr = syms
+        .lines()
+        .find(|l| l.contains("INTERIM_TABLE"))
+        .and_then(|l| u32::from_str_radix(l.split_whitespace().next()?, 16).ok())
+        .expect("INTERIM_TABLE in the symbol table");
+    assert_eq!(boot.table_address, addr);
+}

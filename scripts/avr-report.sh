@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# The AVR cycle report: flies the example firmware hardware-in-the-loop in
+# simavr (crates/avr-rt/tests/hil.rs) for every configuration, prints the
+# per-stage cycles and sizes, and ends with one JSON line:
+#   {"hil_passed": true, "configs": [{"scalar": ..., "solver": ..., "kalman_cycles": {...}, ...}, ...]}
+# Usage: bash scripts/avr-report.sh   (from any directory)
+set -uo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+cd "$root"
+export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$root/target}"
+log="$(mktemp)"
+trap 'rm -f "$log"' EXIT
+KESTREL_HIL_REPORT=1 cargo test --release -p kestrel-avr-rt --test hil -- \
+  --include-ignored --nocapture --test-threads 1 2>&1 | tee "$log"
+status=${PIPESTATUS[0]}
+passed=false
+[ "$status" -eq 0 ] && passed=true
+configs="$(sed -n 's/^HIL-REPORT //p' "$log" | paste -sd, -)"
+echo "{\"hil_passed\": $passed, \"configs\": [${configs}]}"
