@@ -13,16 +13,24 @@ pub use pid::{RatePid, RatePidGains};
 #[cfg(feature = "std")]
 mod error;
 #[cfg(feature = "std")]
+mod experiment;
+#[cfg(feature = "std")]
 mod model;
 #[cfg(feature = "std")]
 mod params;
 #[cfg(feature = "std")]
+mod plant;
+#[cfg(feature = "std")]
 mod reduced;
+#[cfg(feature = "std")]
+mod sensor;
 #[cfg(feature = "std")]
 mod trim;
 
 #[cfg(feature = "std")]
 pub use error::ModelError;
+#[cfg(feature = "std")]
+pub use experiment::{Experiment, FlightLog, LOG_COLUMNS, LogRow, SimSettings, simulate};
 #[cfg(feature = "std")]
 pub use model::{
     Disturbance, INPUT_NAMES, Input, Linearization, NU, NX, NY, OUTPUT_NAMES, Output, STATE_NAMES,
@@ -31,9 +39,15 @@ pub use model::{
 #[cfg(feature = "std")]
 pub use params::{Params, R_EARTH};
 #[cfg(feature = "std")]
+pub use plant::{Plant, PlantConfig};
+#[cfg(feature = "std")]
 pub use reduced::{
     GreyBoxParams, RateInputs, RateModelKind, grey_box_rate_model, rate_model, rate_model_at,
     rate_model_discrete,
+};
+#[cfg(feature = "std")]
+pub use sensor::{
+    Gust, GustConfig, GyroConfig, GyroSensor, THESIS_GYRO_BIAS, THESIS_GYRO_COVARIANCE,
 };
 #[cfg(feature = "std")]
 pub use trim::Trim;
