@@ -1,0 +1,96 @@
+//! The design-time error type of the identification crate.
+
+use std::string::String;
+
+/// What went wrong in identification, validation or reduction.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SysidError {
+    /// A data value is NaN or infinite.
+    #[error("non-finite value in {what} at sample {sample} of experiment {experiment}")]
+    NonFinite {
+        /// The signal's name.
+        what: String,
+        /// The experiment index (0-based).
+        experiment: usize,
+        /// The sample index (0-based) within the experiment.
+        sample: usize,
+    },
+    /// Signals of one experiment, or a model and data, disagree in size.
+    #[error("dimension mismatch in {what}: expected {expected}, found {found}")]
+    Dimension {
+        /// Which quantity.
+        what: String,
+        /// The size needed.
+        expected: usize,
+        /// The size given.
+        found: usize,
+    },
+    /// Not enough samples for the requested order and horizon.
+    #[error("too few samples: {what} needs at least {needed}, the data have {found}")]
+    TooFewSamples {
+        /// What needs them.
+        what: String,
+        /// The number needed.
+        needed: usize,
+        /// The number available.
+        found: usize,
+    },
+    /// An input does not vary, so it excites nothing.
+    #[error(
+        "input \"{name}\" is constant (standard deviation {std:e}); it cannot be identified from"
+    )]
+    ConstantInput {
+        /// The input's name.
+        name: String,
+        /// Its standard deviation over the data set.
+        std: f64,
+    },
+    /// An output does not vary.
+    #[error("output \"{name}\" is constant; there is nothing to fit")]
+    ConstantOutput {
+        /// The output's name.
+        name: String,
+    },
+    /// A setting or argument is outside its range; the text says which and why.
+    #[error("invalid argument: {0}")]
+    InvalidArgument(String),
+    /// A CSV file could not be read or parsed.
+    #[error("CSV {path}: {reason}")]
+    Csv {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        reason: String,
+    },
+    /// A model is unstable where stability is required.
+    #[error("{what} is unstable (spectral radius {radius:.6})")]
+    Unstable {
+        /// Which matrix.
+        what: String,
+        /// Its spectral radius.
+        radius: f64,
+    },
+    /// A linear-algebra step failed (singular matrix, no convergence).
+    #[error("numerical failure: {0}")]
+    Numerical(String),
+    /// A run-time (kestrel-core) error.
+    #[error(transparent)]
+    Core(#[from] kestrel_core::Error),
+}
+
+/// Shorthand for results of this crate.
+pub type Result<T> = core::result::Result<T, SysidError>;
+
+impl SysidError {
+    pub(crate) fn invalid(s: impl Into<String>) -> Self {
+        SysidError::InvalidArgument(s.into())
+    }
+    pub(crate) fn dim(what: impl Into<String>, expected: usize, found: usize) -> Self {
+        SysidError::Dimension {
+            what: what.into(),
+            expected,
+            found,
+        }
+    }
+}

@@ -1,0 +1,38 @@
+#![doc = include_str!("../README.md")]
+#![cfg_attr(not(feature = "std"), no_std)]
+// Numerical kernels index several arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
+#[cfg(feature = "std")]
+mod data;
+#[cfg(feature = "std")]
+mod error;
+#[cfg(feature = "std")]
+mod filter;
+#[cfg(feature = "std")]
+pub mod linalg;
+#[cfg(feature = "std")]
+mod model;
+#[cfg(feature = "std")]
+mod n4sid;
+#[cfg(feature = "std")]
+pub mod synthetic;
+#[cfg(feature = "std")]
+mod validate;
+
+#[cfg(feature = "std")]
+pub use data::{CsvColumns, Experiment, IoData, Offsets, SignalSelection, TimeInterval};
+#[cfg(feature = "std")]
+pub use error::{Result, SysidError};
+#[cfg(feature = "std")]
+pub use filter::{Biquad, Butterworth, Periodogram, periodogram};
+#[cfg(feature = "std")]
+pub use model::{InnovationModel, OneStepPrediction};
+#[cfg(feature = "std")]
+pub use n4sid::{N4sidResult, N4sidSettings, Weighting, n4sid, suggest_order};
+#[cfg(feature = "std")]
+pub use validate::{
+    Comparison, FitRow, OutputResiduals, ResidualAnalysis, ValidationReport, compare,
+    estimate_x0_predictor, estimate_x0_simulation, fit_percent, persistence_fit, predict_fit,
+    resid, validate,
+};

@@ -1,0 +1,203 @@
+//! Small dense linear-algebra helpers on nalgebra (design time).
+
+use crate::error::{Result, SysidError};
+use nalgebra::{Complex, DMatrix, DVector};
+
+/// The eigenvalues of a square matrix (real Schur form via nalgebra).
+pub fn eigenvalues(a: &DMatrix<f64>) -> Vec<Complex<f64>> {
+    if a.nrows() == 0 {
+        return Vec::new();
+    }
+    a.clone().complex_eigenvalues().iter().copied().collect()
+}
+
+/// The spectral radius `max |lambda_i(A)|` (0 for an empty matrix).
+pub fn spectral_radius(a: &DMatrix<f64>) -> f64 {
+    eigenvalues(a).iter().map(|l| l.norm()).fold(0.0, f64::max)
+}
+
+/// Moore-Penrose pseudo-inverse with a relative singular-value cut-off.
+pub fn pinv(a: &DMatrix<f64>) -> DMatrix<f64> {
+    let (r, c) = a.shape();
+    if r == 0 || c == 0 {
+        return DMatrix::zeros(c, r);
+    }
+    let svd = a.clone().svd(true, true);
+    let smax = svd.singular_values.max();
+    let tol = smax * f64::EPSILON * (r.max(c) as f64);
+    let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
+        return DMatrix::zeros(c, r);
+    };
+    let mut out = DMatrix::zeros(c, r);
+    for (i, s) in svd.singular_values.iter().enumerate() {
+        if *s > tol {
+            out += vt.row(i).transpose() * u.column(i).transpose() * (1.0 / s);
+        }
+    }
+    out
+}
+
+/// Least-squares solution of `A X = B` (minimum norm when rank deficient).
+pub fn lstsq(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+    pinv(a) * b
+}
+
+/// Solves the discrete Lyapunov equation `A X A' - X + Q = 0` for a Schur
+/// stable `A` by the doubling (squared Smith) iteration
+/// `X <- X + A X A'`, `A <- A^2`, which sums `sum_k A^k Q A'^k` in
+/// `log2` of the number of terms.
+pub fn dlyap(a: &DMatrix<f64>, q: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+    let n = a.nrows();
+    if a.ncols() != n {
+        return Err(SysidError::dim("A columns (dlyap)", n, a.ncols()));
+    }
+    if q.shape() != (n, n) {
+        return Err(SysidError::dim("Q rows (dlyap)", n, q.nrows()));
+    }
+    let rho = spectral_radius(a);
+    if rho.is_nan() || rho >= 1.0 {
+        return Err(SysidError::Unstable {
+            what: "A (discrete Lyapunov equation)".into(),
+            radius: rho,
+        });
+    }
+    let mut x = q.clone();
+    let mut ak = a.clone();
+    for _ in 0..64 {
+        let inc = &ak * &x * ak.transpose();
+        x += &inc;
+        ak = &ak * &ak;
+        if inc.norm() <= 1e-15 * x.norm() || ak.norm() < 1e-300 {
+            let x = (&x + x.transpose()) * 0.5;
+            return Ok(x);
+        }
+    }
+    Err(SysidError::Numerical(
+        "discrete Lyapunov doubling did not converge (pole too close to the unit circle)".into(),
+    ))
+}
+
+/// Symmetric positive semi-definite square-root factor `R` with `P = R R'`
+/// (from the symmetric eigendecomposition, negative eigenvalues clipped).
+pub fn psd_factor(p: &DMatrix<f64>) -> DMatrix<f64> {
+    let sym = (p + p.transpose()) * 0.5;
+    let eig = sym.symmetric_eigen();
+    let mut r = eig.eigenvectors.clone();
+    for (j, l) in eig.eigenvalues.iter().enumerate() {
+        let s = l.max(0.0).sqrt();
+        r.column_mut(j).scale_mut(s);
+    }
+    r
+}
+
+/// Inverse square root of a symmetric positive definite matrix.
+pub fn inv_sqrt_spd(p: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+    let sym = (p + p.transpose()) * 0.5;
+    let eig = sym.symmetric_eigen();
+    let lmax = eig.eigenvalues.max();
+    let mut d = DVector::zeros(eig.eigenvalues.len());
+    for (i, l) in eig.eigenvalues.iter().enumerate() {
+        if *l <= lmax * 1e-12 || *l <= 0.0 {
+            return Err(SysidError::Numerical(
+                "matrix is not positive definite (CVA weighting: outputs linearly dependent?)"
+                    .into(),
+            ));
+        }
+        d[i] = 1.0 / l.sqrt();
+    }
+    let v = &eig.eigenvectors;
+    Ok(v * DMatrix::from_diagonal(&d) * v.transpose())
+}
+
+/// The `R` factor (upper triangular, `k x k` with `k = min(rows, cols)`) of
+/// a QR factorisation, rows made to have non-negative diagonal.
+pub fn r_factor(m: DMatrix<f64>) -> DMatrix<f64> {
+    let qr = m.qr();
+    let mut r = qr.r();
+    for i in 0..r.nrows().min(r.ncols()) {
+        if r[(i, i)] < 0.0 {
+            r.row_mut(i).neg_mut();
+        }
+    }
+    r
+}
+
+/// Steady-state Kalman gain of the innovation form for
+/// `x+ = A x + w`, `y = C x + v` with `cov([w; v]) = [[Q, S], [S', R]]`:
+/// `K = (A P C' + S)(C P C' + R)^-1` where `P` solves the filter Riccati
+/// equation `P = A P A' + Q - K (C P C' + R) K'` (iterated to convergence).
+pub fn kalman_gain(
+    a: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    q: &DMatrix<f64>,
+    s: &DMatrix<f64>,
+    r: &DMatrix<f64>,
+) -> Result<DMatrix<f64>> {
+    let mut p = q.clone();
+    let mut k = DMatrix::zeros(a.nrows(), c.nrows());
+    for it in 0..5000 {
+        let sig = c * &p * c.transpose() + r;
+        let sig_inv = sig
+            .clone()
+            .try_inverse()
+            .ok_or_else(|| SysidError::Numerical("innovation covariance is singular".into()))?;
+        let kn = (a * &p * c.transpose() + s) * &sig_inv;
+        let pn = a * &p * a.transpose() + q - &kn * &sig * kn.transpose();
+        let pn = (&pn + pn.transpose()) * 0.5;
+        let done = (&pn - &p).norm() <= 1e-12 * (1.0 + p.norm()) && it > 2;
+        p = pn;
+        k = kn;
+        if done {
+            return Ok(k);
+        }
+        if !p.iter().all(|v| v.is_finite()) {
+            break;
+        }
+    }
+    if k.iter().all(|v| v.is_finite()) {
+        Ok(k)
+    } else {
+        Err(SysidError::Numerical("Riccati iteration diverged".into()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dlyap_matches_kronecker_solution() {
+        let a = DMatrix::from_row_slice(3, 3, &[0.5, 0.2, 0.0, -0.1, 0.7, 0.3, 0.0, 0.1, -0.4]);
+        let b = DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 0.5, 1.0, 0.0, 2.0]);
+        let q = &b * b.transpose();
+        let x = dlyap(&a, &q).unwrap();
+        // Independent: (I - A kron A) vec X = vec Q.
+        let n = 3;
+        let mut m = DMatrix::<f64>::identity(n * n, n * n);
+        m -= a.kronecker(&a);
+        let vx = m
+            .lu()
+            .solve(&DVector::from_column_slice(q.as_slice()))
+            .unwrap();
+        let xk = DMatrix::from_column_slice(n, n, vx.as_slice());
+        assert!((&x - &xk).norm() < 1e-12 * xk.norm());
+        assert!((&a * &x * a.transpose() - &x + &q).norm() < 1e-12);
+    }
+
+    #[test]
+    fn dlyap_refuses_unstable() {
+        let a = DMatrix::from_row_slice(1, 1, &[1.2]);
+        assert!(matches!(
+            dlyap(&a, &DMatrix::identity(1, 1)),
+            Err(SysidError::Unstable { .. })
+        ));
+    }
+
+    #[test]
+    fn pinv_of_rank_deficient() {
+        let a = DMatrix::from_row_slice(3, 2, &[1.0, 2.0, 2.0, 4.0, 3.0, 6.0]);
+        let p = pinv(&a);
+        assert!((&a * &p * &a - &a).norm() < 1e-12);
+        assert!((&p * &a * &p - &p).norm() < 1e-12);
+    }
+}

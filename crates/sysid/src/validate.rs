@@ -1,0 +1,492 @@
+//! Validation: simulation fit (`compare`), k-step-ahead prediction fit,
+//! residual analysis (`resid`), each with the persistence baseline.
+
+use crate::data::IoData;
+use crate::error::{Result, SysidError};
+use crate::linalg::lstsq;
+use crate::model::InnovationModel;
+use nalgebra::{DMatrix, DVector};
+use std::fmt;
+
+/// The fit (4.11) in percent per output column, pooled over experiments:
+/// `100 (1 - |y - yhat| / |y - mean(y)|)` with the mean over all samples.
+pub fn fit_percent(y: &[DMatrix<f64>], yhat: &[DMatrix<f64>]) -> Vec<f64> {
+    let ny = y.first().map(|m| m.ncols()).unwrap_or(0);
+    let n: usize = y.iter().map(|m| m.nrows()).sum();
+    (0..ny)
+        .map(|j| {
+            let mean = y.iter().map(|m| m.column(j).sum()).sum::<f64>() / n.max(1) as f64;
+            let mut num = 0.0;
+            let mut den = 0.0;
+            for (m, h) in y.iter().zip(yhat) {
+                for t in 0..m.nrows() {
+                    num += (m[(t, j)] - h[(t, j)]).powi(2);
+                    den += (m[(t, j)] - mean).powi(2);
+                }
+            }
+            if den > 0.0 {
+                100.0 * (1.0 - (num / den).sqrt())
+            } else {
+                f64::NAN
+            }
+        })
+        .collect()
+}
+
+fn check_model_data(model: &InnovationModel, data: &IoData) -> Result<()> {
+    if model.nu() != data.nu() {
+        return Err(SysidError::dim(
+            "model inputs vs data",
+            data.nu(),
+            model.nu(),
+        ));
+    }
+    if model.ny() != data.ny() {
+        return Err(SysidError::dim(
+            "model outputs vs data",
+            data.ny(),
+            model.ny(),
+        ));
+    }
+    Ok(())
+}
+
+/// Least-squares initial state of the simulation: `y - y_sim(x0 = 0) = C A^k x0`.
+pub fn estimate_x0_simulation(
+    model: &InnovationModel,
+    u: &DMatrix<f64>,
+    y: &DMatrix<f64>,
+) -> Result<DVector<f64>> {
+    let zero = DVector::zeros(model.nx());
+    let r = y - model.simulate(u, &zero)?;
+    Ok(x0_from_free_response(&model.a, &model.c, &r))
+}
+
+/// Least-squares initial state of the one-step predictor:
+/// `e(x0 = 0) = C (A - KC)^k x0 + e`.
+pub fn estimate_x0_predictor(
+    model: &InnovationModel,
+    u: &DMatrix<f64>,
+    y: &DMatrix<f64>,
+) -> Result<DVector<f64>> {
+    let zero = DVector::zeros(model.nx());
+    let r = model.predict_one_step(u, y, &zero)?.residuals;
+    let abar = &model.a - &model.k * &model.c;
+    Ok(x0_from_free_response(&abar, &model.c, &r))
+}
+
+fn x0_from_free_response(a: &DMatrix<f64>, c: &DMatrix<f64>, r: &DMatrix<f64>) -> DVector<f64> {
+    let (n, ny, nt) = (a.nrows(), c.nrows(), r.nrows());
+    // Only the first samples matter for a stable free response; cap the work.
+    let nt = nt.min(2000);
+    let mut phi = DMatrix::zeros(nt * ny, n);
+    let mut rhs = DMatrix::zeros(nt * ny, 1);
+    let mut ca = c.clone();
+    for t in 0..nt {
+        phi.rows_mut(t * ny, ny).copy_from(&ca);
+        for o in 0..ny {
+            rhs[(t * ny + o, 0)] = r[(t, o)];
+        }
+        ca = &ca * a;
+    }
+    let x = lstsq(&phi, &rhs);
+    DVector::from_column_slice(x.as_slice())
+}
+
+/// Result of [`compare`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Comparison {
+    /// Fit per output (4.11), percent.
+    pub fit: Vec<f64>,
+    /// Simulated outputs per experiment.
+    pub simulated: Vec<DMatrix<f64>>,
+    /// Estimated initial state per experiment.
+    pub x0: Vec<DVector<f64>>,
+}
+
+/// Simulation fit of a model on data (MATLAB's `compare`): each
+/// experiment is simulated from its least-squares initial state.
+pub fn compare(model: &InnovationModel, data: &IoData) -> Result<Comparison> {
+    check_model_data(model, data)?;
+    let mut sims = Vec::new();
+    let mut x0s = Vec::new();
+    let mut ys = Vec::new();
+    for e in data.experiments() {
+        let x0 = estimate_x0_simulation(model, &e.u, &e.y)?;
+        sims.push(model.simulate(&e.u, &x0)?);
+        x0s.push(x0);
+        ys.push(e.y.clone());
+    }
+    Ok(Comparison {
+        fit: fit_percent(&ys, &sims),
+        simulated: sims,
+        x0: x0s,
+    })
+}
+
+/// k-step-ahead prediction fit of a model (4.12), per output, percent.
+/// Each experiment's predictor starts from its least-squares initial state.
+pub fn predict_fit(model: &InnovationModel, data: &IoData, k: usize) -> Result<Vec<f64>> {
+    check_model_data(model, data)?;
+    let mut ys = Vec::new();
+    let mut ps = Vec::new();
+    for e in data.experiments() {
+        let x0 = estimate_x0_predictor(model, &e.u, &e.y)?;
+        ps.push(model.predict_k_step(&e.u, &e.y, &x0, k)?);
+        ys.push(e.y.clone());
+    }
+    Ok(fit_percent(&ys, &ps))
+}
+
+/// Fit of the persistence predictor `yhat(t) = y(t - k)` (the first
+/// sample for `t < k`); `k = None` holds the first sample throughout
+/// (the persistence "simulation").
+pub fn persistence_fit(data: &IoData, k: Option<usize>) -> Vec<f64> {
+    let mut ys = Vec::new();
+    let mut ps = Vec::new();
+    for e in data.experiments() {
+        let n = e.len();
+        let p = DMatrix::from_fn(n, data.ny(), |t, j| match k {
+            Some(k) => e.y[(t.saturating_sub(k), j)],
+            None => e.y[(0, j)],
+        });
+        ys.push(e.y.clone());
+        ps.push(p);
+    }
+    fit_percent(&ys, &ps)
+}
+
+/// Residual correlations of one output.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OutputResiduals {
+    /// The output's name.
+    pub name: String,
+    /// Normalised autocorrelation for lags `0..=max_lag` (lag 0 is 1).
+    pub autocorr: Vec<f64>,
+    /// Normalised cross-correlation with each input for lags
+    /// `-max_lag..=max_lag` (index `max_lag + tau`): residual at `t + tau`
+    /// against input at `t`.
+    pub crosscorr: Vec<Vec<f64>>,
+    /// Lags `1..=max_lag` of the autocorrelation outside the band.
+    pub auto_outside: usize,
+    /// Lags `0..=max_lag` of the cross-correlations (all inputs) outside the band.
+    pub cross_outside: usize,
+    /// Negative lags of the cross-correlations outside the band (feedback,
+    /// not counted against the model).
+    pub cross_outside_negative: usize,
+    /// Verdict: the residuals are white.
+    pub white: bool,
+    /// Verdict: the residuals are uncorrelated with past and present inputs.
+    pub independent: bool,
+}
+
+/// Result of [`resid`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResidualAnalysis {
+    /// Largest lag.
+    pub max_lag: usize,
+    /// The 99 % confidence band `2.576 / sqrt(N)` of a normalised
+    /// correlation under the hypothesis of white residuals independent of
+    /// the inputs.
+    pub bound: f64,
+    /// Input names.
+    pub inputs: Vec<String>,
+    /// Per output.
+    pub outputs: Vec<OutputResiduals>,
+}
+
+/// Residual analysis (4.13)-(4.14), MATLAB's `resid`: autocorrelation of
+/// the one-step prediction errors and their cross-correlation with the
+/// inputs, lags `-max_lag..=max_lag`, with 99 % bands.
+///
+/// Verdicts: with `L` lags tested, a test passes when at most
+/// `1 + L / 100` of them lie outside the band (under the null hypothesis
+/// about 1 % lie outside by chance). The cross-correlation verdict uses
+/// lags `tau >= 0` only; correlation at negative lags means feedback from
+/// the residual to later inputs (closed-loop data), not a model error.
+pub fn resid(model: &InnovationModel, data: &IoData, max_lag: usize) -> Result<ResidualAnalysis> {
+    check_model_data(model, data)?;
+    let mut res = Vec::new();
+    let mut us = Vec::new();
+    for e in data.experiments() {
+        let x0 = estimate_x0_predictor(model, &e.u, &e.y)?;
+        res.push(model.predict_one_step(&e.u, &e.y, &x0)?.residuals);
+        us.push(e.u.clone());
+    }
+    let n: usize = res.iter().map(|r| r.nrows()).sum();
+    if n <= max_lag + 1 {
+        return Err(SysidError::TooFewSamples {
+            what: format!("residual analysis with {max_lag} lags"),
+            needed: max_lag + 2,
+            found: n,
+        });
+    }
+    let nf = n as f64;
+    let mean_of =
+        |ms: &[DMatrix<f64>], j: usize| ms.iter().map(|m| m.column(j).sum()).sum::<f64>() / nf;
+    // R_ab(tau) = 1/N sum_t a(t + tau) b(t), within experiments.
+    let corr = |a: &[DMatrix<f64>],
+                ja: usize,
+                ma: f64,
+                b: &[DMatrix<f64>],
+                jb: usize,
+                mb: f64,
+                tau: isize| {
+        let mut s = 0.0;
+        for (x, z) in a.iter().zip(b) {
+            let len = x.nrows() as isize;
+            for t in 0..len {
+                let ta = t + tau;
+                if ta >= 0 && ta < len {
+                    s += (x[(ta as usize, ja)] - ma) * (z[(t as usize, jb)] - mb);
+                }
+            }
+        }
+        s / nf
+    };
+    let bound = 2.576 / nf.sqrt();
+    let m = max_lag as isize;
+    let allowed = |count: usize| 1 + count / 100;
+    let mut outputs = Vec::new();
+    for j in 0..data.ny() {
+        let me = mean_of(&res, j);
+        let r0 = corr(&res, j, me, &res, j, me, 0);
+        let autocorr: Vec<f64> = (0..=m)
+            .map(|tau| {
+                if r0 > 0.0 {
+                    corr(&res, j, me, &res, j, me, tau) / r0
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let mut crosscorr = Vec::new();
+        let mut cross_outside = 0;
+        let mut cross_neg = 0;
+        for q in 0..data.nu() {
+            let mu = mean_of(&us, q);
+            let u0 = corr(&us, q, mu, &us, q, mu, 0);
+            let norm = (r0 * u0).sqrt();
+            let c: Vec<f64> = (-m..=m)
+                .map(|tau| {
+                    if norm > 0.0 {
+                        corr(&res, j, me, &us, q, mu, tau) / norm
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            for (i, v) in c.iter().enumerate() {
+                if v.abs() > bound {
+                    if i >= max_lag {
+                        cross_outside += 1;
+                    } else {
+                        cross_neg += 1;
+                    }
+                }
+            }
+            crosscorr.push(c);
+        }
+        let auto_outside = autocorr.iter().skip(1).filter(|v| v.abs() > bound).count();
+        outputs.push(OutputResiduals {
+            name: data.output_names()[j].clone(),
+            white: auto_outside <= allowed(max_lag),
+            independent: cross_outside <= allowed((max_lag + 1) * data.nu()),
+            autocorr,
+            crosscorr,
+            auto_outside,
+            cross_outside,
+            cross_outside_negative: cross_neg,
+        });
+    }
+    Ok(ResidualAnalysis {
+        max_lag,
+        bound,
+        inputs: data.input_names().to_vec(),
+        outputs,
+    })
+}
+
+/// One row of a fit table: a predictor and its fit per output.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitRow {
+    /// What was evaluated, e.g. `"model simulation"`, `"model 5-step"`,
+    /// `"persistence 5-step"`.
+    pub label: String,
+    /// Fit per output, percent.
+    pub fit: Vec<f64>,
+}
+
+impl FitRow {
+    /// The mean fit over outputs.
+    pub fn mean(&self) -> f64 {
+        self.fit.iter().sum::<f64>() / self.fit.len().max(1) as f64
+    }
+}
+
+/// A validation report: simulation fit, k-step fits and the persistence
+/// baseline for each, and the residual analysis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ValidationReport {
+    /// Output names (table columns).
+    pub outputs: Vec<String>,
+    /// Rows: model simulation, then model and persistence for each horizon.
+    pub rows: Vec<FitRow>,
+    /// Residual analysis of the one-step prediction errors.
+    pub residuals: ResidualAnalysis,
+}
+
+impl ValidationReport {
+    /// The row with the given label.
+    pub fn row(&self, label: &str) -> Option<&FitRow> {
+        self.rows.iter().find(|r| r.label == label)
+    }
+}
+
+/// Validates a model on data: simulation fit, k-step fits for every
+/// horizon in `horizons`, the persistence baseline beside each, and the
+/// residual analysis with lags `-25..=25`.
+pub fn validate(
+    model: &InnovationModel,
+    data: &IoData,
+    horizons: &[usize],
+) -> Result<ValidationReport> {
+    let mut rows = vec![
+        FitRow {
+            label: "model simulation".into(),
+            fit: compare(model, data)?.fit,
+        },
+        FitRow {
+            label: "persistence simulation".into(),
+            fit: persistence_fit(data, None),
+        },
+    ];
+    for &k in horizons {
+        rows.push(FitRow {
+            label: format!("model {k}-step"),
+            fit: predict_fit(model, data, k)?,
+        });
+        rows.push(FitRow {
+            label: format!("persistence {k}-step"),
+            fit: persistence_fit(data, Some(k)),
+        });
+    }
+    Ok(ValidationReport {
+        outputs: data.output_names().to_vec(),
+        rows,
+        residuals: resid(model, data, 25)?,
+    })
+}
+
+impl fmt::Display for ValidationReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:<26}", "fit [%]")?;
+        for o in &self.outputs {
+            write!(f, "{o:>10}")?;
+        }
+        writeln!(f, "{:>10}", "mean")?;
+        for r in &self.rows {
+            write!(f, "{:<26}", r.label)?;
+            for v in &r.fit {
+                write!(f, "{v:>10.2}")?;
+            }
+            writeln!(f, "{:>10.2}", r.mean())?;
+        }
+        let ra = &self.residuals;
+        writeln!(
+            f,
+            "residuals (lags -{0}..{0}, 99% band +-{1:.4}):",
+            ra.max_lag, ra.bound
+        )?;
+        for o in &ra.outputs {
+            writeln!(
+                f,
+                "  {:<10} autocorr outside {:>2}/{} -> {:<9} cross(tau>=0) outside {:>2}/{} -> {:<11} (tau<0: {})",
+                o.name,
+                o.auto_outside,
+                ra.max_lag,
+                if o.white { "white" } else { "NOT white" },
+                o.cross_outside,
+                (ra.max_lag + 1) * ra.inputs.len(),
+                if o.independent {
+                    "independent"
+                } else {
+                    "CORRELATED"
+                },
+                o.cross_outside_negative
+            )?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synthetic;
+
+    #[test]
+    fn fit_is_100_for_perfect_and_0_for_mean() {
+        let y = DMatrix::from_fn(50, 2, |t, j| (t * (j + 2)) as f64 % 7.0);
+        assert!(
+            fit_percent(std::slice::from_ref(&y), std::slice::from_ref(&y))
+                .iter()
+                .all(|f| (f - 100.0).abs() < 1e-12)
+        );
+        let mean = DMatrix::from_fn(50, 2, |_, j| y.column(j).mean());
+        assert!(
+            fit_percent(std::slice::from_ref(&y), &[mean])
+                .iter()
+                .all(|f| f.abs() < 1e-12)
+        );
+    }
+
+    #[test]
+    fn true_model_gives_white_residuals_and_exact_simulation() {
+        let m = synthetic::random_model(3, 2, 2, 5, 0.9);
+        // Noise-free: simulation fit 100 with the estimated initial state.
+        let mut clean = m.clone();
+        clean.k.fill(0.0);
+        let d = synthetic::simulate(&clean, 800, 0.0, 3).unwrap();
+        let c = compare(&clean, &d).unwrap();
+        assert!(c.fit.iter().all(|f| *f > 99.999), "{:?}", c.fit);
+        // Noisy with the true noise model: residuals white and independent.
+        let d = synthetic::simulate(&m, 4000, 0.3, 4).unwrap();
+        let r = resid(&m, &d, 25).unwrap();
+        for o in &r.outputs {
+            assert!(o.white && o.independent, "{o:?}");
+            assert!((o.autocorr[0] - 1.0).abs() < 1e-12);
+        }
+        // A wrong model (no noise model, perturbed dynamics) fails whiteness.
+        let mut wrong = m.clone();
+        wrong.k.fill(0.0);
+        wrong.a *= 0.5;
+        let r = resid(&wrong, &d, 25).unwrap();
+        assert!(r.outputs.iter().any(|o| !o.white || !o.independent));
+    }
+
+    #[test]
+    fn persistence_one_step_fit_closed_form() {
+        // y = t: y(t) - y(t-1) = 1 except t = 0.
+        let n = 20;
+        let y = DMatrix::from_fn(n, 1, |t, _| t as f64);
+        let d = IoData::new(
+            1.0,
+            DMatrix::from_fn(n, 1, |t, _| (t % 3) as f64),
+            y.clone(),
+        )
+        .unwrap();
+        let f = persistence_fit(&d, Some(1))[0];
+        let mean = (n - 1) as f64 / 2.0;
+        let den: f64 = (0..n).map(|t| (t as f64 - mean).powi(2)).sum();
+        let want = 100.0 * (1.0 - ((n - 1) as f64 / den).sqrt());
+        assert!((f - want).abs() < 1e-12);
+    }
+
+    #[test]
+    fn mismatched_model_is_an_error() {
+        let m = synthetic::random_model(2, 1, 1, 1, 0.5);
+        let d = IoData::new(1.0, DMatrix::zeros(10, 2), DMatrix::zeros(10, 1)).unwrap();
+        assert!(compare(&m, &d).is_err());
+    }
+}
