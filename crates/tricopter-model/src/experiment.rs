@@ -319,7 +319,14 @@ mod ryu_free {
             let mut cur = std::io::Cursor::new(&mut self.data[..]);
             // `Display` of f64 is the shortest round-trip form; 40 bytes hold
             // every value this log contains (|v| < 1e16 and normal).
-            let ok = write!(cur, "{v}").is_ok();
+            // Tiny magnitudes in exponent form keep the file short; `+ 0.0`
+            // turns -0 into 0.
+            let v = v + 0.0;
+            let ok = if v != 0.0 && v.abs() < 1e-4 {
+                write!(cur, "{v:e}").is_ok()
+            } else {
+                write!(cur, "{v}").is_ok()
+            };
             self.len = if ok { cur.position() as usize } else { 0 };
         }
         pub fn as_bytes(&self) -> &[u8] {
@@ -555,4 +562,208 @@ pub fn simulate(settings: &SimSettings) -> Result<FlightLog, ModelError> {
         trim,
         rows,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sensor::{THESIS_GYRO_BIAS, THESIS_GYRO_COVARIANCE};
+
+    fn in_window(log: &FlightLog, t0: f64, t1: f64) -> impl Iterator<Item = &LogRow> {
+        log.rows.iter().filter(move |r| r.t >= t0 && r.t <= t1)
+    }
+
+    #[test]
+    fn hover_with_noise_stays_level_for_60_s() {
+        let log = simulate(&SimSettings::new(Experiment::Hover, 70.0, 3)).unwrap();
+        let phi0 = log.trim.phi;
+        // 60 s of hover after the climb (5-65 s).
+        let mut n = 0;
+        for r in in_window(&log, 5.0, 65.0) {
+            assert!(r.airborne, "landed at {}", r.t);
+            let x = &r.state;
+            assert!(
+                (x[idx::PHI] - phi0).abs() < 3f64.to_radians(),
+                "phi {} at {}",
+                x[idx::PHI],
+                r.t
+            );
+            assert!(
+                x[idx::THETA].abs() < 3f64.to_radians(),
+                "theta {} at {}",
+                x[idx::THETA],
+                r.t
+            );
+            assert!(x[idx::P].abs() < 0.3 && x[idx::Q].abs() < 0.3 && x[idx::R].abs() < 0.3);
+            assert!(
+                (-x[idx::Z] - 1.5).abs() < 0.3,
+                "altitude {} at {}",
+                -x[idx::Z],
+                r.t
+            );
+            n += 1;
+        }
+        assert_eq!(n, 3001);
+        // The gyro really was noisy (measured minus true rate spreads like (7.6)).
+        let var: f64 = in_window(&log, 5.0, 65.0)
+            .map(|r| (r.gyro[2] - r.state[idx::R] - THESIS_GYRO_BIAS[2]).powi(2))
+            .sum::<f64>()
+            / n as f64;
+        assert!(var > 0.5 * THESIS_GYRO_COVARIANCE[2][2]);
+    }
+
+    #[test]
+    fn ground_experiment_reproduces_bias_and_covariance() {
+        let settings = SimSettings::new(Experiment::Ground, 250.0, 5);
+        let log = simulate(&settings).unwrap();
+        assert!(
+            log.rows
+                .iter()
+                .all(|r| !r.airborne && r.state[idx::P] == 0.0)
+        );
+        let n = log.rows.len() as f64;
+        let mut mean = [0.0; 3];
+        for r in &log.rows {
+            for i in 0..3 {
+                mean[i] += r.gyro[i] / n;
+            }
+        }
+        let mut cov = [[0.0; 3]; 3];
+        for r in &log.rows {
+            for i in 0..3 {
+                for j in 0..3 {
+                    cov[i][j] += (r.gyro[i] - mean[i]) * (r.gyro[j] - mean[j]) / (n - 1.0);
+                }
+            }
+        }
+        let q = settings.plant.gyro.quantum;
+        let r = THESIS_GYRO_COVARIANCE;
+        for i in 0..3 {
+            // Mean within 4 standard errors of the bias.
+            let se = ((r[i][i] + q * q / 12.0) / n).sqrt();
+            assert!(
+                (mean[i] - THESIS_GYRO_BIAS[i]).abs() < 4.0 * se,
+                "mean {i}: {} vs {}",
+                mean[i],
+                THESIS_GYRO_BIAS[i]
+            );
+            for j in 0..3 {
+                // Quantisation adds q^2/12 on the diagonal (Sheppard's correction).
+                let want = r[i][j] + if i == j { q * q / 12.0 } else { 0.0 };
+                let wii = r[i][i] + q * q / 12.0;
+                let wjj = r[j][j] + q * q / 12.0;
+                // Standard error of a sample covariance of Gaussian data.
+                let se = ((wii * wjj + want * want) / n).sqrt();
+                assert!(
+                    (cov[i][j] - want).abs() < 4.0 * se,
+                    "cov {i}{j}: {} vs {want} (se {se})",
+                    cov[i][j]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn same_seed_same_bytes_other_seed_other_bytes() {
+        let s = SimSettings::new(Experiment::Coupled, 30.0, 1);
+        let a = simulate(&s).unwrap().to_csv_bytes().unwrap();
+        let b = simulate(&s).unwrap().to_csv_bytes().unwrap();
+        assert_eq!(a, b);
+        let c = simulate(&SimSettings { seed: 2, ..s })
+            .unwrap()
+            .to_csv_bytes()
+            .unwrap();
+        assert_ne!(a, c);
+        let text = String::from_utf8(a).unwrap();
+        let header = text.lines().next().unwrap();
+        assert_eq!(header, LOG_COLUMNS.join(","));
+        assert_eq!(text.lines().count(), 1 + 1500);
+        // Every field parses back to a finite number.
+        for line in text.lines().skip(1).step_by(97) {
+            let fields: Vec<f64> = line.split(',').map(|f| f.parse().unwrap()).collect();
+            assert_eq!(fields.len(), LOG_COLUMNS.len());
+            assert!(fields.iter().all(|v| v.is_finite()));
+        }
+    }
+
+    #[test]
+    fn coupled_flight_covers_the_thesis_intervals_with_excitation() {
+        let log = simulate(&SimSettings::new(Experiment::Coupled, 250.0, 1)).unwrap();
+        let air = log.airborne_intervals();
+        assert_eq!(air.len(), 1, "{air:?}");
+        assert!(air[0].0 < 5.0 && air[0].1 > 247.0, "{air:?}");
+        for (t0, t1) in [(21.28, 42.82), (108.9, 165.8), (181.66, 219.6)] {
+            let rows: Vec<&LogRow> = in_window(&log, t0, t1).collect();
+            assert!(rows.iter().all(|r| r.airborne));
+            for i in 0..3 {
+                let m = rows.iter().map(|r| r.gyro[i]).sum::<f64>() / rows.len() as f64;
+                let sd = (rows.iter().map(|r| (r.gyro[i] - m).powi(2)).sum::<f64>()
+                    / rows.len() as f64)
+                    .sqrt();
+                assert!(sd > 0.2, "axis {i} in ({t0}, {t1}): sd {sd}");
+            }
+            // No excursion beyond 45 degrees, no motor saturation.
+            assert!(
+                rows.iter()
+                    .all(|r| r.state[idx::PHI].abs() < 0.8 && r.state[idx::THETA].abs() < 0.8)
+            );
+            assert!(
+                rows.iter()
+                    .all(|r| r.pwm[..3].iter().all(|p| *p > 1000.0 && *p < 2000.0))
+            );
+        }
+        // Landed and stopped at the end.
+        let last = log.rows.last().unwrap();
+        assert!(!last.airborne && last.pwm[..3] == [1000.0; 3]);
+    }
+
+    #[test]
+    fn decoupled_flight_excites_one_axis_at_a_time() {
+        let log = simulate(&SimSettings::new(Experiment::Decoupled, 40.0, 4)).unwrap();
+        // Segments: roll 10-16 s, pitch 18-24 s, yaw 26-32 s.
+        for (axis, t0) in [(0usize, 10.5), (1, 18.5), (2, 26.5)] {
+            let rows: Vec<&LogRow> = in_window(&log, t0, t0 + 5.0).collect();
+            let energy: Vec<f64> = (0..3)
+                .map(|i| rows.iter().map(|r| r.reference[i].powi(2)).sum::<f64>())
+                .collect();
+            for i in 0..3 {
+                if i != axis {
+                    assert!(energy[axis] > 10.0 * energy[i], "axis {axis}: {energy:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn bad_settings_are_errors() {
+        assert!(
+            "spiral"
+                .parse::<Experiment>()
+                .unwrap_err()
+                .to_string()
+                .contains("hover, decoupled")
+        );
+        for e in Experiment::ALL {
+            assert_eq!(e.name().parse::<Experiment>().unwrap(), e);
+        }
+        let s = SimSettings::new(Experiment::Hover, 10.0, 1);
+        for bad in [f64::NAN, -1.0, 0.0, f64::INFINITY] {
+            assert!(simulate(&SimSettings { seconds: bad, ..s }).is_err());
+        }
+        let mut d = s;
+        d.plant.dt = 0.003;
+        assert!(matches!(
+            simulate(&d),
+            Err(ModelError::InvalidSetting { name: "dt", .. })
+        ));
+        let mut m = s;
+        m.plant.params.mass = f64::NAN;
+        assert!(matches!(
+            simulate(&m),
+            Err(ModelError::InvalidParam { name: "mass", .. })
+        ));
+        let mut g = s;
+        g.gains.kp[0] = f64::NAN;
+        assert!(simulate(&g).is_err());
+    }
 }

@@ -149,9 +149,14 @@ impl Plant {
     /// Applies `u` (held) for one sample period. On error (non-finite input
     /// or state) the state is left as it was at the failing substep.
     pub fn advance(&mut self, u: &Input) -> Result<(), ModelError> {
+        // Gusts do not turn an aircraft resting on the ground.
         let d = Disturbance {
             force: [0.0; 3],
-            torque: self.gust.torque(),
+            torque: if self.on_ground {
+                [0.0; 3]
+            } else {
+                self.gust.torque()
+            },
         };
         for _ in 0..self.substeps {
             self.model.step_with(&mut self.x, u, &d, self.config.dt)?;
