@@ -1,0 +1,328 @@
+//! Tests of `dare`, `dlqr` and `dlqe` against an independent solver.
+
+use crate::testutil::{Kind, random_problem, reference_dare};
+use crate::{DareSettings, KalmanError, dare, dare_with, dlqe, dlqr};
+use nalgebra::{DMatrix, dmatrix};
+use proptest::prelude::*;
+
+fn check_random(n: usize, seed: u64, kind: Kind, agree: f64) {
+    let p = random_problem(n, seed, kind);
+    let sol = dare(&p.a, &p.b, &p.q, &p.r, p.s.as_ref())
+        .unwrap_or_else(|e| panic!("n={n} seed={seed} {kind:?}: {e}"));
+    assert!(
+        sol.residual < 1e-12,
+        "n={n} seed={seed} {kind:?}: residual {:.2e}",
+        sol.residual
+    );
+    assert!(sol.closed_loop_eigenvalues.iter().all(|z| z.norm() < 1.0));
+    let x_ref = reference_dare(&p);
+    let err = (&sol.x - &x_ref).norm() / x_ref.norm().max(1e-300);
+    assert!(
+        err < agree,
+        "n={n} seed={seed} {kind:?}: relative difference {err:.2e} from the reference"
+    );
+    // Symmetric and positive semidefinite.
+    assert_eq!(sol.x, sol.x.transpose());
+    let min_eig = sol.x.clone().symmetric_eigenvalues().min();
+    assert!(
+        min_eig >= -1e-10 * sol.x.norm(),
+        "min eigenvalue {min_eig:.2e}"
+    );
+}
+
+const SIZES: [usize; 10] = [1, 2, 3, 5, 8, 13, 20, 30, 45, 60];
+
+#[test]
+fn random_problems_agree_with_newton_kleinman() {
+    for (i, &n) in SIZES.iter().enumerate() {
+        for seed in 0..2 {
+            check_random(n, 100 * i as u64 + seed, Kind::default(), 1e-9);
+        }
+    }
+}
+
+#[test]
+fn singular_a() {
+    for (i, &n) in SIZES.iter().enumerate() {
+        let kind = Kind {
+            singular_a: true,
+            ..Kind::default()
+        };
+        check_random(n, 7 + i as u64, kind, 1e-9);
+    }
+    // Fully singular A (deadbeat possible): X = Q.
+    let z = DMatrix::zeros(3, 3);
+    let q = DMatrix::identity(3, 3);
+    let sol = dare(&z, &DMatrix::identity(3, 1), &q, &dmatrix![1.0], None).unwrap();
+    assert!((&sol.x - &q).norm() < 1e-15);
+}
+
+#[test]
+fn ill_conditioned_r() {
+    for (i, &n) in SIZES.iter().enumerate().skip(3) {
+        let kind = Kind {
+            r_cond: 1e8,
+            ..Kind::default()
+        };
+        check_random(n, 31 + i as u64, kind, 1e-7);
+        let kind = Kind {
+            r_cond: 1e8,
+            singular_a: true,
+            cross: true,
+        };
+        check_random(n, 57 + i as u64, kind, 1e-7);
+    }
+}
+
+#[test]
+fn cross_term() {
+    for (i, &n) in SIZES.iter().enumerate() {
+        let kind = Kind {
+            cross: true,
+            ..Kind::default()
+        };
+        check_random(n, 211 + i as u64, kind, 1e-9);
+    }
+}
+
+#[test]
+fn scalar_closed_form() {
+    for &(a, b, q, r) in &[
+        (0.5, 1.0, 1.0, 1.0),
+        (1.0, 1.0, 1.0, 1.0),
+        (2.0, 0.5, 3.0, 0.1),
+        (-1.5, 2.0, 1e-6, 1e3),
+        (0.0, 1.0, 1.0, 1.0),
+    ] {
+        let sol = dare(&dmatrix![a], &dmatrix![b], &dmatrix![q], &dmatrix![r], None).unwrap();
+        // x = a^2 x r / (r + b^2 x) + q  ->  b^2 x^2 + (r - a^2 r - q b^2) x - q r = 0.
+        let (qa, qb, qc) = (b * b, r - a * a * r - q * b * b, -q * r);
+        let x = (-qb + (qb * qb - 4.0 * qa * qc).sqrt()) / (2.0 * qa);
+        assert!(
+            (sol.x[(0, 0)] - x).abs() <= 1e-12 * x.abs().max(1.0),
+            "a={a}: {} vs {x}",
+            sol.x[(0, 0)]
+        );
+        assert!(sol.residual < 1e-12);
+    }
+}
+
+#[test]
+fn marginal_and_near_marginal() {
+    // A rotation (eigenvalues on the unit circle) and an integrator.
+    let t = 0.3_f64;
+    let a = dmatrix![t.cos(), -t.sin(), 0.0; t.sin(), t.cos(), 0.0; 0.0, 0.0, 1.0];
+    let b = dmatrix![0.0, 0.0; 1.0, 0.0; 0.0, 1.0];
+    let q = DMatrix::identity(3, 3);
+    let r = DMatrix::identity(2, 2);
+    let sol = dare(&a, &b, &q, &r, None).unwrap();
+    assert!(sol.residual < 1e-12);
+    // Near-marginal: integrator with a tiny state weight, closed loop near 1.
+    for &q in &[1e-6, 1e-10, 1e-14] {
+        let sol = dare(
+            &dmatrix![1.0],
+            &dmatrix![1.0],
+            &dmatrix![q],
+            &dmatrix![1.0],
+            None,
+        )
+        .unwrap();
+        let x = (q + (q * q + 4.0 * q).sqrt()) / 2.0;
+        assert!((sol.x[(0, 0)] - x).abs() <= 1e-10 * x, "q={q}");
+        assert!(sol.closed_loop_eigenvalues[0].norm() > 1.0 - 2.0 * q.sqrt());
+    }
+}
+
+#[test]
+fn refuses_non_stabilisable() {
+    let a = dmatrix![1.5, 0.0; 0.0, 0.5];
+    let b = dmatrix![0.0; 1.0];
+    let err = dare(&a, &b, &DMatrix::identity(2, 2), &dmatrix![1.0], None).unwrap_err();
+    match err {
+        KalmanError::NotStabilizable { eigenvalue } => assert!((eigenvalue.re - 1.5).abs() < 1e-12),
+        e => panic!("{e}"),
+    }
+    assert!(err.to_string().contains("not stabilisable"));
+    // Repeated unstable eigenvalue with a single input: never stabilisable.
+    let a = DMatrix::identity(2, 2) * 1.1;
+    let err = dare(
+        &a,
+        &dmatrix![1.0; 0.0],
+        &DMatrix::identity(2, 2),
+        &dmatrix![1.0],
+        None,
+    );
+    assert!(
+        matches!(err, Err(KalmanError::NotStabilizable { .. })),
+        "{err:?}"
+    );
+}
+
+#[test]
+fn refuses_non_detectable() {
+    let a = dmatrix![1.5, 0.0; 0.0, 0.5];
+    let b = DMatrix::identity(2, 2);
+    let q = dmatrix![0.0, 0.0; 0.0, 1.0];
+    let err = dare(&a, &b, &q, &DMatrix::identity(2, 2), None).unwrap_err();
+    assert!(matches!(err, KalmanError::NotDetectable { .. }), "{err}");
+    // Unobservable mode on the unit circle.
+    let a = dmatrix![1.0, 0.0; 0.0, 0.5];
+    let err = dare(&a, &b, &q, &DMatrix::identity(2, 2), None).unwrap_err();
+    assert!(matches!(err, KalmanError::NotDetectable { .. }), "{err}");
+    // Even without the explicit check the doubling refuses it: the dual
+    // Riccati equation has no solution and G_k overflows.
+    let a = dmatrix![1.5, 0.0; 0.0, 0.5];
+    let settings = DareSettings {
+        check_detectability: false,
+        ..DareSettings::default()
+    };
+    let err = dare_with(&a, &b, &q, &DMatrix::identity(2, 2), None, &settings).unwrap_err();
+    assert!(matches!(err, KalmanError::NotDetectable { .. }), "{err}");
+}
+
+#[test]
+fn rejects_bad_input() {
+    let a = DMatrix::identity(2, 2);
+    let b = dmatrix![0.0; 1.0];
+    let q = DMatrix::identity(2, 2);
+    let r = dmatrix![1.0];
+    assert!(matches!(
+        dare(&a, &DMatrix::zeros(3, 1), &q, &r, None),
+        Err(KalmanError::DimensionMismatch { name: "B", .. })
+    ));
+    assert!(matches!(
+        dare(&a, &b, &q, &DMatrix::identity(2, 2), None),
+        Err(KalmanError::DimensionMismatch { name: "R", .. })
+    ));
+    assert!(matches!(
+        dare(&a, &b, &q, &r, Some(&DMatrix::zeros(2, 2))),
+        Err(KalmanError::DimensionMismatch { name: "S", .. })
+    ));
+    let mut an = a.clone();
+    an[(1, 0)] = f64::NAN;
+    assert!(matches!(
+        dare(&an, &b, &q, &r, None),
+        Err(KalmanError::NonFinite {
+            name: "A",
+            row: 1,
+            col: 0
+        })
+    ));
+    assert!(matches!(
+        dare(&a, &b, &dmatrix![1.0, 0.5; 0.0, 1.0], &r, None),
+        Err(KalmanError::NotSymmetric { name: "Q", .. })
+    ));
+    assert!(matches!(
+        dare(&a, &b, &q, &dmatrix![0.0], None),
+        Err(KalmanError::NotPositiveDefinite { name: "R" })
+    ));
+    assert!(matches!(
+        dare(&a, &b, &dmatrix![1.0, 0.0; 0.0, -1.0], &r, None),
+        Err(KalmanError::NotPositiveSemidefinite { name: "Q", .. })
+    ));
+    // A cross term too large for [Q S; S' R] to be PSD.
+    assert!(matches!(
+        dare(&a, &b, &q, &r, Some(&dmatrix![2.0; 0.0])),
+        Err(KalmanError::NotPositiveSemidefinite { .. })
+    ));
+}
+
+#[test]
+fn dlqr_matches_dare() {
+    let p = random_problem(
+        6,
+        99,
+        Kind {
+            cross: true,
+            ..Kind::default()
+        },
+    );
+    let lqr = dlqr(&p.a, &p.b, &p.q, &p.r, p.s.as_ref()).unwrap();
+    let sol = dare(&p.a, &p.b, &p.q, &p.r, p.s.as_ref()).unwrap();
+    assert_eq!(lqr.k, sol.gain);
+    assert_eq!(lqr.s, sol.x);
+    // The gain is optimal: K = (R + B'SB)^-1 (B'SA + N').
+    let k = (&p.r + p.b.transpose() * &lqr.s * &p.b)
+        .lu()
+        .solve(&(p.b.transpose() * &lqr.s * &p.a + p.s.as_ref().unwrap().transpose()))
+        .unwrap();
+    assert!((&k - &lqr.k).norm() < 1e-10 * k.norm());
+}
+
+#[test]
+fn dlqe_is_the_dual_problem() {
+    let p = random_problem(5, 5, Kind::default());
+    // Filter for x+ = A x + G w, y = C x + v.
+    let c = p.b.transpose();
+    let g = DMatrix::identity(5, 5);
+    let qn = p.q.clone() + DMatrix::identity(5, 5) * 0.1;
+    let f = dlqe(&p.a, &g, &c, &qn, &p.r, None).unwrap();
+    // Independent: the reference solver on the dual problem.
+    let dual = crate::testutil::Problem {
+        a: p.a.transpose(),
+        b: c.transpose(),
+        q: qn.clone(),
+        r: p.r.clone(),
+        s: None,
+    };
+    let p_ref = reference_dare(&dual);
+    assert!((&f.p - &p_ref).norm() < 1e-9 * p_ref.norm());
+    // M = P C' (C P C' + R)^-1, L = A M, Z = (I - M C) P.
+    let s = &c * &p_ref * c.transpose() + &p.r;
+    let m = &p_ref * c.transpose() * s.try_inverse().unwrap();
+    assert!((&f.m - &m).norm() < 1e-8 * m.norm());
+    assert!((&f.l - &p.a * &f.m).norm() < 1e-10 * f.l.norm());
+    let z = (DMatrix::identity(5, 5) - &f.m * &c) * &f.p;
+    assert!((&f.z - &z).norm() < 1e-9 * z.norm());
+    let rho = (&p.a - &f.l * &c)
+        .complex_eigenvalues()
+        .iter()
+        .map(|z| z.norm())
+        .fold(0.0, f64::max);
+    assert!(rho < 1.0);
+}
+
+#[test]
+fn dlqe_names_filter_failures() {
+    let a = dmatrix![1.2, 0.0; 0.0, 0.5];
+    let g = DMatrix::identity(2, 2);
+    // The output does not see the unstable mode.
+    let err = dlqe(&a, &g, &dmatrix![0.0, 1.0], &g, &dmatrix![1.0], None).unwrap_err();
+    assert!(matches!(err, KalmanError::NotDetectable { .. }), "{err}");
+    // The noise does not excite the unstable mode.
+    let err = dlqe(
+        &a,
+        &dmatrix![0.0; 1.0],
+        &dmatrix![1.0, 1.0],
+        &dmatrix![1.0],
+        &dmatrix![1.0],
+        None,
+    )
+    .unwrap_err();
+    assert!(matches!(err, KalmanError::NotStabilizable { .. }), "{err}");
+    assert!(matches!(
+        dlqe(
+            &a,
+            &dmatrix![0.0; 1.0; 2.0],
+            &dmatrix![1.0, 1.0],
+            &dmatrix![1.0],
+            &dmatrix![1.0],
+            None
+        ),
+        Err(KalmanError::DimensionMismatch { name: "G", .. })
+    ));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+    #[test]
+    fn solution_is_symmetric_psd_and_stabilising(n in 1usize..9, seed in 0u64..1_000_000, cross in any::<bool>(), singular in any::<bool>()) {
+        let p = random_problem(n, seed, Kind { cross, singular_a: singular, r_cond: 0.0 });
+        let sol = dare(&p.a, &p.b, &p.q, &p.r, p.s.as_ref()).unwrap();
+        prop_assert!(sol.residual < 1e-12, "residual {:.2e}", sol.residual);
+        prop_assert_eq!(&sol.x, &sol.x.transpose());
+        let min_eig = sol.x.clone().symmetric_eigenvalues().min();
+        prop_assert!(min_eig >= -1e-10 * sol.x.norm().max(1.0));
+        prop_assert!(sol.closed_loop_eigenvalues.iter().all(|z| z.norm() < 1.0));
+    }
+}

@@ -1,0 +1,103 @@
+//! The design-time error type (feature `std`).
+
+use nalgebra::Complex;
+
+/// Why a Riccati equation or a filter design was refused or failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum KalmanError {
+    /// A matrix has the wrong shape.
+    #[error(
+        "{name}: expected a {expected_rows} x {expected_cols} matrix, found {found_rows} x {found_cols}"
+    )]
+    DimensionMismatch {
+        /// The matrix, e.g. `"B"`.
+        name: &'static str,
+        /// Rows it must have.
+        expected_rows: usize,
+        /// Columns it must have.
+        expected_cols: usize,
+        /// Rows it has.
+        found_rows: usize,
+        /// Columns it has.
+        found_cols: usize,
+    },
+    /// A matrix holds NaN or an infinity.
+    #[error("{name}: entry ({row}, {col}) is not finite")]
+    NonFinite {
+        /// The matrix.
+        name: &'static str,
+        /// Row of the first offending entry.
+        row: usize,
+        /// Column of the first offending entry.
+        col: usize,
+    },
+    /// A weight or covariance that must be symmetric is not.
+    #[error("{name} must be symmetric (relative asymmetry {asymmetry:.1e})")]
+    NotSymmetric {
+        /// The matrix.
+        name: &'static str,
+        /// `||M - M'||_F / ||M||_F`.
+        asymmetry: f64,
+    },
+    /// A weight or covariance that must be positive definite is not.
+    #[error("{name} must be symmetric positive definite")]
+    NotPositiveDefinite {
+        /// The matrix.
+        name: &'static str,
+    },
+    /// A weight or covariance that must be positive semidefinite is not.
+    #[error("{name} must be positive semidefinite (smallest eigenvalue {min_eigenvalue:.3e})")]
+    NotPositiveSemidefinite {
+        /// The matrix (for a cross term: `"[Q S; S' R]"`).
+        name: &'static str,
+        /// Its smallest eigenvalue.
+        min_eigenvalue: f64,
+    },
+    /// `(A, B)` is not stabilisable: the mode `eigenvalue` (|.| >= 1) cannot be moved by the input.
+    #[error(
+        "(A, B) is not stabilisable: the mode at eigenvalue {re:.6} {im:+.6}i (|.| = {abs:.6}) is not reachable from the input (PBH test)",
+        re = eigenvalue.re, im = eigenvalue.im, abs = eigenvalue.norm()
+    )]
+    NotStabilizable {
+        /// The unstable, uncontrollable eigenvalue of `A`.
+        eigenvalue: Complex<f64>,
+    },
+    /// `(A, Q)` is not detectable: the mode `eigenvalue` (|.| >= 1) is not seen by the state weight.
+    #[error(
+        "(A, Q) is not detectable: the mode at eigenvalue {re:.6} {im:+.6}i (|.| = {abs:.6}) is not seen by the weight Q (PBH test); for a filter: the output does not observe it",
+        re = eigenvalue.re, im = eigenvalue.im, abs = eigenvalue.norm()
+    )]
+    NotDetectable {
+        /// The unstable, unobservable eigenvalue of `A`.
+        eigenvalue: Complex<f64>,
+    },
+    /// The Riccati equation has no stabilising solution although the PBH
+    /// tests pass (for instance a mode exactly on the unit circle).
+    #[error("no stabilising solution: {reason}")]
+    NoStabilizingSolution {
+        /// What was observed.
+        reason: String,
+    },
+    /// The solver stopped with a residual above the acceptance threshold.
+    #[error(
+        "the Riccati solver did not converge: relative residual {residual:.3e} after {iterations} iterations"
+    )]
+    NotConverged {
+        /// Doubling iterations (plus refinement steps) spent.
+        iterations: usize,
+        /// Relative residual of the best iterate.
+        residual: f64,
+    },
+    /// A parameter is outside its documented range.
+    #[error("invalid argument {name}: {reason}")]
+    InvalidArgument {
+        /// The parameter.
+        name: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A run-time conversion failed (for instance a const dimension that does not match).
+    #[error("run-time filter: {0}")]
+    Core(#[from] kestrel_core::Error),
+}
