@@ -1,0 +1,24 @@
+#![doc = include_str!("../README.md")]
+#![cfg_attr(not(feature = "std"), no_std)]
+
+#[cfg(feature = "std")]
+mod condense;
+#[cfg(feature = "std")]
+mod design;
+#[cfg(feature = "std")]
+mod error;
+#[cfg(feature = "std")]
+mod lq;
+#[cfg(feature = "std")]
+mod qp;
+
+#[cfg(feature = "std")]
+pub use condense::{ModelMatrices, MpcProblem, ThetaLayout};
+#[cfg(feature = "std")]
+pub use design::{
+    Blocking, BoundsAt, InputBounds, MpcSettings, Terminal, ThrottleParameter, Weight, pwm,
+};
+#[cfg(feature = "std")]
+pub use error::MpcError;
+#[cfg(feature = "std")]
+pub use qp::{KktResiduals, QpSettings, QpSolution, ReferenceSolver, kkt_residuals};
