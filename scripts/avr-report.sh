@@ -10,7 +10,7 @@ cd "$root"
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$root/target}"
 log="$(mktemp)"
 trap 'rm -f "$log"' EXIT
-KESTREL_HIL_REPORT=1 cargo test --release -p kestrel-avr-rt --test hil -- \
+KESTREL_HIL_REPORT=1 cargo test -p kestrel-avr-rt --test hil -- \
   --include-ignored --nocapture --test-threads 1 2>&1 | tee "$log"
 status=${PIPESTATUS[0]}
 passed=false

@@ -26,12 +26,21 @@ use kestrel_avr_rt::progmem::{FarTable, TableRead, f32_bytes};
 use kestrel_avr_rt::{crc16, far_table};
 use kestrel_core::Matrix;
 
-#[cfg(feature = "fixed")]
+#[cfg(all(feature = "fixed", not(feature = "fixed-mac")))]
 type S = kestrel_core::Q16;
-#[cfg(not(feature = "fixed"))]
+#[cfg(feature = "fixed-mac")]
+type S = kestrel_avr_rt::mac::Q16Mac;
+#[cfg(not(any(feature = "fixed", feature = "fixed-mac")))]
 type S = f32;
 
-const CONFIG: u8 = if cfg!(feature = "fixed") { 1 } else { 0 };
+/// Boot-frame configuration code: bit 0 fixed point, bit 1 the MAC variant.
+const CONFIG: u8 = if cfg!(feature = "fixed-mac") {
+    3
+} else if cfg!(feature = "fixed") {
+    1
+} else {
+    0
+};
 
 /// Controller tables (see tables.rs).
 mod tables;
@@ -229,6 +238,8 @@ pub extern "C" fn main() -> ! {
         crc_read: crc,
         crc_expected: const { crc16(&INTERIM_TABLE) },
         config: CONFIG,
+        // The MAC's assembly checked against core's Q16 on this very CPU.
+        mac_mismatches: kestrel_avr_rt::mac::self_test(0x1234_5678, 16).min(255) as u8,
     };
     send(Kind::Boot, 0, &boot.to_payload());
 

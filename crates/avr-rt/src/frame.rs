@@ -476,11 +476,14 @@ pub struct Boot {
     /// Configuration code: bit 0 fixed point (else f32); bits 4..7 the solver
     /// (0 interim, 1 explicit MPC, 2 fast gradient).
     pub config: u8,
+    /// On-target self-test of [`crate::mac::Q16Mac`]: products and dot
+    /// products that differ from [`kestrel_core::Q16`]'s (0 when correct).
+    pub mac_mismatches: u8,
 }
 
 impl Boot {
     /// Payload length on the wire.
-    pub const LEN: usize = 11;
+    pub const LEN: usize = 12;
     /// The payload bytes.
     pub fn to_payload(&self) -> [u8; Self::LEN] {
         let mut p = [0u8; Self::LEN];
@@ -489,6 +492,7 @@ impl Boot {
         p[6..8].copy_from_slice(&self.crc_read.to_le_bytes());
         p[8..10].copy_from_slice(&self.crc_expected.to_le_bytes());
         p[10] = self.config;
+        p[11] = self.mac_mismatches;
         p
     }
     /// Parses a boot frame.
@@ -503,6 +507,7 @@ impl Boot {
             crc_read: get_u16(p, 6),
             crc_expected: get_u16(p, 8),
             config: p[10],
+            mac_mismatches: p[11],
         })
     }
 }
@@ -631,6 +636,7 @@ mod tests {
             crc_read: 0xBEEF,
             crc_expected: 0xBEEF,
             config: 0x11,
+            mac_mismatches: 0,
         };
         let (ok, _) = decode_all(&wire(Kind::Boot, 0, &b.to_payload()));
         assert_eq!(Boot::from_frame(&ok[0]).unwrap(), b);
