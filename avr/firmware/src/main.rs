@@ -242,6 +242,8 @@ pub extern "C" fn main() -> ! {
         mac_mismatches: kestrel_avr_rt::mac::self_test(0x1234_5678, 16).min(255) as u8,
     };
     send(Kind::Boot, 0, &boot.to_payload());
+    #[cfg(feature = "fgm-bench")]
+    fgm_bench(&clock);
 
     let mut decoder = FrameDecoder::new();
     let mut seqs = SeqTracker::new();
@@ -312,4 +314,63 @@ fn panic(_: &core::panic::PanicInfo) -> ! {
 #[allow(dead_code)]
 fn _assert_sizes() {
     let _: [u8; 4 * N_VALUES] = f32_bytes([0.0; N_VALUES]);
+}
+
+/// Times kestrel-fgm's solver with `k` iterations for each `k` in `ks` and
+/// sends one Bench frame per count (synthetic but representative tables:
+/// dense, contractive, all entries non-zero so soft-float timing is typical).
+#[cfg(feature = "fgm-bench")]
+fn fgm_bench(clock: &Timer1Clock) {
+    use kestrel_avr_rt::frame::Bench;
+    use kestrel_fgm::{FgmTables, FgmWorkspace, Start};
+    const N: usize = 4;
+    const P: usize = 9;
+    let mut seed = 0x2545_f491u32;
+    let mut rnd = move |scale: f32| {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        let u = (seed >> 8) as f32 / (1u32 << 24) as f32; // [0, 1)
+        S::from_f32_fast(scale * (u - 0.5) + scale * 0.01)
+    };
+    let t: FgmTables<S, N, P, 1> = FgmTables {
+        m: Matrix::from_fn(|i, j| {
+            if i == j {
+                rnd(0.2) + S::from_f32_fast(0.5)
+            } else {
+                rnd(0.3)
+            }
+        }),
+        k_theta: Matrix::from_fn(|_, _| rnd(1.0)),
+        k0: core::array::from_fn(|_| rnd(0.5)),
+        lo_theta: Matrix::from_fn(|_, _| rnd(0.1)),
+        lo0: core::array::from_fn(|_| rnd(0.2) - S::from_f32_fast(2.0)),
+        hi_theta: Matrix::from_fn(|_, _| rnd(0.1)),
+        hi0: core::array::from_fn(|_| rnd(0.2) + S::from_f32_fast(2.0)),
+        d: core::array::from_fn(|_| rnd(0.5) + S::from_f32_fast(1.0)),
+        d_inv: core::array::from_fn(|_| rnd(0.5) + S::from_f32_fast(1.0)),
+        betas: [S::from_f32_fast(0.6)],
+        iterations: 56,
+        warm_iterations: 20,
+        shift: 0,
+    };
+    let theta: [S; P] = core::array::from_fn(|_| rnd(1.0));
+    let mut ws = FgmWorkspace::<S, N>::new();
+    for (id, k) in [1u16, 12, 56, 91].into_iter().enumerate() {
+        let t0 = clock.now();
+        let r = core::hint::black_box(t.solve_with(
+            core::hint::black_box(&theta),
+            Start::Cold,
+            k as usize,
+            &mut ws,
+        ));
+        let cycles = clock.now().wrapping_sub(t0);
+        let b = Bench {
+            id: id as u8,
+            ok: r.is_ok() as u8,
+            iterations: k,
+            n: N as u8,
+            p: P as u8,
+            cycles,
+        };
+        send(Kind::Bench, id as u8, &b.to_payload());
+    }
 }

@@ -41,6 +41,8 @@ pub enum Kind {
     Reply = 0x81,
     /// Flight computer to host, once after reset: a [`Boot`] self-test report.
     Boot = 0x82,
+    /// Flight computer to host, after boot in benchmark builds: a [`Bench`] timing.
+    Bench = 0x83,
 }
 
 impl Kind {
@@ -50,6 +52,7 @@ impl Kind {
             0x01 => Some(Kind::Command),
             0x81 => Some(Kind::Reply),
             0x82 => Some(Kind::Boot),
+            0x83 => Some(Kind::Bench),
             _ => None,
         }
     }
@@ -512,6 +515,55 @@ impl Boot {
     }
 }
 
+/// Flight computer to host: the cycles of one timed run of a solver kernel
+/// (firmware benchmark builds).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Bench {
+    /// Which measurement (firmware-defined order).
+    pub id: u8,
+    /// 1 if the kernel returned `Ok`.
+    pub ok: u8,
+    /// Iterations run.
+    pub iterations: u16,
+    /// Decision variables.
+    pub n: u8,
+    /// Parameters.
+    pub p: u8,
+    /// Cycles taken.
+    pub cycles: u32,
+}
+
+impl Bench {
+    /// Payload length on the wire.
+    pub const LEN: usize = 10;
+    /// The payload bytes.
+    pub fn to_payload(&self) -> [u8; Self::LEN] {
+        let mut p = [0u8; Self::LEN];
+        p[0] = self.id;
+        p[1] = self.ok;
+        p[2..4].copy_from_slice(&self.iterations.to_le_bytes());
+        p[4] = self.n;
+        p[5] = self.p;
+        p[6..10].copy_from_slice(&self.cycles.to_le_bytes());
+        p
+    }
+    /// Parses a bench frame.
+    pub fn from_frame(f: &Frame) -> Result<Bench, FrameError> {
+        let p = f.payload();
+        if f.kind != Kind::Bench || p.len() != Self::LEN {
+            return Err(FrameError::BadLength);
+        }
+        Ok(Bench {
+            id: p[0],
+            ok: p[1],
+            iterations: get_u16(p, 2),
+            n: p[4],
+            p: p[5],
+            cycles: get_u32(p, 6),
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -640,6 +692,20 @@ mod tests {
         };
         let (ok, _) = decode_all(&wire(Kind::Boot, 0, &b.to_payload()));
         assert_eq!(Boot::from_frame(&ok[0]).unwrap(), b);
+    }
+
+    #[test]
+    fn bench_round_trip() {
+        let b = Bench {
+            id: 2,
+            ok: 1,
+            iterations: 56,
+            n: 4,
+            p: 9,
+            cycles: 123_456,
+        };
+        let (ok, _) = decode_all(&wire(Kind::Bench, 2, &b.to_payload()));
+        assert_eq!(Bench::from_frame(&ok[0]).unwrap(), b);
     }
 
     #[test]

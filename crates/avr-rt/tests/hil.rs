@@ -20,7 +20,9 @@
 use avr_tester::AvrTester;
 use kestrel_avr_rt::control::{Mixer, RateLoop};
 use kestrel_avr_rt::cycles::{CycleClock, CycleStats};
-use kestrel_avr_rt::frame::{Boot, Command, Frame, FrameDecoder, Kind, MAX_FRAME, Reply, status};
+use kestrel_avr_rt::frame::{
+    Bench, Boot, Command, Frame, FrameDecoder, Kind, MAX_FRAME, Reply, status,
+};
 use kestrel_avr_rt::interim::{PiRateLaw, RateObserver};
 use kestrel_avr_rt::output::{PwmLimits, SafeOutput};
 use kestrel_avr_rt::progmem::{FarTable, TableRead};
@@ -605,4 +607,68 @@ fn far_table_above_64k_reads_back() {
         .and_then(|l| u32::from_str_radix(l.split_whitespace().next()?, 16).ok())
         .expect("INTERIM_TABLE in the symbol table");
     assert_eq!(boot.table_address, addr);
+}
+
+/// kestrel-fgm's run-time solver on the AVR: the `fgm-bench` firmware times
+/// cold solves of a thesis-sized problem (4 variables, 9 parameters) with
+/// 1, 12, 56 and 91 iterations at boot (the thesis's Table 7.2 counts).
+fn fgm_bench(scalar_features: &[&str], scalar: &str) {
+    let mut features = scalar_features.to_vec();
+    features.push("fgm-bench");
+    let elf = build_firmware(&features, false);
+    let mut avr = AvrTester::atmega2560().with_clock_of_16_mhz().load(&elf);
+    let mut dec = FrameDecoder::new();
+    let mut benches = vec![];
+    for _ in 0..400 {
+        avr.run_for_ms(1);
+        benches.extend(
+            read_frames(&mut avr, &mut dec)
+                .iter()
+                .filter_map(|f| Bench::from_frame(f).ok()),
+        );
+        if benches.len() == 4 {
+            break;
+        }
+    }
+    assert_eq!(benches.len(), 4, "{scalar}: bench frames");
+    for b in &benches {
+        assert_eq!(b.ok, 1, "{scalar}: fgm solve failed");
+        assert_eq!((b.n, b.p), (4, 9));
+    }
+    // Fixed work per iteration: the cycles grow linearly with the count.
+    let per_iter = (benches[3].cycles - benches[0].cycles) as f64 / 90.0;
+    let predicted_56 = benches[0].cycles as f64 + 55.0 * per_iter;
+    assert!((benches[2].cycles as f64 - predicted_56).abs() < 0.05 * predicted_56);
+    let (flash, ram) = avr_size(&elf);
+    let at56 = benches[2].cycles;
+    println!(
+        "{scalar} fgm: {} cycles per iteration; 1/12/56/91 iterations: {}/{}/{}/{} cycles ({:.2} ms at 56); flash {flash} B, RAM {ram} B",
+        per_iter.round(),
+        benches[0].cycles,
+        benches[1].cycles,
+        at56,
+        benches[3].cycles,
+        at56 as f64 / 16_000.0
+    );
+    if std::env::var_os("KESTREL_HIL_REPORT").is_some() {
+        println!(
+            "HIL-REPORT {{\"scalar\": \"{scalar}\", \"solver\": \"fgm\", \"kalman_cycles\": null, \"solver_cycles\": {{\"min\": {at56}, \"mean\": {at56}, \"max\": {at56}}}, \"period_cycles\": null, \"iterations\": 56, \"flash_bytes\": {flash}, \"ram_bytes\": {ram}, \"cycles_per_iteration\": {:.0}, \"note\": \"kestrel-fgm kernel timed at boot on synthetic thesis-sized tables (n=4, p=9); not yet in the closed loop; 56 = the thesis's accurate count, not a kestrel certificate\"}}",
+            per_iter
+        );
+    }
+}
+
+#[test]
+fn fgm_kernel_cycles_f32() {
+    fgm_bench(&[], "f32");
+}
+
+#[test]
+fn fgm_kernel_cycles_fixed_q16() {
+    fgm_bench(&["fixed"], "fixed");
+}
+
+#[test]
+fn fgm_kernel_cycles_fixed_q16_mac() {
+    fgm_bench(&["fixed-mac"], "fixed-mac");
 }
