@@ -1,0 +1,111 @@
+//! End-to-end tests of `kestrel simulate`.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn kestrel() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_kestrel"))
+}
+
+fn temp_dir() -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("kestrel-simulate-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn same_seed_gives_the_same_file() {
+    let dir = temp_dir();
+    let (a, b) = (dir.join("a.csv"), dir.join("b.csv"));
+    for p in [&a, &b] {
+        let out = kestrel()
+            .args([
+                "simulate",
+                "--experiment",
+                "coupled",
+                "--seconds",
+                "20",
+                "--seed",
+                "1",
+                "--out",
+            ])
+            .arg(p)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let (ta, tb) = (std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    assert_eq!(ta, tb);
+    let text = String::from_utf8(ta).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    assert!(header.starts_with(
+        "t,pwm1,pwm2,pwm3,servo,throttle,u_roll,u_pitch,u_yaw,p,q,r,ref_p,ref_q,ref_r,true_p"
+    ));
+    assert_eq!(lines.count(), 1000);
+}
+
+#[test]
+fn ground_to_stdout_and_rate_model_file() {
+    let dir = temp_dir();
+    let model = dir.join("rate.json");
+    let out = kestrel()
+        .args([
+            "simulate",
+            "--experiment",
+            "ground",
+            "--seconds",
+            "2",
+            "--rate-model",
+        ])
+        .arg(&model)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert_eq!(text.lines().count(), 101);
+    let json = std::fs::read_to_string(&model).unwrap();
+    assert!(json.contains("kestrel.ss.v1") && json.contains("\"ts\": 0.02"));
+}
+
+#[test]
+fn bad_arguments_are_clear_errors() {
+    let out = kestrel()
+        .args(["simulate", "--experiment", "loop", "--seconds", "5"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("unknown experiment") && err.contains("hover, decoupled, coupled, ground"),
+        "{err}"
+    );
+    let out = kestrel()
+        .args(["simulate", "--experiment", "hover", "--seconds", "-3"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("seconds"));
+    let out = kestrel()
+        .args([
+            "simulate",
+            "--experiment",
+            "hover",
+            "--seconds",
+            "5",
+            "--dt",
+            "0.007",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("dt"));
+}
