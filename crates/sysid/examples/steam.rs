@@ -1,8 +1,8 @@
 //! Identification of the DaISy steam generator (estimate on the first
-//! half, validate on the second, order 9):
+//! half, validate on the second, order 9), N4SID and PEM:
 //! `cargo run --release -p kestrel-sysid --example steam [path]`.
 
-use kestrel_sysid::{CsvColumns, IoData, N4sidSettings, Weighting, n4sid, validate};
+use kestrel_sysid::{CsvColumns, IoData, N4sidSettings, PemSettings, n4sid, pem, validate};
 use std::path::PathBuf;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -14,26 +14,49 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let data = IoData::read_csv(&path, &cols)?;
     let (est, val) = data.split(0.5)?;
     let (est, off) = est.remove_means()?;
-    let val = val.subtract(&off)?;
-    for w in [Weighting::Moesp, Weighting::Cva] {
-        for h in [10usize, 15, 20] {
+    for own_means in [false, true] {
+        let val = if own_means {
+            val.remove_means()?.0
+        } else {
+            val.subtract(&off)?
+        };
+        for feedthrough in [false, true] {
+            println!(
+                "== validation means removed separately: {own_means}, feedthrough: {feedthrough}"
+            );
             let t = std::time::Instant::now();
-            let r = n4sid(
+            let start = n4sid(
                 &est,
                 &N4sidSettings {
                     order: Some(9),
-                    weighting: w,
-                    horizon: Some(h),
+                    feedthrough,
                     ..Default::default()
                 },
             )?;
-            let rep = validate(&r.model, &val, &[1, 5])?;
             println!(
-                "{w:?} i={h} ({:.2}s) suggested {}",
-                t.elapsed().as_secs_f64(),
-                r.suggested_order
+                "N4SID (MOESP, i = {}) {:.2} s",
+                start.horizon,
+                t.elapsed().as_secs_f64()
             );
-            println!("{rep}");
+            println!("{}", validate(&start.model, &val, &[1, 5])?);
+            let t = std::time::Instant::now();
+            let r = pem(
+                &est,
+                &start.model,
+                &PemSettings {
+                    feedthrough,
+                    ..Default::default()
+                },
+            )?;
+            println!(
+                "PEM: {:.2} s, {} iterations, cost {:.5} -> {:.5}, stop {:?}",
+                t.elapsed().as_secs_f64(),
+                r.iterations,
+                r.initial_cost,
+                r.cost,
+                r.stop
+            );
+            println!("{}", validate(&r.model, &val, &[1, 5])?);
         }
     }
     Ok(())

@@ -16,6 +16,8 @@ mod model;
 #[cfg(feature = "std")]
 mod n4sid;
 #[cfg(feature = "std")]
+mod pem;
+#[cfg(feature = "std")]
 pub mod synthetic;
 #[cfg(feature = "std")]
 mod validate;
@@ -30,6 +32,8 @@ pub use filter::{Biquad, Butterworth, Periodogram, periodogram};
 pub use model::{InnovationModel, OneStepPrediction};
 #[cfg(feature = "std")]
 pub use n4sid::{N4sidResult, N4sidSettings, Weighting, n4sid, suggest_order};
+#[cfg(feature = "std")]
+pub use pem::{Criterion, Focus, Identified, PemResult, PemSettings, StopReason, pem, pem_n4sid};
 #[cfg(feature = "std")]
 pub use validate::{
     Comparison, FitRow, OutputResiduals, ResidualAnalysis, ValidationReport, compare,

@@ -99,7 +99,6 @@ impl Scaling {
         }
     }
     /// Model of the original data -> model of the scaled data.
-    #[allow(dead_code)]
     pub fn scale(&self, m: &InnovationModel) -> InnovationModel {
         let inv = Scaling {
             su: self.su.map(|s| 1.0 / s),
