@@ -52,18 +52,6 @@ impl From<Q16> for Q16Mac {
     }
 }
 
-/// The three partial sums of a product (or a sum of products):
-/// `hh 2^32 + cross 2^16 + ll`.
-#[derive(Clone, Copy, Default)]
-struct Parts {
-    hh: i32,
-    cross: i32,
-    ll: u32,
-    /// Terms that would have overflowed the 32-bit sums, kept exactly in
-    /// units of 1 (rarely used).
-    wide: i64,
-}
-
 #[inline(always)]
 fn split(a: i32) -> (i16, u16) {
     ((a >> 16) as i16, a as u16)
@@ -197,6 +185,16 @@ fn sat(v: i64) -> i32 {
     }
 }
 
+/// The exact product `a b` from four 16 x 16-bit products.
+#[inline(always)]
+fn product_exact(a: i32, b: i32) -> i64 {
+    let (ah, al) = split(a);
+    let (bh, bl) = split(b);
+    ((mul_ss(ah, bh) as i64) << 32)
+        + ((mul_su(ah, bl) as i64 + mul_su(bh, al) as i64) << 16)
+        + mul_uu(al, bl) as i64
+}
+
 /// `round(a b / 2^16)` as an unsaturated i64.
 #[inline(always)]
 fn product_q16(a: i32, b: i32) -> i64 {
@@ -278,40 +276,15 @@ impl Scalar for Q16Mac {
     fn mul_add(self, a: Self, b: Self) -> Self {
         self + a * b
     }
-    /// Exact sum of the exact products, rounded once (as [`Q16`]'s `dot`).
+    /// Exact products summed in a saturating 64-bit accumulator and rounded
+    /// once, exactly as [`Q16`]'s `dot`.
     #[inline]
     fn dot(a: &[Self], b: &[Self]) -> Self {
-        let mut p = Parts::default();
+        let mut acc: i64 = 0;
         for (x, y) in a.iter().zip(b.iter()) {
-            let (xh, xl) = split(x.0);
-            let (yh, yl) = split(y.0);
-            // Accumulate the three partial products in 32 bits, spilling
-            // into the wide accumulator only on overflow (rare).
-            let (hh, o1) = p.hh.overflowing_add(mul_ss(xh, yh));
-            if o1 {
-                p.wide += (mul_ss(xh, yh) as i64) << 32;
-            } else {
-                p.hh = hh;
-            }
-            for c in [mul_su(xh, yl), mul_su(yh, xl)] {
-                let (s, o) = p.cross.overflowing_add(c);
-                if o {
-                    p.wide += (c as i64) << 16;
-                } else {
-                    p.cross = s;
-                }
-            }
-            let (l, o3) = p.ll.overflowing_add(mul_uu(xl, yl));
-            if o3 {
-                p.wide += mul_uu(xl, yl) as i64;
-            } else {
-                p.ll = l;
-            }
+            acc = acc.saturating_add(product_exact(x.0, y.0));
         }
-        // Sum / 2^16 rounded: every term but ll is a multiple of 2^16.
-        let wide_q = (p.wide + 0x8000 + p.ll as i64) >> 16;
-        let total = ((p.hh as i64) << 16) + p.cross as i64 + wide_q;
-        Q16Mac(sat(total))
+        Q16Mac(sat(acc.saturating_add(0x8000) >> 16))
     }
 }
 
