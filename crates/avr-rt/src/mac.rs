@@ -1,20 +1,12 @@
 //! [`Q16Mac`]: Q15.16 fixed point with the same values, rounding and
-//! saturation as [`kestrel_core::Q16`], but with products built from four
-//! 16 x 16 -> 32-bit multiplies, which the ATmega2560's hardware `MUL`
-//! instructions do directly, instead of one 64 x 64-bit multiply (a library
-//! call of several hundred cycles on the AVR).
+//! saturation as [`kestrel_core::Q16`], whose 32 x 32 -> 64-bit products are
+//! written with the ATmega2560's hardware `MUL` (16 byte products in inline
+//! assembly) instead of LLVM's generic 64 x 64-bit multiply.
 //!
 //! It implements [`Scalar`], so every run-time kernel generic over the
 //! scalar (Kalman step, tree walk, fast gradient, the rate loop) runs on it
-//! unchanged; the firmware selects it with its `fixed-mac` feature.
-//!
-//! With `a = ah 2^16 + al` and `b = bh 2^16 + bl` (`ah`, `bh` signed,
-//! `al`, `bl` unsigned 16-bit halves):
-//!
-//! ```text
-//! a b = ah bh 2^32 + (ah bl + al bh) 2^16 + al bl
-//! round(a b / 2^16) = ah bh 2^16 + ah bl + al bh + ((al bl + 2^15) >> 16)
-//! ```
+//! unchanged; the firmware selects it with its `fixed-mac` feature, and
+//! checks it against `Q16` on the target at boot ([`self_test`]).
 //!
 //! ```
 //! use kestrel_avr_rt::mac::Q16Mac;
@@ -52,126 +44,169 @@ impl From<Q16> for Q16Mac {
     }
 }
 
+/// The exact 64-bit product of two 32-bit integers. LLVM lowers
+/// `a as i64 * b as i64` to a generic 64 x 64-bit multiply on the AVR (a
+/// library call of several hundred cycles), so there it is written out:
+/// the 16 byte products of the unsigned operands with the hardware `MUL`,
+/// accumulated into 8 bytes, then the two signed corrections
+/// (`- 2^32 b` if `a < 0`, `- 2^32 a` if `b < 0`). Elsewhere it is plain Rust.
+#[cfg(not(target_arch = "avr"))]
 #[inline(always)]
-fn split(a: i32) -> (i16, u16) {
-    ((a >> 16) as i16, a as u16)
+fn mul_wide(a: i32, b: i32) -> i64 {
+    a as i64 * b as i64
 }
 
-/// 16 x 16 -> 32 multiplies. LLVM lowers these to a 32 x 32-bit library
-/// multiply on the AVR, so there they are written with the hardware
-/// `MULS`/`MULSU`/`MUL` (the sequences of Atmel application note AVR201);
-/// elsewhere they are plain Rust.
-#[cfg(not(target_arch = "avr"))]
-#[inline(always)]
-fn mul_ss(a: i16, b: i16) -> i32 {
-    a as i32 * b as i32
-}
-#[cfg(not(target_arch = "avr"))]
-#[inline(always)]
-fn mul_su(a: i16, b: u16) -> i32 {
-    a as i32 * b as i32
-}
-#[cfg(not(target_arch = "avr"))]
-#[inline(always)]
-fn mul_uu(a: u16, b: u16) -> u32 {
-    a as u32 * b as u32
-}
-
-/// One AVR201 16 x 16 -> 32 multiply: `a` in r23:r22, `b` in r21:r20, the
-/// product in r19:r16. `r0`/`r1` hold the `MUL` results; `r1` (the zero
-/// register) is cleared at the end.
 #[cfg(target_arch = "avr")]
-macro_rules! avr_mul16 {
-    ($a:expr, $b:expr, $($ins:literal),+) => {{
-        let a = $a;
-        let b = $b;
-        let (p0, p1, p2, p3): (u8, u8, u8, u8);
-        // SAFETY: register-only arithmetic, see the macro documentation.
-        unsafe {
-            core::arch::asm!(
+#[inline(always)]
+fn mul_wide(a: i32, b: i32) -> i64 {
+    let [a0, a1, a2, a3] = a.to_le_bytes();
+    let [b0, b1, b2, b3] = b.to_le_bytes();
+    let (p0, p1, p2, p3, p4, p5, p6, p7): (u8, u8, u8, u8, u8, u8, u8, u8);
+    // SAFETY: register-only arithmetic; r0/r1 receive the MUL results and
+    // r1 (the zero register) is cleared at the end.
+    unsafe {
+        core::arch::asm!(
+                "clr {p0}",
+                "clr {p1}",
+                "clr {p2}",
+                "clr {p3}",
+                "clr {p4}",
+                "clr {p5}",
+                "clr {p6}",
+                "clr {p7}",
                 "clr {z}",
-                $($ins),+,
+                "mul r22, r18",
+                "add {p0}, r0",
+                "adc {p1}, r1",
+                "adc {p2}, {z}",
+                "adc {p3}, {z}",
+                "adc {p4}, {z}",
+                "adc {p5}, {z}",
+                "adc {p6}, {z}",
+                "adc {p7}, {z}",
+                "mul r22, r19",
+                "add {p1}, r0",
+                "adc {p2}, r1",
+                "adc {p3}, {z}",
+                "adc {p4}, {z}",
+                "adc {p5}, {z}",
+                "adc {p6}, {z}",
+                "adc {p7}, {z}",
+                "mul r22, r20",
+                "add {p2}, r0",
+                "adc {p3}, r1",
+                "adc {p4}, {z}",
+                "adc {p5}, {z}",
+                "adc {p6}, {z}",
+                "adc {p7}, {z}",
+                "mul r22, r21",
+                "add {p3}, r0",
+                "adc {p4}, r1",
+                "adc {p5}, {z}",
+                "adc {p6}, {z}",
+                "adc {p7}, {z}",
+                "mul r23, r18",
+                "add {p1}, r0",
+                "adc {p2}, r1",
+                "adc {p3}, {z}",
+                "adc {p4}, {z}",
+                "adc {p5}, {z}",
+                "adc {p6}, {z}",
+                "adc {p7}, {z}",
+                "mul r23, r19",
+                "add {p2}, r0",
+                "adc {p3}, r1",
+                "adc {p4}, {z}",
+                "adc {p5}, {z}",
+                "adc {p6}, {z}",
+                "adc {p7}, {z}",
+                "mul r23, r20",
+                "add {p3}, r0",
+                "adc {p4}, r1",
+                "adc {p5}, {z}",
+                "adc {p6}, {z}",
+                "adc {p7}, {z}",
+                "mul r23, r21",
+                "add {p4}, r0",
+                "adc {p5}, r1",
+                "adc {p6}, {z}",
+                "adc {p7}, {z}",
+                "mul r24, r18",
+                "add {p2}, r0",
+                "adc {p3}, r1",
+                "adc {p4}, {z}",
+                "adc {p5}, {z}",
+                "adc {p6}, {z}",
+                "adc {p7}, {z}",
+                "mul r24, r19",
+                "add {p3}, r0",
+                "adc {p4}, r1",
+                "adc {p5}, {z}",
+                "adc {p6}, {z}",
+                "adc {p7}, {z}",
+                "mul r24, r20",
+                "add {p4}, r0",
+                "adc {p5}, r1",
+                "adc {p6}, {z}",
+                "adc {p7}, {z}",
+                "mul r24, r21",
+                "add {p5}, r0",
+                "adc {p6}, r1",
+                "adc {p7}, {z}",
+                "mul r25, r18",
+                "add {p3}, r0",
+                "adc {p4}, r1",
+                "adc {p5}, {z}",
+                "adc {p6}, {z}",
+                "adc {p7}, {z}",
+                "mul r25, r19",
+                "add {p4}, r0",
+                "adc {p5}, r1",
+                "adc {p6}, {z}",
+                "adc {p7}, {z}",
+                "mul r25, r20",
+                "add {p5}, r0",
+                "adc {p6}, r1",
+                "adc {p7}, {z}",
+                "mul r25, r21",
+                "add {p6}, r0",
+                "adc {p7}, r1",
+                "sbrs r25, 7",
+                "rjmp 1f",
+                "sub {p4}, r18",
+                "sbc {p5}, r19",
+                "sbc {p6}, r20",
+                "sbc {p7}, r21",
+                "1:",
+                "sbrs r21, 7",
+                "rjmp 2f",
+                "sub {p4}, r22",
+                "sbc {p5}, r23",
+                "sbc {p6}, r24",
+                "sbc {p7}, r25",
+                "2:",
                 "clr r1",
-                z = out(reg) _,
-                in("r22") a as u8,
-                in("r23") (a >> 8) as u8,
-                in("r20") b as u8,
-                in("r21") (b >> 8) as u8,
-                out("r16") p0,
-                out("r17") p1,
-                out("r18") p2,
-                out("r19") p3,
-                options(pure, nomem, nostack),
-            );
-        }
-        u32::from_le_bytes([p0, p1, p2, p3])
-    }};
-}
-
-#[cfg(target_arch = "avr")]
-#[inline(always)]
-fn mul_ss(a: i16, b: i16) -> i32 {
-    avr_mul16!(
-        a as u16,
-        b as u16,
-        "muls r23, r21",
-        "movw r18, r0",
-        "mul r22, r20",
-        "movw r16, r0",
-        "mulsu r23, r20",
-        "sbc r19, {z}",
-        "add r17, r0",
-        "adc r18, r1",
-        "adc r19, {z}",
-        "mulsu r21, r22",
-        "sbc r19, {z}",
-        "add r17, r0",
-        "adc r18, r1",
-        "adc r19, {z}"
-    ) as i32
-}
-
-#[cfg(target_arch = "avr")]
-#[inline(always)]
-fn mul_su(a: i16, b: u16) -> i32 {
-    avr_mul16!(
-        a as u16,
-        b,
-        "mulsu r23, r21",
-        "movw r18, r0",
-        "mul r22, r20",
-        "movw r16, r0",
-        "mulsu r23, r20",
-        "sbc r19, {z}",
-        "add r17, r0",
-        "adc r18, r1",
-        "adc r19, {z}",
-        "mul r21, r22",
-        "add r17, r0",
-        "adc r18, r1",
-        "adc r19, {z}"
-    ) as i32
-}
-
-#[cfg(target_arch = "avr")]
-#[inline(always)]
-fn mul_uu(a: u16, b: u16) -> u32 {
-    avr_mul16!(
-        a,
-        b,
-        "mul r23, r21",
-        "movw r18, r0",
-        "mul r22, r20",
-        "movw r16, r0",
-        "mul r23, r20",
-        "add r17, r0",
-        "adc r18, r1",
-        "adc r19, {z}",
-        "mul r21, r22",
-        "add r17, r0",
-        "adc r18, r1",
-        "adc r19, {z}"
-    )
+            p0 = out(reg) p0,
+            p1 = out(reg) p1,
+            p2 = out(reg) p2,
+            p3 = out(reg) p3,
+            p4 = out(reg) p4,
+            p5 = out(reg) p5,
+            p6 = out(reg) p6,
+            p7 = out(reg) p7,
+            z = out(reg) _,
+            in("r22") a0,
+            in("r23") a1,
+            in("r24") a2,
+            in("r25") a3,
+            in("r18") b0,
+            in("r19") b1,
+            in("r20") b2,
+            in("r21") b3,
+            options(pure, nomem, nostack),
+        );
+    }
+    i64::from_le_bytes([p0, p1, p2, p3, p4, p5, p6, p7])
 }
 
 #[inline(always)]
@@ -185,25 +220,10 @@ fn sat(v: i64) -> i32 {
     }
 }
 
-/// The exact product `a b` from four 16 x 16-bit products.
-#[inline(always)]
-fn product_exact(a: i32, b: i32) -> i64 {
-    let (ah, al) = split(a);
-    let (bh, bl) = split(b);
-    ((mul_ss(ah, bh) as i64) << 32)
-        + ((mul_su(ah, bl) as i64 + mul_su(bh, al) as i64) << 16)
-        + mul_uu(al, bl) as i64
-}
-
-/// `round(a b / 2^16)` as an unsaturated i64.
+/// `round(a b / 2^16)` as an unsaturated i64 (|a b| < 2^62, no overflow).
 #[inline(always)]
 fn product_q16(a: i32, b: i32) -> i64 {
-    let (ah, al) = split(a);
-    let (bh, bl) = split(b);
-    let hh = mul_ss(ah, bh) as i64;
-    let cross = mul_su(ah, bl) as i64 + mul_su(bh, al) as i64;
-    let low = ((mul_uu(al, bl) as u64 + 0x8000) >> 16) as i64;
-    (hh << 16) + cross + low
+    (mul_wide(a, b) + 0x8000) >> 16
 }
 
 impl Add for Q16Mac {
@@ -282,7 +302,7 @@ impl Scalar for Q16Mac {
     fn dot(a: &[Self], b: &[Self]) -> Self {
         let mut acc: i64 = 0;
         for (x, y) in a.iter().zip(b.iter()) {
-            acc = acc.saturating_add(product_exact(x.0, y.0));
+            acc = acc.saturating_add(mul_wide(x.0, y.0));
         }
         Q16Mac(sat(acc.saturating_add(0x8000) >> 16))
     }
