@@ -8,7 +8,7 @@
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use kestrel_benches::pseudo_random;
-use kestrel_kalman::{DareSettings, dare, dare_with};
+use kestrel_kalman::{DareSettings, DetectabilityCheck, dare, dare_with};
 use nalgebra::DMatrix;
 use std::hint::black_box;
 
@@ -47,17 +47,13 @@ fn bench_dare(c: &mut Criterion) {
         group.bench_with_input(BenchmarkId::new("default", n), &p, |bch, p| {
             bch.iter(|| dare(black_box(&p.a), black_box(&p.b), &p.q, &p.r, None))
         });
-        let fast = DareSettings {
-            check_detectability: false,
+        let always = DareSettings {
+            detectability: DetectabilityCheck::Always,
             ..DareSettings::default()
         };
-        group.bench_with_input(
-            BenchmarkId::new("no_detectability_check", n),
-            &p,
-            |bch, p| {
-                bch.iter(|| dare_with(black_box(&p.a), black_box(&p.b), &p.q, &p.r, None, &fast))
-            },
-        );
+        group.bench_with_input(BenchmarkId::new("pbh_always", n), &p, |bch, p| {
+            bch.iter(|| dare_with(black_box(&p.a), black_box(&p.b), &p.q, &p.r, None, &always))
+        });
     }
     group.finish();
 }

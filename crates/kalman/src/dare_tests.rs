@@ -173,11 +173,37 @@ fn refuses_non_detectable() {
     // Riccati equation has no solution and G_k overflows.
     let a = dmatrix![1.5, 0.0; 0.0, 0.5];
     let settings = DareSettings {
-        check_detectability: false,
+        detectability: crate::DetectabilityCheck::Never,
         ..DareSettings::default()
     };
     let err = dare_with(&a, &b, &q, &DMatrix::identity(2, 2), None, &settings).unwrap_err();
     assert!(matches!(err, KalmanError::NotDetectable { .. }), "{err}");
+}
+
+#[test]
+fn refuses_barely_unstable_unobservable_mode() {
+    // lambda = 1.001 unobservable from Q: a stabilising solution exists,
+    // but the pair is not detectable; every check setting refuses it.
+    let a = dmatrix![1.001, 0.0, 0.0; 0.0, 0.5, 0.2; 0.0, 0.0, 0.9];
+    let b = DMatrix::identity(3, 3);
+    let q = dmatrix![0.0, 0.0, 0.0; 0.0, 1.0, 0.0; 0.0, 0.0, 1.0];
+    let r = DMatrix::identity(3, 3);
+    for detectability in [
+        crate::DetectabilityCheck::OnGrowth,
+        crate::DetectabilityCheck::Always,
+    ] {
+        let settings = DareSettings {
+            detectability,
+            ..DareSettings::default()
+        };
+        let err = dare_with(&a, &b, &q, &r, None, &settings).unwrap_err();
+        match err {
+            KalmanError::NotDetectable { eigenvalue } => {
+                assert!((eigenvalue.re - 1.001).abs() < 1e-9)
+            }
+            e => panic!("{detectability:?}: {e}"),
+        }
+    }
 }
 
 #[test]

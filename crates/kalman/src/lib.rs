@@ -9,7 +9,7 @@ mod error;
 mod lqr;
 
 #[cfg(feature = "std")]
-pub use dare::{DareSettings, DareSolution, dare, dare_with};
+pub use dare::{DareSettings, DareSolution, DetectabilityCheck, dare, dare_with};
 #[cfg(feature = "std")]
 pub use error::KalmanError;
 #[cfg(feature = "std")]
