@@ -18,6 +18,8 @@ mod n4sid;
 #[cfg(feature = "std")]
 mod pem;
 #[cfg(feature = "std")]
+mod reduce;
+#[cfg(feature = "std")]
 pub mod synthetic;
 #[cfg(feature = "std")]
 mod validate;
@@ -34,6 +36,11 @@ pub use model::{InnovationModel, OneStepPrediction};
 pub use n4sid::{N4sidResult, N4sidSettings, Weighting, n4sid, suggest_order};
 #[cfg(feature = "std")]
 pub use pem::{Criterion, Focus, Identified, PemResult, PemSettings, StopReason, pem, pem_n4sid};
+#[cfg(feature = "std")]
+pub use reduce::{
+    BalredSettings, Reduced, ReductionMethod, Zero, balred, hankel_singular_values,
+    rosenbrock_singular_values, transmission_zeros,
+};
 #[cfg(feature = "std")]
 pub use validate::{
     Comparison, FitRow, OutputResiduals, ResidualAnalysis, ValidationReport, compare,

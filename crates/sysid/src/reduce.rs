@@ -1,0 +1,411 @@
+//! Balanced reduction (`balred`) of discrete-time models and transmission zeros.
+
+use crate::error::{Result, SysidError};
+use crate::linalg::{dlyap, eigenvalues, psd_factor};
+use crate::model::InnovationModel;
+use crate::synthetic::Rng;
+use nalgebra::{Complex, DMatrix};
+
+/// How the states that are dropped are treated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ReductionMethod {
+    /// Plain balanced truncation (good at high frequencies).
+    #[default]
+    Truncate,
+    /// Singular perturbation of the balanced realisation: the dropped
+    /// states are set to their steady state, which keeps the DC gain exactly.
+    MatchDc,
+}
+
+/// Settings of [`balred`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct BalredSettings {
+    /// Truncation or DC matching.
+    pub method: ReductionMethod,
+    /// Balance the noise channels too (the Gramians of `[B K]`), so that
+    /// the reduced model keeps the noise model; otherwise only `B` is used
+    /// and `K` is carried along by the same transformation.
+    pub include_noise: bool,
+}
+
+/// Result of [`balred`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Reduced {
+    /// The reduced model.
+    pub model: InnovationModel,
+    /// Hankel singular values of the full model, descending.
+    pub hankel_singular_values: Vec<f64>,
+    /// The a-priori bound `2 sum_{i > r} sigma_i` on the largest singular
+    /// value of `G - G_r` over frequency (for the balanced channels).
+    pub error_bound: f64,
+}
+
+struct Balanced {
+    t: DMatrix<f64>,
+    ti: DMatrix<f64>,
+    hsv: Vec<f64>,
+}
+
+fn balance(a: &DMatrix<f64>, b: &DMatrix<f64>, c: &DMatrix<f64>) -> Result<Balanced> {
+    let p = dlyap(a, &(b * b.transpose()))?;
+    let q = dlyap(&a.transpose(), &(c.transpose() * c))?;
+    let lc = psd_factor(&p);
+    let lo = psd_factor(&q);
+    let svd = (lo.transpose() * &lc).svd(true, true);
+    let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
+        return Err(SysidError::Numerical(
+            "SVD of the Gramian factors failed".into(),
+        ));
+    };
+    let mut idx: Vec<usize> = (0..svd.singular_values.len()).collect();
+    idx.sort_by(|x, y| svd.singular_values[*y].total_cmp(&svd.singular_values[*x]));
+    let hsv: Vec<f64> = idx.iter().map(|&i| svd.singular_values[i]).collect();
+    let n = a.nrows();
+    let smax = hsv.first().copied().unwrap_or(0.0);
+    let mut t = DMatrix::zeros(n, n);
+    let mut ti = DMatrix::zeros(n, n);
+    for (k, &i) in idx.iter().enumerate() {
+        let s = hsv[k].max(smax * 1e-300).max(f64::MIN_POSITIVE);
+        let f = 1.0 / s.sqrt();
+        t.column_mut(k)
+            .copy_from(&(&lc * vt.row(i).transpose() * f));
+        ti.row_mut(k)
+            .copy_from(&(u.column(i).transpose() * lo.transpose() * f));
+    }
+    Ok(Balanced { t, ti, hsv })
+}
+
+/// Hankel singular values of the deterministic part (`A`, `B`, `C`), descending.
+pub fn hankel_singular_values(model: &InnovationModel) -> Result<Vec<f64>> {
+    Ok(balance(&model.a, &model.b, &model.c)?.hsv)
+}
+
+/// Balanced reduction of a stable discrete-time model to `order` states
+/// (MATLAB's `balred`, e.g. order 8 to 5 as in section 7.4 of the thesis).
+///
+/// The Gramians solve the *discrete* Lyapunov equations
+/// `A P A' - P + B B' = 0` and `A' Q A - Q + C' C = 0` (python-control
+/// uses the continuous ones for discrete models, which is wrong); the
+/// square-root method balances `P` and `Q` to `diag(sigma)`. With
+/// [`ReductionMethod::MatchDc`] the discrete singular perturbation
+/// `A_r = A11 + A12 (I - A22)^-1 A21` (and likewise `B`, `C`, `D`, `K`)
+/// keeps the DC gain.
+///
+/// ```
+/// use kestrel_sysid::{balred, synthetic, BalredSettings, ReductionMethod};
+/// let m = synthetic::random_model(6, 2, 2, 3, 0.9);
+/// let r = balred(&m, 3, &BalredSettings { method: ReductionMethod::MatchDc, ..Default::default() }).unwrap();
+/// assert_eq!(r.model.nx(), 3);
+/// let (g, gr) = (m.dc_gain().unwrap(), r.model.dc_gain().unwrap());
+/// assert!((&g - &gr).norm() < 1e-8 * g.norm());
+/// ```
+pub fn balred(model: &InnovationModel, order: usize, settings: &BalredSettings) -> Result<Reduced> {
+    model.validate()?;
+    let n = model.nx();
+    if order == 0 || order > n {
+        return Err(SysidError::invalid(format!(
+            "reduced order must be in 1..={n}, found {order}"
+        )));
+    }
+    let bb = if settings.include_noise {
+        let mut m = DMatrix::zeros(n, model.nu() + model.ny());
+        m.columns_mut(0, model.nu()).copy_from(&model.b);
+        m.columns_mut(model.nu(), model.ny()).copy_from(&model.k);
+        m
+    } else {
+        model.b.clone()
+    };
+    let bal = balance(&model.a, &bb, &model.c)?;
+    if bal.hsv[order - 1] <= 1e-14 * bal.hsv[0] {
+        return Err(SysidError::invalid(format!(
+            "the model has only {} states that are both controllable and observable; reduce to fewer",
+            bal.hsv.iter().filter(|s| **s > 1e-14 * bal.hsv[0]).count()
+        )));
+    }
+    let ab = &bal.ti * &model.a * &bal.t;
+    let bbm = &bal.ti * &model.b;
+    let kb = &bal.ti * &model.k;
+    let cb = &model.c * &bal.t;
+    let r = order;
+    let rest = n - r;
+    let a11 = ab.view((0, 0), (r, r)).into_owned();
+    let b1 = bbm.rows(0, r).into_owned();
+    let k1 = kb.rows(0, r).into_owned();
+    let c1 = cb.columns(0, r).into_owned();
+    let reduced = match settings.method {
+        ReductionMethod::Truncate => {
+            InnovationModel::new(model.ts, a11, b1, c1, model.d.clone(), k1)?
+        }
+        ReductionMethod::MatchDc => {
+            if rest == 0 {
+                InnovationModel::new(model.ts, a11, b1, c1, model.d.clone(), k1)?
+            } else {
+                let a12 = ab.view((0, r), (r, rest)).into_owned();
+                let a21 = ab.view((r, 0), (rest, r)).into_owned();
+                let a22 = ab.view((r, r), (rest, rest)).into_owned();
+                let b2 = bbm.rows(r, rest).into_owned();
+                let k2 = kb.rows(r, rest).into_owned();
+                let c2 = cb.columns(r, rest).into_owned();
+                let m = (DMatrix::<f64>::identity(rest, rest) - a22)
+                    .try_inverse()
+                    .ok_or_else(|| {
+                        SysidError::Numerical("I - A22 is singular (pole at z = 1)".into())
+                    })?;
+                InnovationModel::new(
+                    model.ts,
+                    &a11 + &a12 * &m * &a21,
+                    &b1 + &a12 * &m * &b2,
+                    &c1 + &c2 * &m * &a21,
+                    &model.d + &c2 * &m * &b2,
+                    &k1 + &a12 * &m * &k2,
+                )?
+            }
+        }
+    };
+    Ok(Reduced {
+        model: reduced,
+        error_bound: 2.0 * bal.hsv[r..].iter().sum::<f64>(),
+        hankel_singular_values: bal.hsv,
+    })
+}
+
+/// A transmission zero.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Zero {
+    /// Its location in the z-plane.
+    pub z: Complex<f64>,
+    /// True when `|z| > 1`: non-minimum phase (the thesis's performance limit).
+    pub non_minimum_phase: bool,
+}
+
+/// Singular values of the Rosenbrock matrix `[[A - z I, B], [C, D]]`, descending.
+pub fn rosenbrock_singular_values(model: &InnovationModel, z: Complex<f64>) -> Vec<f64> {
+    let (n, nu, ny) = (model.nx(), model.nu(), model.ny());
+    let mut m = DMatrix::<Complex<f64>>::zeros(n + ny, n + nu);
+    for i in 0..n {
+        for j in 0..n {
+            m[(i, j)] = Complex::new(model.a[(i, j)], 0.0);
+        }
+        m[(i, i)] -= z;
+        for j in 0..nu {
+            m[(i, n + j)] = Complex::new(model.b[(i, j)], 0.0);
+        }
+    }
+    for i in 0..ny {
+        for j in 0..n {
+            m[(n + i, j)] = Complex::new(model.c[(i, j)], 0.0);
+        }
+        for j in 0..nu {
+            m[(n + i, n + j)] = Complex::new(model.d[(i, j)], 0.0);
+        }
+    }
+    let mut s: Vec<f64> = m.singular_values().iter().copied().collect();
+    s.sort_by(|a, b| b.total_cmp(a));
+    s
+}
+
+fn square_zeros(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    d: &DMatrix<f64>,
+) -> Result<Vec<Complex<f64>>> {
+    let n = a.nrows();
+    let p = c.nrows();
+    let scale = 1.0 + a.norm() + b.norm() + c.norm();
+    // D invertible: the zeros are the eigenvalues of A - B D^-1 C.
+    if d.norm() > 1e-12 * scale {
+        let svd = d.clone().svd(false, false);
+        if svd.singular_values.min() > 1e-10 * svd.singular_values.max() {
+            let di = d
+                .clone()
+                .try_inverse()
+                .ok_or_else(|| SysidError::Numerical("D".into()))?;
+            return Ok(eigenvalues(&(a - b * di * c)));
+        }
+    }
+    // D = 0 and CB invertible (relative degree one): the zero dynamics
+    // x+ = (I - B (CB)^-1 C) A x restricted to ker C.
+    let cb = c * b;
+    let svd = cb.clone().svd(false, false);
+    if d.norm() <= 1e-12 * scale && svd.singular_values.min() > 1e-9 * svd.singular_values.max() {
+        let cbi = cb
+            .try_inverse()
+            .ok_or_else(|| SysidError::Numerical("CB".into()))?;
+        let az = (DMatrix::<f64>::identity(n, n) - b * cbi * c) * a;
+        // Orthonormal basis of ker C from the eigenvectors of C'C.
+        let svdc = (c.transpose() * c).symmetric_eigen();
+        let cols: Vec<usize> = (0..n)
+            .filter(|&i| svdc.eigenvalues[i] <= 1e-12 * svdc.eigenvalues.amax().max(1e-300))
+            .collect();
+        if cols.len() != n - p {
+            return Err(SysidError::Numerical(
+                "C does not have full row rank".into(),
+            ));
+        }
+        let nb = DMatrix::from_fn(n, cols.len(), |r, k| svdc.eigenvectors[(r, cols[k])]);
+        return Ok(eigenvalues(&(nb.transpose() * az * nb)));
+    }
+    Err(SysidError::invalid(
+        "transmission zeros are computed for a feed-through D of full rank or for relative degree one (C B of full rank); this model has neither",
+    ))
+}
+
+/// Transmission zeros of the deterministic part of a MIMO model: the
+/// values `z` where the Rosenbrock matrix `[[A - zI, B], [C, D]]` loses
+/// rank, each flagged when outside the unit circle (non-minimum phase).
+///
+/// Square systems with `D` of full rank give the eigenvalues of
+/// `A - B D^-1 C`; with `D = 0` and `C B` of full rank (the generic case
+/// of an identified model without feed-through) the zeros are the
+/// eigenvalues of the zero dynamics `(I - B (CB)^-1 C) A` on `ker C`.
+/// Non-square systems are compressed to square ones by a random input or
+/// output combination (whose zeros include the true ones), and each
+/// candidate is kept only if the full Rosenbrock matrix loses rank there
+/// (generic non-square systems have no zeros).
+pub fn transmission_zeros(model: &InnovationModel) -> Result<Vec<Zero>> {
+    model.validate()?;
+    let (nu, ny) = (model.nu(), model.ny());
+    let mut rng = Rng::new(0x5EED);
+    let (b, c, d) = if nu > ny {
+        let r = rng.normal_matrix(nu, ny);
+        (&model.b * &r, model.c.clone(), &model.d * &r)
+    } else if ny > nu {
+        let l = rng.normal_matrix(nu, ny);
+        (model.b.clone(), &l * &model.c, &l * &model.d)
+    } else {
+        (model.b.clone(), model.c.clone(), model.d.clone())
+    };
+    let cand = square_zeros(&model.a, &b, &c, &d)?;
+    let normal_rank = model.nx() + nu.min(ny);
+    let mut out = Vec::new();
+    for z in cand {
+        if nu != ny {
+            let s = rosenbrock_singular_values(model, z);
+            if s[normal_rank - 1] > 1e-7 * s[0] {
+                continue;
+            }
+        }
+        out.push(Zero {
+            z,
+            non_minimum_phase: z.norm() > 1.0,
+        });
+    }
+    out.sort_by(|a, b| b.z.norm().total_cmp(&a.z.norm()));
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synthetic;
+
+    fn sigma_max(m: &DMatrix<Complex<f64>>) -> f64 {
+        m.singular_values().max()
+    }
+
+    #[test]
+    fn hankel_values_match_eigenvalues_of_pq() {
+        let m = synthetic::random_model(5, 2, 3, 8, 0.9);
+        let hsv = hankel_singular_values(&m).unwrap();
+        let p = dlyap(&m.a, &(&m.b * m.b.transpose())).unwrap();
+        let q = dlyap(&m.a.transpose(), &(m.c.transpose() * &m.c)).unwrap();
+        let mut ev: Vec<f64> = eigenvalues(&(&p * &q))
+            .iter()
+            .map(|l| l.re.max(0.0).sqrt())
+            .collect();
+        ev.sort_by(|a, b| b.total_cmp(a));
+        for (a, b) in hsv.iter().zip(&ev) {
+            assert!((a - b).abs() < 1e-8 * hsv[0], "{hsv:?} vs {ev:?}");
+        }
+    }
+
+    #[test]
+    fn truncation_error_within_twice_the_tail() {
+        let m = synthetic::random_model(8, 3, 3, 12, 0.95);
+        for method in [ReductionMethod::Truncate, ReductionMethod::MatchDc] {
+            let r = balred(
+                &m,
+                5,
+                &BalredSettings {
+                    method,
+                    include_noise: false,
+                },
+            )
+            .unwrap();
+            assert_eq!(r.model.nx(), 5);
+            let mut worst: f64 = 0.0;
+            for i in 0..=400 {
+                let w = std::f64::consts::PI * i as f64 / 400.0;
+                let e = m.frequency_response(w).unwrap() - r.model.frequency_response(w).unwrap();
+                worst = worst.max(sigma_max(&e));
+            }
+            assert!(
+                worst <= r.error_bound * (1.0 + 1e-9),
+                "{method:?}: {worst} > {}",
+                r.error_bound
+            );
+            // Lower bound: no order-5 model does better than sigma_6 (checked on a grid, loosely).
+            assert!(worst >= 0.5 * r.hankel_singular_values[5], "{method:?}");
+            if method == ReductionMethod::MatchDc {
+                let (g, gr) = (m.dc_gain().unwrap(), r.model.dc_gain().unwrap());
+                assert!((&g - &gr).norm() < 1e-8 * g.norm());
+            }
+        }
+        assert!(balred(&m, 0, &BalredSettings::default()).is_err());
+        assert!(balred(&m, 9, &BalredSettings::default()).is_err());
+        let mut unstable = m.clone();
+        unstable.a *= 1.2;
+        assert!(balred(&unstable, 4, &BalredSettings::default()).is_err());
+    }
+
+    #[test]
+    fn siso_zeros_are_numerator_roots() {
+        // G(z) = (z - 1.5)(z - 0.2) / ((z - 0.5)(z - 0.6)(z + 0.3)), controllable form.
+        let den = [1.0, -0.8, -0.03, 0.09]; // (z-.5)(z-.6)(z+.3) = z^3 - 0.8 z^2 - 0.03 z + 0.09
+        let a = DMatrix::from_row_slice(
+            3,
+            3,
+            &[-den[1], -den[2], -den[3], 1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+        );
+        let b = DMatrix::from_row_slice(3, 1, &[1.0, 0.0, 0.0]);
+        let c = DMatrix::from_row_slice(1, 3, &[1.0, -1.7, 0.3]); // (z-1.5)(z-0.2) = z^2 - 1.7 z + 0.3
+        let m =
+            InnovationModel::new(1.0, a, b, c, DMatrix::zeros(1, 1), DMatrix::zeros(3, 1)).unwrap();
+        let z = transmission_zeros(&m).unwrap();
+        assert_eq!(z.len(), 2);
+        assert!((z[0].z - Complex::new(1.5, 0.0)).norm() < 1e-10 && z[0].non_minimum_phase);
+        assert!((z[1].z - Complex::new(0.2, 0.0)).norm() < 1e-10 && !z[1].non_minimum_phase);
+    }
+
+    #[test]
+    fn mimo_zeros_drop_the_rosenbrock_rank() {
+        for (nu, ny, d) in [(3, 3, false), (3, 3, true), (2, 2, false)] {
+            let mut m = synthetic::random_model(6, nu, ny, 40 + nu as u64, 0.9);
+            if d {
+                m.d = DMatrix::from_fn(ny, nu, |i, j| if i == j { 1.0 } else { 0.3 });
+            }
+            let z = transmission_zeros(&m).unwrap();
+            assert_eq!(z.len(), if d { 6 } else { 6 - ny });
+            for zz in &z {
+                let s = rosenbrock_singular_values(&m, zz.z);
+                assert!(s[6 + nu - 1] < 1e-8 * s[0], "{zz:?}: {s:?}");
+            }
+        }
+        // Generic non-square (4 inputs, 3 outputs): no transmission zeros.
+        let m = synthetic::random_model(5, 4, 3, 77, 0.9);
+        assert!(transmission_zeros(&m).unwrap().is_empty());
+        // ... unless one is built in: a common zero of every channel.
+        let mut m = synthetic::random_model(4, 1, 1, 5, 0.8);
+        m.b = DMatrix::from_fn(4, 2, |i, j| m.b[(i, 0)] * (1.0 + j as f64));
+        m.d = DMatrix::zeros(1, 2);
+        let z1 = transmission_zeros(&InnovationModel {
+            b: m.b.columns(0, 1).into_owned(),
+            d: DMatrix::zeros(1, 1),
+            ..m.clone()
+        })
+        .unwrap();
+        let z2 = transmission_zeros(&m).unwrap();
+        assert_eq!(z1.len(), z2.len());
+    }
+}
