@@ -1,5 +1,7 @@
 #![doc = include_str!("../README.md")]
 #![cfg_attr(not(feature = "std"), no_std)]
+// Index loops mirror the equations (rows, columns, axes) in this numeric code.
+#![allow(clippy::needless_range_loop)]
 
 mod mixer;
 mod pid;

@@ -5,10 +5,10 @@
 //! body-rate equations (3.19) do not depend on position, velocity or
 //! attitude, so nothing is neglected by cutting those states away.
 //!
-//! - [`RateModelKind::Rates`]: states `[p, q, r]`, the motors and servo
+//! - [`RateModelKind::Rates`] keeps the states `[p, q, r]`, the motors and servo
 //!   taken as static (`w = w_ss(pwm)`, `alpha = alpha_cmd(pwm)`), as in
 //!   (7.7); at hover `A = 0` (the thesis's `-1e-9` diagonal is not needed).
-//! - [`RateModelKind::WithActuators`]: states
+//! - [`RateModelKind::WithActuators`] keeps the states
 //!   `[p, q, r, w1, w2, w3, alpha, alpha_dot]`, as in (C.1)-(C.3). One
 //!   difference to the printed (C.1): the servo is a position servo, so
 //!   `a_{8,7} = -wn^2` is non-zero (C.1 models it as the open-loop DC motor
