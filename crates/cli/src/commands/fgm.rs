@@ -1,0 +1,289 @@
+//! `kestrel fgm certify|solve`: the certified fast gradient method.
+
+use crate::io;
+use anyhow::{Context, bail};
+use kestrel_core::formats::MpqpProblem;
+use kestrel_fgm::{
+    BoxQp, ExportScalar, FgmDesign, FgmSettings, Momentum, Preconditioner, Start,
+    WarmStartAssumption,
+};
+use nalgebra::DVector;
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+
+/// Fast gradient method for `kestrel.mpqp.v1` problems with box constraints.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: FgmCommand,
+}
+
+/// The `fgm` subcommands.
+#[derive(clap::Subcommand, Debug)]
+pub enum FgmCommand {
+    /// Certify the iteration count for `J - J* <= eps` over the parameter box
+    /// and print it as JSON (with L, mu, the preconditioner, a table of
+    /// eps 1e5 .. 1e2 and the eps that keeps every input within 1 us).
+    Certify(CertifyArgs),
+    /// Solve for each theta of a CSV file (cold start, fixed iterations);
+    /// prints one CSV row of z per theta.
+    Solve(SolveArgs),
+}
+
+/// Preconditioner choice on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum PreconditionerArg {
+    /// D = I.
+    None,
+    /// D = diag(H)^-1/2.
+    Jacobi,
+    /// The diagonal minimising cond(D H D) (an SDP solved with clarabel).
+    OptimalDiagonal,
+}
+
+impl From<PreconditionerArg> for Preconditioner {
+    fn from(p: PreconditionerArg) -> Self {
+        match p {
+            PreconditionerArg::None => Preconditioner::None,
+            PreconditionerArg::Jacobi => Preconditioner::Jacobi,
+            PreconditionerArg::OptimalDiagonal => Preconditioner::OptimalDiagonal,
+        }
+    }
+}
+
+/// Momentum choice on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum MomentumArg {
+    /// The scheme with the smaller certified count.
+    Auto,
+    /// Constant beta (needs mu > 0).
+    Constant,
+    /// Precomputed beta table.
+    Table,
+}
+
+/// Scalar of exported firmware tables.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum ScalarArg {
+    /// f32.
+    F32,
+    /// f64.
+    F64,
+    /// Q15.16 fixed point.
+    Q16,
+}
+
+/// Flags of `kestrel fgm certify`.
+#[derive(clap::Args, Debug)]
+pub struct CertifyArgs {
+    /// Problem file (`kestrel.mpqp.v1`, every constraint row bounding one variable).
+    #[arg(long)]
+    pub problem: PathBuf,
+    /// Tolerance on J(z) - J* (positive).
+    #[arg(long, allow_negative_numbers = true)]
+    pub eps: f64,
+    /// Diagonal preconditioner.
+    #[arg(long, value_enum, default_value = "optimal-diagonal")]
+    pub preconditioner: PreconditionerArg,
+    /// Momentum scheme.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub momentum: MomentumArg,
+    /// Warm start: largest change of each parameter between two solves,
+    /// comma separated (p numbers); adds a warm-start certificate.
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    pub theta_step: Option<Vec<f64>>,
+    /// Write the firmware tables as a Rust `static` to this file.
+    #[arg(long)]
+    pub export: Option<PathBuf>,
+    /// Scalar type of the exported tables.
+    #[arg(long, value_enum, default_value = "f32")]
+    pub scalar: ScalarArg,
+    /// Output file (default: standard output).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Flags of `kestrel fgm solve`.
+#[derive(clap::Args, Debug)]
+pub struct SolveArgs {
+    /// Problem file (`kestrel.mpqp.v1`).
+    #[arg(long)]
+    pub problem: PathBuf,
+    /// CSV file, one theta per row (p numbers), no header.
+    #[arg(long)]
+    pub thetas: PathBuf,
+    /// Fast-gradient iterations after the initial projected gradient step.
+    #[arg(long)]
+    pub iterations: usize,
+    /// Diagonal preconditioner.
+    #[arg(long, value_enum, default_value = "optimal-diagonal")]
+    pub preconditioner: PreconditionerArg,
+    /// Output file (default: standard output).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    match args.command {
+        FgmCommand::Certify(a) => certify(a),
+        FgmCommand::Solve(a) => solve(a),
+    }
+}
+
+fn load(path: &Path, pc: PreconditionerArg, momentum: Momentum) -> anyhow::Result<FgmDesign> {
+    let name = path.display().to_string();
+    let prob = MpqpProblem::read(path).with_context(|| name.clone())?;
+    let qp = BoxQp::from_mpqp(&prob).with_context(|| name.clone())?;
+    let settings = FgmSettings {
+        preconditioner: pc.into(),
+        momentum,
+        ..FgmSettings::default()
+    };
+    FgmDesign::new(qp, settings).with_context(|| name)
+}
+
+fn certify(a: CertifyArgs) -> anyhow::Result<()> {
+    if !(a.eps.is_finite() && a.eps > 0.0) {
+        bail!("--eps must be a positive finite number, got {}", a.eps);
+    }
+    let momentum = match a.momentum {
+        MomentumArg::Auto => Momentum::Auto,
+        MomentumArg::Constant => Momentum::Constant,
+        MomentumArg::Table => Momentum::Table,
+    };
+    let d = load(&a.problem, a.preconditioner, momentum)?;
+    let cert = d.certify(a.eps)?;
+    let pc = &d.preconditioning;
+    let table: Vec<Value> = d
+        .certify_table(&[1e5, 1e4, 1e3, 1e2])?
+        .iter()
+        .map(|c| json!({"eps": c.eps, "iterations": c.iterations}))
+        .collect();
+    let eps_pwm = kestrel_fgm::eps_for_input_error(pc.before.mu, 1.0);
+    let pwm = if eps_pwm > 0.0 {
+        let c = d.certify(eps_pwm)?;
+        json!({"max_input_error": 1.0, "eps": eps_pwm, "iterations": c.iterations})
+    } else {
+        json!({"max_input_error": 1.0, "eps": null,
+               "note": "H is singular: no eps bounds the input error"})
+    };
+    let rounding = |b: Option<kestrel_fgm::RoundingBound>| match b {
+        Some(b) => json!({"cost_bound": b.cost_bound, "distance_bound": b.distance_bound,
+                          "gradient_error": b.gradient_error, "box_shrink": b.box_shrink}),
+        None => Value::Null,
+    };
+    let mut out = json!({
+        "format": "kestrel.fgm.certificate.v1",
+        "problem": a.problem.display().to_string(),
+        "n": d.n(),
+        "p": d.problem.p(),
+        "eps": cert.eps,
+        "iterations": cert.iterations,
+        "L": cert.l,
+        "mu": cert.mu,
+        "condition": cert.condition,
+        "delta": cert.delta,
+        "diameter_sq": cert.diameter_sq,
+        "linear_bound": cert.linear_bound,
+        "sublinear_bound": cert.sublinear_bound,
+        "momentum": cert.scheme.name(),
+        "preconditioner": pc.method.name(),
+        "before": {"L": pc.before.l, "mu": pc.before.mu, "condition": pc.before.condition()},
+        "after": {"L": pc.after.l, "mu": pc.after.mu, "condition": pc.after.condition()},
+        "eps_table": table,
+        "pwm_1us": pwm,
+        "rounding": {
+            "f32": rounding(d.rounding_bound::<f32>(&cert)),
+            "q16": rounding(d.rounding_bound::<kestrel_core::Q16>(&cert)),
+        },
+    });
+    let mut warm_iterations = None;
+    if let Some(step) = &a.theta_step {
+        let assume = WarmStartAssumption {
+            prev_eps: a.eps,
+            theta_step: DVector::from_column_slice(step),
+        };
+        let w = d.certify_warm(a.eps, &assume)?;
+        warm_iterations = Some(w.iterations);
+        out["warm"] = json!({"iterations": w.iterations, "refined": w.refined,
+                             "radius": w.radius, "delta": w.delta});
+    }
+    if let Some(path) = &a.export {
+        let (scalar, text) = match a.scalar {
+            ScalarArg::F32 => (
+                ExportScalar::F32,
+                kestrel_fgm::export_rust("FGM", &d.data::<f32>(&cert, warm_iterations)?, ExportScalar::F32),
+            ),
+            ScalarArg::F64 => (
+                ExportScalar::F64,
+                kestrel_fgm::export_rust("FGM", &d.data::<f64>(&cert, warm_iterations)?, ExportScalar::F64),
+            ),
+            ScalarArg::Q16 => (
+                ExportScalar::Q16,
+                kestrel_fgm::export_rust(
+                    "FGM",
+                    &d.data::<kestrel_core::Q16>(&cert, warm_iterations)?,
+                    ExportScalar::Q16,
+                ),
+            ),
+        };
+        io::write_output(Some(path), &text)?;
+        out["export"] = json!({"path": path.display().to_string(), "scalar": format!("{scalar:?}")});
+    }
+    let text = serde_json::to_string_pretty(&out)? + "\n";
+    io::write_output(a.out.as_deref(), &text)
+}
+
+fn read_thetas(path: &Path, p: usize) -> anyhow::Result<Vec<Vec<f64>>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
+    let mut rows = Vec::new();
+    for (k, line) in text.lines().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let row: Vec<f64> = line
+            .split(',')
+            .enumerate()
+            .map(|(j, s)| {
+                let v: f64 = s.trim().parse().with_context(|| {
+                    format!("{}: line {}, column {}: {:?} is not a number", path.display(), k + 1, j + 1, s.trim())
+                })?;
+                if !v.is_finite() {
+                    bail!("{}: line {}, column {}: non-finite value", path.display(), k + 1, j + 1);
+                }
+                Ok(v)
+            })
+            .collect::<anyhow::Result<_>>()?;
+        if row.len() != p {
+            bail!(
+                "{}: line {}: expected {p} numbers (one theta), found {}",
+                path.display(),
+                k + 1,
+                row.len()
+            );
+        }
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+fn solve(a: SolveArgs) -> anyhow::Result<()> {
+    let d = load(&a.problem, a.preconditioner, Momentum::Auto)?;
+    let thetas = read_thetas(&a.thetas, d.problem.p())?;
+    // Any eps gives the same scaled data; the momentum scheme follows the
+    // certificate's choice for a tight tolerance.
+    let cert = d.certify(1e-9 * d.delta().max(f64::MIN_POSITIVE))?;
+    let data = d.data::<f64>(&cert, Some(a.iterations))?;
+    let mut out = String::new();
+    for (k, th) in thetas.iter().enumerate() {
+        let z = data
+            .solve(th, Start::Cold, a.iterations)
+            .with_context(|| format!("{}: line {}", a.thetas.display(), k + 1))?;
+        let cells: Vec<String> = z.iter().map(|v| format!("{v:?}")).collect();
+        out.push_str(&cells.join(","));
+        out.push('\n');
+    }
+    io::write_output(a.out.as_deref(), &out)
+}

@@ -1,0 +1,889 @@
+//! Design time: preconditioning, folding, certification, rounding bounds.
+
+use crate::precond::{Preconditioner, Preconditioning, Spectrum, precondition, scale_hessian};
+use crate::runtime::{FgmTables, FgmView, Start, WorkspaceMut, solve_view};
+use crate::{BoxQp, FgmError};
+use kestrel_core::{Matrix, Scalar};
+use nalgebra::{DMatrix, DVector, SymmetricEigen};
+
+/// How the momentum `beta_i` is chosen.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Momentum {
+    /// The scheme with the smaller certified iteration count.
+    #[default]
+    Auto,
+    /// `alpha_0 = sqrt(mu/L)`: constant `beta = (1 - sqrt(mu/L)) / (1 + sqrt(mu/L))`
+    /// (needs `mu > 0`); certified by the linear rate only.
+    Constant,
+    /// `alpha_0` such that `gamma_0 = L`: a precomputed `beta_i` table
+    /// (errata: `beta_i = alpha_i (1 - alpha_i) / (alpha_i^2 + alpha_{i+1})`);
+    /// certified by both the linear and the `4 / (i + 2)^2` rate.
+    Table,
+}
+
+/// The momentum scheme a certificate is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MomentumScheme {
+    /// One constant `beta`.
+    Constant,
+    /// A `beta_i` table.
+    Table,
+}
+
+impl MomentumScheme {
+    /// The name used in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            MomentumScheme::Constant => "constant",
+            MomentumScheme::Table => "table",
+        }
+    }
+}
+
+/// Settings of [`FgmDesign::new`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FgmSettings {
+    /// The diagonal preconditioner.
+    pub preconditioner: Preconditioner,
+    /// The momentum scheme.
+    pub momentum: Momentum,
+    /// Largest magnitude of any scaled intermediate quantity (iterates,
+    /// extrapolations, `M y + c`); the overall scale of `D` is chosen to
+    /// reach it, which uses the range of fixed point well. 8192 leaves a
+    /// factor 4 of headroom in `Q16`.
+    pub scaled_range: f64,
+}
+
+impl Default for FgmSettings {
+    fn default() -> Self {
+        FgmSettings {
+            preconditioner: Preconditioner::default(),
+            momentum: Momentum::default(),
+            scaled_range: 8192.0,
+        }
+    }
+}
+
+/// A cold-start certificate (Richter, Jones, Morari, IEEE TAC 2012).
+///
+/// After the initial projected gradient step from any point `s` of the box,
+/// `f(z_0) - f* + gamma_0/2 |z_0 - z*|^2 <= (L - mu)/2 |s - z*|^2 <= Delta`
+/// with `Delta = L/2 * max_theta diam(box)^2` (scaled units), and Nesterov's
+/// constant-step scheme gives `f(z_i) - f* <= lambda_i Delta` with
+/// `lambda_i <= (1 - sqrt(mu/L))^i` and, for `gamma_0 = L` (the table
+/// scheme), `lambda_i <= 4 / (i + 2)^2`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Certificate {
+    /// The tolerance on `J(z) - J*`.
+    pub eps: f64,
+    /// Lipschitz constant of the scaled gradient.
+    pub l: f64,
+    /// Strong convexity of the scaled problem.
+    pub mu: f64,
+    /// `L / mu`.
+    pub condition: f64,
+    /// `L/2 * squared diameter`.
+    pub delta: f64,
+    /// Squared diameter of the scaled box, maximised over the parameter box.
+    pub diameter_sq: f64,
+    /// `ceil(ln(eps/Delta) / ln(1 - sqrt(mu/L)))` (`None` if `mu = 0`).
+    pub linear_bound: Option<usize>,
+    /// `ceil(2 sqrt(Delta/eps) - 2)`.
+    pub sublinear_bound: usize,
+    /// The scheme the iteration count is for.
+    pub scheme: MomentumScheme,
+    /// Certified iterations after the initial step.
+    pub iterations: usize,
+}
+
+/// What a warm start may assume about the previous solve.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WarmStartAssumption {
+    /// The previous solution was `prev_eps`-optimal for the previous parameter.
+    pub prev_eps: f64,
+    /// Largest change of each parameter between two solves, `p` entries.
+    pub theta_step: DVector<f64>,
+}
+
+/// A warm-start certificate for starting from the previous solution.
+///
+/// With box widths independent of `theta` (`Lo = Hi`), the solution map is
+/// Lipschitz: writing `v = lo(theta) + x`, `x` lives in a fixed box and its
+/// linear term moves with `Q theta`, `Q = D F' + D H D Lo`; the solution is
+/// the `H_s`-norm projection of `-H_s^-1 q`, which is nonexpansive in that
+/// norm, so `|v*(theta_1) - v*(theta_2)| <= sum_j |theta_1 - theta_2|_j
+/// (|Lo e_j| + |H_s^-1/2 Q e_j| / sqrt(mu))`. The previous solution is within
+/// `sqrt(2 prev_eps / mu)` of its own optimum, so the start is within
+/// `r = sqrt(2 prev_eps / mu) + lipschitz-term` of the new optimum and
+/// `Delta_warm = L/2 r^2`. When the widths vary with `theta`, or the start is
+/// shifted, the warm bound falls back to the cold one (which covers any
+/// start point in the box).
+#[derive(Clone, Debug, PartialEq)]
+pub struct WarmCertificate {
+    /// The cold certificate it refines.
+    pub cold: Certificate,
+    /// Whether the Lipschitz argument applied (`Lo = Hi`, no shift).
+    pub refined: bool,
+    /// Bound on the distance of the start from the new optimum (scaled units).
+    pub radius: f64,
+    /// `min(L/2 r^2, Delta_cold)`.
+    pub delta: f64,
+    /// Certified iterations after the initial step.
+    pub iterations: usize,
+}
+
+/// A bound on how far a solve in a lower-precision scalar can be from
+/// exact arithmetic, after `iterations` constant-momentum iterations.
+///
+/// Every rounding (stored tables, the parameter, dot products, the
+/// momentum update) is bounded by the standard model `|fl(x) - x| <= u|x| + a`
+/// (floats: `u` = unit roundoff, `a` = 0; fixed point: `u = 0`, `a` = half
+/// a least significant bit, dot products rounded once) with the magnitudes
+/// that the box and the parameter box allow, and folded into a gradient
+/// error `|e_i| <= E`. The box tables are shrunk inwards by the bound on
+/// their own rounding, so every iterate stays feasible. Then (Schmidt, Le
+/// Roux, Bach 2011, accelerated inexact proximal gradient, strongly convex
+/// case) with `rho = 1 - sqrt(mu/L)`:
+/// `sqrt(J - J*_shrunk) <= sqrt(2 Delta' rho^k) + sqrt(2/mu) E sum_{j<k} rho^{j/2}`,
+/// `Delta' = Delta + E diam`, and the shrunk box costs at most
+/// `G delta + L/2 delta^2` more than the true one. The output `z = D v` adds
+/// its own rounding.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RoundingBound {
+    /// The scalar: `"f32"`, `"f64"` or `"Q16"`-like names.
+    pub scalar: &'static str,
+    /// Bound on the gradient error per iteration (scaled units, 2-norm).
+    pub gradient_error: f64,
+    /// Inward shrink of each bound (scaled units, max over variables).
+    pub box_shrink: f64,
+    /// Bound on `J(z_S) - J*` after the certified iterations.
+    pub cost_bound: f64,
+    /// Bound on `|z_S - z_f64|_2` (problem units) when both ran the
+    /// certified iterations (`z_f64` being `eps`-optimal).
+    pub distance_bound: f64,
+}
+
+/// Solver data with run-time dimensions (see [`FgmTables`] for the fields).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FgmData<S> {
+    /// Number of decision variables.
+    pub n: usize,
+    /// Number of parameters.
+    pub p: usize,
+    /// `M`, row-major.
+    pub m: Vec<S>,
+    /// `K`, row-major.
+    pub k_theta: Vec<S>,
+    /// `k0`.
+    pub k0: Vec<S>,
+    /// Lower bound map, row-major.
+    pub lo_theta: Vec<S>,
+    /// Lower bound offset.
+    pub lo0: Vec<S>,
+    /// Upper bound map, row-major.
+    pub hi_theta: Vec<S>,
+    /// Upper bound offset.
+    pub hi0: Vec<S>,
+    /// Scaling.
+    pub d: Vec<S>,
+    /// Inverse scaling.
+    pub d_inv: Vec<S>,
+    /// Momentum table.
+    pub betas: Vec<S>,
+    /// Certified cold-start iterations.
+    pub iterations: usize,
+    /// Certified warm-start iterations.
+    pub warm_iterations: usize,
+    /// Warm-start shift.
+    pub shift: usize,
+}
+
+impl<S: Scalar> FgmData<S> {
+    /// The flattened view the kernel works on.
+    pub fn view(&self) -> FgmView<'_, S> {
+        FgmView {
+            n: self.n,
+            p: self.p,
+            m: &self.m,
+            k_theta: &self.k_theta,
+            k0: &self.k0,
+            lo_theta: &self.lo_theta,
+            lo0: &self.lo0,
+            hi_theta: &self.hi_theta,
+            hi0: &self.hi0,
+            d: &self.d,
+            d_inv: &self.d_inv,
+            betas: &self.betas,
+        }
+    }
+
+    /// Solves with `iterations` iterations from `start` (allocates its
+    /// workspace: for design-time use; the firmware uses [`FgmTables`]).
+    ///
+    /// # Errors
+    /// As [`solve_view`].
+    pub fn solve(
+        &self,
+        theta: &[S],
+        start: Start<'_, S>,
+        iterations: usize,
+    ) -> Result<Vec<S>, kestrel_core::Error> {
+        let n = self.n;
+        let mut buf = vec![S::ZERO; 6 * n];
+        let mut out = vec![S::ZERO; n];
+        let (lo, rest) = buf.split_at_mut(n);
+        let (hi, rest) = rest.split_at_mut(n);
+        let (c, rest) = rest.split_at_mut(n);
+        let (z, rest) = rest.split_at_mut(n);
+        let (y, w) = rest.split_at_mut(n);
+        solve_view(
+            &self.view(),
+            theta,
+            start,
+            iterations,
+            WorkspaceMut { lo, hi, c, z, y, w },
+            &mut out,
+        )?;
+        Ok(out)
+    }
+
+    /// Converts into const-dimension tables.
+    ///
+    /// # Errors
+    /// [`FgmError::Dimension`] if `N`, `P` do not match or `T` is not the
+    /// length of the momentum table.
+    pub fn to_tables<const N: usize, const P: usize, const T: usize>(
+        &self,
+    ) -> Result<FgmTables<S, N, P, T>, FgmError> {
+        let dim = |what, expected, found| {
+            if expected == found {
+                Ok(())
+            } else {
+                Err(FgmError::Dimension {
+                    what,
+                    expected,
+                    found,
+                })
+            }
+        };
+        dim("N (decision variables)", self.n, N)?;
+        dim("P (parameters)", self.p, P)?;
+        dim("T (momentum table)", self.betas.len(), T)?;
+        fn mat<S: Scalar, const R: usize, const C: usize>(v: &[S]) -> Matrix<S, R, C> {
+            Matrix::from_fn(|i, j| v.get(i * C + j).copied().unwrap_or(S::ZERO))
+        }
+        let arr = |v: &[S]| core::array::from_fn(|i| v.get(i).copied().unwrap_or(S::ZERO));
+        Ok(FgmTables {
+            m: mat(&self.m),
+            k_theta: mat(&self.k_theta),
+            k0: arr(&self.k0),
+            lo_theta: mat(&self.lo_theta),
+            lo0: arr(&self.lo0),
+            hi_theta: mat(&self.hi_theta),
+            hi0: arr(&self.hi0),
+            d: arr(&self.d),
+            d_inv: arr(&self.d_inv),
+            betas: core::array::from_fn(|i| self.betas.get(i).copied().unwrap_or(S::ZERO)),
+            iterations: self.iterations,
+            warm_iterations: self.warm_iterations,
+            shift: self.shift,
+        })
+    }
+}
+
+/// A designed fast-gradient solver: the problem, the preconditioning and the
+/// folded `f64` data of the scaled problem.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FgmDesign {
+    /// The box QP.
+    pub problem: BoxQp,
+    /// The settings used.
+    pub settings: FgmSettings,
+    /// The preconditioning (its `d` before the range normalisation).
+    pub preconditioning: Preconditioning,
+    /// The scaling `z = D v` actually used (range-normalised).
+    pub d: DVector<f64>,
+    /// Spectrum of the scaled Hessian `D H D`.
+    pub spectrum: Spectrum,
+    /// Scaled Hessian `D H D`.
+    pub h_scaled: DMatrix<f64>,
+    /// Squared diameter of the scaled box, maximised over the parameter box.
+    pub diameter_sq: f64,
+    /// `c(theta) = K theta + k0` (scaled), `K` is `n x p`.
+    pub k_theta: DMatrix<f64>,
+    /// `k0`.
+    pub k0: DVector<f64>,
+    /// Scaled bounds.
+    pub lo_theta: DMatrix<f64>,
+    /// Scaled bounds.
+    pub lo0: DVector<f64>,
+    /// Scaled bounds.
+    pub hi_theta: DMatrix<f64>,
+    /// Scaled bounds.
+    pub hi0: DVector<f64>,
+}
+
+impl FgmDesign {
+    /// Preconditions and folds a box QP.
+    ///
+    /// # Errors
+    /// [`FgmError::NotConvex`] for a Hessian with a negative eigenvalue,
+    /// [`FgmError::Solver`] if the preconditioning SDP fails,
+    /// [`FgmError::InvalidSetting`] for a non-positive `scaled_range`.
+    pub fn new(problem: BoxQp, settings: FgmSettings) -> Result<Self, FgmError> {
+        if !(settings.scaled_range.is_finite() && settings.scaled_range > 0.0) {
+            return Err(FgmError::InvalidSetting(format!(
+                "scaled_range must be positive, got {}",
+                settings.scaled_range
+            )));
+        }
+        let n = problem.n();
+        let pc = precondition(&problem.h, settings.preconditioner)?;
+        let mut design = Self::fold(problem, settings, pc.clone(), pc.d.clone())?;
+        // Normalise the overall scale of D (cond(DHD) is invariant) so that
+        // the largest scaled intermediate reaches `scaled_range`.
+        let peak = design.intermediate_bounds(design.max_beta()).peak;
+        if peak > 0.0 && n > 0 {
+            let t = peak / settings.scaled_range;
+            let d = &pc.d * t;
+            design = Self::fold(design.problem, settings, pc, d)?;
+        }
+        Ok(design)
+    }
+
+    fn fold(
+        problem: BoxQp,
+        settings: FgmSettings,
+        preconditioning: Preconditioning,
+        d: DVector<f64>,
+    ) -> Result<Self, FgmError> {
+        let h_scaled = scale_hessian(&problem.h, &d);
+        let spectrum = crate::precond::spectrum(&h_scaled)?;
+        let l = spectrum.l;
+        let dinv = d.map(|v| 1.0 / v);
+        let dm = DMatrix::from_diagonal(&d);
+        let dinvm = DMatrix::from_diagonal(&dinv);
+        let k_theta = -(&dm * problem.f_theta.transpose()) / l;
+        let k0 = -(&dm * &problem.f) / l;
+        let lo_theta = &dinvm * &problem.lo_theta;
+        let lo0 = &dinvm * &problem.lo0;
+        let hi_theta = &dinvm * &problem.hi_theta;
+        let hi0 = &dinvm * &problem.hi0;
+        let widths = problem.max_widths();
+        let diameter_sq = widths
+            .iter()
+            .zip(dinv.iter())
+            .map(|(w, di)| (w * di).powi(2))
+            .sum();
+        Ok(FgmDesign {
+            problem,
+            settings,
+            preconditioning,
+            d,
+            spectrum,
+            h_scaled,
+            diameter_sq,
+            k_theta,
+            k0,
+            lo_theta,
+            lo0,
+            hi_theta,
+            hi0,
+        })
+    }
+
+    /// Number of decision variables.
+    pub fn n(&self) -> usize {
+        self.problem.n()
+    }
+
+    /// `M = I - D H D / L`.
+    pub fn m(&self) -> DMatrix<f64> {
+        let n = self.n();
+        DMatrix::identity(n, n) - &self.h_scaled / self.spectrum.l
+    }
+
+    /// `L/2 * squared diameter`.
+    pub fn delta(&self) -> f64 {
+        0.5 * self.spectrum.l * self.diameter_sq
+    }
+
+    /// The constant momentum `(1 - sqrt(mu/L)) / (1 + sqrt(mu/L))`.
+    pub fn constant_beta(&self) -> f64 {
+        let q = (self.spectrum.mu / self.spectrum.l).sqrt();
+        (1.0 - q) / (1.0 + q)
+    }
+
+    fn max_beta(&self) -> f64 {
+        1.0
+    }
+
+    /// The momentum table for `gamma_0 = L`, `iterations` entries (at least one).
+    ///
+    /// `alpha_0` solves `alpha_0^2 / (1 - alpha_0) = 1 - q alpha_0 / (1 - alpha_0)`
+    /// (i.e. `gamma_0 = L`), `alpha_{i+1}` the positive root of
+    /// `alpha^2 = (1 - alpha) alpha_i^2 + q alpha`, `q = mu/L`, and
+    /// `beta_i = alpha_i (1 - alpha_i) / (alpha_i^2 + alpha_{i+1})` (errata).
+    pub fn beta_table(&self, iterations: usize) -> Vec<f64> {
+        let q = self.spectrum.mu / self.spectrum.l;
+        // L a^2 + (L - mu) a - L = 0  =>  a^2 + (1 - q) a - 1 = 0.
+        let mut a = (-(1.0 - q) + ((1.0 - q).powi(2) + 4.0).sqrt()) / 2.0;
+        let mut out = Vec::with_capacity(iterations.max(1));
+        for _ in 0..iterations.max(1) {
+            // a_next^2 + (a^2 - q) a_next - a^2 = 0.
+            let b = a * a - q;
+            let next = (-b + (b * b + 4.0 * a * a).sqrt()) / 2.0;
+            out.push(a * (1.0 - a) / (a * a + next));
+            a = next;
+        }
+        out
+    }
+
+    /// Certified cold-start iterations for `J - J* <= eps`.
+    ///
+    /// # Errors
+    /// [`FgmError::InvalidEps`] for `eps <= 0` or not finite,
+    /// [`FgmError::InvalidSetting`] for [`Momentum::Constant`] with `mu = 0`.
+    pub fn certify(&self, eps: f64) -> Result<Certificate, FgmError> {
+        self.certify_delta(eps, self.delta())
+    }
+
+    fn certify_delta(&self, eps: f64, delta: f64) -> Result<Certificate, FgmError> {
+        if !(eps.is_finite() && eps > 0.0) {
+            return Err(FgmError::InvalidEps(eps));
+        }
+        let Spectrum { l, mu } = self.spectrum;
+        let ratio = delta / eps;
+        let linear_bound = if mu > 0.0 {
+            let rate = 1.0 - (mu / l).sqrt();
+            Some(if ratio <= 1.0 {
+                0
+            } else if rate <= 0.0 {
+                1
+            } else {
+                ((eps / delta).ln() / rate.ln()).ceil().max(0.0) as usize
+            })
+        } else {
+            None
+        };
+        let sublinear_bound = (2.0 * ratio.sqrt() - 2.0).ceil().max(0.0) as usize;
+        let (scheme, iterations) = match (self.settings.momentum, linear_bound) {
+            (Momentum::Constant, Some(k)) => (MomentumScheme::Constant, k),
+            (Momentum::Constant, None) => {
+                return Err(FgmError::InvalidSetting(
+                    "constant momentum needs mu > 0 (the scaled Hessian is singular)".into(),
+                ));
+            }
+            (Momentum::Table, lin) => (
+                MomentumScheme::Table,
+                lin.map_or(sublinear_bound, |k| k.min(sublinear_bound)),
+            ),
+            (Momentum::Auto, Some(k)) if k <= sublinear_bound => (MomentumScheme::Constant, k),
+            (Momentum::Auto, lin) => (
+                MomentumScheme::Table,
+                lin.map_or(sublinear_bound, |k| k.min(sublinear_bound)),
+            ),
+        };
+        Ok(Certificate {
+            eps,
+            l,
+            mu,
+            condition: self.spectrum.condition(),
+            delta,
+            diameter_sq: self.diameter_sq,
+            linear_bound,
+            sublinear_bound,
+            scheme,
+            iterations,
+        })
+    }
+
+    /// The certified iteration counts for several tolerances (the thesis's
+    /// Table 7.2 lists 1e5, 1e4, 1e3, 1e2).
+    ///
+    /// # Errors
+    /// As [`FgmDesign::certify`].
+    pub fn certify_table(&self, eps: &[f64]) -> Result<Vec<Certificate>, FgmError> {
+        eps.iter().map(|e| self.certify(*e)).collect()
+    }
+
+    /// Warm-start certificate: start from the previous solution (unshifted).
+    ///
+    /// # Errors
+    /// As [`FgmDesign::certify`], and [`FgmError::Dimension`] /
+    /// [`FgmError::NonFinite`] for a bad `theta_step`.
+    pub fn certify_warm(
+        &self,
+        eps: f64,
+        assume: &WarmStartAssumption,
+    ) -> Result<WarmCertificate, FgmError> {
+        let cold = self.certify(eps)?;
+        let p = self.problem.p();
+        if assume.theta_step.len() != p {
+            return Err(FgmError::Dimension {
+                what: "theta_step",
+                expected: p,
+                found: assume.theta_step.len(),
+            });
+        }
+        if assume.theta_step.iter().any(|v| !v.is_finite() || *v < 0.0)
+            || !(assume.prev_eps.is_finite() && assume.prev_eps > 0.0)
+        {
+            return Err(FgmError::NonFinite("warm-start assumption"));
+        }
+        let Spectrum { l, mu } = self.spectrum;
+        let const_width =
+            (&self.lo_theta - &self.hi_theta).amax() <= 1e-12 * (1.0 + self.lo_theta.amax());
+        if !(const_width && mu > 0.0) {
+            return Ok(WarmCertificate {
+                iterations: cold.iterations,
+                radius: self.diameter_sq.sqrt(),
+                delta: cold.delta,
+                refined: false,
+                cold,
+            });
+        }
+        // H_s^-1/2 via the eigen-decomposition.
+        let eig = SymmetricEigen::new(self.h_scaled.clone());
+        let inv_sqrt = DMatrix::from_diagonal(&eig.eigenvalues.map(|v| 1.0 / v.sqrt()));
+        let h_inv_half = &eig.eigenvectors * inv_sqrt * eig.eigenvectors.transpose();
+        let q = self.k_theta.clone() * (-l) + &self.h_scaled * &self.lo_theta;
+        let hq = &h_inv_half * &q;
+        let lip: f64 = (0..p)
+            .map(|j| {
+                assume.theta_step[j]
+                    * (self.lo_theta.column(j).norm() + hq.column(j).norm() / mu.sqrt())
+            })
+            .sum();
+        let radius = (2.0 * assume.prev_eps / mu).sqrt() + lip;
+        let delta = (0.5 * l * radius * radius).min(cold.delta);
+        let warm = self.certify_delta(eps, delta)?;
+        Ok(WarmCertificate {
+            cold,
+            refined: true,
+            radius,
+            delta,
+            iterations: warm.iterations,
+        })
+    }
+
+    /// The folded data in scalar `S` for a certificate (and an optional
+    /// warm-start iteration count), with the box shrunk inwards by the
+    /// rounding bound of `S` (nothing for `f64`).
+    ///
+    /// # Errors
+    /// [`FgmError::Range`] if a table entry or intermediate does not fit `S`
+    /// or the shrunk box would be empty.
+    pub fn data<S: Scalar>(
+        &self,
+        cert: &Certificate,
+        warm_iterations: Option<usize>,
+    ) -> Result<FgmData<S>, FgmError> {
+        let (n, p) = (self.n(), self.problem.p());
+        let betas = match cert.scheme {
+            MomentumScheme::Constant => vec![self.constant_beta()],
+            MomentumScheme::Table => {
+                self.beta_table(cert.iterations.max(warm_iterations.unwrap_or(0)))
+            }
+        };
+        let model = RoundModel::of::<S>();
+        let shrink = if model.is_exact() {
+            DVector::zeros(n)
+        } else {
+            self.bound_rounding(&model)
+        };
+        let mut lo0 = &self.lo0 + &shrink;
+        let mut hi0 = &self.hi0 - &shrink;
+        if !model.is_exact() {
+            // Keep the box non-empty (a zero-width box stays a point).
+            for j in 0..n {
+                if lo0[j] > hi0[j] {
+                    let mid = 0.5 * (self.lo0[j] + self.hi0[j]);
+                    if (self.lo_theta.row(j) - self.hi_theta.row(j)).amax() > 0.0 {
+                        return Err(FgmError::Range(format!(
+                            "the rounding margin empties the box of variable {j}"
+                        )));
+                    }
+                    lo0[j] = mid;
+                    hi0[j] = mid;
+                }
+            }
+        }
+        let m = self.m();
+        let row_major = |a: &DMatrix<f64>| -> Vec<f64> {
+            (0..a.nrows())
+                .flat_map(|i| (0..a.ncols()).map(move |j| (i, j)))
+                .map(|(i, j)| a[(i, j)])
+                .collect()
+        };
+        let parts: [(&str, Vec<f64>); 11] = [
+            ("M", row_major(&m)),
+            ("K", row_major(&self.k_theta)),
+            ("k0", self.k0.as_slice().to_vec()),
+            ("Lo", row_major(&self.lo_theta)),
+            ("lo0", lo0.as_slice().to_vec()),
+            ("Hi", row_major(&self.hi_theta)),
+            ("hi0", hi0.as_slice().to_vec()),
+            ("d", self.d.as_slice().to_vec()),
+            ("d_inv", self.d.map(|v| 1.0 / v).as_slice().to_vec()),
+            ("betas", betas),
+            ("theta bounds", {
+                let mut v = self.problem.theta_lb.as_slice().to_vec();
+                v.extend_from_slice(self.problem.theta_ub.as_slice());
+                v
+            }),
+        ];
+        let limit = S::MAX.to_f64() * 0.5;
+        for (name, v) in &parts {
+            if let Some(x) = v.iter().find(|x| !x.is_finite() || x.abs() > limit) {
+                return Err(FgmError::Range(format!(
+                    "{name} holds {x:e}, beyond the safe range {limit:e} of the scalar"
+                )));
+            }
+        }
+        let ib = self.intermediate_bounds(
+            self.constant_beta()
+                .max(parts[9].1.iter().fold(0.0f64, |a, b| a.max(*b))),
+        );
+        if ib.peak > limit {
+            return Err(FgmError::Range(format!(
+                "intermediates reach {:e}, beyond the safe range {limit:e}",
+                ib.peak
+            )));
+        }
+        let conv = |v: &[f64]| v.iter().map(|x| S::from_f64(*x)).collect::<Vec<S>>();
+        let [m, k, k0, lo, lo0, hi, hi0, d, dinv, betas, _] = parts;
+        Ok(FgmData {
+            n,
+            p,
+            m: conv(&m.1),
+            k_theta: conv(&k.1),
+            k0: conv(&k0.1),
+            lo_theta: conv(&lo.1),
+            lo0: conv(&lo0.1),
+            hi_theta: conv(&hi.1),
+            hi0: conv(&hi0.1),
+            d: conv(&d.1),
+            d_inv: conv(&dinv.1),
+            betas: conv(&betas.1),
+            iterations: cert.iterations,
+            warm_iterations: warm_iterations.unwrap_or(cert.iterations),
+            shift: 0,
+        })
+    }
+
+    /// Const-dimension tables in scalar `S` (see [`FgmDesign::data`]).
+    ///
+    /// # Errors
+    /// As [`FgmDesign::data`] and [`FgmData::to_tables`].
+    pub fn tables<S: Scalar, const N: usize, const P: usize, const T: usize>(
+        &self,
+        cert: &Certificate,
+        warm_iterations: Option<usize>,
+    ) -> Result<FgmTables<S, N, P, T>, FgmError> {
+        self.data::<S>(cert, warm_iterations)?.to_tables()
+    }
+
+    /// Solves in `f64` with `iterations` iterations (cold start, or warm
+    /// from `start` in problem units).
+    ///
+    /// # Errors
+    /// [`FgmError::Dimension`], [`FgmError::NonFinite`] for a bad `theta`,
+    /// [`FgmError::Runtime`] from the kernel.
+    pub fn solve(
+        &self,
+        cert: &Certificate,
+        theta: &[f64],
+        start: Option<&[f64]>,
+        iterations: usize,
+    ) -> Result<Vec<f64>, FgmError> {
+        self.problem.check_theta(theta)?;
+        let data = self.data::<f64>(cert, Some(iterations))?;
+        let start = match start {
+            Some(s) => Start::Warm(s),
+            None => Start::Cold,
+        };
+        Ok(data.solve(theta, start, iterations)?)
+    }
+
+    /// Magnitude bounds of the scaled quantities over the box and the
+    /// parameter box.
+    fn intermediate_bounds(&self, beta: f64) -> Intermediates {
+        let (n, p) = (self.n(), self.problem.p());
+        let th = DVector::from_fn(p, |j, _| {
+            self.problem.theta_lb[j]
+                .abs()
+                .max(self.problem.theta_ub[j].abs())
+        });
+        let mag = |a0: &DVector<f64>, a: &DMatrix<f64>| -> DVector<f64> {
+            DVector::from_fn(n, |i, _| a0[i].abs() + a.row(i).abs().dot(&th.transpose()))
+        };
+        let blo = mag(&self.lo0, &self.lo_theta);
+        let bhi = mag(&self.hi0, &self.hi_theta);
+        let bv = blo.zip_map(&bhi, f64::max);
+        let by = &bv * (1.0 + 2.0 * beta);
+        let bc = mag(&self.k0, &self.k_theta);
+        let m = self.m().abs();
+        let bw = &m * &by + &bc;
+        let peak = by.max().max(bw.max()).max(bv.max());
+        Intermediates {
+            th,
+            bv,
+            by,
+            bc,
+            bw,
+            peak,
+        }
+    }
+
+    /// Per-variable inward shrink that covers the rounding of the bounds.
+    fn bound_rounding(&self, r: &RoundModel) -> DVector<f64> {
+        let ib = self.intermediate_bounds(self.constant_beta());
+        let n = self.n();
+        let p = self.problem.p();
+        let dth = ib.th.map(|t| r.u * t + r.a);
+        DVector::from_fn(n, |i, _| {
+            let mut worst: f64 = 0.0;
+            for (a0, a) in [(&self.lo0, &self.lo_theta), (&self.hi0, &self.hi_theta)] {
+                let abs_a = a.row(i).abs().transpose();
+                let s = abs_a.dot(&ib.th);
+                let e = (r.u * s + r.a * ib.th.sum()) // stored entries
+                    + abs_a.dot(&dth) // rounded theta
+                    + r.gamma(p) * s + r.a // dot
+                    + r.u * a0[i].abs() + r.a // stored offset
+                    + r.u * (s + a0[i].abs()) + r.a; // the add
+                worst = worst.max(e);
+            }
+            // Twice: once to make the computed box lie inside the true one.
+            2.0 * worst
+        })
+    }
+
+    /// A rigorous bound on the error of solving in scalar `S` with the
+    /// constant-momentum scheme after `cert.iterations` iterations.
+    /// `None` for the table scheme or `mu = 0` (no bound is derived there).
+    pub fn rounding_bound<S: Scalar>(&self, cert: &Certificate) -> Option<RoundingBound> {
+        if cert.scheme != MomentumScheme::Constant || self.spectrum.mu <= 0.0 {
+            return None;
+        }
+        let r = RoundModel::of::<S>();
+        let (n, p) = (self.n(), self.problem.p());
+        let Spectrum { l, mu } = self.spectrum;
+        let beta = self.constant_beta();
+        let ib = self.intermediate_bounds(beta);
+        let m = self.m().abs();
+        let dth = ib.th.map(|t| r.u * t + r.a);
+        // sigma: error of w = M y + c, per component.
+        let sigma = DVector::from_fn(n, |i, _| {
+            let my = m.row(i).transpose().dot(&ib.by);
+            let stored_m = r.u * my + r.a * ib.by.sum();
+            let dot_m = r.gamma(n) * my + r.a;
+            let add = r.u * ib.bw[i];
+            let kabs = self.k_theta.row(i).abs().transpose();
+            let kt = kabs.dot(&ib.th);
+            let c_err = (r.u * kt + r.a * ib.th.sum())
+                + kabs.dot(&dth)
+                + r.gamma(p) * kt
+                + r.a
+                + r.u * self.k0[i].abs()
+                + r.a
+                + r.u * ib.bc[i]
+                + r.a;
+            stored_m + dot_m + add + c_err
+        });
+        // rho: error of y = z + beta (z - z_prev), per component.
+        let rho = ib.bv.map(|b| {
+            let diff = 2.0 * b;
+            (r.u * beta + r.a) * diff
+                + r.u * diff * beta
+                + (r.u * beta * diff + r.a)
+                + r.u * 3.0 * b
+                + r.a
+        });
+        let e = l * (rho.norm() + sigma.norm());
+        let shrink = self.bound_rounding(&r);
+        let diam = self.diameter_sq.sqrt();
+        let delta_hat = self.delta() + e * diam;
+        let q = 1.0 - (mu / l).sqrt();
+        let k = cert.iterations;
+        let geo: f64 = (0..k).map(|j| q.powf(j as f64 / 2.0)).sum();
+        let root = (2.0 * delta_hat * q.powi(k as i32)).sqrt() + (2.0 / mu).sqrt() * e * geo;
+        let shrink_dist = (&shrink * 2.0).norm();
+        let grad = l * (ib.bv.norm() + ib.bc.norm());
+        let box_cost = grad * shrink_dist + 0.5 * l * shrink_dist * shrink_dist;
+        // Output z = D v: stored d, the product.
+        let zmax = &self.d.component_mul(&ib.bv);
+        let out_err = DVector::from_fn(n, |i, _| {
+            (r.u * self.d[i] + r.a) * ib.bv[i] + r.u * zmax[i] + r.a
+        })
+        .norm();
+        let hz = crate::precond::spectrum(&self.problem.h).ok()?;
+        if hz.mu <= 0.0 {
+            return None;
+        }
+        let gz = grad / self.d.min(); // |grad_z| = |D^-1 grad_v|
+        let cost_v = root * root + box_cost;
+        let cost_bound = cost_v + gz * out_err + 0.5 * hz.l * out_err * out_err;
+        let distance_bound =
+            (2.0 * cost_v / hz.mu).sqrt() + (2.0 * cert.eps / hz.mu).sqrt() + out_err;
+        Some(RoundingBound {
+            scalar: r.name,
+            gradient_error: e,
+            box_shrink: shrink.max(),
+            cost_bound,
+            distance_bound,
+        })
+    }
+}
+
+struct Intermediates {
+    th: DVector<f64>,
+    bv: DVector<f64>,
+    by: DVector<f64>,
+    bc: DVector<f64>,
+    bw: DVector<f64>,
+    peak: f64,
+}
+
+/// `|fl(x) - x| <= u |x| + a`.
+struct RoundModel {
+    name: &'static str,
+    u: f64,
+    a: f64,
+}
+
+impl RoundModel {
+    fn of<S: Scalar>() -> Self {
+        // Fixed point maps infinity to its largest value; floats keep it.
+        let fixed = S::from_f64(f64::INFINITY).is_finite();
+        if fixed {
+            RoundModel {
+                name: "fixed",
+                u: 0.0,
+                a: 0.5 * S::RESOLUTION,
+            }
+        } else if S::RESOLUTION <= f64::EPSILON {
+            RoundModel {
+                name: "f64",
+                u: 0.5 * S::RESOLUTION,
+                a: 0.0,
+            }
+        } else {
+            RoundModel {
+                name: "f32",
+                u: 0.5 * S::RESOLUTION,
+                // Underflow: below the smallest normal f32 (ignored otherwise).
+                a: 1e-37,
+            }
+        }
+    }
+    fn is_exact(&self) -> bool {
+        self.name == "f64"
+    }
+    /// `gamma_k = k u / (1 - k u)` (float dot products); 0 for fixed point,
+    /// whose dot products round once (covered by `a`).
+    fn gamma(&self, k: usize) -> f64 {
+        let ku = k as f64 * self.u;
+        ku / (1.0 - ku)
+    }
+}

@@ -1,0 +1,400 @@
+//! The run-time solver: `no_std`, allocation-free, panic-free, generic over
+//! [`Scalar`].
+//!
+//! Everything the iterations need is folded offline (see
+//! [`FgmDesign`](crate::FgmDesign)) into the scaled variables `v = D^-1 z`:
+//!
+//! - `M = I - D H D / L` (the gradient step of the scaled problem),
+//! - `c(theta) = K theta + k0 = -D (F' theta + f) / L` (the linear term),
+//! - `lo(theta) = Lo theta + lo0`, `hi(theta) = Hi theta + hi0` (the box),
+//! - the momentum `beta_i` (one constant or a table).
+//!
+//! A solve computes `c`, `lo`, `hi` once, clamps the start point into the
+//! box, takes one projected gradient step (the *initial step* on which the
+//! certificate rests) and then exactly `iterations` fast-gradient
+//! iterations, each one `M y`, an add, a clamp and the momentum update:
+//!
+//! ```text
+//! z_0 = clamp(M s + c)                  s = clamp(start), y_0 = z_0
+//! z_{i+1} = clamp(M y_i + c)
+//! y_{i+1} = z_{i+1} + beta_i (z_{i+1} - z_i)
+//! ```
+//!
+//! The output is `z = D v` in the problem's own units. Two front ends share
+//! the kernel [`solve_view`]: [`FgmTables`] (const dimensions, plain
+//! arrays, can be written as a `static` for the firmware) and, with `std`,
+//! [`FgmData`](crate::FgmData) (run-time dimensions, for the CLI).
+
+use kestrel_core::{Error, Matrix, Scalar, check_len};
+
+/// Borrowed, flattened solver tables (row-major matrices as slices).
+///
+/// `n` decision variables, `p` parameters. Build one with
+/// [`FgmTables::view`] or [`FgmData::view`](crate::FgmData::view).
+#[derive(Clone, Copy, Debug)]
+pub struct FgmView<'a, S> {
+    /// Number of decision variables.
+    pub n: usize,
+    /// Number of parameters.
+    pub p: usize,
+    /// `M = I - D H D / L`, `n x n` row-major.
+    pub m: &'a [S],
+    /// `K = -D F' / L`, `n x p` row-major.
+    pub k_theta: &'a [S],
+    /// `k0 = -D f / L`, `n`.
+    pub k0: &'a [S],
+    /// Scaled lower bound map, `n x p` row-major.
+    pub lo_theta: &'a [S],
+    /// Scaled lower bound offset, `n`.
+    pub lo0: &'a [S],
+    /// Scaled upper bound map, `n x p` row-major.
+    pub hi_theta: &'a [S],
+    /// Scaled upper bound offset, `n`.
+    pub hi0: &'a [S],
+    /// The diagonal scaling `z = D v`, `n`.
+    pub d: &'a [S],
+    /// Its inverse `v = D^-1 z` (for warm starts), `n`.
+    pub d_inv: &'a [S],
+    /// Momentum: iteration `i` uses `betas[min(i, len - 1)]`; one entry
+    /// means constant momentum. Must not be empty.
+    pub betas: &'a [S],
+}
+
+/// Caller-owned scratch vectors of a solve, each of length `n`.
+#[derive(Debug)]
+pub struct WorkspaceMut<'a, S> {
+    /// Lower bound at the current parameter.
+    pub lo: &'a mut [S],
+    /// Upper bound at the current parameter.
+    pub hi: &'a mut [S],
+    /// Linear term `c(theta)`.
+    pub c: &'a mut [S],
+    /// Current iterate `z_i` (scaled).
+    pub z: &'a mut [S],
+    /// Extrapolated point `y_i` (scaled).
+    pub y: &'a mut [S],
+    /// Scratch for `M y + c`.
+    pub w: &'a mut [S],
+}
+
+/// Where a solve starts.
+#[derive(Clone, Copy, Debug)]
+pub enum Start<'a, S> {
+    /// Cold start from `z = 0` clamped into the box (any point of the box
+    /// is covered by the cold-start certificate).
+    Cold,
+    /// Warm start from a point in the problem's units (e.g. the previous
+    /// solution, possibly shifted); clamped into the current box first.
+    Warm(&'a [S]),
+}
+
+fn affine_into<S: Scalar>(a: &[S], b: &[S], theta: &[S], out: &mut [S]) {
+    let p = theta.len();
+    if p == 0 {
+        out.copy_from_slice(b);
+        return;
+    }
+    for ((o, row), bi) in out.iter_mut().zip(a.chunks_exact(p)).zip(b.iter()) {
+        *o = S::dot(row, theta) + *bi;
+    }
+}
+
+/// The fast-gradient kernel shared by every front end.
+///
+/// Runs the initial projected gradient step and then `iterations`
+/// iterations from `start`, for the parameter `theta`, and writes the
+/// solution in the problem's units into `out`. Time is deterministic: the
+/// same operations for every `theta`.
+///
+/// # Errors
+/// [`Error::DimensionMismatch`] for a table, workspace or vector of the
+/// wrong length, [`Error::InvalidArgument`] for an empty momentum table,
+/// [`Error::NonFinite`] for a NaN or infinite parameter or start point,
+/// [`Error::Infeasible`] if the box is empty at `theta` (`lo > hi`).
+pub fn solve_view<S: Scalar>(
+    t: &FgmView<'_, S>,
+    theta: &[S],
+    start: Start<'_, S>,
+    iterations: usize,
+    ws: WorkspaceMut<'_, S>,
+    out: &mut [S],
+) -> Result<(), Error> {
+    let (n, p) = (t.n, t.p);
+    check_len(t.m, n * n)?;
+    check_len(t.k_theta, n * p)?;
+    check_len(t.lo_theta, n * p)?;
+    check_len(t.hi_theta, n * p)?;
+    for v in [t.k0, t.lo0, t.hi0, t.d, t.d_inv] {
+        check_len(v, n)?;
+    }
+    if t.betas.is_empty() {
+        return Err(Error::InvalidArgument("betas: the momentum table is empty"));
+    }
+    check_len(theta, p)?;
+    check_len(out, n)?;
+    let WorkspaceMut { lo, hi, c, z, y, w } = ws;
+    for v in [&*lo, &*hi, &*c, &*z, &*y, &*w] {
+        check_len(v, n)?;
+    }
+    if !kestrel_core::all_finite(theta) {
+        return Err(Error::NonFinite);
+    }
+
+    affine_into(t.lo_theta, t.lo0, theta, lo);
+    affine_into(t.hi_theta, t.hi0, theta, hi);
+    if lo.iter().zip(hi.iter()).any(|(l, h)| l > h) {
+        return Err(Error::Infeasible);
+    }
+    affine_into(t.k_theta, t.k0, theta, c);
+
+    // Start point s in scaled units, clamped into the box.
+    match start {
+        Start::Cold => y.fill(S::ZERO),
+        Start::Warm(z0) => {
+            check_len(z0, n)?;
+            if !kestrel_core::all_finite(z0) {
+                return Err(Error::NonFinite);
+            }
+            for ((yi, zi), di) in y.iter_mut().zip(z0.iter()).zip(t.d_inv.iter()) {
+                *yi = *zi * *di;
+            }
+        }
+    }
+    clamp_slice(y, lo, hi);
+
+    // Initial projected gradient step: z_0 = clamp(M s + c), y_0 = z_0.
+    gradient_step(t.m, y, c, lo, hi, w);
+    z.copy_from_slice(w);
+    y.copy_from_slice(w);
+
+    let last = t.betas.len() - 1;
+    for i in 0..iterations {
+        let beta = match t.betas.get(i) {
+            Some(b) => *b,
+            None => t.betas.get(last).copied().unwrap_or(S::ZERO),
+        };
+        // w = z_{i+1} = clamp(M y_i + c)
+        gradient_step(t.m, y, c, lo, hi, w);
+        // y_{i+1} = z_{i+1} + beta (z_{i+1} - z_i); z <- z_{i+1}
+        for ((yi, zi), wi) in y.iter_mut().zip(z.iter_mut()).zip(w.iter()) {
+            *yi = *wi + beta * (*wi - *zi);
+            *zi = *wi;
+        }
+    }
+    for ((o, zi), di) in out.iter_mut().zip(z.iter()).zip(t.d.iter()) {
+        *o = *zi * *di;
+    }
+    Ok(())
+}
+
+/// `w = clamp(M y + c, lo, hi)`.
+#[inline]
+fn gradient_step<S: Scalar>(m: &[S], y: &[S], c: &[S], lo: &[S], hi: &[S], w: &mut [S]) {
+    let n = y.len();
+    if n == 0 {
+        return;
+    }
+    for ((((wi, row), ci), l), h) in w
+        .iter_mut()
+        .zip(m.chunks_exact(n))
+        .zip(c.iter())
+        .zip(lo.iter())
+        .zip(hi.iter())
+    {
+        *wi = (S::dot(row, y) + *ci).clamp(*l, *h);
+    }
+}
+
+#[inline]
+fn clamp_slice<S: Scalar>(x: &mut [S], lo: &[S], hi: &[S]) {
+    for ((xi, l), h) in x.iter_mut().zip(lo.iter()).zip(hi.iter()) {
+        *xi = xi.clamp(*l, *h);
+    }
+}
+
+/// Solver tables with const dimensions: `N` decision variables, `P`
+/// parameters, `T` momentum entries (`T = 1`: constant momentum).
+///
+/// Plain arrays with public fields, so that [`export_rust`](crate::export_rust)
+/// can write them as a `static` for the firmware. Build them at design time
+/// with [`FgmDesign::tables`](crate::FgmDesign::tables).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FgmTables<S, const N: usize, const P: usize, const T: usize> {
+    /// `M = I - D H D / L`.
+    pub m: Matrix<S, N, N>,
+    /// `K = -D F' / L`.
+    pub k_theta: Matrix<S, N, P>,
+    /// `k0 = -D f / L`.
+    pub k0: [S; N],
+    /// Scaled lower bound map.
+    pub lo_theta: Matrix<S, N, P>,
+    /// Scaled lower bound offset.
+    pub lo0: [S; N],
+    /// Scaled upper bound map.
+    pub hi_theta: Matrix<S, N, P>,
+    /// Scaled upper bound offset.
+    pub hi0: [S; N],
+    /// The scaling `z = D v`.
+    pub d: [S; N],
+    /// The inverse scaling `v = D^-1 z`.
+    pub d_inv: [S; N],
+    /// Momentum table (`T = 1`: constant momentum).
+    pub betas: [S; T],
+    /// The certified number of iterations for a cold start.
+    pub iterations: usize,
+    /// The certified number of iterations for a warm start (see
+    /// [`Certificate::warm`](crate::Certificate)).
+    pub warm_iterations: usize,
+    /// Entries to shift the previous solution by for a warm start (the
+    /// size of the first input block; 0 = reuse it unshifted).
+    pub shift: usize,
+}
+
+/// Caller-owned workspace of a solve with `N` variables; it also keeps the
+/// previous solution for warm starts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FgmWorkspace<S, const N: usize> {
+    lo: [S; N],
+    hi: [S; N],
+    c: [S; N],
+    z: [S; N],
+    y: [S; N],
+    w: [S; N],
+    prev: [S; N],
+    has_prev: bool,
+}
+
+impl<S: Scalar, const N: usize> Default for FgmWorkspace<S, N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<S: Scalar, const N: usize> FgmWorkspace<S, N> {
+    /// A zeroed workspace without a previous solution.
+    pub const fn new() -> Self {
+        FgmWorkspace {
+            lo: [S::ZERO; N],
+            hi: [S::ZERO; N],
+            c: [S::ZERO; N],
+            z: [S::ZERO; N],
+            y: [S::ZERO; N],
+            w: [S::ZERO; N],
+            prev: [S::ZERO; N],
+            has_prev: false,
+        }
+    }
+    /// The last solution, if any.
+    pub fn previous(&self) -> Option<&[S; N]> {
+        self.has_prev.then_some(&self.prev)
+    }
+    /// Forgets the previous solution (the next warm solve starts cold).
+    pub fn reset(&mut self) {
+        self.has_prev = false;
+    }
+}
+
+/// Shifts `prev` by `shift` entries into `out` and repeats its last
+/// `shift` entries (the standard MPC warm start); `shift = 0` copies.
+pub fn shift_into<S: Scalar>(prev: &[S], shift: usize, out: &mut [S]) -> Result<(), Error> {
+    let n = prev.len();
+    check_len(out, n)?;
+    if shift >= n {
+        out.copy_from_slice(prev);
+        return Ok(());
+    }
+    let (head, tail) = out.split_at_mut(n - shift);
+    head.copy_from_slice(prev.get(shift..).unwrap_or(&[]));
+    tail.copy_from_slice(prev.get(n - shift..).unwrap_or(&[]));
+    Ok(())
+}
+
+impl<S: Scalar, const N: usize, const P: usize, const T: usize> FgmTables<S, N, P, T> {
+    /// The flattened view the kernel works on.
+    pub fn view(&self) -> FgmView<'_, S> {
+        FgmView {
+            n: N,
+            p: P,
+            m: self.m.data.as_flattened(),
+            k_theta: self.k_theta.data.as_flattened(),
+            k0: &self.k0,
+            lo_theta: self.lo_theta.data.as_flattened(),
+            lo0: &self.lo0,
+            hi_theta: self.hi_theta.data.as_flattened(),
+            hi0: &self.hi0,
+            d: &self.d,
+            d_inv: &self.d_inv,
+            betas: &self.betas,
+        }
+    }
+
+    /// Runs `iterations` iterations from `start` (see [`solve_view`]) and
+    /// stores the result as the previous solution in `ws`.
+    ///
+    /// # Errors
+    /// As [`solve_view`].
+    pub fn solve_with(
+        &self,
+        theta: &[S; P],
+        start: Start<'_, S>,
+        iterations: usize,
+        ws: &mut FgmWorkspace<S, N>,
+    ) -> Result<[S; N], Error> {
+        let mut out = [S::ZERO; N];
+        let view = self.view();
+        let FgmWorkspace {
+            lo, hi, c, z, y, w, ..
+        } = ws;
+        solve_view(
+            &view,
+            theta,
+            start,
+            iterations,
+            WorkspaceMut { lo, hi, c, z, y, w },
+            &mut out,
+        )?;
+        ws.prev = out;
+        ws.has_prev = true;
+        Ok(out)
+    }
+
+    /// Cold start with the certified number of iterations.
+    ///
+    /// # Errors
+    /// As [`solve_view`].
+    pub fn solve(&self, theta: &[S; P], ws: &mut FgmWorkspace<S, N>) -> Result<[S; N], Error> {
+        self.solve_with(theta, Start::Cold, self.iterations, ws)
+    }
+
+    /// Warm start from the previous solution in `ws`, shifted by
+    /// [`FgmTables::shift`], with the certified warm-start iteration count;
+    /// falls back to a certified cold start when there is none.
+    ///
+    /// # Errors
+    /// As [`solve_view`].
+    pub fn solve_warm(&self, theta: &[S; P], ws: &mut FgmWorkspace<S, N>) -> Result<[S; N], Error> {
+        match ws.previous() {
+            None => self.solve(theta, ws),
+            Some(prev) => {
+                let mut start = [S::ZERO; N];
+                shift_into(prev, self.shift, &mut start)?;
+                self.solve_with(theta, Start::Warm(&start), self.warm_iterations, ws)
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shift_repeats_last_block() {
+        let mut out = [0.0; 5];
+        shift_into(&[1.0, 2.0, 3.0, 4.0, 5.0], 2, &mut out).unwrap();
+        assert_eq!(out, [3.0, 4.0, 5.0, 4.0, 5.0]);
+        shift_into(&[1.0, 2.0, 3.0, 4.0, 5.0], 0, &mut out).unwrap();
+        assert_eq!(out, [1.0, 2.0, 3.0, 4.0, 5.0]);
+        assert!(shift_into(&[1.0, 2.0], 1, &mut out).is_err());
+    }
+}

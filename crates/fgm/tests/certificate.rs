@@ -1,0 +1,197 @@
+//! The certificate against clarabel: J(z after the certified iterations)
+//! - J* <= eps for random theta, cold and warm start, in f64; the f32 and
+//! fixed-point solvers within their stated bounds. The full 10^5-theta runs
+//! are `cargo run --release -p kestrel-fgm --example certify_report`.
+
+mod common;
+
+use common::{Rng, mpc_problem, random_theta};
+use kestrel_core::{Q16, Scalar};
+use kestrel_fgm::reference::ReferenceSolver;
+use kestrel_fgm::{
+    BoxQp, FgmDesign, FgmSettings, Momentum, Preconditioner, Start, WarmStartAssumption,
+};
+use nalgebra::DVector;
+
+/// Debug-build sample size per problem (the release report uses 10^5).
+const SAMPLES: usize = 300;
+
+fn design(seed: u64, nx: usize, nu: usize, nh: usize, pc: Preconditioner) -> FgmDesign {
+    let prob = mpc_problem(seed, nx, nu, nh);
+    let settings = FgmSettings {
+        preconditioner: pc,
+        ..FgmSettings::default()
+    };
+    FgmDesign::new(BoxQp::from_mpqp(&prob).unwrap(), settings).unwrap()
+}
+
+fn check_cold(d: &FgmDesign, eps: f64, seed: u64) -> f64 {
+    let cert = d.certify(eps).unwrap();
+    let data = d.data::<f64>(&cert, None).unwrap();
+    let reference = ReferenceSolver::new(&d.problem);
+    let mut rng = Rng(seed);
+    let mut worst: f64 = f64::NEG_INFINITY;
+    for _ in 0..SAMPLES {
+        let th = random_theta(&mut rng, &d.problem.theta_lb, &d.problem.theta_ub);
+        let best = reference.solve(&d.problem, &th).unwrap();
+        let z = data
+            .solve(th.as_slice(), Start::Cold, cert.iterations)
+            .unwrap();
+        let z = DVector::from_vec(z);
+        let b = d.problem.bounds(&th);
+        for i in 0..z.len() {
+            assert!(
+                z[i] >= b.lo[i] - 1e-9 && z[i] <= b.hi[i] + 1e-9,
+                "infeasible"
+            );
+        }
+        let gap = d.problem.cost(&z, &th) - best.cost;
+        // clarabel's own accuracy (1e-10 relative) is far below eps.
+        assert!(
+            gap <= eps,
+            "gap {gap} > eps {eps} after {} iterations",
+            cert.iterations
+        );
+        worst = worst.max(gap);
+    }
+    worst
+}
+
+#[test]
+fn cold_start_certificate_holds_for_every_preconditioner_and_scheme() {
+    for (seed, nx, nu, nh) in [(1, 3, 2, 3), (2, 4, 3, 2)] {
+        for pc in [
+            Preconditioner::None,
+            Preconditioner::Jacobi,
+            Preconditioner::OptimalDiagonal,
+        ] {
+            let d = design(seed, nx, nu, nh, pc);
+            let delta = d.delta();
+            for rel in [1e-3, 1e-6] {
+                let worst = check_cold(&d, rel * delta, seed + 100);
+                assert!(worst.is_finite());
+            }
+        }
+    }
+    // The table scheme (the mu = 0 path) with its own certificate.
+    let mut d = design(3, 3, 2, 3, Preconditioner::OptimalDiagonal);
+    d.settings.momentum = Momentum::Table;
+    let cert = d.certify(1e-4 * d.delta()).unwrap();
+    assert_eq!(cert.scheme, kestrel_fgm::MomentumScheme::Table);
+    check_cold(&d, 1e-4 * d.delta(), 7);
+}
+
+#[test]
+fn warm_start_certificate_holds() {
+    let d = design(4, 3, 2, 3, Preconditioner::OptimalDiagonal);
+    let eps = 1e-6 * d.delta();
+    let cert = d.certify(eps).unwrap();
+    let range = &d.problem.theta_ub - &d.problem.theta_lb;
+    let assume = WarmStartAssumption {
+        prev_eps: eps,
+        theta_step: &range * 0.01,
+    };
+    let warm = d.certify_warm(eps, &assume).unwrap();
+    assert!(warm.refined);
+    assert!(
+        warm.iterations < cert.iterations,
+        "{} vs {}",
+        warm.iterations,
+        cert.iterations
+    );
+    let data = d.data::<f64>(&cert, Some(warm.iterations)).unwrap();
+    let reference = ReferenceSolver::new(&d.problem);
+    let mut rng = Rng(11);
+    for _ in 0..SAMPLES {
+        let th0 = random_theta(&mut rng, &d.problem.theta_lb, &d.problem.theta_ub);
+        // Previous solution: certified cold solve at th0 (eps-optimal).
+        let prev = data
+            .solve(th0.as_slice(), Start::Cold, cert.iterations)
+            .unwrap();
+        let th = DVector::from_fn(th0.len(), |i, _| {
+            (th0[i] + assume.theta_step[i] * rng.uniform(-1.0, 1.0))
+                .clamp(d.problem.theta_lb[i], d.problem.theta_ub[i])
+        });
+        let z = data
+            .solve(th.as_slice(), Start::Warm(&prev), warm.iterations)
+            .unwrap();
+        let gap = d.problem.cost(&DVector::from_vec(z), &th)
+            - reference.solve(&d.problem, &th).unwrap().cost;
+        assert!(gap <= eps, "warm gap {gap} > {eps}");
+    }
+}
+
+fn check_low_precision<S: Scalar>(d: &FgmDesign, eps: f64) -> f64 {
+    let cert = d.certify(eps).unwrap();
+    let bound = d.rounding_bound::<S>(&cert).expect("constant scheme");
+    let lo = d.data::<S>(&cert, None).unwrap();
+    let hi = d.data::<f64>(&cert, None).unwrap();
+    let reference = ReferenceSolver::new(&d.problem);
+    let mut rng = Rng(23);
+    let mut worst: f64 = 0.0;
+    for _ in 0..SAMPLES {
+        let th = random_theta(&mut rng, &d.problem.theta_lb, &d.problem.theta_ub);
+        let ths: Vec<S> = th.iter().map(|v| S::from_f64(*v)).collect();
+        let zs = lo.solve(&ths, Start::Cold, cert.iterations).unwrap();
+        let zs = DVector::from_iterator(zs.len(), zs.iter().map(|v| v.to_f64()));
+        let z64 = DVector::from_vec(
+            hi.solve(th.as_slice(), Start::Cold, cert.iterations)
+                .unwrap(),
+        );
+        let best = reference.solve(&d.problem, &th).unwrap().cost;
+        let gap = d.problem.cost(&zs, &th) - best;
+        assert!(
+            gap <= bound.cost_bound,
+            "{}: gap {gap} > {}",
+            bound.scalar,
+            bound.cost_bound
+        );
+        let dist = (&zs - &z64).norm();
+        assert!(
+            dist <= bound.distance_bound,
+            "{}: {dist} > {}",
+            bound.scalar,
+            bound.distance_bound
+        );
+        worst = worst.max(dist);
+    }
+    worst
+}
+
+#[test]
+fn f32_and_fixed_point_within_their_stated_bounds() {
+    let d = design(5, 3, 2, 3, Preconditioner::OptimalDiagonal);
+    let eps = 1e-6 * d.delta();
+    let w32 = check_low_precision::<f32>(&d, eps);
+    let wq = check_low_precision::<Q16>(&d, eps);
+    assert!(w32 < wq || wq < 1e-3, "f32 {w32}, Q16 {wq}");
+}
+
+#[test]
+fn bad_eps_and_assumptions_are_refused() {
+    let d = design(6, 2, 2, 2, Preconditioner::Jacobi);
+    for eps in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let e = d.certify(eps).unwrap_err();
+        assert!(e.to_string().contains("eps must be a positive"), "{e}");
+    }
+    let bad = WarmStartAssumption {
+        prev_eps: 1.0,
+        theta_step: DVector::zeros(1),
+    };
+    assert!(d.certify_warm(1.0, &bad).is_err());
+}
+
+#[test]
+fn preconditioning_lowers_the_condition_number_and_iterations() {
+    let none = design(8, 4, 3, 3, Preconditioner::None);
+    let jac = design(8, 4, 3, 3, Preconditioner::Jacobi);
+    let opt = design(8, 4, 3, 3, Preconditioner::OptimalDiagonal);
+    let (k0, kj, ko) = (
+        none.spectrum.condition(),
+        jac.spectrum.condition(),
+        opt.spectrum.condition(),
+    );
+    assert!(ko <= kj * (1.0 + 1e-9) && ko < k0, "{k0} {kj} {ko}");
+    let eps = 1e-3;
+    assert!(opt.certify(eps).unwrap().iterations <= none.certify(eps).unwrap().iterations);
+}
