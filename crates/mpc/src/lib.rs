@@ -8,9 +8,13 @@ mod design;
 #[cfg(feature = "std")]
 mod error;
 #[cfg(feature = "std")]
+mod law;
+#[cfg(feature = "std")]
 mod lq;
 #[cfg(feature = "std")]
 mod qp;
+#[cfg(feature = "std")]
+mod tricopter;
 
 #[cfg(feature = "std")]
 pub use condense::{ModelMatrices, MpcProblem, ThetaLayout};
@@ -21,4 +25,11 @@ pub use design::{
 #[cfg(feature = "std")]
 pub use error::MpcError;
 #[cfg(feature = "std")]
+pub use law::{MpcLaw, ParametricQpSolver, QpMpc};
+#[cfg(feature = "std")]
 pub use qp::{KktResiduals, QpSettings, QpSolution, ReferenceSolver, kkt_residuals};
+#[cfg(feature = "std")]
+pub use tricopter::{
+    Actuation, ProblemSize, TricopterTrim, default_weights, design_model, tricopter_problem,
+    tricopter_trim,
+};

@@ -18,6 +18,10 @@ pub struct QpSettings {
     pub accept_almost_solved: bool,
     /// Print clarabel's iteration log.
     pub verbose: bool,
+    /// When set, every solution's KKT residuals are checked
+    /// ([`KktResiduals::relative`]) and a solution above this relative
+    /// tolerance is refused with [`MpcError::Solver`].
+    pub kkt_tolerance: Option<f64>,
 }
 
 impl Default for QpSettings {
@@ -28,6 +32,7 @@ impl Default for QpSettings {
             tolerance: 1e-9,
             accept_almost_solved: false,
             verbose: false,
+            kkt_tolerance: None,
         }
     }
 }
@@ -72,6 +77,10 @@ pub struct KktResiduals {
     pub dual: f64,
     /// `max |lambda_i (G z - W - E theta)_i|`.
     pub complementarity: f64,
+    /// Scale of the gradient terms, `1 + max(|Hz|, |F'theta + f|, |G'lambda|)`.
+    pub gradient_scale: f64,
+    /// Scale of the constraint terms, `1 + max(|Gz|, |W + E theta|)`.
+    pub constraint_scale: f64,
 }
 
 impl KktResiduals {
@@ -81,6 +90,16 @@ impl KktResiduals {
             .max(self.primal)
             .max(self.dual)
             .max(self.complementarity)
+    }
+    /// The largest residual relative to the problem's scale: stationarity
+    /// over the gradient scale, primal infeasibility over the constraint
+    /// scale, complementarity over the constraint scale times the
+    /// gradient scale (a multiplier is a gradient per constraint unit).
+    pub fn relative(&self) -> f64 {
+        (self.stationarity / self.gradient_scale)
+            .max(self.primal / self.constraint_scale)
+            .max(self.dual / self.gradient_scale)
+            .max(self.complementarity / (self.constraint_scale * self.gradient_scale))
     }
 }
 
@@ -94,9 +113,16 @@ pub fn kkt_residuals(
     z: &DVector<f64>,
     lambda: &DVector<f64>,
 ) -> KktResiduals {
-    let grad = &problem.h * z + problem.linear_term(theta) + problem.g.tr_mul(lambda);
-    let slack = &problem.g * z - problem.rhs(theta);
+    let hz = &problem.h * z;
+    let q = problem.linear_term(theta);
+    let gl = problem.g.tr_mul(lambda);
+    let gz = &problem.g * z;
+    let rhs = problem.rhs(theta);
+    let grad = &hz + &q + &gl;
+    let slack = &gz - &rhs;
     KktResiduals {
+        gradient_scale: 1.0 + hz.amax().max(q.amax()).max(gl.amax()),
+        constraint_scale: 1.0 + gz.amax().max(rhs.amax()),
         stationarity: grad.amax(),
         primal: slack.iter().fold(0.0, |a: f64, &s| a.max(s)),
         dual: lambda.iter().fold(0.0, |a: f64, &l| a.max(-l)),
@@ -238,9 +264,19 @@ impl ReferenceSolver {
             other => return Err(status_error(other)),
         };
         let z = DVector::from_column_slice(&sol.x);
+        let lambda = DVector::from_column_slice(&sol.z);
+        if let Some(tol) = self.settings.kkt_tolerance {
+            let kkt = kkt_residuals(&self.problem, theta, &z, &lambda);
+            if kkt.relative().is_nan() || kkt.relative() > tol {
+                return Err(MpcError::Solver(format!(
+                    "KKT check failed: relative residual {:e} above {tol:e} ({kkt:?})",
+                    kkt.relative()
+                )));
+            }
+        }
         let objective = 0.5 * z.dot(&(&self.problem.h * &z)) + q.dot(&z);
         Ok(QpSolution {
-            lambda: DVector::from_column_slice(&sol.z),
+            lambda,
             z,
             objective,
             iterations: sol.iterations,

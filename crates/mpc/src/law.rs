@@ -1,0 +1,153 @@
+//! MPC control laws: a receding-horizon wrapper around any solver of the
+//! condensed parametric QP.
+
+use crate::condense::{MpcProblem, ThetaLayout};
+use crate::error::MpcError;
+use crate::qp::{QpSettings, ReferenceSolver};
+use kestrel_core::{ControlLaw, Error};
+use nalgebra::DVector;
+
+/// A solver of the parametric QP `min 1/2 z'Hz + theta'F z s.t. G z <= W + E theta`.
+///
+/// This is the slot through which the solvers plug into [`MpcLaw`] and the
+/// closed-loop simulator: the clarabel [`ReferenceSolver`] here, the
+/// explicit (kestrel-empc) and fast-gradient (kestrel-fgm) solvers in
+/// their crates.
+pub trait ParametricQpSolver {
+    /// Number of decision variables `n`.
+    fn n(&self) -> usize;
+    /// Number of parameters `p`.
+    fn p(&self) -> usize;
+    /// Writes a (near-)minimiser for `theta` into `z`.
+    fn solve_into(&mut self, theta: &[f64], z: &mut [f64]) -> Result<(), Error>;
+}
+
+impl From<MpcError> for Error {
+    fn from(e: MpcError) -> Self {
+        match e {
+            MpcError::Infeasible => Error::Infeasible,
+            MpcError::NonFinite(_) => Error::NonFinite,
+            MpcError::Dimension { .. } => Error::InvalidArgument("dimension mismatch"),
+            MpcError::NotPositiveDefinite { .. } => Error::NotPositiveDefinite,
+            MpcError::Core(e) => e,
+            _ => Error::NotConverged,
+        }
+    }
+}
+
+impl ParametricQpSolver for ReferenceSolver {
+    fn n(&self) -> usize {
+        self.problem().n()
+    }
+    fn p(&self) -> usize {
+        self.problem().p()
+    }
+    fn solve_into(&mut self, theta: &[f64], z: &mut [f64]) -> Result<(), Error> {
+        kestrel_core::check_len(theta, self.problem().p())?;
+        kestrel_core::check_len(z, self.problem().n())?;
+        let sol = self.solve(&DVector::from_column_slice(theta))?;
+        z.copy_from_slice(sol.z.as_slice());
+        Ok(())
+    }
+}
+
+/// The receding-horizon MPC law: assembles `theta = [x; r; throttle]`,
+/// solves the QP with any [`ParametricQpSolver`], and applies the first
+/// move (the `nu` inputs of the first block, deviations from the trim).
+///
+/// As a [`ControlLaw`]: `x` the state estimate (`nx`), `r` the output
+/// references followed by the throttle when the problem has one, `u` the
+/// input deviation from the trim (`nu`).
+///
+/// ```
+/// use kestrel_core::{ControlLaw, Matrix, StateSpace};
+/// use kestrel_mpc::{InputBounds, MpcLaw, MpcProblem, MpcSettings, QpSettings, Terminal};
+/// use nalgebra::dvector;
+/// let m = StateSpace::new(Matrix::from_rows([[0.9]]), Matrix::from_rows([[0.1]]),
+///     Matrix::from_rows([[1.0]]), Matrix::from_rows([[0.0]]), 0.02);
+/// let p = MpcProblem::build(&m, &InputBounds::new(dvector![-0.5], dvector![0.5]),
+///     &MpcSettings { horizon: 5, terminal: Terminal::Lq, ..MpcSettings::default() }).unwrap();
+/// let mut law = MpcLaw::clarabel(&p, QpSettings::default()).unwrap();
+/// let mut u = [0.0];
+/// law.control(&[0.0], &[2.0], &mut u).unwrap(); // far below the reference
+/// assert!((u[0] - 0.5).abs() < 1e-6);           // full push, at the bound
+/// ```
+#[derive(Debug)]
+pub struct MpcLaw<S> {
+    layout: ThetaLayout,
+    nu: usize,
+    solver: S,
+    theta: Vec<f64>,
+    z: Vec<f64>,
+}
+
+/// The MPC law with the clarabel reference solver.
+pub type QpMpc = MpcLaw<ReferenceSolver>;
+
+impl MpcLaw<ReferenceSolver> {
+    /// The MPC law of `problem` solved exactly by clarabel.
+    pub fn clarabel(problem: &MpcProblem, settings: QpSettings) -> Result<Self, MpcError> {
+        let solver = ReferenceSolver::new(&problem.to_mpqp(), settings)?;
+        MpcLaw::new(problem, solver)
+    }
+}
+
+impl<S: ParametricQpSolver> MpcLaw<S> {
+    /// The MPC law of `problem` with any solver of its QP; the solver's
+    /// sizes must match the problem's.
+    pub fn new(problem: &MpcProblem, solver: S) -> Result<Self, MpcError> {
+        if solver.n() != problem.n() || solver.p() != problem.p() {
+            return Err(MpcError::dim(
+                "QP solver",
+                format!("n = {}, p = {}", problem.n(), problem.p()),
+                format!("n = {}, p = {}", solver.n(), solver.p()),
+            ));
+        }
+        Ok(MpcLaw {
+            layout: problem.layout,
+            nu: problem.nu,
+            theta: vec![0.0; problem.p()],
+            z: vec![0.0; problem.n()],
+            solver,
+        })
+    }
+    /// The solver.
+    pub fn solver(&self) -> &S {
+        &self.solver
+    }
+    /// The solver, mutably.
+    pub fn solver_mut(&mut self) -> &mut S {
+        &mut self.solver
+    }
+    /// The parameter vector of the last call.
+    pub fn last_theta(&self) -> &[f64] {
+        &self.theta
+    }
+    /// The whole blocked input sequence `z` of the last call.
+    pub fn last_z(&self) -> &[f64] {
+        &self.z
+    }
+}
+
+impl<S: ParametricQpSolver> ControlLaw for MpcLaw<S> {
+    type Scalar = f64;
+    fn nx(&self) -> usize {
+        self.layout.nx
+    }
+    fn nr(&self) -> usize {
+        self.layout.n_law_reference()
+    }
+    fn nu(&self) -> usize {
+        self.nu
+    }
+    fn control(&mut self, x: &[f64], r: &[f64], u: &mut [f64]) -> Result<(), Error> {
+        kestrel_core::check_len(u, self.nu)?;
+        if !kestrel_core::all_finite(x) || !kestrel_core::all_finite(r) {
+            return Err(Error::NonFinite);
+        }
+        self.layout.assemble_into(x, r, &mut self.theta)?;
+        self.solver.solve_into(&self.theta, &mut self.z)?;
+        u.copy_from_slice(&self.z[..self.nu]);
+        Ok(())
+    }
+}
