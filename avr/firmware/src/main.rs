@@ -396,6 +396,44 @@ fn fgm_bench(clock: &Timer1Clock) {
         send(Kind::Bench, 100, &b.to_payload());
     }
 
+    // The same step with 16-bit coefficients (Q2.13) and Q16 states through
+    // the narrower 32 x 16 MAC (kestrel_avr_rt::mac::dot_q16_i16).
+    {
+        use kestrel_avr_rt::mac::dot_q16_i16;
+        let mut lcg = 0x1357_9bdfu32;
+        let mut coef = move || {
+            lcg = lcg.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            ((lcg >> 16) as i16) >> 3
+        };
+        let a: [[i16; 5]; 5] = core::array::from_fn(|_| core::array::from_fn(|_| coef()));
+        let bm: [[i16; 4]; 5] = core::array::from_fn(|_| core::array::from_fn(|_| coef()));
+        let c: [[i16; 5]; 3] = core::array::from_fn(|_| core::array::from_fn(|_| coef()));
+        let k: [[i16; 3]; 5] = core::array::from_fn(|_| core::array::from_fn(|_| coef()));
+        let mut x: [i32; 5] = core::array::from_fn(|i| (i as i32 - 2) * 40_000);
+        let y: [i32; 3] = [30_000, -20_000, 10_000];
+        let u: [i32; 4] = [1_000_000, -2_000_000, 500_000, 0];
+        let q = |v: i64| ((v + (1 << 12)) >> 13) as i32; // back to Q16
+        let t0 = clock.now();
+        let (a, bm, c, k, y, u) = core::hint::black_box((&a, &bm, &c, &k, &y, &u));
+        let innov: [i32; 3] = core::array::from_fn(|i| y[i] - q(dot_q16_i16(&x, &c[i])));
+        for i in 0..5 {
+            x[i] += q(dot_q16_i16(&innov, &k[i]));
+        }
+        let xn: [i32; 5] =
+            core::array::from_fn(|i| q(dot_q16_i16(&x, &a[i]) + dot_q16_i16(u, &bm[i])));
+        core::hint::black_box(&xn);
+        let cycles = clock.now().wrapping_sub(t0);
+        let b = Bench {
+            id: 101,
+            ok: 1,
+            iterations: 1,
+            n: 5,
+            p: 3,
+            cycles,
+        };
+        send(Kind::Bench, 101, &b.to_payload());
+    }
+
     let mut ws = FgmWorkspace::<S, N>::new();
     for (id, k) in [1u16, 12, 56, 91].into_iter().enumerate() {
         let t0 = clock.now();

@@ -626,14 +626,21 @@ fn fgm_bench(scalar_features: &[&str], scalar: &str) {
                 .iter()
                 .filter_map(|f| Bench::from_frame(f).ok()),
         );
-        if benches.len() == 5 {
+        if benches.len() == 6 {
             break;
         }
     }
-    assert_eq!(benches.len(), 5, "{scalar}: bench frames");
+    assert_eq!(benches.len(), 6, "{scalar}: bench frames");
     // First the Kalman-sized step (id 100), then the fast-gradient solves.
     let kalman = benches.remove(0);
     assert_eq!((kalman.id, kalman.n, kalman.p), (100, 5, 3));
+    let narrow = benches.remove(0);
+    assert_eq!((narrow.id, narrow.n, narrow.p), (101, 5, 3));
+    println!(
+        "kalman-sized step, Q16 states x 16-bit coefficients (narrow MAC): {} cycles ({:.3} ms)",
+        narrow.cycles,
+        narrow.cycles as f64 / 16_000.0
+    );
     println!(
         "{scalar} kalman-sized step (core kernels, 5 states, 4 inputs, 3 outputs): {} cycles ({:.3} ms)",
         kalman.cycles,
@@ -660,9 +667,10 @@ fn fgm_bench(scalar_features: &[&str], scalar: &str) {
     );
     if std::env::var_os("KESTREL_HIL_REPORT").is_some() {
         println!(
-            "HIL-REPORT {{\"scalar\": \"{scalar}\", \"solver\": \"fgm\", \"kalman_cycles\": {{\"min\": {kc}, \"mean\": {kc}, \"max\": {kc}}}, \"solver_cycles\": {{\"min\": {at56}, \"mean\": {at56}, \"max\": {at56}}}, \"period_cycles\": null, \"iterations\": 56, \"flash_bytes\": {flash}, \"ram_bytes\": {ram}, \"cycles_per_iteration\": {:.0}, \"note\": \"kestrel-fgm kernel timed at boot on synthetic thesis-sized tables (n=4, p=9); not yet in the closed loop; 56 = the thesis's accurate count, not a kestrel certificate; kalman_cycles = one 5-state stationary-Kalman-sized step with kestrel-core kernels (kestrel-kalman has no run-time step yet)\"}}",
+            "HIL-REPORT {{\"scalar\": \"{scalar}\", \"solver\": \"fgm\", \"kalman_cycles\": {{\"min\": {kc}, \"mean\": {kc}, \"max\": {kc}}}, \"solver_cycles\": {{\"min\": {at56}, \"mean\": {at56}, \"max\": {at56}}}, \"period_cycles\": null, \"iterations\": 56, \"flash_bytes\": {flash}, \"ram_bytes\": {ram}, \"cycles_per_iteration\": {:.0}, \"note\": \"kestrel-fgm kernel timed at boot on synthetic thesis-sized tables (n=4, p=9); not yet in the closed loop; 56 = the thesis's accurate count, not a kestrel certificate; kalman_cycles = one 5-state stationary-Kalman-sized step with kestrel-core kernels (kestrel-kalman has no run-time step yet); the same step with 16-bit coefficients and the narrow MAC: {nk} cycles\"}}",
             per_iter,
-            kc = kalman.cycles
+            kc = kalman.cycles,
+            nk = narrow.cycles
         );
     }
 }
