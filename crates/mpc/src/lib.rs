@@ -14,6 +14,8 @@ mod lq;
 #[cfg(feature = "std")]
 mod qp;
 #[cfg(feature = "std")]
+pub mod sim;
+#[cfg(feature = "std")]
 mod tricopter;
 
 #[cfg(feature = "std")]

@@ -115,13 +115,13 @@ impl TricopterTrim {
             saturated: [false; 4],
             applied: [0.0; 4],
         };
-        for i in 0..4 {
+        for (i, zi) in z.iter().enumerate() {
             let (base, (lo, hi)) = if i < 3 {
                 (throttle + self.offsets[i], ESC_PWM_RANGE)
             } else {
                 (pwm::SERVO_CENTER + self.offsets[3], SERVO_PWM_RANGE)
             };
-            let raw = base + z[i];
+            let raw = base + zi;
             let c = raw.clamp(lo, hi);
             out.saturated[i] = c != raw;
             out.pwm[i] = c;
