@@ -19,12 +19,25 @@ fn main() {
         let t = std::time::Instant::now();
         let sol = solve(&p, &Settings::default()).unwrap();
         let dt = t.elapsed().as_secs_f64();
-        println!("{name}: n={} p={} m={} regions={} {:?} {dt:.4}s", p.n(), p.p(), p.m(), sol.regions.len(), sol.stats);
+        println!(
+            "{name}: n={} p={} m={} regions={} {:?} {dt:.4}s",
+            p.n(),
+            p.p(),
+            p.m(),
+            sol.regions.len(),
+            sol.stats
+        );
         if brute {
             let bf = brute_force_active_sets(&p, &Settings::default()).unwrap();
-            let mut ex: Vec<Vec<usize>> = sol.regions.iter().map(|r| r.active_set.clone()).collect();
+            let mut ex: Vec<Vec<usize>> =
+                sol.regions.iter().map(|r| r.active_set.clone()).collect();
             ex.sort();
-            println!("  brute force {} explorer {} equal {}", bf.len(), ex.len(), bf == ex);
+            println!(
+                "  brute force {} explorer {} equal {}",
+                bf.len(),
+                ex.len(),
+                bf == ex
+            );
         }
     }
 }

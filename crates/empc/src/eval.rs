@@ -1,9 +1,395 @@
-//! placeholder
-/// x
-pub trait TreeTables {}
-/// x
-pub struct SliceTables;
-/// x
-pub struct Evaluation;
-/// x
-pub fn evaluate() {}
+//! Run-time point location and evaluation (`no_std`, no allocation, no panic).
+//!
+//! The explicit law is stored as flat tables read through [`TreeTables`],
+//! so they can live in RAM ([`SliceTables`] over `static` arrays, as the
+//! exported Rust source defines them) or be served from the AVR's program
+//! memory by an accessor that implements the trait with `lpm` reads.
+//!
+//! Tables (with `p` parameters and `k` outputs):
+//! - nodes `[hyperplane, child if a'theta <= b, child otherwise]`; a child
+//!   with the [`LEAF`] bit set is a leaf holding a law index, others are
+//!   node indices; the root is a child code too;
+//! - hyperplanes, `p + 1` numbers each: `a` then `b`;
+//! - laws, `k` row indices each (one affine row per output);
+//! - affine rows, `p + 1` numbers each: gains then constant (laws share rows:
+//!   a saturated output is the same row in many laws);
+//! - the explored set `hull`, rows `a, b` with `a'theta <= b`, the parameter
+//!   box, and per output the rows of an affine lower and upper bound
+//!   ([`NO_ROW`] if none).
+//!
+//! Outside the explored set the evaluation is defined and safe: `theta` is
+//! first projected onto the parameter box (clamped), the tree gives the law
+//! of the region containing that point — the nearest region when the
+//! explored set is the box — and the outputs are clamped to their bounds
+//! evaluated there; [`Evaluation::outside`] flags it. Outputs are clamped
+//! to their bounds in every case (inside the explored set the law already
+//! satisfies them, up to rounding).
+
+use kestrel_core::{Error, Scalar};
+
+/// Marks a child code as a leaf; the low 15 bits are then the law index.
+pub const LEAF: u16 = 0x8000;
+/// "No row" in the output-bound table.
+pub const NO_ROW: u16 = 0xFFFF;
+
+/// Read access to the tables of an explicit controller.
+///
+/// Every accessor returns `None` for an index outside its table, which the
+/// evaluation turns into [`Error::OutOfRange`] (corrupted tables), never a panic.
+pub trait TreeTables<S: Scalar> {
+    /// Number of parameters `p`.
+    fn n_params(&self) -> usize;
+    /// Number of outputs `k`.
+    fn n_outputs(&self) -> usize;
+    /// Number of tree nodes.
+    fn n_nodes(&self) -> usize;
+    /// The root as a child code (a node index, or a leaf).
+    fn root(&self) -> u16;
+    /// Node `i`: `[hyperplane, child if a'theta <= b, child otherwise]`.
+    fn node(&self, i: usize) -> Option<[u16; 3]>;
+    /// Entry `j` of hyperplane `h`: `a[j]` for `j < p`, `b` for `j == p`.
+    fn hyperplane(&self, h: usize, j: usize) -> Option<S>;
+    /// The affine row of output `out` under law `law`.
+    fn law(&self, law: usize, out: usize) -> Option<u16>;
+    /// Entry `j` of affine row `r`: gain for `j < p`, constant for `j == p`.
+    fn row(&self, r: usize, j: usize) -> Option<S>;
+    /// Number of rows of the explored set.
+    fn n_hull(&self) -> usize;
+    /// Entry `j` of row `i` of the explored set (`a` then `b`).
+    fn hull(&self, i: usize, j: usize) -> Option<S>;
+    /// Lower and upper bound of parameter `j`.
+    fn theta_bounds(&self, j: usize) -> Option<(S, S)>;
+    /// Affine rows of the lower and upper bound of output `out` ([`NO_ROW`]: none).
+    fn output_bounds(&self, out: usize) -> Option<[u16; 2]>;
+}
+
+/// Tables in slices (RAM or `static` arrays): what the exported source builds.
+#[derive(Clone, Copy, Debug)]
+pub struct SliceTables<'a, S> {
+    /// Number of parameters `p`.
+    pub n_params: usize,
+    /// Number of outputs `k`.
+    pub n_outputs: usize,
+    /// The root child code.
+    pub root: u16,
+    /// Tree nodes.
+    pub nodes: &'a [[u16; 3]],
+    /// Hyperplanes, `p + 1` entries each.
+    pub hyperplanes: &'a [S],
+    /// Laws, `k` row indices each.
+    pub laws: &'a [u16],
+    /// Affine rows, `p + 1` entries each.
+    pub rows: &'a [S],
+    /// Explored set rows, `p + 1` entries each.
+    pub hull: &'a [S],
+    /// Parameter lower bounds.
+    pub theta_lb: &'a [S],
+    /// Parameter upper bounds.
+    pub theta_ub: &'a [S],
+    /// Per output: rows of the lower and upper bound.
+    pub bounds: &'a [[u16; 2]],
+}
+
+impl<S: Scalar> TreeTables<S> for SliceTables<'_, S> {
+    fn n_params(&self) -> usize {
+        self.n_params
+    }
+    fn n_outputs(&self) -> usize {
+        self.n_outputs
+    }
+    fn n_nodes(&self) -> usize {
+        self.nodes.len()
+    }
+    fn root(&self) -> u16 {
+        self.root
+    }
+    fn node(&self, i: usize) -> Option<[u16; 3]> {
+        self.nodes.get(i).copied()
+    }
+    fn hyperplane(&self, h: usize, j: usize) -> Option<S> {
+        entry(self.hyperplanes, self.n_params + 1, h, j)
+    }
+    fn law(&self, law: usize, out: usize) -> Option<u16> {
+        if out >= self.n_outputs {
+            return None;
+        }
+        self.laws
+            .get(law.checked_mul(self.n_outputs)?.checked_add(out)?)
+            .copied()
+    }
+    fn row(&self, r: usize, j: usize) -> Option<S> {
+        entry(self.rows, self.n_params + 1, r, j)
+    }
+    fn n_hull(&self) -> usize {
+        self.hull.len() / (self.n_params + 1)
+    }
+    fn hull(&self, i: usize, j: usize) -> Option<S> {
+        entry(self.hull, self.n_params + 1, i, j)
+    }
+    fn theta_bounds(&self, j: usize) -> Option<(S, S)> {
+        Some((*self.theta_lb.get(j)?, *self.theta_ub.get(j)?))
+    }
+    fn output_bounds(&self, out: usize) -> Option<[u16; 2]> {
+        self.bounds.get(out).copied()
+    }
+}
+
+#[inline]
+fn entry<S: Copy>(t: &[S], width: usize, i: usize, j: usize) -> Option<S> {
+    if j >= width {
+        return None;
+    }
+    t.get(i.checked_mul(width)?.checked_add(j)?).copied()
+}
+
+/// What the evaluation found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Evaluation {
+    /// The law used.
+    pub law: u16,
+    /// `theta` was outside the explored set (outside the box or the hull):
+    /// the output is the clamped law of the nearest region (see the module doc).
+    pub outside: bool,
+    /// Tree nodes visited.
+    pub steps: u16,
+}
+
+/// `row' [theta; 1]` for an affine row read through `get`.
+#[inline]
+fn affine<S: Scalar>(theta: &[S], get: impl Fn(usize) -> Option<S>) -> Result<S, Error> {
+    let p = theta.len();
+    let mut acc = get(p).ok_or(Error::OutOfRange)?;
+    for (j, t) in theta.iter().enumerate() {
+        acc = acc.mul_add(get(j).ok_or(Error::OutOfRange)?, *t);
+    }
+    Ok(acc)
+}
+
+/// Locates `theta` in the tree and writes the law's outputs into `z`.
+///
+/// `P` is the number of parameters (it must match the tables); `z` must have
+/// the tables' number of outputs. Errors: a dimension mismatch, a
+/// non-finite `theta`, or corrupted tables ([`Error::OutOfRange`]).
+///
+/// ```
+/// use kestrel_empc::{evaluate, SliceTables, LEAF, NO_ROW};
+/// // One parameter, one output: z = -theta for theta <= 0, z = 0 otherwise.
+/// static T: SliceTables<'static, f64> = SliceTables {
+///     n_params: 1, n_outputs: 1, root: 0,
+///     nodes: &[[0, LEAF, LEAF | 1]],
+///     hyperplanes: &[1.0, 0.0],          // theta <= 0 goes left
+///     laws: &[0, 1],
+///     rows: &[-1.0, 0.0, 0.0, 0.0],      // -theta, and 0
+///     hull: &[], theta_lb: &[-1.0], theta_ub: &[1.0],
+///     bounds: &[[NO_ROW, NO_ROW]],
+/// };
+/// let mut z = [0.0];
+/// let e = evaluate(&T, &[-0.5], &mut z).unwrap();
+/// assert_eq!((z[0], e.law, e.outside), (0.5, 0, false));
+/// let e = evaluate(&T, &[3.0], &mut z).unwrap(); // outside: clamped to the box
+/// assert_eq!((z[0], e.law, e.outside), (0.0, 1, true));
+/// ```
+pub fn evaluate<S: Scalar, T: TreeTables<S> + ?Sized, const P: usize>(
+    tables: &T,
+    theta: &[S; P],
+    z: &mut [S],
+) -> Result<Evaluation, Error> {
+    let mut scratch = [S::ZERO; P];
+    evaluate_with(tables, theta, &mut scratch, z)
+}
+
+/// [`evaluate`] for a parameter count known only at run time: `scratch`
+/// (at least `p` entries, caller-owned) holds the projected parameter.
+pub fn evaluate_with<S: Scalar, T: TreeTables<S> + ?Sized>(
+    tables: &T,
+    theta: &[S],
+    scratch: &mut [S],
+    z: &mut [S],
+) -> Result<Evaluation, Error> {
+    let p = tables.n_params();
+    if theta.len() != p {
+        return Err(Error::DimensionMismatch {
+            expected: p,
+            found: theta.len(),
+        });
+    }
+    if z.len() != tables.n_outputs() {
+        return Err(Error::DimensionMismatch {
+            expected: tables.n_outputs(),
+            found: z.len(),
+        });
+    }
+    let Some(th) = scratch.get_mut(..p) else {
+        return Err(Error::DimensionMismatch {
+            expected: p,
+            found: scratch.len(),
+        });
+    };
+    if !theta.iter().all(|v| v.is_finite()) {
+        return Err(Error::NonFinite);
+    }
+    th.copy_from_slice(theta);
+    let th: &mut [S] = th;
+    let mut outside = false;
+    for (j, v) in th.iter_mut().enumerate() {
+        let (lo, hi) = tables.theta_bounds(j).ok_or(Error::OutOfRange)?;
+        if *v < lo || *v > hi {
+            outside = true;
+            *v = v.clamp(lo, hi);
+        }
+    }
+    let th: &[S] = th;
+    #[allow(non_snake_case)]
+    let P = p;
+    if !outside {
+        for i in 0..tables.n_hull() {
+            // a'theta - b > 0 means outside.
+            let b = tables.hull(i, P).ok_or(Error::OutOfRange)?;
+            let s = affine(th, |j| {
+                if j == P {
+                    Some(S::ZERO)
+                } else {
+                    tables.hull(i, j)
+                }
+            })?;
+            if s > b {
+                outside = true;
+                break;
+            }
+        }
+    }
+    let mut code = tables.root();
+    let mut steps: u16 = 0;
+    let limit = tables.n_nodes();
+    while code & LEAF == 0 {
+        if steps as usize > limit {
+            return Err(Error::OutOfRange); // a cycle: corrupted tables
+        }
+        let node = tables.node(code as usize).ok_or(Error::OutOfRange)?;
+        let h = node[0] as usize;
+        let b = tables.hyperplane(h, P).ok_or(Error::OutOfRange)?;
+        let s = affine(th, |j| {
+            if j == P {
+                Some(S::ZERO)
+            } else {
+                tables.hyperplane(h, j)
+            }
+        })?;
+        code = if s <= b { node[1] } else { node[2] };
+        steps = steps.saturating_add(1);
+    }
+    let law = code & !LEAF;
+    for (o, zo) in z.iter_mut().enumerate() {
+        let r = tables.law(law as usize, o).ok_or(Error::OutOfRange)? as usize;
+        let mut v = affine(th, |j| tables.row(r, j))?;
+        let [lo, hi] = tables.output_bounds(o).ok_or(Error::OutOfRange)?;
+        if lo != NO_ROW {
+            let l = affine(th, |j| tables.row(lo as usize, j))?;
+            v = v.max(l);
+        }
+        if hi != NO_ROW {
+            let u = affine(th, |j| tables.row(hi as usize, j))?;
+            v = v.min(u);
+        }
+        *zo = v;
+    }
+    Ok(Evaluation {
+        law,
+        outside,
+        steps,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use kestrel_core::Q16;
+
+    static NODES: [[u16; 3]; 1] = [[0, LEAF, LEAF | 1]];
+    fn tables<S: Scalar>(buf: &mut [S; 12]) -> SliceTables<'_, S> {
+        // hyperplane theta0 <= 0 ; rows: [-1, 0 | 0], [0, 0 | 0.25]; bound rows: [0,0|-1], [0,0|1]
+        let v = [
+            1.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, -1.0,
+        ];
+        for (d, s) in buf.iter_mut().zip(v) {
+            *d = S::from_f64(s);
+        }
+        let (hp, rows) = buf.split_at(3);
+        SliceTables {
+            n_params: 2,
+            n_outputs: 1,
+            root: 0,
+            nodes: &NODES,
+            hyperplanes: hp,
+            laws: &[0, 1],
+            rows,
+            hull: &[],
+            theta_lb: &[],
+            theta_ub: &[],
+            bounds: &[[NO_ROW, NO_ROW]],
+        }
+    }
+
+    #[test]
+    fn errors_not_panics() {
+        let mut buf = [0.0f64; 12];
+        let t = tables(&mut buf);
+        let mut z = [0.0];
+        // theta bounds table is empty: corrupted -> OutOfRange.
+        assert_eq!(evaluate(&t, &[0.0, 0.0], &mut z), Err(Error::OutOfRange));
+        let lb = [-1.0, -1.0];
+        let ub = [1.0, 1.0];
+        let t = SliceTables {
+            theta_lb: &lb,
+            theta_ub: &ub,
+            ..t
+        };
+        assert_eq!(
+            evaluate(&t, &[f64::NAN, 0.0], &mut z),
+            Err(Error::NonFinite)
+        );
+        assert_eq!(
+            evaluate(&t, &[0.0, 0.0, 0.0], &mut z),
+            Err(Error::DimensionMismatch {
+                expected: 2,
+                found: 3
+            })
+        );
+        let mut z2 = [0.0; 2];
+        assert!(matches!(
+            evaluate(&t, &[0.0, 0.0], &mut z2),
+            Err(Error::DimensionMismatch { .. })
+        ));
+        let e = evaluate(&t, &[-0.5, 0.0], &mut z).unwrap();
+        assert_eq!((e.law, z[0]), (0, 0.5));
+        let e = evaluate(&t, &[0.5, 0.0], &mut z).unwrap();
+        assert_eq!((e.law, z[0]), (1, 0.25));
+        // A cycle in the node table is detected.
+        let cyc = [[0u16, 0, 0]];
+        let t2 = SliceTables { nodes: &cyc, ..t };
+        assert_eq!(evaluate(&t2, &[0.5, 0.0], &mut z), Err(Error::OutOfRange));
+        // A law pointing past the row table.
+        let t3 = SliceTables { laws: &[0, 9], ..t };
+        assert_eq!(evaluate(&t3, &[0.5, 0.0], &mut z), Err(Error::OutOfRange));
+    }
+
+    #[test]
+    fn fixed_point_same_leaf() {
+        let mut buf = [Q16::ZERO; 12];
+        let t = tables(&mut buf);
+        let lb = [Q16::from_f64(-1.0); 2];
+        let ub = [Q16::from_f64(1.0); 2];
+        let t = SliceTables {
+            theta_lb: &lb,
+            theta_ub: &ub,
+            ..t
+        };
+        let mut z = [Q16::ZERO];
+        let e = evaluate(&t, &[Q16::from_f64(-0.25), Q16::ZERO], &mut z).unwrap();
+        assert_eq!(e.law, 0);
+        assert_eq!(z[0].to_f64(), 0.25);
+        let e = evaluate(&t, &[Q16::from_f64(-3.0), Q16::ZERO], &mut z).unwrap();
+        assert!(e.outside);
+        assert_eq!(z[0].to_f64(), 1.0);
+    }
+}

@@ -6,17 +6,27 @@ pub mod eval;
 #[cfg(feature = "std")]
 mod error;
 #[cfg(feature = "std")]
+pub mod export;
+#[cfg(feature = "std")]
 mod lp;
 #[cfg(feature = "std")]
 pub mod mpqp;
 #[cfg(feature = "std")]
+mod qp;
+#[cfg(feature = "std")]
 pub mod testing;
 #[cfg(feature = "std")]
-mod qp;
+pub mod tree;
 
-pub use eval::{Evaluation, SliceTables, TreeTables, evaluate};
+pub use eval::{Evaluation, LEAF, NO_ROW, SliceTables, TreeTables, evaluate, evaluate_with};
 
 #[cfg(feature = "std")]
 pub use error::EmpcError;
 #[cfg(feature = "std")]
-pub use mpqp::{CriticalRegion, MpqpSolution, Settings, SolveStats, brute_force_active_sets, solve};
+pub use mpqp::{
+    CriticalRegion, MpqpSolution, Settings, SolveStats, brute_force_active_sets, solve,
+};
+#[cfg(feature = "std")]
+pub use tree::{
+    ExplicitController, Outputs, OwnedTables, TreeSettings, TreeStats, build_controller,
+};

@@ -120,7 +120,8 @@ pub struct MpqpSolution {
     pub p: usize,
     /// The regions.
     pub regions: Vec<CriticalRegion>,
-    /// The explored set (parameters with a feasible QP): `hull_a theta <= hull_b`.
+    /// The explored set (parameters with a feasible QP) is the parameter box
+    /// intersected with `hull_a theta <= hull_b`.
     pub hull_a: DMatrix<f64>,
     /// Offsets of the explored set.
     pub hull_b: DVector<f64>,
@@ -183,7 +184,8 @@ pub(crate) fn prepare(prob: &MpqpProblem, settings: &Settings) -> Result<Prepare
         )));
     }
     prob.validate()?;
-    if let Some(j) = (0..prob.p()).find(|&j| prob.theta_lb[j].abs().max(prob.theta_ub[j].abs()) > 1e12)
+    if let Some(j) =
+        (0..prob.p()).find(|&j| prob.theta_lb[j].abs().max(prob.theta_ub[j].abs()) > 1e12)
     {
         return Err(EmpcError::UnboundedParameterSet(format!(
             "theta bound {j} has magnitude above 1e12; give a realistic box"
@@ -202,10 +204,16 @@ pub(crate) fn prepare(prob: &MpqpProblem, settings: &Settings) -> Result<Prepare
     }
     // H positive definite.
     let hmax = prob.h.amax().max(f64::MIN_POSITIVE);
-    let chol = prob.h.clone().cholesky().ok_or(EmpcError::IndefiniteHessian {
-        min_pivot: f64::NAN,
-    })?;
-    let min_pivot = (0..n).map(|i| chol.l()[(i, i)].powi(2)).fold(f64::INFINITY, f64::min);
+    let chol = prob
+        .h
+        .clone()
+        .cholesky()
+        .ok_or(EmpcError::IndefiniteHessian {
+            min_pivot: f64::NAN,
+        })?;
+    let min_pivot = (0..n)
+        .map(|i| chol.l()[(i, i)].powi(2))
+        .fold(f64::INFINITY, f64::min);
     if min_pivot <= 1e-12 * hmax {
         return Err(EmpcError::IndefiniteHessian { min_pivot });
     }
@@ -356,12 +364,16 @@ impl RegionData {
     }
 }
 
-/// A cheap deterministic generator (SplitMix64) for probe perturbations.
-pub(crate) struct Rng(u64);
+/// A small deterministic random generator (SplitMix64), used for probe
+/// perturbations and by the test problems.
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
 impl Rng {
+    /// A generator from a seed.
     pub fn new(seed: u64) -> Self {
         Rng(seed ^ 0x9E37_79B9_7F4A_7C15)
     }
+    /// The next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
@@ -376,8 +388,9 @@ impl Rng {
 }
 
 fn seed_of(set: &[usize]) -> u64 {
-    set.iter()
-        .fold(0xCBF2_9CE4_8422_2325u64, |h, &i| (h ^ i as u64).wrapping_mul(0x0100_0000_01B3))
+    set.iter().fold(0xCBF2_9CE4_8422_2325u64, |h, &i| {
+        (h ^ i as u64).wrapping_mul(0x0100_0000_01B3)
+    })
 }
 
 impl Prepared {
@@ -444,7 +457,9 @@ impl Prepared {
             let mm = &ga * &hga;
             let mmax = (0..k).map(|i| mm[(i, i)]).fold(0.0, f64::max);
             let chol = mm.cholesky()?;
-            let minp = (0..k).map(|i| chol.l()[(i, i)].powi(2)).fold(f64::INFINITY, f64::min);
+            let minp = (0..k)
+                .map(|i| chol.l()[(i, i)].powi(2))
+                .fold(f64::INFINITY, f64::min);
             if minp <= 1e-10 * mmax.max(1e-300) {
                 return None; // LICQ violated
             }
@@ -603,21 +618,26 @@ impl Prepared {
                     margin = margin.min(s);
                 }
             }
-            if margin > tol { Some((j, pt, margin)) } else { None }
+            if margin > tol {
+                Some((j, pt, margin))
+            } else {
+                None
+            }
         };
         let mut state = vec![0u8; nh]; // 0 unknown, 1 facet, 2 redundant
         let mut facets: Vec<Facet> = Vec::new();
         let mut rng = Rng::new(seed_of(act) ^ 0x5555);
-        let mut add = |j: usize, pt: Vec<f64>, margin: f64, state: &mut [u8], facets: &mut Vec<Facet>| {
-            if state[j] != 1 {
-                state[j] = 1;
-                facets.push(Facet {
-                    hs: j,
-                    point: pt,
-                    radius: margin,
-                });
-            }
-        };
+        let add =
+            |j: usize, pt: Vec<f64>, margin: f64, state: &mut [u8], facets: &mut Vec<Facet>| {
+                if state[j] != 1 {
+                    state[j] = 1;
+                    facets.push(Facet {
+                        hs: j,
+                        point: pt,
+                        radius: margin,
+                    });
+                }
+            };
         for k in 0..nh {
             if state[k] != 0 {
                 continue;
@@ -742,7 +762,9 @@ fn represents(g: &DMatrix<f64>, set: &[usize], grad: &DVector<f64>) -> bool {
     let Some(ch) = gtg.clone().cholesky() else {
         return false;
     };
-    let minp = (0..k).map(|i| ch.l()[(i, i)].powi(2)).fold(f64::INFINITY, f64::min);
+    let minp = (0..k)
+        .map(|i| ch.l()[(i, i)].powi(2))
+        .fold(f64::INFINITY, f64::min);
     if minp <= 1e-10 {
         return false;
     }
@@ -832,7 +854,10 @@ fn run_wave(
             .map_init(LpWorkspace::default, |lp, w| process(prep, w, settings, lp))
             .collect();
     }
-    items.iter().map(|w| process(prep, w, settings, lp)).collect()
+    items
+        .iter()
+        .map(|w| process(prep, w, settings, lp))
+        .collect()
 }
 
 /// Solves the mpQP: all full-dimensional critical regions over the parameter set.
@@ -896,9 +921,9 @@ pub fn solve(problem: &MpqpProblem, settings: &Settings) -> Result<MpqpSolution,
     });
     let mut fresh: Vec<usize> = Vec::new();
     let add_region = |r: RegionData,
-                          regions: &mut Vec<RegionData>,
-                          status: &mut HashMap<Vec<usize>, Option<usize>>,
-                          fresh: &mut Vec<usize>| {
+                      regions: &mut Vec<RegionData>,
+                      status: &mut HashMap<Vec<usize>, Option<usize>>,
+                      fresh: &mut Vec<usize>| {
         if let Some(Some(_)) = status.get(&r.active) {
             return;
         }
@@ -1009,13 +1034,20 @@ pub fn solve(problem: &MpqpProblem, settings: &Settings) -> Result<MpqpSolution,
     if let Some(b) = bar {
         b.finish_with_message(format!("{} critical regions", regions.len()));
     }
-    // The explored set: parameter rows plus the facets beyond which the QP is infeasible.
-    let mut hrows: Vec<(Vec<f64>, f64)> = (0..prep.param_b.len())
-        .map(|i| (prep.param_a.row(i).iter().copied().collect(), prep.param_b[i]))
+    // The explored set: the box (stored apart), extra parameter rows and the
+    // facets beyond which the QP is infeasible. Box rows come first in param_a.
+    let mut hrows: Vec<(Vec<f64>, f64)> = (2 * p..prep.param_b.len())
+        .map(|i| {
+            (
+                prep.param_a.row(i).iter().copied().collect(),
+                prep.param_b[i],
+            )
+        })
         .collect();
     for (a, b) in hull {
         let dup = hrows.iter().any(|(a2, b2)| {
-            (b2 - b).abs() <= 1e-7 * prep.scale && a2.iter().zip(&a).all(|(x, y)| (x - y).abs() <= 1e-7)
+            (b2 - b).abs() <= 1e-7 * prep.scale
+                && a2.iter().zip(&a).all(|(x, y)| (x - y).abs() <= 1e-7)
         });
         if !dup {
             hrows.push((a, b));

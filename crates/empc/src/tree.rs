@@ -1,0 +1,561 @@
+//! Complexity reduction and the binary search tree (design time).
+//!
+//! - Only the first `k` outputs of `z` are kept ([`Outputs`]); their affine
+//!   rows are shared between laws and identical laws are stored once, so
+//!   regions with the same law are merged in storage (the tree never
+//!   distinguishes them: a leaf is reached as soon as one law is left).
+//! - The tree follows Tøndel, Johansen and Bemporad (2003): the hyperplanes
+//!   are the regions' facets; each node takes the candidate hyperplane that
+//!   minimises the larger number of regions left on either side (then their
+//!   sum), regions straddling it are kept on a side only if they meet that
+//!   side of the node's cell in a full-dimensional set (an LP).
+
+use crate::error::EmpcError;
+use crate::eval::{LEAF, NO_ROW, SliceTables};
+use crate::lp::{LpStatus, LpWorkspace};
+use crate::mpqp::MpqpSolution;
+use kestrel_core::Scalar;
+use kestrel_core::formats::MpqpProblem;
+use std::collections::HashMap;
+
+/// Which part of `z` the controller outputs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Outputs {
+    /// All of `z`.
+    #[default]
+    All,
+    /// The first `k` entries (the first move of a condensed MPC).
+    First(usize),
+}
+
+/// Settings of the reduction and the tree construction.
+#[derive(Clone, Debug)]
+pub struct TreeSettings {
+    /// The outputs to keep.
+    pub outputs: Outputs,
+    /// Two affine rows are the same law row if they differ by at most this
+    /// (relative to their size).
+    pub law_tol: f64,
+    /// Candidate hyperplanes scored per node (the most frequent facets)
+    /// when the node has too many regions for exact scoring.
+    pub max_candidates: usize,
+    /// A node scores every facet of its regions exactly (one LP per
+    /// straddling region and side) when regions x facets is at most this.
+    pub exact_budget: usize,
+}
+
+impl Default for TreeSettings {
+    fn default() -> Self {
+        TreeSettings {
+            outputs: Outputs::All,
+            law_tol: 1e-9,
+            max_candidates: 40,
+            exact_budget: 60_000,
+        }
+    }
+}
+
+/// Size and shape of the tree and tables.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TreeStats {
+    /// Regions of the solution.
+    pub regions: usize,
+    /// Distinct laws (on the kept outputs).
+    pub distinct_laws: usize,
+    /// Distinct affine rows shared by the laws and bounds.
+    pub distinct_rows: usize,
+    /// Largest number of nodes on a root-to-leaf path.
+    pub depth: usize,
+    /// Tree nodes.
+    pub nodes: usize,
+    /// Hyperplanes stored.
+    pub hyperplanes: usize,
+    /// Leaves where the construction could not separate different laws
+    /// (numerically degenerate cases); 0 in an exact tree.
+    pub ambiguous_leaves: usize,
+    /// Seconds spent building.
+    pub build_seconds: f64,
+}
+
+/// Owned tables of an explicit controller, in scalar `S`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OwnedTables<S> {
+    /// Number of parameters `p`.
+    pub n_params: usize,
+    /// Number of outputs `k`.
+    pub n_outputs: usize,
+    /// The root child code.
+    pub root: u16,
+    /// Tree nodes.
+    pub nodes: Vec<[u16; 3]>,
+    /// Hyperplanes, `p + 1` entries each.
+    pub hyperplanes: Vec<S>,
+    /// Laws, `k` row indices each.
+    pub laws: Vec<u16>,
+    /// Affine rows, `p + 1` entries each.
+    pub rows: Vec<S>,
+    /// Explored set rows, `p + 1` entries each.
+    pub hull: Vec<S>,
+    /// Parameter lower bounds.
+    pub theta_lb: Vec<S>,
+    /// Parameter upper bounds.
+    pub theta_ub: Vec<S>,
+    /// Per output: rows of the lower and upper bound.
+    pub bounds: Vec<[u16; 2]>,
+}
+
+impl<S: Scalar> OwnedTables<S> {
+    /// Borrowed tables for [`crate::evaluate`].
+    pub fn tables(&self) -> SliceTables<'_, S> {
+        SliceTables {
+            n_params: self.n_params,
+            n_outputs: self.n_outputs,
+            root: self.root,
+            nodes: &self.nodes,
+            hyperplanes: &self.hyperplanes,
+            laws: &self.laws,
+            rows: &self.rows,
+            hull: &self.hull,
+            theta_lb: &self.theta_lb,
+            theta_ub: &self.theta_ub,
+            bounds: &self.bounds,
+        }
+    }
+    /// The same tables in another scalar (rounded through `f64`).
+    pub fn cast<T: Scalar>(&self) -> OwnedTables<T> {
+        let c = |v: &Vec<S>| v.iter().map(|x| T::from_f64(x.to_f64())).collect();
+        OwnedTables {
+            n_params: self.n_params,
+            n_outputs: self.n_outputs,
+            root: self.root,
+            nodes: self.nodes.clone(),
+            hyperplanes: c(&self.hyperplanes),
+            laws: self.laws.clone(),
+            rows: c(&self.rows),
+            hull: c(&self.hull),
+            theta_lb: c(&self.theta_lb),
+            theta_ub: c(&self.theta_ub),
+            bounds: self.bounds.clone(),
+        }
+    }
+    /// Storage in bytes with `scalar_bytes` per number and 2 per index.
+    pub fn bytes(&self, scalar_bytes: usize) -> usize {
+        let numbers = self.hyperplanes.len()
+            + self.rows.len()
+            + self.hull.len()
+            + self.theta_lb.len()
+            + self.theta_ub.len();
+        numbers * scalar_bytes
+            + 2 * (3 * self.nodes.len() + self.laws.len() + 2 * self.bounds.len())
+    }
+}
+
+/// An explicit controller: the tables and what building them found.
+#[derive(Clone, Debug)]
+pub struct ExplicitController {
+    /// The tables in `f64`.
+    pub tables: OwnedTables<f64>,
+    /// Law index of every region of the solution.
+    pub region_law: Vec<u16>,
+    /// Tree statistics.
+    pub stats: TreeStats,
+}
+
+struct Builder<'a> {
+    p: usize,
+    scale: f64,
+    /// Region facets (hyperplane id, side: true = region has a'x <= b).
+    reg_facets: Vec<Vec<(usize, bool)>>,
+    reg_a: Vec<Vec<f64>>,
+    reg_b: Vec<Vec<f64>>,
+    law: &'a [u16],
+    hp: Vec<(Vec<f64>, f64)>,
+    side_cache: HashMap<(usize, usize), i8>,
+    lp: LpWorkspace,
+    nodes: Vec<[u16; 3]>,
+    used_hp: HashMap<usize, u16>,
+    ambiguous: usize,
+    depth: usize,
+    max_candidates: usize,
+    exact_budget: usize,
+}
+
+impl Builder<'_> {
+    /// -1: region inside a'x <= b; +1: inside a'x >= b; 0: straddles.
+    fn side(&mut self, r: usize, h: usize) -> i8 {
+        if let Some(&(_, s)) = self.reg_facets[r].iter().find(|f| f.0 == h) {
+            return if s { -1 } else { 1 };
+        }
+        if let Some(&v) = self.side_cache.get(&(r, h)) {
+            return v;
+        }
+        let (a, b) = self.hp[h].clone();
+        let tol = 1e-9 * self.scale;
+        let ra = &self.reg_a[r];
+        let rb = &self.reg_b[r];
+        let (st, hi) = self.lp.maximize(&a, ra, rb);
+        let v = if st == LpStatus::Optimal && hi <= b + tol {
+            -1
+        } else {
+            let na: Vec<f64> = a.iter().map(|v| -v).collect();
+            let (st, lo) = self.lp.maximize(&na, ra, rb);
+            if st == LpStatus::Optimal && -lo >= b - tol {
+                1
+            } else {
+                0
+            }
+        };
+        self.side_cache.insert((r, h), v);
+        v
+    }
+
+    /// Whether region r meets the cell (rows) in a full-dimensional set.
+    fn meets(&mut self, r: usize, cell: &[(Vec<f64>, f64)]) -> bool {
+        let p = self.p;
+        let mut a = Vec::new();
+        let mut b = Vec::new();
+        for (i, bi) in self.reg_b[r].iter().enumerate() {
+            a.extend_from_slice(&self.reg_a[r][i * p..(i + 1) * p]);
+            a.push(1.0);
+            b.push(*bi);
+        }
+        for (ca, cb) in cell {
+            a.extend_from_slice(ca);
+            a.push(1.0);
+            b.push(*cb);
+        }
+        a.extend(std::iter::repeat_n(0.0, p));
+        a.push(1.0);
+        b.push(self.scale);
+        let mut c = vec![0.0; p + 1];
+        c[p] = 1.0;
+        let (st, rad) = self.lp.maximize(&c, &a, &b);
+        st == LpStatus::Optimal && rad > 1e-9 * self.scale
+    }
+
+    fn build(&mut self, set: Vec<usize>, cell: &mut Vec<(Vec<f64>, f64)>, depth: usize) -> u16 {
+        self.depth = self.depth.max(depth);
+        let first_law = set.first().map_or(0, |&r| self.law[r]);
+        if set.iter().all(|&r| self.law[r] == first_law) || depth > 60 {
+            if depth > 60 {
+                self.ambiguous += 1;
+            }
+            return LEAF | first_law;
+        }
+        // Candidates: the most frequent facets of the regions in the set.
+        let mut freq: HashMap<usize, usize> = HashMap::new();
+        for &r in &set {
+            for &(h, _) in &self.reg_facets[r] {
+                *freq.entry(h).or_default() += 1;
+            }
+        }
+        let mut cands: Vec<(usize, usize)> = freq.into_iter().collect();
+        cands.sort_by(|x, y| y.1.cmp(&x.1).then(x.0.cmp(&y.0)));
+        // Small sets: score every facet exactly within the cell; large sets:
+        // the most frequent facets, scored with the cell-free sides.
+        let exact = set.len() * cands.len() <= self.exact_budget;
+        if !exact {
+            cands.truncate(self.max_candidates);
+        }
+        let mut best: Option<(usize, usize, usize)> = None; // (h, max, sum)
+        let mut seen_l: Vec<u16> = Vec::new();
+        let mut seen_r: Vec<u16> = Vec::new();
+        for &(h, _) in &cands {
+            // Score by the number of distinct laws left on each side.
+            seen_l.clear();
+            seen_r.clear();
+            let (mut nl, mut nr) = (0, 0);
+            for &r in &set {
+                let (inl, inr) = match self.side(r, h) {
+                    -1 => (true, false),
+                    1 => (false, true),
+                    _ if exact => {
+                        let (a, b) = self.hp[h].clone();
+                        cell.push((a.clone(), b));
+                        let l = self.meets(r, cell);
+                        cell.pop();
+                        cell.push((a.iter().map(|v| -v).collect(), -b));
+                        let rr = self.meets(r, cell);
+                        cell.pop();
+                        (l, rr)
+                    }
+                    _ => (true, true),
+                };
+                let law = self.law[r];
+                nl += usize::from(inl);
+                nr += usize::from(inr);
+                if inl && !seen_l.contains(&law) {
+                    seen_l.push(law);
+                }
+                if inr && !seen_r.contains(&law) {
+                    seen_r.push(law);
+                }
+            }
+            if nl == set.len() && nr == set.len() {
+                continue;
+            }
+            let key = (seen_l.len().max(seen_r.len()), seen_l.len() + seen_r.len());
+            if best.is_none_or(|(_, m, s)| key < (m, s)) {
+                best = Some((h, key.0, key.1));
+            }
+        }
+        let Some((h, _, _)) = best else {
+            // No facet separates the laws: majority law.
+            self.ambiguous += 1;
+            return LEAF | first_law;
+        };
+        let (a, b) = self.hp[h].clone();
+        let na: Vec<f64> = a.iter().map(|v| -v).collect();
+        let mut left = Vec::new();
+        let mut right = Vec::new();
+        for &r in &set {
+            match self.side(r, h) {
+                -1 => left.push(r),
+                1 => right.push(r),
+                _ => {
+                    cell.push((a.clone(), b));
+                    if self.meets(r, cell) {
+                        left.push(r);
+                    }
+                    cell.pop();
+                    cell.push((na.clone(), -b));
+                    if self.meets(r, cell) {
+                        right.push(r);
+                    }
+                    cell.pop();
+                }
+            }
+        }
+        if left.is_empty() {
+            left.push(set[0]);
+        }
+        if right.is_empty() {
+            right.push(set[0]);
+        }
+        let hid = match self.used_hp.get(&h) {
+            Some(&i) => i,
+            None => {
+                let i = self.used_hp.len() as u16;
+                self.used_hp.insert(h, i);
+                i
+            }
+        };
+        let me = self.nodes.len();
+        self.nodes.push([hid, 0, 0]);
+        cell.push((a.clone(), b));
+        let l = self.build(left, cell, depth + 1);
+        cell.pop();
+        cell.push((na, -b));
+        let rgt = self.build(right, cell, depth + 1);
+        cell.pop();
+        self.nodes[me][1] = l;
+        self.nodes[me][2] = rgt;
+        me as u16
+    }
+}
+
+/// Dedupes `row` into `rows` (width p + 1) and returns its index.
+fn intern(
+    rows: &mut Vec<f64>,
+    index: &mut HashMap<Vec<i64>, usize>,
+    row: &[f64],
+    tol: f64,
+) -> usize {
+    let scale = row.iter().fold(1.0_f64, |s, v| s.max(v.abs()));
+    let q = |v: f64| (v / (scale * tol * 10.0)).round() as i64;
+    let key: Vec<i64> = row.iter().map(|&v| q(v)).collect();
+    if let Some(&i) = index.get(&key) {
+        return i;
+    }
+    let width = row.len();
+    let i = rows.len() / width;
+    rows.extend_from_slice(row);
+    index.insert(key, i);
+    i
+}
+
+/// Builds the explicit controller: law sharing, the search tree and the tables.
+///
+/// `problem` supplies the output bounds (rows of `G` that bound a single
+/// kept output) used to clamp outside the explored set.
+pub fn build_controller(
+    problem: &MpqpProblem,
+    solution: &MpqpSolution,
+    settings: &TreeSettings,
+) -> Result<ExplicitController, EmpcError> {
+    let start = std::time::Instant::now();
+    let p = solution.p;
+    let n = solution.n;
+    let k = match settings.outputs {
+        Outputs::All => n,
+        Outputs::First(k) if k >= 1 && k <= n => k,
+        Outputs::First(k) => {
+            return Err(EmpcError::InvalidArgument(format!(
+                "Outputs::First({k}) needs 1 <= k <= n = {n}"
+            )));
+        }
+    };
+    if problem.n() != n || problem.p() != p {
+        return Err(EmpcError::InvalidArgument(
+            "the problem does not match the solution".into(),
+        ));
+    }
+    let w = p + 1;
+    let mut rows: Vec<f64> = Vec::new();
+    let mut row_index = HashMap::new();
+    let mut laws: Vec<u16> = Vec::new();
+    let mut law_index: HashMap<Vec<usize>, usize> = HashMap::new();
+    let mut region_law = Vec::with_capacity(solution.regions.len());
+    for r in &solution.regions {
+        let mut ids = Vec::with_capacity(k);
+        for o in 0..k {
+            let row: Vec<f64> = (0..p).map(|j| r.fz[(o, j)]).chain([r.gz[o]]).collect();
+            ids.push(intern(&mut rows, &mut row_index, &row, settings.law_tol));
+        }
+        let nl = law_index.len();
+        let id = *law_index.entry(ids.clone()).or_insert_with(|| {
+            laws.extend(ids.iter().map(|&i| i as u16));
+            nl
+        });
+        region_law.push(id as u16);
+    }
+    let distinct_laws = law_index.len();
+    // Output bounds from single-variable rows of G.
+    let mut bounds = vec![[NO_ROW, NO_ROW]; k];
+    for i in 0..problem.m() {
+        let nz: Vec<usize> = (0..n).filter(|&j| problem.g[(i, j)] != 0.0).collect();
+        if nz.len() == 1 && nz[0] < k {
+            let o = nz[0];
+            let gc = problem.g[(i, o)];
+            let row: Vec<f64> = (0..p)
+                .map(|j| problem.e[(i, j)] / gc)
+                .chain([problem.w[i] / gc])
+                .collect();
+            let slot = usize::from(gc > 0.0);
+            if bounds[o][slot] == NO_ROW {
+                bounds[o][slot] = intern(&mut rows, &mut row_index, &row, settings.law_tol) as u16;
+            }
+        }
+    }
+    let nrows = rows.len() / w;
+    if nrows >= NO_ROW as usize || distinct_laws >= LEAF as usize {
+        return Err(EmpcError::TooLarge(format!(
+            "{nrows} affine rows, {distinct_laws} laws (at most 32767 laws and 65534 rows)"
+        )));
+    }
+    // Hyperplane pool from the facets, canonically oriented.
+    let scale = 1.0
+        + solution
+            .theta_lb
+            .iter()
+            .chain(solution.theta_ub.iter())
+            .fold(0.0_f64, |s, v| s.max(v.abs()));
+    let mut hp: Vec<(Vec<f64>, f64)> = Vec::new();
+    let mut hp_index: HashMap<Vec<i64>, usize> = HashMap::new();
+    let mut reg_facets = Vec::new();
+    let mut reg_a = Vec::new();
+    let mut reg_b = Vec::new();
+    for r in &solution.regions {
+        let mut fs = Vec::new();
+        let mut ra = Vec::new();
+        for i in 0..r.a.nrows() {
+            let a: Vec<f64> = r.a.row(i).iter().copied().collect();
+            ra.extend_from_slice(&a);
+            let bi = r.b[i];
+            let lead = a.iter().copied().find(|v| v.abs() > 1e-9).unwrap_or(1.0);
+            let sgn = if lead < 0.0 { -1.0 } else { 1.0 };
+            let ca: Vec<f64> = a.iter().map(|v| v * sgn).collect();
+            let cb = bi * sgn;
+            let key: Vec<i64> = ca
+                .iter()
+                .map(|v| (v * 1e8).round() as i64)
+                .chain([(cb / scale * 1e8).round() as i64])
+                .collect();
+            let id = *hp_index.entry(key).or_insert_with(|| {
+                hp.push((ca, cb));
+                hp.len() - 1
+            });
+            fs.push((id, sgn > 0.0));
+        }
+        reg_facets.push(fs);
+        reg_a.push(ra);
+        reg_b.push(r.b.iter().copied().collect::<Vec<f64>>());
+    }
+    let mut builder = Builder {
+        p,
+        scale,
+        reg_facets,
+        reg_a,
+        reg_b,
+        law: &region_law,
+        hp,
+        side_cache: HashMap::new(),
+        lp: LpWorkspace::default(),
+        nodes: Vec::new(),
+        used_hp: HashMap::new(),
+        ambiguous: 0,
+        depth: 0,
+        max_candidates: settings.max_candidates.max(1),
+        exact_budget: settings.exact_budget,
+    };
+    let all: Vec<usize> = (0..solution.regions.len()).collect();
+    let mut cell = Vec::new();
+    let root = if all.is_empty() {
+        LEAF
+    } else {
+        builder.build(all, &mut cell, 0)
+    };
+    if builder.nodes.len() >= LEAF as usize || builder.used_hp.len() >= u16::MAX as usize {
+        return Err(EmpcError::TooLarge(format!(
+            "{} nodes, {} hyperplanes",
+            builder.nodes.len(),
+            builder.used_hp.len()
+        )));
+    }
+    let mut hyperplanes = vec![0.0; builder.used_hp.len() * w];
+    for (&h, &i) in &builder.used_hp {
+        let (a, b) = &builder.hp[h];
+        let dst = &mut hyperplanes[i as usize * w..(i as usize + 1) * w];
+        dst[..p].copy_from_slice(a);
+        dst[p] = *b;
+    }
+    let mut hull = Vec::new();
+    for i in 0..solution.hull_a.nrows() {
+        hull.extend(solution.hull_a.row(i).iter());
+        hull.push(solution.hull_b[i]);
+    }
+    // The depth counted in nodes on the longest path.
+    let depth = if builder.nodes.is_empty() {
+        0
+    } else {
+        builder.depth
+    };
+    let tables = OwnedTables {
+        n_params: p,
+        n_outputs: k,
+        root,
+        nodes: builder.nodes.clone(),
+        hyperplanes,
+        laws,
+        rows,
+        hull,
+        theta_lb: solution.theta_lb.iter().copied().collect(),
+        theta_ub: solution.theta_ub.iter().copied().collect(),
+        bounds,
+    };
+    let stats = TreeStats {
+        regions: solution.regions.len(),
+        distinct_laws,
+        distinct_rows: nrows,
+        depth,
+        nodes: tables.nodes.len(),
+        hyperplanes: builder.used_hp.len(),
+        ambiguous_leaves: builder.ambiguous,
+        build_seconds: start.elapsed().as_secs_f64(),
+    };
+    Ok(ExplicitController {
+        tables,
+        region_law,
+        stats,
+    })
+}
