@@ -1,0 +1,131 @@
+//! End-to-end tests of `kestrel fgm certify|solve` on good and malformed files.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn kestrel() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_kestrel"))
+}
+
+fn temp_file(name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("kestrel-cli-fgm-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Two inputs, theta = [x, throttle]: rows shuffled and scaled on purpose.
+/// -1 + t <= z0 <= 1 + t (rows 1 and 3), -2 <= z1 <= 2 (rows 0 and 2, scaled).
+const BOX: &str = r#"{"format": "kestrel.mpqp.v1",
+  "H": [[4, 1], [1, 2]], "F": [[3, -1], [0, 0]],
+  "G": [[0, 2], [1, 0], [0, -1], [-3, 0]], "W": [4, 1, 2, 3],
+  "E": [[0, 0], [0, 1], [0, 0], [0, -3]],
+  "theta_lb": [-2, 0], "theta_ub": [2, 0.5]}"#;
+
+fn run(args: &[&str]) -> (bool, String, String) {
+    let out = kestrel().args(args).output().unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn certify_prints_iterations_l_mu_and_preconditioner() {
+    let p = temp_file("box.json", BOX);
+    let (ok, out, err) = run(&["fgm", "certify", "--problem", p.to_str().unwrap(), "--eps", "1e-6"]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!(v["iterations"].as_u64().unwrap() > 0);
+    assert!(v["L"].as_f64().unwrap() > 0.0);
+    assert!(v["mu"].as_f64().unwrap() > 0.0);
+    assert_eq!(v["preconditioner"], "optimal-diagonal");
+    assert_eq!(v["eps_table"].as_array().unwrap().len(), 4);
+    // A looser tolerance never needs more iterations.
+    let (_, out2, _) = run(&["fgm", "certify", "--problem", p.to_str().unwrap(), "--eps", "1e-2"]);
+    let v2: serde_json::Value = serde_json::from_str(&out2).unwrap();
+    assert!(v2["iterations"].as_u64() <= v["iterations"].as_u64());
+}
+
+#[test]
+fn solve_matches_the_box_optimum() {
+    let p = temp_file("box2.json", BOX);
+    let t = temp_file("thetas.csv", "0.5, 0.25\n-2,0\n\n2,0.5\n");
+    let (ok, out, err) = run(&[
+        "fgm", "solve", "--problem", p.to_str().unwrap(), "--thetas", t.to_str().unwrap(),
+        "--iterations", "200",
+    ]);
+    assert!(ok, "{err}");
+    let rows: Vec<Vec<f64>> = out
+        .lines()
+        .map(|l| l.split(',').map(|s| s.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 3);
+    // Independent check: projected gradient with a tiny step to convergence.
+    for (row, th) in rows.iter().zip([[0.5, 0.25], [-2.0, 0.0], [2.0, 0.5]]) {
+        let q = [3.0 * th[0], -th[0]];
+        let (lo, hi) = ([-1.0 + th[1], -2.0], [1.0 + th[1], 2.0]);
+        let mut z = [0.0f64, 0.0];
+        for _ in 0..20000 {
+            let g = [4.0 * z[0] + z[1] + q[0], z[0] + 2.0 * z[1] + q[1]];
+            for i in 0..2 {
+                z[i] = (z[i] - 0.05 * g[i]).clamp(lo[i], hi[i]);
+            }
+        }
+        for i in 0..2 {
+            assert!((row[i] - z[i]).abs() < 1e-6, "{row:?} vs {z:?}");
+        }
+    }
+}
+
+#[test]
+fn bad_inputs_give_clear_errors() {
+    let p = temp_file("box3.json", BOX);
+    let ps = p.to_str().unwrap();
+    let (ok, _, err) = run(&["fgm", "certify", "--problem", ps, "--eps", "0"]);
+    assert!(!ok && err.contains("eps must be a positive"), "{err}");
+    let (ok, _, err) = run(&["fgm", "certify", "--problem", ps, "--eps", "-1"]);
+    assert!(!ok && err.contains("eps must be a positive"), "{err}");
+
+    let coupled = temp_file("coupled.json", &BOX.replace("[[0, 2], [1, 0]", "[[1, 2], [1, 0]"));
+    let (ok, _, err) = run(&["fgm", "certify", "--problem", coupled.to_str().unwrap(), "--eps", "1"]);
+    assert!(!ok && err.contains("constraint row 0 has 2 non-zero"), "{err}");
+
+    let open = temp_file(
+        "open.json",
+        &BOX.replace(r#""G": [[0, 2], [1, 0], [0, -1], [-3, 0]], "W": [4, 1, 2, 3],
+  "E": [[0, 0], [0, 1], [0, 0], [0, -3]]"#, r#""G": [[0, 2], [1, 0], [-3, 0]], "W": [4, 1, 3],
+  "E": [[0, 0], [0, 1], [0, -3]]"#),
+    );
+    let (ok, _, err) = run(&["fgm", "certify", "--problem", open.to_str().unwrap(), "--eps", "1"]);
+    assert!(!ok && err.contains("unbounded: variable 1 has no lower bound"), "{err}");
+
+    let nonconvex = temp_file("nc.json", &BOX.replace("[[4, 1], [1, 2]]", "[[1, 3], [3, 1]]"));
+    let (ok, _, err) = run(&["fgm", "certify", "--problem", nonconvex.to_str().unwrap(), "--eps", "1"]);
+    assert!(!ok && err.contains("not convex"), "{err}");
+
+    let t = temp_file("bad.csv", "1,2\n1,x\n");
+    let (ok, _, err) = run(&["fgm", "solve", "--problem", ps, "--thetas", t.to_str().unwrap(), "--iterations", "5"]);
+    assert!(!ok && err.contains("line 2, column 2"), "{err}");
+    let t = temp_file("short.csv", "1\n");
+    let (ok, _, err) = run(&["fgm", "solve", "--problem", ps, "--thetas", t.to_str().unwrap(), "--iterations", "5"]);
+    assert!(!ok && err.contains("expected 2 numbers"), "{err}");
+}
+
+#[test]
+fn certify_exports_firmware_tables() {
+    let p = temp_file("box4.json", BOX);
+    let rs = std::env::temp_dir().join(format!("kestrel-cli-fgm-{}/tables.rs", std::process::id()));
+    let (ok, out, err) = run(&[
+        "fgm", "certify", "--problem", p.to_str().unwrap(), "--eps", "1e-4", "--export",
+        rs.to_str().unwrap(), "--scalar", "q16", "--theta-step", "0.1,0.01",
+    ]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!(v["warm"]["iterations"].as_u64().unwrap() <= v["iterations"].as_u64().unwrap());
+    let text = std::fs::read_to_string(&rs).unwrap();
+    assert!(text.contains("pub static FGM: kestrel_fgm::FgmTables<kestrel_core::Q16, 2, 2,"));
+    assert!(text.contains("Q16::from_bits("));
+}
