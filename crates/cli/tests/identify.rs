@@ -1,0 +1,182 @@
+//! End-to-end tests of `kestrel identify` on generated logs.
+
+use kestrel_core::formats::SsModel;
+use kestrel_sysid::synthetic;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("kestrel-identify-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A log `t,a,b,p` from a known 2nd-order model, 50 Hz, with offsets.
+fn write_log(path: &Path, rows: usize, edit: impl Fn(usize, &mut Vec<String>)) {
+    let m = synthetic::random_model(2, 2, 1, 9, 0.9);
+    let d = synthetic::simulate(&m, rows, 0.05, 3).unwrap();
+    let e = &d.experiments()[0];
+    let mut text = String::from("t,a,b,p\n");
+    for k in 0..rows {
+        let mut f = vec![
+            format!("{:.2}", k as f64 * 0.02),
+            format!("{}", 1500.0 + e.u[(k, 0)]),
+            format!("{}", -3.0 + e.u[(k, 1)]),
+            format!("{}", 0.01 + e.y[(k, 0)]),
+        ];
+        edit(k, &mut f);
+        text.push_str(&f.join(","));
+        text.push('\n');
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+fn kestrel(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_kestrel"))
+        .arg("identify")
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn identifies_and_writes_ss_v1_with_offsets() {
+    let d = dir("good");
+    let log = d.join("log.csv");
+    write_log(&log, 1500, |_, _| {});
+    let out = d.join("model.json");
+    let o = kestrel(&[
+        "--data",
+        log.to_str().unwrap(),
+        "--inputs",
+        "a,b",
+        "--outputs",
+        "p",
+        "--estimate",
+        "0:19.98",
+        "--validate",
+        "20:29.98",
+        "--order",
+        "3",
+        "--reduce",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for want in [
+        "model simulation",
+        "persistence 5-step",
+        "model 1-step",
+        "residuals",
+        "PEM:",
+        "balred 3 -> 2",
+    ] {
+        assert!(stdout.contains(want), "missing {want:?} in\n{stdout}");
+    }
+    let m = SsModel::read(&out).unwrap();
+    assert_eq!((m.nx(), m.nu(), m.ny()), (2, 2, 1));
+    let u0 = m.u0.unwrap();
+    assert!(
+        (u0[0] - 1500.0).abs() < 0.5 && (u0[1] + 3.0).abs() < 0.5,
+        "{u0:?}"
+    );
+    assert!(m.k.is_some() && m.y0.is_some());
+    assert_eq!(m.inputs.unwrap(), vec!["a".to_string(), "b".to_string()]);
+    // The simulation fit on validation data is high for a correct model.
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("model simulation"))
+        .unwrap();
+    let fit: f64 = line.split_whitespace().nth(2).unwrap().parse().unwrap();
+    assert!(fit > 80.0, "{line}");
+}
+
+#[test]
+fn bad_logs_give_clear_errors() {
+    let d = dir("bad");
+    let cases: Vec<(
+        &str,
+        Box<dyn Fn(usize, &mut Vec<String>)>,
+        usize,
+        Vec<&str>,
+        &str,
+    )> = vec![
+        (
+            "nan",
+            Box::new(|k, f: &mut Vec<String>| {
+                if k == 7 {
+                    f[3] = "NaN".into()
+                }
+            }),
+            500,
+            vec![],
+            "line 9",
+        ),
+        (
+            "short",
+            Box::new(|_, _: &mut Vec<String>| {}),
+            30,
+            vec!["--order", "8"],
+            "too few samples",
+        ),
+        (
+            "const",
+            Box::new(|_, f: &mut Vec<String>| f[2] = "4".into()),
+            500,
+            vec![],
+            "\"b\" is constant",
+        ),
+        (
+            "ragged",
+            Box::new(|k, f: &mut Vec<String>| {
+                if k == 3 {
+                    f.pop();
+                }
+            }),
+            500,
+            vec![],
+            "line 5",
+        ),
+    ];
+    for (name, edit, rows, extra, want) in cases {
+        let log = d.join(format!("{name}.csv"));
+        write_log(&log, rows, edit);
+        let mut args = vec![
+            "--data",
+            log.to_str().unwrap(),
+            "--inputs",
+            "a,b",
+            "--outputs",
+            "p",
+        ];
+        args.extend(extra);
+        let o = kestrel(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{name} should fail");
+        assert!(err.contains(want), "{name}: {err}");
+    }
+    let log = d.join("ok.csv");
+    write_log(&log, 300, |_, _| {});
+    let o = kestrel(&[
+        "--data",
+        log.to_str().unwrap(),
+        "--inputs",
+        "a,zz",
+        "--outputs",
+        "p",
+    ]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no column \"zz\""));
+    let o = kestrel(&[
+        "--data",
+        log.to_str().unwrap(),
+        "--inputs",
+        "a,b",
+        "--outputs",
+        "p",
+        "--estimate",
+        "9:3",
+    ]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("start < end"));
+}
