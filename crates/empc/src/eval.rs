@@ -6,10 +6,12 @@
 //! memory by an accessor that implements the trait with `lpm` reads.
 //!
 //! Tables (with `p` parameters and `k` outputs):
-//! - nodes `[hyperplane, child if a'theta <= b, child otherwise]`; a child
-//!   with the [`LEAF`] bit set is a leaf holding a law index, others are
-//!   node indices; the root is a child code too;
-//! - hyperplanes, `p + 1` numbers each: `a` then `b`;
+//! - nodes `[row a, row b, child if a(theta) <= b(theta), child otherwise]`
+//!   where `a` and `b` are affine rows ([`NO_ROW`] for `b` = 0): a region
+//!   facet of a box-constrained MPC is "output j's law reaches its bound",
+//!   the difference of two rows already stored, so most hyperplanes cost no
+//!   numbers at all; a child with the [`LEAF`] bit set is a leaf holding a
+//!   law index, others are node indices; the root is a child code too;
 //! - laws, `k` row indices each (one affine row per output);
 //! - affine rows, `p + 1` numbers each: gains then constant (laws share rows:
 //!   a saturated output is the same row in many laws);
@@ -45,10 +47,8 @@ pub trait TreeTables<S: Scalar> {
     fn n_nodes(&self) -> usize;
     /// The root as a child code (a node index, or a leaf).
     fn root(&self) -> u16;
-    /// Node `i`: `[hyperplane, child if a'theta <= b, child otherwise]`.
-    fn node(&self, i: usize) -> Option<[u16; 3]>;
-    /// Entry `j` of hyperplane `h`: `a[j]` for `j < p`, `b` for `j == p`.
-    fn hyperplane(&self, h: usize, j: usize) -> Option<S>;
+    /// Node `i`: `[row a, row b, child if a(theta) <= b(theta), child otherwise]`.
+    fn node(&self, i: usize) -> Option<[u16; 4]>;
     /// The affine row of output `out` under law `law`.
     fn law(&self, law: usize, out: usize) -> Option<u16>;
     /// Entry `j` of affine row `r`: gain for `j < p`, constant for `j == p`.
@@ -73,9 +73,7 @@ pub struct SliceTables<'a, S> {
     /// The root child code.
     pub root: u16,
     /// Tree nodes.
-    pub nodes: &'a [[u16; 3]],
-    /// Hyperplanes, `p + 1` entries each.
-    pub hyperplanes: &'a [S],
+    pub nodes: &'a [[u16; 4]],
     /// Laws, `k` row indices each.
     pub laws: &'a [u16],
     /// Affine rows, `p + 1` entries each.
@@ -103,11 +101,8 @@ impl<S: Scalar> TreeTables<S> for SliceTables<'_, S> {
     fn root(&self) -> u16 {
         self.root
     }
-    fn node(&self, i: usize) -> Option<[u16; 3]> {
+    fn node(&self, i: usize) -> Option<[u16; 4]> {
         self.nodes.get(i).copied()
-    }
-    fn hyperplane(&self, h: usize, j: usize) -> Option<S> {
-        entry(self.hyperplanes, self.n_params + 1, h, j)
     }
     fn law(&self, law: usize, out: usize) -> Option<u16> {
         if out >= self.n_outputs {
@@ -176,10 +171,9 @@ fn affine<S: Scalar>(theta: &[S], get: impl Fn(usize) -> Option<S>) -> Result<S,
 /// // One parameter, one output: z = -theta for theta <= 0, z = 0 otherwise.
 /// static T: SliceTables<'static, f64> = SliceTables {
 ///     n_params: 1, n_outputs: 1, root: 0,
-///     nodes: &[[0, LEAF, LEAF | 1]],
-///     hyperplanes: &[1.0, 0.0],          // theta <= 0 goes left
+///     nodes: &[[2, NO_ROW, LEAF, LEAF | 1]], // theta <= 0 goes to law 0
 ///     laws: &[0, 1],
-///     rows: &[-1.0, 0.0, 0.0, 0.0],      // -theta, and 0
+///     rows: &[-1.0, 0.0, 0.0, 0.0, 1.0, 0.0], // -theta, 0, theta
 ///     hull: &[], theta_lb: &[-1.0], theta_ub: &[1.0],
 ///     bounds: &[[NO_ROW, NO_ROW]],
 /// };
@@ -266,16 +260,13 @@ pub fn evaluate_with<S: Scalar, T: TreeTables<S> + ?Sized>(
             return Err(Error::OutOfRange); // a cycle: corrupted tables
         }
         let node = tables.node(code as usize).ok_or(Error::OutOfRange)?;
-        let h = node[0] as usize;
-        let b = tables.hyperplane(h, P).ok_or(Error::OutOfRange)?;
-        let s = affine(th, |j| {
-            if j == P {
-                Some(S::ZERO)
-            } else {
-                tables.hyperplane(h, j)
-            }
-        })?;
-        code = if s <= b { node[1] } else { node[2] };
+        let a = affine(th, |j| tables.row(node[0] as usize, j))?;
+        let b = if node[1] == NO_ROW {
+            S::ZERO
+        } else {
+            affine(th, |j| tables.row(node[1] as usize, j))?
+        };
+        code = if a <= b { node[2] } else { node[3] };
         steps = steps.saturating_add(1);
     }
     let law = code & !LEAF;
@@ -305,22 +296,22 @@ mod tests {
     use super::*;
     use kestrel_core::Q16;
 
-    static NODES: [[u16; 3]; 1] = [[0, LEAF, LEAF | 1]];
+    // Node: row 3 (theta0) <= 0 -> law 0.
+    static NODES: [[u16; 4]; 1] = [[3, NO_ROW, LEAF, LEAF | 1]];
     fn tables<S: Scalar>(buf: &mut [S; 12]) -> SliceTables<'_, S> {
-        // hyperplane theta0 <= 0 ; rows: [-1, 0 | 0], [0, 0 | 0.25]; bound rows: [0,0|-1], [0,0|1]
+        // rows: [-1, 0 | 0], [0, 0 | 0.25], [0, 0 | -1], [1, 0 | 0]
         let v = [
-            1.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, -1.0,
+            -1.0, 0.0, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, -1.0, 1.0, 0.0, 0.0,
         ];
         for (d, s) in buf.iter_mut().zip(v) {
             *d = S::from_f64(s);
         }
-        let (hp, rows) = buf.split_at(3);
+        let rows = &buf[..];
         SliceTables {
             n_params: 2,
             n_outputs: 1,
             root: 0,
             nodes: &NODES,
-            hyperplanes: hp,
             laws: &[0, 1],
             rows,
             hull: &[],
@@ -365,7 +356,7 @@ mod tests {
         let e = evaluate(&t, &[0.5, 0.0], &mut z).unwrap();
         assert_eq!((e.law, z[0]), (1, 0.25));
         // A cycle in the node table is detected.
-        let cyc = [[0u16, 0, 0]];
+        let cyc = [[3u16, NO_ROW, 0, 0]];
         let t2 = SliceTables { nodes: &cyc, ..t };
         assert_eq!(evaluate(&t2, &[0.5, 0.0], &mut z), Err(Error::OutOfRange));
         // A law pointing past the row table.

@@ -3,8 +3,8 @@
 //! The solution file is the `kestrel.empc.v1` summary of `shared/FORMATS.md`
 //! (`regions`, `distinct_laws`, `solve_seconds`, `tree {depth, nodes, bytes}`,
 //! optional `region_list`) plus what evaluation needs, under added keys:
-//! `n`, `p`, `outputs` and `tables` = `{root, nodes: [[h, le, gt]],
-//! hyperplanes: [[a.., b]], laws: [[row..]], rows: [[gain.., const]],
+//! `n`, `p`, `outputs` and `tables` = `{root, nodes: [[row_a, row_b, le, gt]],
+//! laws: [[row..]], rows: [[gain.., const]],
 //! hull: [[a.., b]], theta_lb, theta_ub, bounds: [[lo, hi]]}` with the
 //! encoding of [`crate::eval`] (`tree.bytes` counts these tables in f32).
 
@@ -92,7 +92,6 @@ pub fn solution_json(
         json!({
             "root": t.root,
             "nodes": t.nodes,
-            "hyperplanes": rows_value(&t.hyperplanes, w),
             "laws": Value::Array(t.laws.chunks(t.n_outputs.max(1)).map(|r| json!(r)).collect()),
             "rows": rows_value(&t.rows, w),
             "hull": rows_value(&t.hull, w),
@@ -160,11 +159,10 @@ pub fn tables_from_json(text: &str) -> Result<OwnedTables<f64>, EmpcError> {
             .map(|(i, j)| m[(i, j)])
             .collect())
     };
-    let nodes: Vec<[u16; 3]> = index_rows(get("nodes")?, "tables.nodes", 3)?
+    let nodes: Vec<[u16; 4]> = index_rows(get("nodes")?, "tables.nodes", 4)?
         .into_iter()
-        .map(|r| [r[0], r[1], r[2]])
+        .map(|r| [r[0], r[1], r[2], r[3]])
         .collect();
-    let hyperplanes = flat("hyperplanes", w)?;
     let laws: Vec<u16> = index_rows(get("laws")?, "tables.laws", k)?
         .into_iter()
         .flatten()
@@ -191,7 +189,6 @@ pub fn tables_from_json(text: &str) -> Result<OwnedTables<f64>, EmpcError> {
         n_outputs: k,
         root: root as u16,
         nodes,
-        hyperplanes,
         laws,
         rows,
         hull,
@@ -206,7 +203,6 @@ pub fn tables_from_json(text: &str) -> Result<OwnedTables<f64>, EmpcError> {
 /// Checks that every index of the tables points inside its table.
 pub fn check_tables<S: Scalar>(t: &OwnedTables<S>) -> Result<(), EmpcError> {
     let w = t.n_params + 1;
-    let nh = t.hyperplanes.len() / w;
     let nr = t.rows.len() / w;
     let nl = t.laws.len() / t.n_outputs.max(1);
     let bad = |what: String| Err(FormatError::invalid("tables", what).into());
@@ -221,11 +217,13 @@ pub fn check_tables<S: Scalar>(t: &OwnedTables<S>) -> Result<(), EmpcError> {
         return bad(format!("root {} points outside the tables", t.root));
     }
     for (i, n) in t.nodes.iter().enumerate() {
-        if n[0] as usize >= nh || !child_ok(n[1]) || !child_ok(n[2]) {
+        let row_ok = |r: u16| (r as usize) < nr;
+        if !row_ok(n[0]) || !(n[1] == NO_ROW || row_ok(n[1])) || !child_ok(n[2]) || !child_ok(n[3])
+        {
             return bad(format!("node {i} {n:?} points outside the tables"));
         }
         // Children come after their parent: no cycles.
-        for c in [n[1], n[2]] {
+        for c in [n[2], n[3]] {
             if c & LEAF == 0 && c as usize <= i {
                 return bad(format!("node {i} has a child {c} that is not after it"));
             }
@@ -306,22 +304,20 @@ pub fn rust_source(t: &OwnedTables<f64>, scalar: ExportScalar) -> Result<String,
     };
     let _ = writeln!(
         s,
-        "/// Tree nodes `[hyperplane, child if a'theta <= b, child otherwise]`."
+        "/// Tree nodes `[row a, row b, child if a(theta) <= b(theta), child otherwise]`."
     );
     let mut nb = String::new();
     for (i, n) in t.nodes.iter().enumerate() {
         if i % 6 == 0 {
             nb.push_str("\n    ");
         }
-        let _ = write!(nb, "[{}, {}, {}], ", n[0], n[1], n[2]);
+        let _ = write!(nb, "[{}, {}, {}, {}], ", n[0], n[1], n[2], n[3]);
     }
     let _ = writeln!(
         s,
-        "pub static NODES: [[u16; 3]; {}] = [{nb}\n];",
+        "pub static NODES: [[u16; 4]; {}] = [{nb}\n];",
         t.nodes.len()
     );
-    let _ = writeln!(s, "/// Hyperplanes `a, b`.");
-    arr(&mut s, "HYPERPLANES", &t.hyperplanes)?;
     let _ = writeln!(s, "/// Affine rows `gains, constant` shared by the laws.");
     arr(&mut s, "ROWS", &t.rows)?;
     let _ = writeln!(s, "/// Explored set `a, b` (a'theta <= b).");
@@ -355,7 +351,7 @@ pub fn rust_source(t: &OwnedTables<f64>, scalar: ExportScalar) -> Result<String,
     let _ = writeln!(s, "/// The tables for `kestrel_empc::evaluate`.");
     let _ = writeln!(
         s,
-        "pub static TABLES: kestrel_empc::SliceTables<'static, {ty}> = kestrel_empc::SliceTables {{\n    n_params: {},\n    n_outputs: {},\n    root: {},\n    nodes: &NODES,\n    hyperplanes: &HYPERPLANES,\n    laws: &LAWS,\n    rows: &ROWS,\n    hull: &HULL,\n    theta_lb: &THETA_LB,\n    theta_ub: &THETA_UB,\n    bounds: &BOUNDS,\n}};",
+        "pub static TABLES: kestrel_empc::SliceTables<'static, {ty}> = kestrel_empc::SliceTables {{\n    n_params: {},\n    n_outputs: {},\n    root: {},\n    nodes: &NODES,\n    laws: &LAWS,\n    rows: &ROWS,\n    hull: &HULL,\n    theta_lb: &THETA_LB,\n    theta_ub: &THETA_UB,\n    bounds: &BOUNDS,\n}};",
         t.n_params, t.n_outputs, t.root
     );
     Ok(s)

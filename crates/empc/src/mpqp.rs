@@ -618,6 +618,7 @@ impl Prepared {
                     margin = margin.min(s);
                 }
             }
+            let margin = margin.min(self.scale);
             if margin > tol {
                 Some((j, pt, margin))
             } else {

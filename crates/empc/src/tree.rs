@@ -68,7 +68,9 @@ pub struct TreeStats {
     pub depth: usize,
     /// Tree nodes.
     pub nodes: usize,
-    /// Hyperplanes stored.
+    /// Distinct hyperplanes used by the nodes (each stored as a pair of
+    /// affine rows; only those that are no difference of law and bound
+    /// rows add a row).
     pub hyperplanes: usize,
     /// Leaves where the construction could not separate different laws
     /// (numerically degenerate cases); 0 in an exact tree.
@@ -87,9 +89,7 @@ pub struct OwnedTables<S> {
     /// The root child code.
     pub root: u16,
     /// Tree nodes.
-    pub nodes: Vec<[u16; 3]>,
-    /// Hyperplanes, `p + 1` entries each.
-    pub hyperplanes: Vec<S>,
+    pub nodes: Vec<[u16; 4]>,
     /// Laws, `k` row indices each.
     pub laws: Vec<u16>,
     /// Affine rows, `p + 1` entries each.
@@ -112,7 +112,6 @@ impl<S: Scalar> OwnedTables<S> {
             n_outputs: self.n_outputs,
             root: self.root,
             nodes: &self.nodes,
-            hyperplanes: &self.hyperplanes,
             laws: &self.laws,
             rows: &self.rows,
             hull: &self.hull,
@@ -129,7 +128,6 @@ impl<S: Scalar> OwnedTables<S> {
             n_outputs: self.n_outputs,
             root: self.root,
             nodes: self.nodes.clone(),
-            hyperplanes: c(&self.hyperplanes),
             laws: self.laws.clone(),
             rows: c(&self.rows),
             hull: c(&self.hull),
@@ -140,13 +138,9 @@ impl<S: Scalar> OwnedTables<S> {
     }
     /// Storage in bytes with `scalar_bytes` per number and 2 per index.
     pub fn bytes(&self, scalar_bytes: usize) -> usize {
-        let numbers = self.hyperplanes.len()
-            + self.rows.len()
-            + self.hull.len()
-            + self.theta_lb.len()
-            + self.theta_ub.len();
+        let numbers = self.rows.len() + self.hull.len() + self.theta_lb.len() + self.theta_ub.len();
         numbers * scalar_bytes
-            + 2 * (3 * self.nodes.len() + self.laws.len() + 2 * self.bounds.len())
+            + 2 * (4 * self.nodes.len() + self.laws.len() + 2 * self.bounds.len())
     }
 }
 
@@ -172,7 +166,7 @@ struct Builder<'a> {
     hp: Vec<(Vec<f64>, f64)>,
     side_cache: HashMap<(usize, usize), i8>,
     lp: LpWorkspace,
-    nodes: Vec<[u16; 3]>,
+    nodes: Vec<[u16; 4]>,
     used_hp: HashMap<usize, u16>,
     ambiguous: usize,
     depth: usize,
@@ -341,15 +335,15 @@ impl Builder<'_> {
             }
         };
         let me = self.nodes.len();
-        self.nodes.push([hid, 0, 0]);
+        self.nodes.push([hid, 0, 0, 0]);
         cell.push((a.clone(), b));
         let l = self.build(left, cell, depth + 1);
         cell.pop();
         cell.push((na, -b));
         let rgt = self.build(right, cell, depth + 1);
         cell.pop();
-        self.nodes[me][1] = l;
-        self.nodes[me][2] = rgt;
+        self.nodes[me][2] = l;
+        self.nodes[me][3] = rgt;
         me as u16
     }
 }
@@ -512,12 +506,82 @@ pub fn build_controller(
             builder.used_hp.len()
         )));
     }
-    let mut hyperplanes = vec![0.0; builder.used_hp.len() * w];
-    for (&h, &i) in &builder.used_hp {
-        let (a, b) = &builder.hp[h];
-        let dst = &mut hyperplanes[i as usize * w..(i as usize + 1) * w];
-        dst[..p].copy_from_slice(a);
-        dst[p] = *b;
+    // Each hyperplane a'theta <= b as two affine rows: r1(theta) <= r2(theta)
+    // with r1 - r2 a positive multiple of (a, -b). Facets where an output's
+    // law meets its bound are differences of stored rows; others get a row.
+    let mut pair_index: HashMap<Vec<i64>, (usize, usize, f64)> = HashMap::new();
+    let nrows0 = rows.len() / w;
+    for r1 in 0..nrows0 {
+        for r2 in 0..nrows0 {
+            if r1 == r2 {
+                continue;
+            }
+            let d: Vec<f64> = (0..w)
+                .map(|j| rows[r1 * w + j] - rows[r2 * w + j])
+                .collect();
+            let nrm = d[..p].iter().map(|v| v * v).sum::<f64>().sqrt();
+            if nrm <= 1e-9 {
+                continue;
+            }
+            let lead = d[..p]
+                .iter()
+                .copied()
+                .find(|v| v.abs() > 1e-9 * nrm)
+                .unwrap_or(1.0);
+            if lead < 0.0 {
+                continue; // the swapped pair has the canonical sign
+            }
+            let key: Vec<i64> = d
+                .iter()
+                .enumerate()
+                .map(|(j, v)| {
+                    let s = if j == p { scale } else { 1.0 };
+                    (v / nrm / s * 1e7).round() as i64
+                })
+                .collect();
+            pair_index.entry(key).or_insert((r1, r2, nrm));
+        }
+    }
+    let mut hp_rows: Vec<[u16; 2]> = vec![[0, 0]; builder.used_hp.len()];
+    let mut used: Vec<(usize, u16)> = builder.used_hp.iter().map(|(&h, &i)| (h, i)).collect();
+    used.sort_by_key(|x| x.1);
+    for (h, i) in used {
+        let (a, b) = builder.hp[h].clone();
+        // The row (a, -b): gains a, constant -b.
+        let key: Vec<i64> = a
+            .iter()
+            .map(|v| (v * 1e7).round() as i64)
+            .chain([(-b / scale * 1e7).round() as i64])
+            .collect();
+        let exact = pair_index.get(&key).and_then(|&(r1, r2, nrm)| {
+            let ok = (0..w).all(|j| {
+                let d = (rows[r1 * w + j] - rows[r2 * w + j]) / nrm;
+                let want = if j == p { -b } else { a[j] };
+                (d - want).abs() <= 1e-11 * if j == p { scale } else { 1.0 }
+            });
+            ok.then_some([r1 as u16, r2 as u16])
+        });
+        hp_rows[i as usize] = match exact {
+            Some(pr) => pr,
+            None => {
+                let r = rows.len() / w;
+                rows.extend_from_slice(&a);
+                rows.push(-b);
+                [r as u16, NO_ROW]
+            }
+        };
+    }
+    let mut nodes = builder.nodes.clone();
+    for nd in &mut nodes {
+        let [r1, r2] = hp_rows[nd[0] as usize];
+        nd[0] = r1;
+        nd[1] = r2;
+    }
+    if rows.len() / w >= NO_ROW as usize {
+        return Err(EmpcError::TooLarge(format!(
+            "{} affine rows",
+            rows.len() / w
+        )));
     }
     let mut hull = Vec::new();
     for i in 0..solution.hull_a.nrows() {
@@ -534,8 +598,7 @@ pub fn build_controller(
         n_params: p,
         n_outputs: k,
         root,
-        nodes: builder.nodes.clone(),
-        hyperplanes,
+        nodes,
         laws,
         rows,
         hull,
@@ -546,7 +609,7 @@ pub fn build_controller(
     let stats = TreeStats {
         regions: solution.regions.len(),
         distinct_laws,
-        distinct_rows: nrows,
+        distinct_rows: tables.rows.len() / w,
         depth,
         nodes: tables.nodes.len(),
         hyperplanes: builder.used_hp.len(),

@@ -1,0 +1,202 @@
+//! `kestrel empc`: explicit MPC — solve an mpQP, evaluate the solution, export tables.
+
+use crate::io;
+use anyhow::{Context, bail};
+use kestrel_empc::export::{self, ExportScalar};
+use kestrel_empc::{Outputs, Settings, TreeSettings, build_controller, evaluate_with, solve};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Explicit MPC: `solve` a `kestrel.mpqp.v1` problem into a `kestrel.empc.v1`
+/// solution (critical regions, search tree, tables), `eval` it at parameters
+/// from a CSV file, `export` its tables as Rust source.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    #[command(subcommand)]
+    command: Sub,
+}
+
+#[derive(clap::Subcommand, Debug)]
+enum Sub {
+    /// Solve the mpQP; write the solution (summary, regions, tree tables).
+    Solve(SolveArgs),
+    /// Evaluate a solution at parameters (CSV, one theta per row, no header).
+    Eval(EvalArgs),
+    /// Export a solution's tables as Rust source with `static` arrays.
+    Export(ExportArgs),
+}
+
+/// `kestrel empc solve`.
+#[derive(clap::Args, Debug)]
+struct SolveArgs {
+    /// Problem file (`kestrel.mpqp.v1`).
+    #[arg(long)]
+    problem: PathBuf,
+    /// Solution file to write (`kestrel.empc.v1` with `region_list` and `tables`);
+    /// default: standard output.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Keep only the first K entries of z (the first move) in the tree and tables.
+    #[arg(long, value_name = "K")]
+    first_move: Option<usize>,
+    /// Leave the region list out of the solution file.
+    #[arg(long)]
+    no_regions: bool,
+    /// Explore on one thread.
+    #[arg(long)]
+    sequential: bool,
+    /// Show a progress bar on standard error.
+    #[arg(long)]
+    progress: bool,
+}
+
+/// `kestrel empc eval`.
+#[derive(clap::Args, Debug)]
+struct EvalArgs {
+    /// Solution file written by `kestrel empc solve`.
+    #[arg(long)]
+    solution: PathBuf,
+    /// CSV file: one parameter vector per row, no header.
+    #[arg(long)]
+    thetas: PathBuf,
+    /// Output CSV (default: standard output): the optimal z (or its first
+    /// move, as solved), one row per theta.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+/// Number type of the exported tables.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum ScalarArg {
+    /// 32-bit float.
+    F32,
+    /// Q15.16 saturating fixed point (`kestrel_core::Q16`).
+    Q16,
+}
+
+/// `kestrel empc export`.
+#[derive(clap::Args, Debug)]
+struct ExportArgs {
+    /// Solution file written by `kestrel empc solve`.
+    #[arg(long)]
+    solution: PathBuf,
+    /// Number type of the tables.
+    #[arg(long, value_enum, default_value = "f32")]
+    scalar: ScalarArg,
+    /// Rust source file to write (default: standard output).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    match args.command {
+        Sub::Solve(a) => run_solve(a),
+        Sub::Eval(a) => run_eval(a),
+        Sub::Export(a) => run_export(a),
+    }
+}
+
+fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
+    let name = a.problem.display().to_string();
+    let problem = export::read_problem(&a.problem).with_context(|| name.clone())?;
+    let settings = Settings {
+        parallel: !a.sequential,
+        progress: a.progress,
+        ..Settings::default()
+    };
+    let sol = solve(&problem, &settings).with_context(|| name.clone())?;
+    let outputs = match a.first_move {
+        Some(k) => Outputs::First(k),
+        None => Outputs::All,
+    };
+    let tree = TreeSettings {
+        outputs,
+        ..TreeSettings::default()
+    };
+    let ctl = build_controller(&problem, &sol, &tree).with_context(|| name.clone())?;
+    eprintln!(
+        "{} regions, {} distinct laws, solved in {:.4} s; tree depth {}, {} nodes, {} bytes (f32)",
+        sol.regions.len(),
+        ctl.stats.distinct_laws,
+        sol.stats.solve_seconds,
+        ctl.stats.depth,
+        ctl.stats.nodes,
+        ctl.tables.bytes(4)
+    );
+    io::write_output(
+        a.out.as_deref(),
+        &export::solution_json(&sol, &ctl, !a.no_regions),
+    )
+}
+
+fn read_tables(path: &std::path::Path) -> anyhow::Result<kestrel_empc::OwnedTables<f64>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    export::tables_from_json(&text).with_context(|| path.display().to_string())
+}
+
+fn run_eval(a: EvalArgs) -> anyhow::Result<()> {
+    let tables = read_tables(&a.solution)?;
+    let t = tables.tables();
+    let p = tables.n_params;
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .trim(csv::Trim::All)
+        .from_path(&a.thetas)
+        .with_context(|| format!("reading {}", a.thetas.display()))?;
+    let mut out = String::new();
+    let mut theta = vec![0.0; p];
+    let mut scratch = vec![0.0; p];
+    let mut z = vec![0.0; tables.n_outputs];
+    let mut outside = 0usize;
+    let mut count = 0usize;
+    for (line, rec) in reader.records().enumerate() {
+        let rec = rec.with_context(|| format!("{}: row {}", a.thetas.display(), line + 1))?;
+        if rec.len() != p {
+            bail!(
+                "{}: row {} has {} values, expected {p} (one per parameter)",
+                a.thetas.display(),
+                line + 1,
+                rec.len()
+            );
+        }
+        for (j, field) in rec.iter().enumerate() {
+            theta[j] = field
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .with_context(|| {
+                    format!(
+                        "{}: row {}, column {}: expected a finite number, found {field:?}",
+                        a.thetas.display(),
+                        line + 1,
+                        j + 1
+                    )
+                })?;
+        }
+        let e = evaluate_with(&t, &theta, &mut scratch, &mut z)
+            .map_err(|e| anyhow::anyhow!("{}: row {}: {e}", a.thetas.display(), line + 1))?;
+        outside += usize::from(e.outside);
+        count += 1;
+        let row: Vec<String> = z.iter().map(|v| format!("{v:?}")).collect();
+        let _ = writeln!(out, "{}", row.join(","));
+    }
+    if outside > 0 {
+        eprintln!(
+            "warning: {outside} of {count} parameters lie outside the explored set; their rows are the nearest region's law clamped to the bounds"
+        );
+    }
+    io::write_output(a.out.as_deref(), &out)
+}
+
+fn run_export(a: ExportArgs) -> anyhow::Result<()> {
+    let tables = read_tables(&a.solution)?;
+    let scalar = match a.scalar {
+        ScalarArg::F32 => ExportScalar::F32,
+        ScalarArg::Q16 => ExportScalar::Q16,
+    };
+    let src =
+        export::rust_source(&tables, scalar).with_context(|| a.solution.display().to_string())?;
+    io::write_output(a.out.as_deref(), &src)
+}

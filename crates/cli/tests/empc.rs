@@ -1,0 +1,207 @@
+//! End-to-end tests of `kestrel empc solve|eval|export` on good and malformed files.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn kestrel() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_kestrel"))
+}
+
+fn dir() -> PathBuf {
+    let d = std::env::temp_dir().join(format!("kestrel-empc-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn file(name: &str, text: &str) -> PathBuf {
+    let p = dir().join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// min 1/2 |z|^2 + theta'z on the box |z_i| <= 1: z = clamp(-theta), 9 regions.
+const BOX2: &str = r#"{"format": "kestrel.mpqp.v1",
+  "H": [[1, 0], [0, 1]], "F": [[1, 0], [0, 1]],
+  "G": [[1, 0], [0, 1], [-1, 0], [0, -1]], "W": [1, 1, 1, 1],
+  "E": [[0, 0], [0, 0], [0, 0], [0, 0]],
+  "theta_lb": [-3, -3], "theta_ub": [3, 3]}"#;
+
+fn solve_box(name: &str, extra: &[&str]) -> PathBuf {
+    let prob = file(&format!("{name}-problem.json"), BOX2);
+    let out = dir().join(format!("{name}-solution.json"));
+    let o = kestrel()
+        .args(["empc", "solve", "--problem"])
+        .arg(&prob)
+        .arg("--out")
+        .arg(&out)
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    out
+}
+
+#[test]
+fn solve_eval_export() {
+    let sol = solve_box("box", &[]);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&sol).unwrap()).unwrap();
+    assert_eq!(v["format"], "kestrel.empc.v1");
+    assert_eq!(v["regions"], 9);
+    assert_eq!(v["distinct_laws"], 9);
+    assert!(v["solve_seconds"].as_f64().unwrap() > 0.0);
+    assert!(v["tree"]["depth"].as_u64().unwrap() >= 2);
+    assert!(v["tree"]["nodes"].as_u64().unwrap() >= 4);
+    assert!(v["tree"]["bytes"].as_u64().unwrap() > 0);
+    assert_eq!(v["region_list"].as_array().unwrap().len(), 9);
+
+    let thetas = file("thetas.csv", "0.5, -0.25\n2, -3\n-1.5,0.75\n10,0\n");
+    let o = kestrel()
+        .args(["empc", "eval", "--solution"])
+        .arg(&sol)
+        .arg("--thetas")
+        .arg(&thetas)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout.clone()).unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let want = [[-0.5, 0.25], [-1.0, 1.0], [1.0, -0.75], [-1.0, 0.0]];
+    assert_eq!(rows.len(), 4);
+    for (r, w) in rows.iter().zip(want) {
+        for j in 0..2 {
+            assert!((r[j] - w[j]).abs() < 1e-12, "{r:?} vs {w:?}");
+        }
+    }
+    // The last theta is outside the box: flagged on stderr.
+    assert!(stderr(&o).contains("1 of 4 parameters lie outside"));
+
+    for scalar in ["f32", "q16"] {
+        let out = dir().join(format!("tables-{scalar}.rs"));
+        let o = kestrel()
+            .args(["empc", "export", "--solution"])
+            .arg(&sol)
+            .args(["--scalar", scalar, "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let src = std::fs::read_to_string(&out).unwrap();
+        assert!(src.contains("pub static TABLES: kestrel_empc::SliceTables<'static,"));
+        assert!(src.contains("pub static NODES: [[u16; 4];"));
+    }
+}
+
+#[test]
+fn first_move_only() {
+    let sol = solve_box("first", &["--first-move", "1", "--no-regions"]);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&sol).unwrap()).unwrap();
+    assert_eq!(v["regions"], 9);
+    assert_eq!(v["distinct_laws"], 3); // z_0 = clamp(-theta_0): three laws
+    assert!(v.get("region_list").is_none());
+    let thetas = file("first.csv", "0.5,2\n");
+    let o = kestrel()
+        .args(["empc", "eval", "--solution"])
+        .arg(&sol)
+        .arg("--thetas")
+        .arg(&thetas)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(String::from_utf8(o.stdout).unwrap().trim(), "-0.5");
+}
+
+#[test]
+fn bad_inputs_give_clear_errors() {
+    let run = |args: &[&str], files: &[&PathBuf]| {
+        let mut c = kestrel();
+        c.args(args);
+        for f in files {
+            c.arg(f);
+        }
+        c.output().unwrap()
+    };
+    let indefinite = file(
+        "indef.json",
+        &BOX2.replace("[[1, 0], [0, 1]], \"F\"", "[[1, 0], [0, -1]], \"F\""),
+    );
+    let o = run(&["empc", "solve", "--problem"], &[&indefinite]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("H is not positive definite"),
+        "{}",
+        stderr(&o)
+    );
+
+    let empty = file(
+        "empty.json",
+        &BOX2.replace("\"W\": [1, 1, 1, 1]", "\"W\": [-1, 1, -1, 1]"),
+    );
+    let o = run(&["empc", "solve", "--problem"], &[&empty]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("feasible set is empty"),
+        "{}",
+        stderr(&o)
+    );
+
+    let sol = solve_box("bad", &[]);
+    let thetas = file("short.csv", "1\n");
+    let o = run(&["empc", "eval", "--solution"], &[&sol]);
+    assert!(!o.status.success()); // --thetas missing
+    let mut c = kestrel();
+    let o = c
+        .args(["empc", "eval", "--solution"])
+        .arg(&sol)
+        .arg("--thetas")
+        .arg(&thetas)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("row 1 has 1 values, expected 2"),
+        "{}",
+        stderr(&o)
+    );
+    let nan = file("nan.csv", "1,nan\n");
+    let o = kestrel()
+        .args(["empc", "eval", "--solution"])
+        .arg(&sol)
+        .arg("--thetas")
+        .arg(&nan)
+        .output()
+        .unwrap();
+    assert!(
+        stderr(&o).contains("column 2: expected a finite number"),
+        "{}",
+        stderr(&o)
+    );
+
+    // A corrupted node table is rejected before evaluation.
+    let text = std::fs::read_to_string(&sol).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v["tables"]["nodes"][0][0] = serde_json::json!(999);
+    let broken = file("broken.json", &v.to_string());
+    let o = kestrel()
+        .args(["empc", "export", "--solution"])
+        .arg(&broken)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("node 0"), "{}", stderr(&o));
+    let wrong = file("wrong.json", r#"{"format": "kestrel.ss.v1"}"#);
+    let o = kestrel()
+        .args(["empc", "export", "--solution"])
+        .arg(&wrong)
+        .output()
+        .unwrap();
+    assert!(stderr(&o).contains("kestrel.empc.v1"), "{}", stderr(&o));
+}

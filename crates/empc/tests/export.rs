@@ -1,0 +1,56 @@
+//! The exported Rust source compiles (it is included here), is what the
+//! exporter writes today, and its `static` tables evaluate like the solution.
+
+use kestrel_core::formats::MpqpProblem;
+use kestrel_core::{Q16, Scalar};
+use kestrel_empc::export::{ExportScalar, rust_source};
+use kestrel_empc::mpqp::Rng;
+use kestrel_empc::{Settings, TreeSettings, build_controller, evaluate, solve};
+
+mod f32_tables {
+    include!("generated/box2_f32.rs");
+}
+mod q16_tables {
+    include!("generated/box2_q16.rs");
+}
+
+#[test]
+fn exported_tables_are_current_and_evaluate_like_the_solution() {
+    let prob = MpqpProblem::from_json_str(include_str!("generated/box2.json")).unwrap();
+    let sol = solve(&prob, &Settings::default()).unwrap();
+    let ctl = build_controller(&prob, &sol, &TreeSettings::default()).unwrap();
+    assert_eq!(
+        rust_source(&ctl.tables, ExportScalar::F32).unwrap(),
+        include_str!("generated/box2_f32.rs"),
+        "regenerate with `cargo run -p kestrel-empc --example golden`"
+    );
+    assert_eq!(
+        rust_source(&ctl.tables, ExportScalar::Q16).unwrap(),
+        include_str!("generated/box2_q16.rs")
+    );
+    let mut rng = Rng::new(5);
+    for _ in 0..2000 {
+        let th = [3.0 * rng.sym(), 3.0 * rng.sym()];
+        let r = sol.locate(&th, 1e-9).unwrap();
+        let want = sol.regions[r].z(&th);
+        let mut z = [0.0f32; 2];
+        let e = evaluate(&f32_tables::TABLES, &[th[0] as f32, th[1] as f32], &mut z).unwrap();
+        assert!(!e.outside);
+        let mut zq = [Q16::ZERO; 2];
+        evaluate(
+            &q16_tables::TABLES,
+            &[Q16::from_f64(th[0]), Q16::from_f64(th[1])],
+            &mut zq,
+        )
+        .unwrap();
+        for j in 0..2 {
+            assert!((z[j] as f64 - want[j]).abs() < 1e-5);
+            assert!(
+                (zq[j].to_f64() - want[j]).abs() < 1e-3,
+                "{} vs {}",
+                zq[j].to_f64(),
+                want[j]
+            );
+        }
+    }
+}
