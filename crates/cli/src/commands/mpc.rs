@@ -1,0 +1,160 @@
+//! `kestrel mpc`: build the condensed MPC problem of a model and write it
+//! as `kestrel.mpqp.v1`.
+
+use crate::io;
+use anyhow::{Context, bail};
+use kestrel_core::formats::{SsModel, json};
+use kestrel_mpc::{
+    Blocking, InputBounds, MpcProblem, MpcSettings, Terminal, ThrottleParameter, Weight,
+    tricopter_trim,
+};
+use nalgebra::{DMatrix, DVector};
+use std::path::{Path, PathBuf};
+
+/// Builds the condensed parametric QP (thesis (6.19)-(6.26), errata
+/// applied) of a discrete `kestrel.ss.v1` model and writes it as
+/// `kestrel.mpqp.v1` with `theta = [x; r_1..r_ny; throttle]` (for the
+/// tricopter `[x; r_roll; r_pitch; r_yaw; throttle]`).
+///
+/// A model with 4 inputs is the tricopter: its inputs are bounded by the
+/// PWM ranges around its `u0` (motors within 1000-2000 us minus the
+/// throttle, the servo within +-300 us of its centre) and the throttle is
+/// the last parameter. Other models need `--u-min` and `--u-max`
+/// (deviations from `u0`) and have no throttle parameter.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Discrete-time model (`kestrel.ss.v1`, `ts > 0`, `D = 0`).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Prediction horizon N (steps).
+    #[arg(long)]
+    pub horizon: usize,
+    /// Move-blocking lengths, comma separated, summing to N (default: one
+    /// block per step). The thesis's Ns = 1 with N = 2 is `--blocks 2`.
+    #[arg(long, value_delimiter = ',')]
+    pub blocks: Option<Vec<usize>>,
+    /// Output weight Q1: a number (times the identity) or a JSON matrix file.
+    #[arg(long, default_value = "1", allow_negative_numbers = true)]
+    pub q1: String,
+    /// Input weight Q2: a number (times the identity) or a JSON matrix file.
+    #[arg(long, default_value = "1e-4", allow_negative_numbers = true)]
+    pub q2: String,
+    /// Terminal weight: `lq` (Riccati solution, thesis (7.18)-(7.19)),
+    /// `q1` (Q1N = Q1), or a JSON matrix file: ny x ny is the output weight
+    /// Q1N, nx x nx (when nx != ny) the state weight on x_N - C^+ r.
+    #[arg(long, default_value = "lq")]
+    pub terminal: String,
+    /// Lower input bounds, comma separated, as deviations from `u0`
+    /// (required for models without 4 inputs; overrides the PWM bounds).
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    pub u_min: Option<Vec<f64>>,
+    /// Upper input bounds, comma separated, as deviations from `u0`.
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    pub u_max: Option<Vec<f64>>,
+    /// Parameter box of the states written to the file: |x_i| <= x-max.
+    #[arg(long, default_value_t = 10.0)]
+    pub x_max: f64,
+    /// Parameter box of the references: |r_i| <= r-max.
+    #[arg(long, default_value_t = 3.0)]
+    pub r_max: f64,
+    /// Smallest throttle of the parameter box (tricopter only, us).
+    #[arg(long, default_value_t = 1000.0)]
+    pub throttle_min: f64,
+    /// Largest throttle of the parameter box (tricopter only, us).
+    #[arg(long, default_value_t = 2000.0)]
+    pub throttle_max: f64,
+    /// Output file (default: standard output).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// A weight given on the command line: a number or a JSON matrix file.
+pub fn parse_weight(text: &str, what: &str) -> anyhow::Result<Weight> {
+    if let Ok(v) = text.trim().parse::<f64>() {
+        if !v.is_finite() {
+            bail!("{what}: expected a finite number or a JSON matrix file, found {text}");
+        }
+        return Ok(Weight::Scalar(v));
+    }
+    Ok(Weight::Matrix(read_matrix(Path::new(text), what)?))
+}
+
+/// Reads a JSON file holding one matrix (an array of rows).
+pub fn read_matrix(path: &Path, what: &str) -> anyhow::Result<DMatrix<f64>> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{what}: reading {}", path.display()))?;
+    let value: serde_json::Value = serde_json::from_str(&text)
+        .with_context(|| format!("{what}: {} is not JSON", path.display()))?;
+    json::matrix_value(&value, what, None, None)
+        .with_context(|| format!("{what}: {}", path.display()))
+}
+
+/// The problem described by the arguments.
+pub fn build(args: &Args) -> anyhow::Result<MpcProblem> {
+    let model = SsModel::read(&args.model).with_context(|| format!("{}", args.model.display()))?;
+    let blocking = match &args.blocks {
+        Some(b) => Some(Blocking::new(b.clone())?),
+        None => None,
+    };
+    let terminal = match args.terminal.as_str() {
+        "lq" => Terminal::Lq,
+        "q1" => Terminal::StageWeight,
+        path => {
+            let m = read_matrix(Path::new(path), "--terminal")?;
+            if m.shape() == (model.ny(), model.ny()) {
+                Terminal::Output(Weight::Matrix(m))
+            } else if m.shape() == (model.nx(), model.nx()) {
+                Terminal::State(m)
+            } else {
+                bail!(
+                    "--terminal {path}: expected a {ny} x {ny} output weight or a {nx} x {nx} state weight, found {} x {}",
+                    m.nrows(),
+                    m.ncols(),
+                    ny = model.ny(),
+                    nx = model.nx()
+                );
+            }
+        }
+    };
+    let settings = MpcSettings {
+        horizon: args.horizon,
+        blocking,
+        q1: parse_weight(&args.q1, "--q1")?,
+        q2: parse_weight(&args.q2, "--q2")?,
+        terminal,
+        state_bound: args.x_max,
+        reference_bound: args.r_max,
+    };
+    let bounds = match (&args.u_min, &args.u_max) {
+        (Some(lo), Some(hi)) => InputBounds::new(
+            DVector::from_column_slice(lo),
+            DVector::from_column_slice(hi),
+        ),
+        (None, None) if model.nu() == 4 => {
+            let mut b = tricopter_trim(&model)
+                .with_context(|| format!("{}: u0", args.model.display()))?
+                .bounds();
+            if let Some(t) = &mut b.throttle {
+                *t = ThrottleParameter {
+                    min: args.throttle_min,
+                    max: args.throttle_max,
+                    ..t.clone()
+                };
+            }
+            b
+        }
+        (None, None) => bail!(
+            "the model has {} inputs: give --u-min and --u-max (the PWM bounds apply to 4-input tricopter models only)",
+            model.nu()
+        ),
+        _ => bail!("give both --u-min and --u-max, or neither"),
+    };
+    Ok(MpcProblem::build(&model, &bounds, &settings)
+        .with_context(|| format!("building the MPC problem of {}", args.model.display()))?)
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let problem = build(&args)?;
+    io::write_output(args.out.as_deref(), &problem.to_mpqp().to_json_string())
+}
