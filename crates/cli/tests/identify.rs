@@ -96,14 +96,23 @@ fn identifies_and_writes_ss_v1_with_offsets() {
 #[test]
 fn bad_logs_give_clear_errors() {
     let d = dir("bad");
-    let cases: Vec<(
-        &str,
-        Box<dyn Fn(usize, &mut Vec<String>)>,
-        usize,
-        Vec<&str>,
-        &str,
-    )> = vec![
-        (
+    type Edit = Box<dyn Fn(usize, &mut Vec<String>)>;
+    struct Case {
+        name: &'static str,
+        edit: Edit,
+        rows: usize,
+        extra: Vec<&'static str>,
+        want: &'static str,
+    }
+    let case = |name, edit: Edit, rows, extra, want| Case {
+        name,
+        edit,
+        rows,
+        extra,
+        want,
+    };
+    let cases = vec![
+        case(
             "nan",
             Box::new(|k, f: &mut Vec<String>| {
                 if k == 7 {
@@ -114,21 +123,21 @@ fn bad_logs_give_clear_errors() {
             vec![],
             "line 9",
         ),
-        (
+        case(
             "short",
             Box::new(|_, _: &mut Vec<String>| {}),
             30,
             vec!["--order", "8"],
             "too few samples",
         ),
-        (
+        case(
             "const",
             Box::new(|_, f: &mut Vec<String>| f[2] = "4".into()),
             500,
             vec![],
             "\"b\" is constant",
         ),
-        (
+        case(
             "ragged",
             Box::new(|k, f: &mut Vec<String>| {
                 if k == 3 {
@@ -140,7 +149,14 @@ fn bad_logs_give_clear_errors() {
             "line 5",
         ),
     ];
-    for (name, edit, rows, extra, want) in cases {
+    for Case {
+        name,
+        edit,
+        rows,
+        extra,
+        want,
+    } in cases
+    {
         let log = d.join(format!("{name}.csv"));
         write_log(&log, rows, edit);
         let mut args = vec![
