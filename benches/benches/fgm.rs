@@ -35,26 +35,41 @@ fn bench_size<const N: usize>(c: &mut Criterion, name: &str, size: ProblemSize) 
     let d = design(size);
     let eps = kestrel_fgm::eps_for_input_error(d.preconditioning.before.mu, 1.0);
     let cert = d.certify(eps).expect("certify");
-    eprintln!("{name}: n = {N}, eps = {eps:.3e}, certified iterations = {}", cert.iterations);
+    eprintln!(
+        "{name}: n = {N}, eps = {eps:.3e}, certified iterations = {}",
+        cert.iterations
+    );
     let t64: FgmTables<f64, N, P, 1> = d.tables(&cert, None).expect("f64");
     let t32: FgmTables<f32, N, P, 1> = d.tables(&cert, None).expect("f32");
     let tq: FgmTables<Q16, N, P, 1> = d.tables(&cert, None).expect("q16");
     let mid = (&d.problem.theta_lb + &d.problem.theta_ub) * 0.5;
     let span = &d.problem.theta_ub - &d.problem.theta_lb;
-    let th = DVector::from_fn(P, |i, _| mid[i] + 0.3 * span[i] * if i % 2 == 0 { 1.0 } else { -1.0 });
+    let th = DVector::from_fn(P, |i, _| {
+        mid[i] + 0.3 * span[i] * if i % 2 == 0 { 1.0 } else { -1.0 }
+    });
     let th64: [f64; P] = core::array::from_fn(|i| th[i]);
     let th32: [f32; P] = core::array::from_fn(|i| th[i] as f32);
     let thq: [Q16; P] = core::array::from_fn(|i| Q16::from_f64(th[i]));
     let mut g = c.benchmark_group(format!("fgm/{name}"));
     let mut w64 = FgmWorkspace::<f64, N>::new();
-    g.bench_function("fgm_f64", |b| b.iter(|| t64.solve(black_box(&th64), &mut w64).expect("solve")));
+    g.bench_function("fgm_f64", |b| {
+        b.iter(|| t64.solve(black_box(&th64), &mut w64).expect("solve"))
+    });
     let mut w32 = FgmWorkspace::<f32, N>::new();
-    g.bench_function("fgm_f32", |b| b.iter(|| t32.solve(black_box(&th32), &mut w32).expect("solve")));
+    g.bench_function("fgm_f32", |b| {
+        b.iter(|| t32.solve(black_box(&th32), &mut w32).expect("solve"))
+    });
     let mut wq = FgmWorkspace::<Q16, N>::new();
-    g.bench_function("fgm_q16", |b| b.iter(|| tq.solve(black_box(&thq), &mut wq).expect("solve")));
+    g.bench_function("fgm_q16", |b| {
+        b.iter(|| tq.solve(black_box(&thq), &mut wq).expect("solve"))
+    });
     let reference = ReferenceSolver::new(&d.problem);
     g.bench_function("clarabel", |b| {
-        b.iter(|| reference.solve(&d.problem, black_box(&th)).expect("clarabel"))
+        b.iter(|| {
+            reference
+                .solve(&d.problem, black_box(&th))
+                .expect("clarabel")
+        })
     });
     g.finish();
 }

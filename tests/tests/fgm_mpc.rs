@@ -66,14 +66,22 @@ fn check(size: ProblemSize) {
             qp.theta_lb[i] + (qp.theta_ub[i] - qp.theta_lb[i]) * unit(&mut s)
         });
         let best = reference.solve(&qp, &th).unwrap();
-        let z = DVector::from_vec(data.solve(th.as_slice(), Start::Cold, cert.iterations).unwrap());
+        let z = DVector::from_vec(
+            data.solve(th.as_slice(), Start::Cold, cert.iterations)
+                .unwrap(),
+        );
         let gap = qp.cost(&z, &th) - best.cost;
         assert!(gap <= eps, "{size:?} cold: {gap} > {eps}");
-        assert!((&z - &best.z).amax() <= 1.0 + 1e-6, "{size:?}: input error above 1 us");
+        assert!(
+            (&z - &best.z).amax() <= 1.0 + 1e-6,
+            "{size:?}: input error above 1 us"
+        );
         let th0 = DVector::from_fn(qp.p(), |i, _| {
             (th[i] + step[i] * (2.0 * unit(&mut s) - 1.0)).clamp(qp.theta_lb[i], qp.theta_ub[i])
         });
-        let prev = data.solve(th0.as_slice(), Start::Cold, cert.iterations).unwrap();
+        let prev = data
+            .solve(th0.as_slice(), Start::Cold, cert.iterations)
+            .unwrap();
         let zw = DVector::from_vec(
             data.solve(th.as_slice(), Start::Warm(&prev), warm.iterations)
                 .unwrap(),
@@ -113,7 +121,9 @@ fn preconditioning_on_the_thesis_sized_problem() {
     );
     let k_opt = opt.spectrum.condition();
     let w = qp.max_widths();
-    let hw = (0..qp.n()).map(|i| qp.h[(i, i)] * w[i] * w[i]).fold(0.0, f64::max);
+    let hw = (0..qp.n())
+        .map(|i| qp.h[(i, i)] * w[i] * w[i])
+        .fold(0.0, f64::max);
     let lower = ((hw / (2.0 * eps)).ln() / -(1.0 - 1.0 / k_opt.sqrt()).ln()).ceil() as usize;
     println!(
         "thesis-sized: cond {:.4e} (none) {:.4e} (jacobi) {:.4e} (optimal); \
@@ -126,5 +136,8 @@ fn preconditioning_on_the_thesis_sized_problem() {
     assert!(k_opt <= none.spectrum.condition() * (1.0 + 1e-9));
     assert!(i1 <= i0 && lower <= i1, "{lower} <= {i1} <= {i0}");
     // Halving is impossible for every diagonal preconditioner.
-    assert!(2 * lower > i0, "the lower bound {lower} would allow halving {i0}");
+    assert!(
+        2 * lower > i0,
+        "the lower bound {lower} would allow halving {i0}"
+    );
 }

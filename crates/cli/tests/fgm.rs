@@ -35,7 +35,14 @@ fn run(args: &[&str]) -> (bool, String, String) {
 #[test]
 fn certify_prints_iterations_l_mu_and_preconditioner() {
     let p = temp_file("box.json", BOX);
-    let (ok, out, err) = run(&["fgm", "certify", "--problem", p.to_str().unwrap(), "--eps", "1e-6"]);
+    let (ok, out, err) = run(&[
+        "fgm",
+        "certify",
+        "--problem",
+        p.to_str().unwrap(),
+        "--eps",
+        "1e-6",
+    ]);
     assert!(ok, "{err}");
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert!(v["iterations"].as_u64().unwrap() > 0);
@@ -44,7 +51,14 @@ fn certify_prints_iterations_l_mu_and_preconditioner() {
     assert_eq!(v["preconditioner"], "optimal-diagonal");
     assert_eq!(v["eps_table"].as_array().unwrap().len(), 4);
     // A looser tolerance never needs more iterations.
-    let (_, out2, _) = run(&["fgm", "certify", "--problem", p.to_str().unwrap(), "--eps", "1e-2"]);
+    let (_, out2, _) = run(&[
+        "fgm",
+        "certify",
+        "--problem",
+        p.to_str().unwrap(),
+        "--eps",
+        "1e-2",
+    ]);
     let v2: serde_json::Value = serde_json::from_str(&out2).unwrap();
     assert!(v2["iterations"].as_u64() <= v["iterations"].as_u64());
 }
@@ -54,8 +68,14 @@ fn solve_matches_the_box_optimum() {
     let p = temp_file("box2.json", BOX);
     let t = temp_file("thetas.csv", "0.5, 0.25\n-2,0\n\n2,0.5\n");
     let (ok, out, err) = run(&[
-        "fgm", "solve", "--problem", p.to_str().unwrap(), "--thetas", t.to_str().unwrap(),
-        "--iterations", "200",
+        "fgm",
+        "solve",
+        "--problem",
+        p.to_str().unwrap(),
+        "--thetas",
+        t.to_str().unwrap(),
+        "--iterations",
+        "200",
     ]);
     assert!(ok, "{err}");
     let rows: Vec<Vec<f64>> = out
@@ -89,28 +109,82 @@ fn bad_inputs_give_clear_errors() {
     let (ok, _, err) = run(&["fgm", "certify", "--problem", ps, "--eps", "-1"]);
     assert!(!ok && err.contains("eps must be a positive"), "{err}");
 
-    let coupled = temp_file("coupled.json", &BOX.replace("[[0, 2], [1, 0]", "[[1, 2], [1, 0]"));
-    let (ok, _, err) = run(&["fgm", "certify", "--problem", coupled.to_str().unwrap(), "--eps", "1"]);
-    assert!(!ok && err.contains("constraint row 0 has 2 non-zero"), "{err}");
+    let coupled = temp_file(
+        "coupled.json",
+        &BOX.replace("[[0, 2], [1, 0]", "[[1, 2], [1, 0]"),
+    );
+    let (ok, _, err) = run(&[
+        "fgm",
+        "certify",
+        "--problem",
+        coupled.to_str().unwrap(),
+        "--eps",
+        "1",
+    ]);
+    assert!(
+        !ok && err.contains("constraint row 0 has 2 non-zero"),
+        "{err}"
+    );
 
     let open = temp_file(
         "open.json",
-        &BOX.replace(r#""G": [[0, 2], [1, 0], [0, -1], [-3, 0]], "W": [4, 1, 2, 3],
-  "E": [[0, 0], [0, 1], [0, 0], [0, -3]]"#, r#""G": [[0, 2], [1, 0], [-3, 0]], "W": [4, 1, 3],
-  "E": [[0, 0], [0, 1], [0, -3]]"#),
+        &BOX.replace(
+            r#""G": [[0, 2], [1, 0], [0, -1], [-3, 0]], "W": [4, 1, 2, 3],
+  "E": [[0, 0], [0, 1], [0, 0], [0, -3]]"#,
+            r#""G": [[0, 2], [1, 0], [-3, 0]], "W": [4, 1, 3],
+  "E": [[0, 0], [0, 1], [0, -3]]"#,
+        ),
     );
-    let (ok, _, err) = run(&["fgm", "certify", "--problem", open.to_str().unwrap(), "--eps", "1"]);
-    assert!(!ok && err.contains("unbounded: variable 1 has no lower bound"), "{err}");
+    let (ok, _, err) = run(&[
+        "fgm",
+        "certify",
+        "--problem",
+        open.to_str().unwrap(),
+        "--eps",
+        "1",
+    ]);
+    assert!(
+        !ok && err.contains("unbounded: variable 1 has no lower bound"),
+        "{err}"
+    );
 
-    let nonconvex = temp_file("nc.json", &BOX.replace("[[4, 1], [1, 2]]", "[[1, 3], [3, 1]]"));
-    let (ok, _, err) = run(&["fgm", "certify", "--problem", nonconvex.to_str().unwrap(), "--eps", "1"]);
+    let nonconvex = temp_file(
+        "nc.json",
+        &BOX.replace("[[4, 1], [1, 2]]", "[[1, 3], [3, 1]]"),
+    );
+    let (ok, _, err) = run(&[
+        "fgm",
+        "certify",
+        "--problem",
+        nonconvex.to_str().unwrap(),
+        "--eps",
+        "1",
+    ]);
     assert!(!ok && err.contains("not convex"), "{err}");
 
     let t = temp_file("bad.csv", "1,2\n1,x\n");
-    let (ok, _, err) = run(&["fgm", "solve", "--problem", ps, "--thetas", t.to_str().unwrap(), "--iterations", "5"]);
+    let (ok, _, err) = run(&[
+        "fgm",
+        "solve",
+        "--problem",
+        ps,
+        "--thetas",
+        t.to_str().unwrap(),
+        "--iterations",
+        "5",
+    ]);
     assert!(!ok && err.contains("line 2, column 2"), "{err}");
     let t = temp_file("short.csv", "1\n");
-    let (ok, _, err) = run(&["fgm", "solve", "--problem", ps, "--thetas", t.to_str().unwrap(), "--iterations", "5"]);
+    let (ok, _, err) = run(&[
+        "fgm",
+        "solve",
+        "--problem",
+        ps,
+        "--thetas",
+        t.to_str().unwrap(),
+        "--iterations",
+        "5",
+    ]);
     assert!(!ok && err.contains("expected 2 numbers"), "{err}");
 }
 
@@ -119,8 +193,18 @@ fn certify_exports_firmware_tables() {
     let p = temp_file("box4.json", BOX);
     let rs = std::env::temp_dir().join(format!("kestrel-cli-fgm-{}/tables.rs", std::process::id()));
     let (ok, out, err) = run(&[
-        "fgm", "certify", "--problem", p.to_str().unwrap(), "--eps", "1e-4", "--export",
-        rs.to_str().unwrap(), "--scalar", "q16", "--theta-step", "0.1,0.01",
+        "fgm",
+        "certify",
+        "--problem",
+        p.to_str().unwrap(),
+        "--eps",
+        "1e-4",
+        "--export",
+        rs.to_str().unwrap(),
+        "--scalar",
+        "q16",
+        "--theta-step",
+        "0.1,0.01",
     ]);
     assert!(ok, "{err}");
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();

@@ -1,7 +1,8 @@
-//! The certificate against clarabel: J(z after the certified iterations)
-//! - J* <= eps for random theta, cold and warm start, in f64; the f32 and
+//! The certificate against clarabel: `J(z after the certified iterations)
+//! - J* <= eps` for random theta, cold and warm start, in f64; the f32 and
 //! fixed-point solvers within their stated bounds. The full 10^5-theta runs
 //! are `cargo run --release -p kestrel-fgm --example certify_report`.
+#![allow(clippy::needless_range_loop)] // index loops mirror the textbook formulas
 
 mod common;
 

@@ -1,5 +1,6 @@
 //! Laws that hold for every input: the projection, and the monotonicity of
 //! the certificate and of the convergence bound.
+#![allow(clippy::needless_range_loop)] // index loops mirror the textbook formulas
 
 mod common;
 
@@ -116,7 +117,12 @@ fn beta_table_follows_the_errata_and_converges() {
     let betas = d.beta_table(400);
     assert!(betas.iter().all(|b| (0.0..1.0).contains(b)));
     // alpha_i -> sqrt(mu/L), so beta_i -> the constant momentum.
-    assert!((betas[399] - d.constant_beta()).abs() < 1e-6, "{} vs {}", betas[399], d.constant_beta());
+    assert!(
+        (betas[399] - d.constant_beta()).abs() < 1e-6,
+        "{} vs {}",
+        betas[399],
+        d.constant_beta()
+    );
     // Direct recomputation of the errata formula for the first entries.
     let q = d.spectrum.mu / d.spectrum.l;
     let mut a: f64 = (-(1.0 - q) + ((1.0 - q) * (1.0 - q) + 4.0).sqrt()) / 2.0;
@@ -128,7 +134,11 @@ fn beta_table_follows_the_errata_and_converges() {
             let (mut lo, mut hi) = (0.0, 1.0);
             for _ in 0..200 {
                 let m: f64 = 0.5 * (lo + hi);
-                if m * m - ((1.0 - m) * a * a + q * m) < 0.0 { lo = m } else { hi = m }
+                if m * m - ((1.0 - m) * a * a + q * m) < 0.0 {
+                    lo = m
+                } else {
+                    hi = m
+                }
             }
             0.5 * (lo + hi)
         };

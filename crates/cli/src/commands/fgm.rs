@@ -214,11 +214,19 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
         let (scalar, text) = match a.scalar {
             ScalarArg::F32 => (
                 ExportScalar::F32,
-                kestrel_fgm::export_rust("FGM", &d.data::<f32>(&cert, warm_iterations)?, ExportScalar::F32),
+                kestrel_fgm::export_rust(
+                    "FGM",
+                    &d.data::<f32>(&cert, warm_iterations)?,
+                    ExportScalar::F32,
+                ),
             ),
             ScalarArg::F64 => (
                 ExportScalar::F64,
-                kestrel_fgm::export_rust("FGM", &d.data::<f64>(&cert, warm_iterations)?, ExportScalar::F64),
+                kestrel_fgm::export_rust(
+                    "FGM",
+                    &d.data::<f64>(&cert, warm_iterations)?,
+                    ExportScalar::F64,
+                ),
             ),
             ScalarArg::Q16 => (
                 ExportScalar::Q16,
@@ -230,7 +238,8 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
             ),
         };
         io::write_output(Some(path), &text)?;
-        out["export"] = json!({"path": path.display().to_string(), "scalar": format!("{scalar:?}")});
+        out["export"] =
+            json!({"path": path.display().to_string(), "scalar": format!("{scalar:?}")});
     }
     let text = serde_json::to_string_pretty(&out)? + "\n";
     io::write_output(a.out.as_deref(), &text)
@@ -248,10 +257,21 @@ fn read_thetas(path: &Path, p: usize) -> anyhow::Result<Vec<Vec<f64>>> {
             .enumerate()
             .map(|(j, s)| {
                 let v: f64 = s.trim().parse().with_context(|| {
-                    format!("{}: line {}, column {}: {:?} is not a number", path.display(), k + 1, j + 1, s.trim())
+                    format!(
+                        "{}: line {}, column {}: {:?} is not a number",
+                        path.display(),
+                        k + 1,
+                        j + 1,
+                        s.trim()
+                    )
                 })?;
                 if !v.is_finite() {
-                    bail!("{}: line {}, column {}: non-finite value", path.display(), k + 1, j + 1);
+                    bail!(
+                        "{}: line {}, column {}: non-finite value",
+                        path.display(),
+                        k + 1,
+                        j + 1
+                    );
                 }
                 Ok(v)
             })
