@@ -4,16 +4,22 @@
 //! actuators linearisation of the default aircraft (no identified 5-state
 //! model is available to this test).
 //!
-//! The full 10^5-theta runs: `cargo run --release -p kestrel-fgm --example
-//! certify_report -- 100000 thesis.json larger.json` on the problems written
-//! by `kestrel mpc`.
+//! The sample size is 300 theta per problem by default; the full report is
+//! `KESTREL_FGM_SAMPLES=100000 cargo test --release -p kestrel-tests --test
+//! fgm_mpc -- --nocapture` (clarabel references solved once per theta and
+//! reused for the cold and the warm check).
 
 use kestrel_fgm::reference::ReferenceSolver;
 use kestrel_fgm::{BoxQp, FgmDesign, FgmSettings, Preconditioner, Start, WarmStartAssumption};
 use kestrel_mpc::{ProblemSize, default_weights, design_model, tricopter_problem};
 use nalgebra::DVector;
 
-const SAMPLES: usize = 300;
+fn samples() -> usize {
+    std::env::var("KESTREL_FGM_SAMPLES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(300)
+}
 
 fn box_qp(size: ProblemSize) -> BoxQp {
     let model = design_model().unwrap();
@@ -60,8 +66,25 @@ fn check(size: ProblemSize) {
         .unwrap();
     let data = d.data::<f64>(&cert, Some(warm.iterations)).unwrap();
     let reference = ReferenceSolver::new(&qp);
+    let table: Vec<(f64, usize)> = [1e5, 1e4, 1e3, 1e2, eps]
+        .iter()
+        .map(|e| (*e, d.certify(*e).unwrap().iterations))
+        .collect();
+    println!(
+        "{size:?}: n = {}, L = {:.4e}, mu = {:.4e}, cond {:.4e} -> {:.4e}; eps -> iterations {table:?}; \
+         warm {} (refined {})",
+        qp.n(),
+        cert.l,
+        cert.mu,
+        d.preconditioning.before.condition(),
+        cert.condition,
+        warm.iterations,
+        warm.refined
+    );
     let mut s = 99u64;
-    for _ in 0..SAMPLES {
+    let (mut worst_cold, mut worst_warm) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+    let n_samples = samples();
+    for _ in 0..n_samples {
         let th = DVector::from_fn(qp.p(), |i, _| {
             qp.theta_lb[i] + (qp.theta_ub[i] - qp.theta_lb[i]) * unit(&mut s)
         });
@@ -72,6 +95,7 @@ fn check(size: ProblemSize) {
         );
         let gap = qp.cost(&z, &th) - best.cost;
         assert!(gap <= eps, "{size:?} cold: {gap} > {eps}");
+        worst_cold = worst_cold.max(gap);
         assert!(
             (&z - &best.z).amax() <= 1.0 + 1e-6,
             "{size:?}: input error above 1 us"
@@ -88,7 +112,13 @@ fn check(size: ProblemSize) {
         );
         let gw = qp.cost(&zw, &th) - best.cost;
         assert!(gw <= eps, "{size:?} warm: {gw} > {eps}");
+        worst_warm = worst_warm.max(gw);
     }
+    println!(
+        "{size:?}: {n_samples} theta, eps = {eps:.4e}: worst J - J* cold {worst_cold:.3e} \
+         ({} it), warm {worst_warm:.3e} ({} it)",
+        cert.iterations, warm.iterations
+    );
 }
 
 #[test]

@@ -191,7 +191,9 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
         "momentum": cert.scheme.name(),
         "preconditioner": pc.method.name(),
         "before": {"L": pc.before.l, "mu": pc.before.mu, "condition": pc.before.condition()},
-        "after": {"L": pc.after.l, "mu": pc.after.mu, "condition": pc.after.condition()},
+        // L and mu of D H D with the scaling actually used (D is also
+        // normalised so the scaled iterates use the range of fixed point).
+        "after": {"L": cert.l, "mu": cert.mu, "condition": cert.condition},
         "eps_table": table,
         "pwm_1us": pwm,
         "rounding": {

@@ -1,0 +1,86 @@
+//! The exported firmware tables compile and equal the design's tables:
+//! `tests/data/fgm_q16.rs` is written by `export_rust` (regenerate with
+//! `KESTREL_REGENERATE=1 cargo test -p kestrel-fgm --test export`) and
+//! included here as code.
+
+use kestrel_core::formats::MpqpProblem;
+use kestrel_core::{Q16, Scalar};
+use kestrel_fgm::{
+    BoxQp, ExportScalar, FgmDesign, FgmSettings, FgmWorkspace, Momentum, Preconditioner,
+    export_rust,
+};
+
+mod generated {
+    include!("data/fgm_q16.rs");
+}
+
+const PROBLEM: &str = r#"{"format": "kestrel.mpqp.v1",
+  "H": [[4, 1], [1, 2]], "F": [[3, -1], [0, 0]],
+  "G": [[1, 0], [-1, 0], [0, 2], [0, -1]], "W": [1, 1, 4, 2],
+  "E": [[0, 1], [0, -1], [0, 0], [0, 0]],
+  "theta_lb": [-2, 0], "theta_ub": [2, 0.5]}"#;
+
+fn design() -> FgmDesign {
+    let prob = MpqpProblem::from_json_str(PROBLEM).unwrap();
+    let settings = FgmSettings {
+        preconditioner: Preconditioner::Jacobi,
+        momentum: Momentum::Constant,
+        ..FgmSettings::default()
+    };
+    FgmDesign::new(BoxQp::from_mpqp(&prob).unwrap(), settings).unwrap()
+}
+
+#[test]
+fn exported_static_equals_the_design_tables() {
+    let d = design();
+    let cert = d.certify(1e-6).unwrap();
+    let data = d.data::<Q16>(&cert, None).unwrap();
+    let text = export_rust("FGM", &data, ExportScalar::Q16);
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/fgm_q16.rs");
+    if std::env::var_os("KESTREL_REGENERATE").is_some() {
+        std::fs::write(path, &text).unwrap();
+    }
+    assert_eq!(
+        std::fs::read_to_string(path).unwrap(),
+        text,
+        "regenerate the golden file"
+    );
+    let tables = d.tables::<Q16, 2, 2, 1>(&cert, None).unwrap();
+    assert_eq!(generated::FGM, tables);
+    let th = [Q16::from_f64(1.5), Q16::from_f64(0.25)];
+    let (mut w1, mut w2) = (FgmWorkspace::new(), FgmWorkspace::new());
+    assert_eq!(
+        generated::FGM.solve(&th, &mut w1).unwrap(),
+        tables.solve(&th, &mut w2).unwrap()
+    );
+}
+
+#[test]
+fn f32_export_round_trips() {
+    let d = design();
+    let cert = d.certify(1e-6).unwrap();
+    let data = d.data::<f32>(&cert, None).unwrap();
+    let text = export_rust("FGM32", &data, ExportScalar::F32);
+    // Every literal parses back to the same f32.
+    let lits: Vec<f32> = text
+        .split(|c: char| c == '[' || c == ']' || c == ',' || c.is_whitespace())
+        .filter_map(|t| t.strip_suffix("_f32"))
+        .map(|t| t.parse().unwrap())
+        .collect();
+    let mut want: Vec<f32> = Vec::new();
+    for v in [
+        &data.m,
+        &data.k_theta,
+        &data.k0,
+        &data.lo_theta,
+        &data.lo0,
+        &data.hi_theta,
+        &data.hi0,
+        &data.d,
+        &data.d_inv,
+        &data.betas,
+    ] {
+        want.extend(v.iter());
+    }
+    assert_eq!(lits, want);
+}
