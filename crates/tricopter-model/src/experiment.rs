@@ -108,7 +108,7 @@ pub struct SimSettings {
     /// The plant: aircraft, gyro (its rate is the log and control rate),
     /// gusts, integration step.
     pub plant: PlantConfig,
-    /// Rate controller gains.
+    /// Rate controller gains (their `dt` is replaced by the sample period).
     pub gains: RatePidGains<f64>,
     /// Excitation amplitude per axis (rad/s).
     pub excitation: [f64; 3],

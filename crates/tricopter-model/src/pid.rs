@@ -25,8 +25,9 @@ pub struct RatePidGains<S> {
 }
 
 impl Default for RatePidGains<f64> {
-    /// Gains tuned for [`crate::Params::default`] at 50 Hz (about 8 rad/s
-    /// crossover on roll and pitch, 4 rad/s on yaw).
+    /// Gains for the default aircraft at 50 Hz: with the hover virtual
+    /// rate model's `B` (about 0.28, 0.24, 0.05 rad/s^2 per us on roll,
+    /// pitch, yaw) the loop crossovers are about 8, 8 and 5 rad/s.
     fn default() -> Self {
         RatePidGains {
             kp: [30.0, 32.0, 90.0],
