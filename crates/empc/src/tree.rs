@@ -224,7 +224,12 @@ impl Builder<'_> {
         let mut c = vec![0.0; p + 1];
         c[p] = 1.0;
         let (st, rad) = self.lp.maximize(&c, &a, &b);
-        st == LpStatus::Optimal && rad > 1e-9 * self.scale
+        match st {
+            LpStatus::Optimal => rad > 1e-9 * self.scale,
+            LpStatus::Infeasible => false,
+            // An LP that did not finish proves nothing: keep the region.
+            _ => true,
+        }
     }
 
     fn build(&mut self, set: Vec<usize>, cell: &mut Vec<(Vec<f64>, f64)>, depth: usize) -> u16 {
