@@ -1,7 +1,7 @@
 //! `dlqr` and `dlqe` with python-control's (and MATLAB's) meanings (feature `std`).
 
 use crate::KalmanError;
-use crate::dare::{DareSettings, check_shape, dare_with, symmetrize};
+use crate::dare::{DareSettings, check_shape, dare_with, symmetrize, symmetrized};
 use nalgebra::{Complex, DMatrix, DVector};
 
 /// The discrete linear-quadratic regulator from [`dlqr`].
@@ -144,6 +144,7 @@ pub fn dlqe_with(
     if let Some(nn) = nn {
         check_shape("NN", nn, w, p_out)?;
     }
+    let qn = symmetrized("QN", qn, settings.symmetry_tolerance)?;
     let mut gqg = g * qn * g.transpose();
     symmetrize(&mut gqg);
     let gn = nn.map(|nn| g * nn);

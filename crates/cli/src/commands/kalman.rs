@@ -1,0 +1,143 @@
+//! `kestrel kalman`: stationary Kalman filter design (MATLAB's / python-control's `dlqe`).
+
+use crate::io;
+use anyhow::{Context, bail};
+use kestrel_core::formats::SsModel;
+use kestrel_core::formats::json;
+use kestrel_kalman::{KalmanDesign, NoiseModel};
+use nalgebra::{DMatrix, DVector};
+use std::path::{Path, PathBuf};
+
+/// Designs the stationary Kalman filter of a discrete `kestrel.ss.v1` model
+/// for `x+ = A x + B (u - u0) + G w`, `y = C x + D (u - u0) + y0 + bias + v`,
+/// `Cov(w) = Q`, `Cov(v) = R`, and writes `kestrel.kalman.v1`: the
+/// measurement-update gain `M`, the predictor gain `L` (= A M), the
+/// steady-state one-step prediction covariance `P`, and the model, noise
+/// model and operating point the run-time filter needs.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Discrete model file (`kestrel.ss.v1`, `ts > 0`).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Process noise covariance: a number `q` (meaning `q I`) or a JSON
+    /// matrix file (an array of rows, or an object with key "Q").
+    #[arg(long, allow_hyphen_values = true)]
+    pub q: String,
+    /// Measurement noise covariance: a number `r` (meaning `r I`) or a JSON
+    /// matrix file (an array of rows, or an object with key "R").
+    #[arg(long, allow_hyphen_values = true)]
+    pub r: String,
+    /// How the process noise enters the state (`nx x nw` JSON matrix file,
+    /// an array of rows or an object with key "G"); default the identity.
+    #[arg(long)]
+    pub g: Option<PathBuf>,
+    /// Cross-covariance `E[w v']` (`nw x ny` JSON matrix file, key "N").
+    #[arg(long)]
+    pub cross: Option<PathBuf>,
+    /// Known constant sensor bias, one number per output, comma separated
+    /// (e.g. the gyro bias of thesis (7.5)); removed from every measurement.
+    #[arg(long, allow_hyphen_values = true, value_delimiter = ',')]
+    pub bias: Option<Vec<f64>>,
+    /// Output file (default: standard output).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let model = SsModel::read(&args.model).with_context(|| format!("{}", args.model.display()))?;
+    if model.ts <= 0.0 {
+        bail!(
+            "{}: the model is continuous-time (ts = {}); discretise it first with `kestrel c2d`",
+            args.model.display(),
+            model.ts
+        );
+    }
+    let (nx, ny) = (model.nx(), model.ny());
+    let g = args
+        .g
+        .as_deref()
+        .map(|p| read_matrix(p, "G", Some(nx), None))
+        .transpose()
+        .context("--g")?;
+    let nw = g.as_ref().map_or(nx, |g| g.ncols());
+    let q = covariance(&args.q, "Q", nw).context("--q")?;
+    let r = covariance(&args.r, "R", ny).context("--r")?;
+    let cross = args
+        .cross
+        .as_deref()
+        .map(|p| read_matrix(p, "N", Some(nw), Some(ny)))
+        .transpose()
+        .context("--cross")?;
+    let bias = match args.bias {
+        Some(b) => {
+            if b.len() != ny {
+                bail!(
+                    "--bias: expected {ny} numbers (one per output), found {}",
+                    b.len()
+                );
+            }
+            if b.iter().any(|v| !v.is_finite()) {
+                bail!("--bias: every entry must be finite");
+            }
+            Some(DVector::from_vec(b))
+        }
+        None => None,
+    };
+    let noise = NoiseModel {
+        g,
+        q,
+        r,
+        cross,
+        bias,
+    };
+    let design = KalmanDesign::new(&model, &noise)
+        .with_context(|| format!("designing the filter for {}", args.model.display()))?;
+    if args.out.is_some() {
+        let rho = design
+            .filter
+            .closed_loop_eigenvalues
+            .iter()
+            .map(|z| z.norm())
+            .fold(0.0, f64::max);
+        eprintln!(
+            "kalman: {nx} states, {ny} outputs; predictor spectral radius {rho:.4}, Riccati residual {:.1e}",
+            design.filter.residual
+        );
+    }
+    io::write_output(args.out.as_deref(), &design.to_json_string())
+}
+
+/// A covariance given as a number (times the identity) or a matrix file.
+fn covariance(arg: &str, key: &str, n: usize) -> anyhow::Result<DMatrix<f64>> {
+    if let Ok(v) = arg.trim().parse::<f64>() {
+        if !v.is_finite() || v < 0.0 {
+            bail!("{key} = {arg}: must be a finite number >= 0 (meaning {key} = {arg} I)");
+        }
+        return Ok(DMatrix::identity(n, n) * v);
+    }
+    let path = Path::new(arg);
+    if !path.exists() {
+        bail!("\"{arg}\" is neither a number nor an existing JSON matrix file");
+    }
+    read_matrix(path, key, Some(n), Some(n))
+}
+
+/// Reads a JSON matrix file: a bare array of rows, or an object holding `key`.
+fn read_matrix(
+    path: &Path,
+    key: &str,
+    rows: Option<usize>,
+    cols: Option<usize>,
+) -> anyhow::Result<DMatrix<f64>> {
+    let text = kestrel_core::formats::read_text(path)?;
+    // A bare array of rows is read as the object {key: array}, so that the
+    // checked getters (which name non-finite entries) apply to both forms.
+    let obj = if text.trim_start().starts_with('[') {
+        json::parse_object(&format!("{{\"{key}\": {text}}}"))
+    } else {
+        json::parse_object(&text)
+    }
+    .with_context(|| format!("{}", path.display()))?;
+    json::matrix(&obj, key, rows, cols).with_context(|| format!("{}", path.display()))
+}

@@ -1,0 +1,220 @@
+//! End-to-end tests of `kestrel kalman` on good and malformed input.
+
+use kestrel_kalman::{KalmanDesign, dlqe};
+use nalgebra::{DMatrix, dmatrix};
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn kestrel() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_kestrel"))
+}
+
+fn temp_file(name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("kestrel-cli-kalman-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Position/velocity model at 50 Hz with an operating point.
+const MODEL: &str = r#"{"format": "kestrel.ss.v1", "ts": 0.02,
+  "A": [[1, 0.02], [0, 1]], "B": [[0.0002], [0.02]], "C": [[1, 0]], "D": [[0]],
+  "u0": [0.5], "y0": [2.0]}"#;
+
+fn run(args: &[&str], model: &PathBuf) -> Output {
+    kestrel()
+        .arg("kalman")
+        .arg("--model")
+        .arg(model)
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn numbers_mean_multiples_of_the_identity() {
+    let model = temp_file("m1.json", MODEL);
+    let out_path = model.with_file_name("filter1.json");
+    let out = run(
+        &[
+            "--q",
+            "1e-3",
+            "--r",
+            "0.01",
+            "--out",
+            out_path.to_str().unwrap(),
+        ],
+        &model,
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = std::fs::read_to_string(&out_path).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(v["format"], "kestrel.kalman.v1");
+    let d = KalmanDesign::from_json_str(&text).unwrap();
+    // Independent: the library's dlqe on the same matrices.
+    let a = dmatrix![1.0, 0.02; 0.0, 1.0];
+    let c = dmatrix![1.0, 0.0];
+    let f = dlqe(
+        &a,
+        &DMatrix::identity(2, 2),
+        &c,
+        &(DMatrix::identity(2, 2) * 1e-3),
+        &dmatrix![0.01],
+        None,
+    )
+    .unwrap();
+    assert!((&d.filter.m - &f.m).amax() < 1e-14);
+    assert!((&d.filter.l - &a * &f.m).amax() < 1e-14);
+    assert!((&d.filter.p - &f.p).amax() < 1e-14 * f.p.amax());
+    // P solves (5.15c) with the gain (5.15d).
+    let s = &c * &d.filter.p * c.transpose() + dmatrix![0.01];
+    let rhs = &a * &d.filter.p * a.transpose()
+        - &a * &d.filter.p
+            * c.transpose()
+            * s.try_inverse().unwrap()
+            * &c
+            * &d.filter.p
+            * a.transpose()
+        + DMatrix::identity(2, 2) * 1e-3;
+    assert!((&rhs - &d.filter.p).amax() < 1e-12 * d.filter.p.amax());
+    assert_eq!(d.u0[0], 0.5);
+    assert_eq!(d.y0[0], 2.0);
+}
+
+#[test]
+fn matrix_files_g_and_bias() {
+    let model = temp_file("m2.json", MODEL);
+    let g = temp_file("g.json", "[[0], [1]]");
+    let q = temp_file("q.json", r#"{"Q": [[0.5]]}"#);
+    let r = temp_file("r.json", "[[0.02]]");
+    let out = run(
+        &[
+            "--q",
+            q.to_str().unwrap(),
+            "--r",
+            r.to_str().unwrap(),
+            "--g",
+            g.to_str().unwrap(),
+            "--bias",
+            "-0.25",
+        ],
+        &model,
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let d = KalmanDesign::from_json_str(&String::from_utf8_lossy(&out.stdout)).unwrap();
+    let f = dlqe(
+        &dmatrix![1.0, 0.02; 0.0, 1.0],
+        &dmatrix![0.0; 1.0],
+        &dmatrix![1.0, 0.0],
+        &dmatrix![0.5],
+        &dmatrix![0.02],
+        None,
+    )
+    .unwrap();
+    assert!((&d.filter.m - &f.m).amax() < 1e-14);
+    assert_eq!(d.g, dmatrix![0.0; 1.0]);
+    assert_eq!(d.bias[0], -0.25);
+}
+
+#[test]
+fn rejects_bad_input() {
+    let model = temp_file("m3.json", MODEL);
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec!["--q".into(), "-1".into(), "--r".into(), "1".into()],
+            ">= 0",
+        ),
+        (
+            vec!["--q".into(), "1".into(), "--r".into(), "nan".into()],
+            "finite",
+        ),
+        (
+            vec![
+                "--q".into(),
+                "nosuchfile.json".into(),
+                "--r".into(),
+                "1".into(),
+            ],
+            "neither a number nor",
+        ),
+        (
+            vec![
+                "--q".into(),
+                temp_file("q3.json", "[[1, 0, 0], [0, 1, 0], [0, 0, 1]]")
+                    .to_string_lossy()
+                    .into(),
+                "--r".into(),
+                "1".into(),
+            ],
+            "2 x 2",
+        ),
+        (
+            vec![
+                "--q".into(),
+                temp_file("qnan.json", "[[1, NaN], [0, 1]]")
+                    .to_string_lossy()
+                    .into(),
+                "--r".into(),
+                "1".into(),
+            ],
+            "Q[0][1]",
+        ),
+        (
+            vec![
+                "--q".into(),
+                temp_file("qasym.json", "[[1, 0.5], [0, 1]]")
+                    .to_string_lossy()
+                    .into(),
+                "--r".into(),
+                "1".into(),
+            ],
+            "symmetric",
+        ),
+        (
+            vec!["--q".into(), "1".into(), "--r".into(), "0".into()],
+            "positive definite",
+        ),
+        (
+            vec![
+                "--q".into(),
+                "1".into(),
+                "--r".into(),
+                "1".into(),
+                "--bias".into(),
+                "1,2".into(),
+            ],
+            "--bias",
+        ),
+    ];
+    for (args, want) in cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = run(&args, &model);
+        assert!(!out.status.success(), "{args:?} should fail");
+        let err = stderr(&out);
+        assert!(err.contains(want), "{args:?}: {err}");
+    }
+    // Continuous-time model, malformed model, undetectable model.
+    let cont = temp_file("cont.json", &MODEL.replace("\"ts\": 0.02", "\"ts\": 0"));
+    let out = run(&["--q", "1", "--r", "1"], &cont);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("kestrel c2d"), "{}", stderr(&out));
+    let bad = temp_file(
+        "bad.json",
+        &MODEL.replace("\"C\": [[1, 0]]", "\"C\": [[1, 0, 0]]"),
+    );
+    let out = run(&["--q", "1", "--r", "1"], &bad);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("\"C\""), "{}", stderr(&out));
+    let blind = temp_file(
+        "blind.json",
+        &MODEL.replace("\"C\": [[1, 0]]", "\"C\": [[0, 1]]"),
+    );
+    let out = run(&["--q", "1", "--r", "1"], &blind);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("not detectable"), "{}", stderr(&out));
+}
