@@ -7,6 +7,7 @@
 //! laws: [[row..]], rows: [[gain.., const]],
 //! hull: [[a.., b]], theta_lb, theta_ub, bounds: [[lo, hi]]}` with the
 //! encoding of [`crate::eval`] (`tree.bytes` counts these tables in f32).
+#![allow(clippy::needless_range_loop)] // dense numerical kernels read best with indices
 
 use crate::error::EmpcError;
 use crate::eval::{LEAF, NO_ROW};

@@ -9,6 +9,7 @@
 //! region exploration. The primal solution is read back from the simplex
 //! multipliers. Dantzig's rule is used, with Bland's rule after a run of
 //! degenerate pivots to rule out cycling.
+#![allow(clippy::needless_range_loop)] // dense numerical kernels read best with indices
 
 /// Outcome of an LP solve.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

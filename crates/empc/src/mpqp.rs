@@ -21,6 +21,7 @@
 //! them) are removed beforehand; constraints without `z` become parameter
 //! constraints. Regions whose inscribed ball is smaller than
 //! [`Settings::radius_tol`] are lower-dimensional and discarded.
+#![allow(clippy::needless_range_loop)] // dense numerical kernels read best with indices
 
 use crate::error::EmpcError;
 use crate::lp::{LpStatus, LpWorkspace};
@@ -600,7 +601,8 @@ impl Prepared {
                 }
             }
             let (j, t) = best;
-            if j == usize::MAX || !(second - t > 1e-9) {
+            let gap_ok = matches!((second - t).partial_cmp(&1e-9), Some(std::cmp::Ordering::Greater));
+            if j == usize::MAX || !gap_ok {
                 return None;
             }
             let pt: Vec<f64> = (0..p).map(|k| c[k] + t * dir[k]).collect();

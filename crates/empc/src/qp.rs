@@ -6,6 +6,7 @@
 //! constraint that blocks a step inside the null space of the working rows,
 //! so it stays linearly independent even when many constraints are active
 //! at once (LICQ fails) — exactly the basis the mpQP exploration needs.
+#![allow(clippy::needless_range_loop)] // dense numerical kernels read best with indices
 
 use crate::lp::{LpStatus, LpWorkspace};
 use nalgebra::{DMatrix, DVector};

@@ -6,6 +6,7 @@
 //! so the solver can be tested and benchmarked without the `kestrel-mpc`
 //! crate. The move-blocked constraints are written over the whole horizon
 //! as in the thesis's (6.26b), which produces exactly coincident rows.
+#![allow(clippy::needless_range_loop)] // dense numerical kernels read best with indices
 
 use crate::mpqp::Rng;
 use kestrel_core::formats::MpqpProblem;

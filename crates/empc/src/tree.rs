@@ -9,6 +9,7 @@
 //!   minimises the larger number of regions left on either side (then their
 //!   sum), regions straddling it are kept on a side only if they meet that
 //!   side of the node's cell in a full-dimensional set (an LP).
+#![allow(clippy::needless_range_loop)] // dense numerical kernels read best with indices
 
 use crate::error::EmpcError;
 use crate::eval::{LEAF, NO_ROW, SliceTables};
