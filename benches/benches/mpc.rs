@@ -1,0 +1,51 @@
+//! One reference QP solve (clarabel) of the tricopter MPC, for the
+//! thesis-sized problem (N = 2, one block, n = 4) and the larger one
+//! (N = 10, blocks [1, 1, 2, 6], n = 16): the yardstick the explicit and
+//! fast-gradient solvers must beat. Two parameters each: the state of
+//! Table 7.2 (rates [0.2, 0.3, 0.4] rad/s, reference 0, hover throttle;
+//! no bound active) and the release of 7.7.1 (rates [2, 2, 2] rad/s; the
+//! servo bound active).
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use kestrel_mpc::{
+    ProblemSize, QpSettings, ReferenceSolver, default_weights, design_model, tricopter_problem,
+    tricopter_trim,
+};
+use nalgebra::DVector;
+use std::hint::black_box;
+
+fn solves(c: &mut Criterion) {
+    let model = design_model().expect("design model");
+    let trim = tricopter_trim(&model).expect("trim");
+    let pinv = model.c.clone().pseudo_inverse(1e-12).expect("pinv");
+    for (size, name) in [
+        (ProblemSize::Thesis, "thesis N=2 n=4"),
+        (ProblemSize::Larger, "larger N=10 n=16"),
+    ] {
+        let (q1, q2) = default_weights();
+        let problem = tricopter_problem(&model, size, q1, q2).expect("problem");
+        let mut solver =
+            ReferenceSolver::new(&problem.to_mpqp(), QpSettings::default()).expect("solver");
+        for (label, rates) in [
+            ("table 7.2 state", [0.2, 0.3, 0.4]),
+            ("released at [2,2,2]", [2.0, 2.0, 2.0]),
+        ] {
+            let x = &pinv * DVector::from_column_slice(&rates);
+            let theta = problem
+                .theta(x.as_slice(), &[0.0, 0.0, 0.0, trim.hover_throttle])
+                .expect("theta");
+            let sol = solver.solve(&theta).expect("solves");
+            eprintln!(
+                "{name}, {label}: {} iterations, active bounds {}",
+                sol.iterations,
+                sol.lambda.iter().filter(|l| **l > 1e-6).count()
+            );
+            c.bench_function(&format!("clarabel QP solve, {name}, {label}"), |b| {
+                b.iter(|| solver.solve(black_box(&theta)).expect("solves"))
+            });
+        }
+    }
+}
+
+criterion_group!(benches, solves);
+criterion_main!(benches);
