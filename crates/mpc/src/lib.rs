@@ -12,6 +12,8 @@ mod law;
 #[cfg(feature = "std")]
 mod lq;
 #[cfg(feature = "std")]
+mod offset_free;
+#[cfg(feature = "std")]
 mod qp;
 #[cfg(feature = "std")]
 pub mod sim;
@@ -28,6 +30,8 @@ pub use design::{
 pub use error::MpcError;
 #[cfg(feature = "std")]
 pub use law::{MpcLaw, ParametricQpSolver, QpMpc};
+#[cfg(feature = "std")]
+pub use offset_free::{DisturbanceModel, OffsetFreeDesign};
 #[cfg(feature = "std")]
 pub use qp::{KktResiduals, QpSettings, QpSolution, ReferenceSolver, kkt_residuals};
 #[cfg(feature = "std")]

@@ -448,16 +448,37 @@ pub fn run_pid<P: RatePlant>(
 /// directions (`G = [B, C']`, 0.02 rad/s per sample, the gusts), the
 /// thesis's gyro covariance (7.6) and bias (7.5) as measurement noise.
 pub fn kalman_design(model: &SsModel) -> Result<kestrel_kalman::KalmanDesign, MpcError> {
+    kalman_design_with_disturbance(model, 0)
+}
+
+/// [`kalman_design`] for a model whose last `nd` states are constant
+/// disturbances (an [`crate::OffsetFreeDesign`]'s augmented model): they
+/// get a random walk of 0.005 per sample so the filter tracks them.
+pub fn kalman_design_with_disturbance(
+    model: &SsModel,
+    nd: usize,
+) -> Result<kestrel_kalman::KalmanDesign, MpcError> {
     let (nx, nu, ny) = (model.nx(), model.nu(), model.ny());
-    let mut g = DMatrix::zeros(nx, nu + ny);
+    if nd > nx {
+        return Err(MpcError::setting(
+            "nd",
+            format!("{nd} disturbance states in a model of {nx}"),
+        ));
+    }
+    let nw = nu + ny + nd;
+    let mut g = DMatrix::zeros(nx, nw);
     g.view_mut((0, 0), (nx, nu)).copy_from(&model.b);
     g.view_mut((0, nu), (nx, ny))
         .copy_from(&model.c.transpose());
-    let q = DMatrix::from_diagonal(&DVector::from_fn(nu + ny, |i, _| {
+    g.view_mut((nx - nd, nu + ny), (nd, nd))
+        .copy_from(&DMatrix::identity(nd, nd));
+    let q = DMatrix::from_diagonal(&DVector::from_fn(nw, |i, _| {
         if i < nu {
             20.0f64.powi(2)
-        } else {
+        } else if i < nu + ny {
             0.02f64.powi(2)
+        } else {
+            0.005f64.powi(2)
         }
     }));
     let (r, bias) = if ny == 3 {
@@ -583,5 +604,69 @@ mod tests {
         }
         let (_, pid) = run_baseline(true);
         eprintln!("PI noisy: {pid:?}");
+    }
+
+    /// Mean absolute tracking error over the last second.
+    fn steady_error(trace: &Trace) -> f64 {
+        let tail: Vec<&TraceRow> = trace.rows.iter().filter(|r| r.t >= 3.0).collect();
+        tail.iter()
+            .map(|r| {
+                (0..3)
+                    .map(|k| (r.reference[k] - r.rates[k]).abs())
+                    .sum::<f64>()
+                    / 3.0
+            })
+            .sum::<f64>()
+            / tail.len() as f64
+    }
+
+    #[test]
+    fn offset_free_option_reduces_steady_error_on_the_nonlinear_plant() {
+        let model = design_model().unwrap();
+        let (q1, q2) = default_weights();
+        let trim = tricopter_trim(&model).unwrap();
+        let settings = ProblemSize::Thesis.settings(q1, q2);
+        let design = MpcProblem::build_offset_free(
+            &model,
+            &trim.bounds(),
+            &settings,
+            &crate::DisturbanceModel::OutputStates,
+        )
+        .unwrap();
+        let mut law = MpcLaw::clarabel(&design.problem, qp_settings()).unwrap();
+        let mut kf = kalman_design_with_disturbance(&design.augmented, design.nd)
+            .unwrap()
+            .filter::<f64, 11, 4, 3>()
+            .unwrap();
+        let cfg = PlantConfig {
+            gyro: GyroConfig::ideal(),
+            gust: kestrel_tricopter_model::GustConfig::calm(),
+            ..PlantConfig::default()
+        };
+        let sc = Scenario::thesis_step();
+        let mut plant = NonlinearPlant::hovering(cfg, sc.initial_rates, 5).unwrap();
+        let trace = run_mpc(
+            &mut plant,
+            &mut law,
+            &mut kf,
+            &design.augmented,
+            &design.problem,
+            &sc,
+            |l| Some(l.last_z().to_vec()),
+        )
+        .unwrap();
+        let (plain, _) = run(ProblemSize::Thesis, false);
+        let (e_of, e_plain) = (steady_error(&trace), steady_error(&plain));
+        eprintln!("steady error: offset-free {e_of:.4}, plain {e_plain:.4} rad/s");
+        assert!(
+            trace
+                .step_metrics(2.0, [0.0; 3], [1.0, -1.0, 0.5])
+                .max_bound_violation
+                <= 0.0
+        );
+        assert!(
+            e_of < 0.5 * e_plain,
+            "offset-free {e_of} vs plain {e_plain}"
+        );
     }
 }

@@ -1,0 +1,256 @@
+//! Offset-free tracking with a disturbance model (Pannocchia and Rawlings
+//! 2003; Maeder, Borrelli and Morari 2009).
+//!
+//! The model is augmented with a constant disturbance `d` (`nd` states):
+//! `x+ = A x + B u + Bd d`, `d+ = d`, `y = C x + Cd d`. The estimator runs
+//! on the augmented model, and the MPC steers to the steady-state target
+//! `(x_s, u_s)` of the estimated disturbance:
+//! `[A - I, B; C, 0] [x_s; u_s] = [-Bd d; r - Cd d]` (least-norm solution),
+//! with the input cost on `u - u_s` and the terminal cost on `x_N - x_s`.
+//! Both targets are linear in `theta = [x; d; r; throttle]`, so the
+//! problem stays a parametric QP of the same form and the same solvers
+//! apply. When the disturbance estimate has converged and the target is
+//! feasible, the outputs reach the reference without offset.
+
+use crate::condense::{ModelMatrices, MpcProblem, Prediction, ThetaLayout};
+use crate::design::{InputBounds, MpcSettings};
+use crate::error::MpcError;
+use kestrel_core::DiscreteLinearModel;
+use kestrel_core::formats::SsModel;
+use nalgebra::DMatrix;
+
+/// How the constant disturbance enters the model.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DisturbanceModel {
+    /// `nd = ny` disturbances on the states the outputs measure: `Bd = C'`,
+    /// `Cd = 0` (for the tricopter: constant torques on the rates).
+    OutputStates,
+    /// `nd = ny` disturbances added to the outputs: `Bd = 0`, `Cd = I`
+    /// (not detectable when `A` has an integrator).
+    Output,
+    /// Any `Bd` (`nx x nd`) and `Cd` (`ny x nd`).
+    Custom {
+        /// State disturbance map.
+        bd: DMatrix<f64>,
+        /// Output disturbance map.
+        cd: DMatrix<f64>,
+    },
+}
+
+/// An offset-free design: the augmented model (for the estimator and the
+/// simulator) and the condensed problem on it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OffsetFreeDesign {
+    /// `[x; d]` model with the same inputs, outputs, `u0` and `y0`.
+    pub augmented: SsModel,
+    /// The condensed problem, `theta = [x; d; r; throttle]`.
+    pub problem: MpcProblem,
+    /// Number of disturbance states.
+    pub nd: usize,
+}
+
+impl MpcProblem {
+    /// Builds the offset-free problem of `model` with the given disturbance
+    /// model. Errors when `(A, B, C)` with the disturbance is not
+    /// detectable, i.e. `rank [A - I, Bd; C, Cd] < nx + nd`.
+    ///
+    /// ```
+    /// use kestrel_mpc::{DisturbanceModel, InputBounds, MpcProblem, MpcSettings, Terminal};
+    /// use kestrel_core::formats::SsModel;
+    /// use nalgebra::{dmatrix, dvector};
+    /// let m = SsModel::new(0.1, dmatrix![0.9], dmatrix![0.1], dmatrix![1.0], dmatrix![0.0]).unwrap();
+    /// let d = MpcProblem::build_offset_free(&m, &InputBounds::new(dvector![-5.0], dvector![5.0]),
+    ///     &MpcSettings { horizon: 3, ..MpcSettings::default() }, &DisturbanceModel::Output).unwrap();
+    /// assert_eq!((d.augmented.nx(), d.problem.p()), (2, 3)); // theta = [x, d, r]
+    /// ```
+    pub fn build_offset_free(
+        model: &SsModel,
+        bounds: &InputBounds,
+        settings: &MpcSettings,
+        disturbance: &DisturbanceModel,
+    ) -> Result<OffsetFreeDesign, MpcError> {
+        let mm = ModelMatrices::from_model(model)?;
+        let (nx, nu, ny) = (mm.a.nrows(), mm.b.ncols(), mm.c.nrows());
+        let (bd, cd) = match disturbance {
+            DisturbanceModel::OutputStates => (mm.c.transpose(), DMatrix::zeros(ny, ny)),
+            DisturbanceModel::Output => (DMatrix::zeros(nx, ny), DMatrix::identity(ny, ny)),
+            DisturbanceModel::Custom { bd, cd } => {
+                if bd.nrows() != nx || cd.nrows() != ny || bd.ncols() != cd.ncols() {
+                    return Err(MpcError::dim(
+                        "disturbance model (Bd, Cd)",
+                        format!("{nx} x nd and {ny} x nd"),
+                        format!(
+                            "{} x {} and {} x {}",
+                            bd.nrows(),
+                            bd.ncols(),
+                            cd.nrows(),
+                            cd.ncols()
+                        ),
+                    ));
+                }
+                (bd.clone(), cd.clone())
+            }
+        };
+        let nd = bd.ncols();
+        // Detectability of the augmented pair (Maeder et al., Prop. 1).
+        let mut pbh = DMatrix::zeros(nx + ny, nx + nd);
+        pbh.view_mut((0, 0), (nx, nx))
+            .copy_from(&(&mm.a - DMatrix::identity(nx, nx)));
+        pbh.view_mut((0, nx), (nx, nd)).copy_from(&bd);
+        pbh.view_mut((nx, 0), (ny, nx)).copy_from(&mm.c);
+        pbh.view_mut((nx, nx), (ny, nd)).copy_from(&cd);
+        let sv = pbh.clone().singular_values();
+        let tol = 1e-9 * sv.max().max(1.0);
+        let rank = sv.iter().filter(|s| **s > tol).count();
+        if rank < nx + nd {
+            return Err(MpcError::setting(
+                "disturbance model",
+                format!(
+                    "not detectable: rank [A - I, Bd; C, Cd] = {rank} < nx + nd = {}",
+                    nx + nd
+                ),
+            ));
+        }
+        let na = nx + nd;
+        let mut a = DMatrix::identity(na, na);
+        a.view_mut((0, 0), (nx, nx)).copy_from(&mm.a);
+        a.view_mut((0, nx), (nx, nd)).copy_from(&bd);
+        let mut b = DMatrix::zeros(na, nu);
+        b.view_mut((0, 0), (nx, nu)).copy_from(&mm.b);
+        let mut c = DMatrix::zeros(ny, na);
+        c.view_mut((0, 0), (ny, nx)).copy_from(&mm.c);
+        c.view_mut((0, nx), (ny, nd)).copy_from(&cd);
+        let layout = ThetaLayout {
+            nx: na,
+            nr: ny,
+            throttle: bounds.throttle.is_some(),
+        };
+        let p = layout.len();
+        // Target map: [x_s; u_s] = M [-Bd d; r - Cd d].
+        let mut kkt = DMatrix::zeros(nx + ny, nx + nu);
+        kkt.view_mut((0, 0), (nx, nx))
+            .copy_from(&(&mm.a - DMatrix::identity(nx, nx)));
+        kkt.view_mut((0, nx), (nx, nu)).copy_from(&mm.b);
+        kkt.view_mut((nx, 0), (ny, nx)).copy_from(&mm.c);
+        let m = kkt
+            .pseudo_inverse(1e-10)
+            .map_err(|e| MpcError::setting("target map", e.to_string()))?;
+        let mut rhs = DMatrix::zeros(nx + ny, p);
+        rhs.view_mut((0, nx), (nx, nd)).copy_from(&(-&bd));
+        rhs.view_mut((nx, nx), (ny, nd)).copy_from(&(-&cd));
+        rhs.view_mut((nx, na), (ny, ny))
+            .copy_from(&DMatrix::identity(ny, ny));
+        let target = m * rhs;
+        let mut terminal_sel = DMatrix::zeros(nx, na);
+        terminal_sel
+            .view_mut((0, 0), (nx, nx))
+            .copy_from(&DMatrix::identity(nx, nx));
+        let pred = Prediction {
+            a: a.clone(),
+            b: b.clone(),
+            c: c.clone(),
+            terminal_sel,
+            x_ref: target.rows(0, nx).into_owned(),
+            u_ref: target.rows(nx, nu).into_owned(),
+            lq_model: (mm.a, mm.b, mm.c),
+        };
+        let problem = MpcProblem::condense(&pred, layout, bounds, settings)?;
+        let mut augmented = SsModel::new(model.sample_time(), a, b, c, DMatrix::zeros(ny, nu))?;
+        augmented.u0 = model.u0.clone();
+        augmented.y0 = model.y0.clone();
+        augmented.inputs = model.inputs.clone();
+        augmented.outputs = model.outputs.clone();
+        Ok(OffsetFreeDesign {
+            augmented,
+            problem,
+            nd,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::condense::tests::{Rng, random_model};
+    use crate::design::Terminal;
+    use crate::law::MpcLaw;
+    use crate::qp::QpSettings;
+    use kestrel_core::ControlLaw;
+    use nalgebra::DVector;
+
+    #[test]
+    fn removes_offset_of_a_constant_input_disturbance() {
+        // Plant = model + a constant unknown input bias; the disturbance is
+        // known here (perfect estimate) to isolate the target map.
+        let mut rng = Rng::new(5);
+        let m = random_model(&mut rng, 3, 2, 2);
+        let bounds = InputBounds::new(
+            DVector::from_element(2, -50.0),
+            DVector::from_element(2, 50.0),
+        );
+        let settings = MpcSettings {
+            horizon: 5,
+            terminal: Terminal::Lq,
+            ..MpcSettings::default()
+        };
+        let design = MpcProblem::build_offset_free(
+            &m,
+            &bounds,
+            &settings,
+            &DisturbanceModel::Custom {
+                bd: m.b.clone(),
+                cd: DMatrix::zeros(2, 2),
+            },
+        )
+        .unwrap();
+        let plain = MpcProblem::build(&m, &bounds, &settings).unwrap();
+        let mut law = MpcLaw::clarabel(&design.problem, QpSettings::default()).unwrap();
+        let mut plain_law = MpcLaw::clarabel(&plain, QpSettings::default()).unwrap();
+        let bias = DVector::from_vec(vec![0.3, -0.2]);
+        let r = [0.5, -0.4];
+        let (mut x, mut xp) = (DVector::zeros(3), DVector::zeros(3));
+        let mut u = [0.0; 2];
+        for _ in 0..300 {
+            let mut th: Vec<f64> = x.iter().copied().collect();
+            th.extend(bias.iter());
+            law.control(&th, &r, &mut u).unwrap();
+            x = &m.a * &x + &m.b * (DVector::from_column_slice(&u) + &bias);
+            plain_law.control(xp.as_slice(), &r, &mut u).unwrap();
+            xp = &m.a * &xp + &m.b * (DVector::from_column_slice(&u) + &bias);
+        }
+        let y = &m.c * &x;
+        let yp = &m.c * &xp;
+        let err = (y - DVector::from_column_slice(&r)).amax();
+        let err_plain = (yp - DVector::from_column_slice(&r)).amax();
+        assert!(err < 1e-6, "offset-free error {err}");
+        assert!(
+            err_plain > 1e-3,
+            "the plain MPC should show an offset, found {err_plain}"
+        );
+    }
+
+    #[test]
+    fn undetectable_disturbance_is_refused() {
+        // An integrator with an output disturbance cannot tell d from x.
+        let m = SsModel::new(
+            0.1,
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::from_element(1, 1, 0.1),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::zeros(1, 1),
+        )
+        .unwrap();
+        let bounds = InputBounds::new(
+            DVector::from_element(1, -1.0),
+            DVector::from_element(1, 1.0),
+        );
+        let e = MpcProblem::build_offset_free(
+            &m,
+            &bounds,
+            &MpcSettings::default(),
+            &DisturbanceModel::Output,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("not detectable"), "{e}");
+    }
+}
