@@ -397,4 +397,96 @@ mod tests {
         assert_eq!(out, [1.0, 2.0, 3.0, 4.0, 5.0]);
         assert!(shift_into(&[1.0, 2.0], 1, &mut out).is_err());
     }
+
+    /// One variable, one parameter: z in [theta - 1, theta + 1], cost
+    /// 1/2 z^2 (M = 0 with L = 1), so the answer is clamp(0).
+    fn tiny() -> FgmTables<f64, 1, 1, 1> {
+        FgmTables {
+            m: Matrix::from_rows([[0.0]]),
+            k_theta: Matrix::from_rows([[0.0]]),
+            k0: [0.0],
+            lo_theta: Matrix::from_rows([[1.0]]),
+            lo0: [-1.0],
+            hi_theta: Matrix::from_rows([[1.0]]),
+            hi0: [1.0],
+            d: [1.0],
+            d_inv: [1.0],
+            betas: [0.5],
+            iterations: 3,
+            warm_iterations: 1,
+            shift: 0,
+        }
+    }
+
+    #[test]
+    fn solves_and_reports_bad_input() {
+        let t = tiny();
+        let mut ws = FgmWorkspace::new();
+        assert_eq!(t.solve(&[0.5], &mut ws), Ok([0.0]));
+        assert_eq!(t.solve(&[3.0], &mut ws), Ok([2.0]));
+        assert_eq!(ws.previous(), Some(&[2.0]));
+        assert_eq!(t.solve_warm(&[2.5], &mut ws), Ok([1.5]));
+        assert_eq!(t.solve(&[f64::NAN], &mut ws), Err(Error::NonFinite));
+        let mut empty = t;
+        empty.lo0 = [2.0];
+        empty.hi0 = [1.0];
+        assert_eq!(empty.solve(&[0.0], &mut ws), Err(Error::Infeasible));
+        let v = t.view();
+        let bad = FgmView { betas: &[], ..v };
+        let mut buf = [[0.0; 1]; 6];
+        let [lo, hi, c, z, y, w] = &mut buf;
+        let mut out = [0.0];
+        let r = solve_view(
+            &bad,
+            &[0.0],
+            Start::Cold,
+            1,
+            WorkspaceMut { lo, hi, c, z, y, w },
+            &mut out,
+        );
+        assert!(matches!(r, Err(Error::InvalidArgument(_))));
+        let short = FgmView { m: &[], ..v };
+        let [lo, hi, c, z, y, w] = &mut buf;
+        let r = solve_view(
+            &short,
+            &[0.0],
+            Start::Cold,
+            1,
+            WorkspaceMut { lo, hi, c, z, y, w },
+            &mut out,
+        );
+        assert_eq!(
+            r,
+            Err(Error::DimensionMismatch {
+                expected: 1,
+                found: 0
+            })
+        );
+        let [lo, hi, c, z, y, w] = &mut buf;
+        let r = solve_view(
+            &v,
+            &[0.0, 1.0],
+            Start::Cold,
+            1,
+            WorkspaceMut { lo, hi, c, z, y, w },
+            &mut out,
+        );
+        assert_eq!(
+            r,
+            Err(Error::DimensionMismatch {
+                expected: 1,
+                found: 2
+            })
+        );
+        let [lo, hi, c, z, y, w] = &mut buf;
+        let r = solve_view(
+            &v,
+            &[0.0],
+            Start::Warm(&[f64::INFINITY]),
+            1,
+            WorkspaceMut { lo, hi, c, z, y, w },
+            &mut out,
+        );
+        assert_eq!(r, Err(Error::NonFinite));
+    }
 }
