@@ -11,7 +11,7 @@ export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$root/target}"
 log="$(mktemp)"
 trap 'rm -f "$log"' EXIT
 KESTREL_HIL_REPORT=1 cargo test -p kestrel-avr-rt --test hil -- \
-  --include-ignored --nocapture --test-threads 1 2>&1 | tee "$log"
+  --nocapture --test-threads 2 2>&1 | tee "$log"
 status=${PIPESTATUS[0]}
 passed=false
 [ "$status" -eq 0 ] && passed=true

@@ -20,11 +20,13 @@ use kestrel_avr_rt::cycles::timer1::{self, Timer1Clock};
 use kestrel_avr_rt::frame::{
     Boot, Command, Frame, FrameDecoder, Kind, MAX_FRAME, Reply, SeqTracker, status,
 };
-use kestrel_avr_rt::interim::{PiRateLaw, RateObserver};
+use kestrel_avr_rt::law::{FgmLaw, FgmStart};
 use kestrel_avr_rt::output::{PwmLimits, RtScalar, SafeOutput};
-use kestrel_avr_rt::progmem::{FarTable, TableRead, f32_bytes};
+use kestrel_avr_rt::progmem::{FarTable, TableRead};
 use kestrel_avr_rt::{crc16, far_table};
-use kestrel_core::Matrix;
+use kestrel_core::{Matrix, Scalar};
+use kestrel_fgm::FgmTables;
+use kestrel_kalman::{StationaryFilter, StationaryGains};
 
 #[cfg(all(feature = "fixed", not(feature = "fixed-mac")))]
 type S = kestrel_core::Q16;
@@ -42,9 +44,32 @@ const CONFIG: u8 = if cfg!(feature = "fixed-mac") {
     0
 };
 
-/// Controller tables (see tables.rs).
+/// Generated controller values (host: `cargo run -p kestrel-avr-rt --example avr_tables`).
+#[allow(dead_code)]
+mod generated;
+/// Controller tables in flash (see tables.rs).
 mod tables;
-use tables::{INTERIM_TABLE, N_VALUES};
+use tables::*;
+
+/// Reads table entry `i` as the loop's scalar.
+trait TableScalar: Sized {
+    fn read(t: &FarTable, i: usize) -> Self;
+}
+impl TableScalar for f32 {
+    fn read(t: &FarTable, i: usize) -> Self {
+        t.read_f32(4 * i as u32).unwrap_or(f32::NAN)
+    }
+}
+impl TableScalar for kestrel_core::Q16 {
+    fn read(t: &FarTable, i: usize) -> Self {
+        kestrel_core::Fixed(t.read_i32(4 * i as u32).unwrap_or(i32::MAX))
+    }
+}
+impl TableScalar for kestrel_avr_rt::mac::Q16Mac {
+    fn read(t: &FarTable, i: usize) -> Self {
+        Self::from_bits(t.read_i32(4 * i as u32).unwrap_or(i32::MAX))
+    }
+}
 
 #[cfg(feature = "far-selftest")]
 #[unsafe(link_section = ".progmem.data.filler0")]
@@ -189,10 +214,13 @@ fn init_hw() {
 }
 
 fn v(t: &FarTable, i: usize) -> S {
-    S::from_f32_fast(t.read_f32(4 * i as u32).unwrap_or(f32::NAN))
+    S::read(t, i)
 }
-fn v3(t: &FarTable, i: usize) -> [S; 3] {
-    [v(t, i), v(t, i + 1), v(t, i + 2)]
+fn va<const N: usize>(t: &FarTable, at: usize) -> [S; N] {
+    core::array::from_fn(|i| v(t, at + i))
+}
+fn vm<const R: usize, const C: usize>(t: &FarTable, at: usize) -> Matrix<S, R, C> {
+    Matrix::from_fn(|i, j| v(t, at + C * i + j))
 }
 
 #[unsafe(no_mangle)]
@@ -206,21 +234,53 @@ pub extern "C" fn main() -> ! {
     }
     // SAFETY: Timer1 is ours; interrupts are still off.
     let clock = unsafe { Timer1Clock::start() };
-    let table = far_table!(INTERIM_TABLE);
+    let table = far_table!(TABLE);
     let limits = PwmLimits::default();
     let safe = SafeOutput::default();
     set_pwm(&safe.pwm(&limits));
 
-    // Table layout: see tables.rs.
-    let observer = RateObserver::new(v3(&table, 0), v3(&table, 3));
-    let law = PiRateLaw::new(v3(&table, 6), v3(&table, 9), v3(&table, 12));
-    let bias = v3(&table, 15);
-    let mixer = Mixer::<S, 3> {
-        m: Matrix::from_fn(|i, j| v(&table, 18 + 3 * i + j)),
-        offset: [v(&table, 30), v(&table, 31), v(&table, 32), v(&table, 33)],
-        throttle_gain: [v(&table, 34), v(&table, 35), v(&table, 36), v(&table, 37)],
+    // Table layout: see generated.rs.
+    let gains = StationaryGains::<S, NX, 4, 3> {
+        a: vm(&table, KF_A),
+        b: vm(&table, KF_B),
+        c: vm(&table, KF_C),
+        d: Matrix::zeros(),
+        m: vm(&table, KF_M),
+        cross: Matrix::zeros(),
+        u0: [S::ZERO; 4],
+        y0: va(&table, KF_Y0),
+        y_offset: va(&table, KF_Y0),
+        use_d: false,
+        use_cross: false,
     };
-    let Ok(mut rate_loop) = RateLoop::new(observer, law, bias, mixer, limits, safe) else {
+    let filter = StationaryFilter::new(gains, [S::ZERO; NX]);
+    let fgm = FgmTables::<S, NZ, NP, FGM_T> {
+        m: vm(&table, FGM_M),
+        k_theta: vm(&table, FGM_K),
+        k0: va(&table, FGM_K0),
+        lo_theta: vm(&table, FGM_LO),
+        lo0: va(&table, FGM_LO0),
+        hi_theta: vm(&table, FGM_HI),
+        hi0: va(&table, FGM_HI0),
+        d: va(&table, FGM_D),
+        d_inv: va(&table, FGM_DINV),
+        betas: va(&table, FGM_BETAS),
+        iterations: FGM_ITERATIONS,
+        warm_iterations: FGM_ITERATIONS,
+        shift: 0,
+    };
+    let Ok(law) = FgmLaw::<S, NZ, NP, FGM_T, 4>::new(fgm, NX, FgmStart::Warm, FGM_LOOP_ITERATIONS as u16)
+    else {
+        loop {}
+    };
+    let bias = va(&table, BIAS);
+    let one = S::from_f32_fast(1.0);
+    let mixer = Mixer::<S, 4> {
+        m: Matrix::from_fn(|i, j| if i == j { one } else { S::ZERO }),
+        offset: va(&table, MIX_OFFSET),
+        throttle_gain: [one, one, one, S::ZERO],
+    };
+    let Ok(mut rate_loop) = RateLoop::new(filter, law, bias, mixer, limits, safe) else {
         loop {}
     };
 
@@ -236,7 +296,7 @@ pub extern "C" fn main() -> ! {
         table_address: table.address(),
         table_len: table.len_bytes() as u16,
         crc_read: crc,
-        crc_expected: const { crc16(&INTERIM_TABLE) },
+        crc_expected: const { crc16(&TABLE) },
         config: CONFIG,
         // The MAC's assembly checked against core's Q16 on this very CPU.
         mac_mismatches: kestrel_avr_rt::mac::self_test(0x1234_5678, 16).min(255) as u8,
@@ -251,6 +311,9 @@ pub extern "C" fn main() -> ! {
     let mut last_seq = 0u8;
     let mut reply_seq = 0u8;
     let mut overrun = false;
+    // Drop a tick that came during the boot.
+    // SAFETY: clear TOV4 by writing a one.
+    unsafe { write_volatile(TIFR4, 1) };
     loop {
         // Idle: decode bytes until the next 50 Hz tick.
         // SAFETY: TIFR4 read; TOV4 is bit 0.
@@ -311,10 +374,6 @@ fn panic(_: &core::panic::PanicInfo) -> ! {
     loop {}
 }
 
-#[allow(dead_code)]
-fn _assert_sizes() {
-    let _: [u8; 4 * N_VALUES] = f32_bytes([0.0; N_VALUES]);
-}
 
 /// Times kestrel-fgm's solver with `k` iterations for each `k` in `ks` and
 /// sends one Bench frame per count (synthetic but representative tables:

@@ -2,10 +2,10 @@
 //!
 //! 1. failsafe decision ([`Failsafe`]);
 //! 2. **estimator stage**: gyro bias removal and the estimator's measurement
-//!    update (the stationary Kalman step);
-//! 3. **solver stage**: the control law (explicit MPC or fast gradient; until
-//!    those crates land, the interim law of [`crate::interim`]) and the
-//!    estimator's time update;
+//!    update, plus (after the law) its time update: together the stationary
+//!    Kalman step (kestrel-kalman's `StationaryFilter` in the firmware);
+//! 3. **solver stage**: the control law alone (the fast gradient method of
+//!    [`crate::law::FgmLaw`] in the firmware; [`crate::interim`] for tests);
 //! 4. mixer (`pwm = offset + M u + t * throttle`) and saturation to the PWM limits.
 //!
 //! Each stage is timed with a [`CycleClock`], on the AVR the Timer1 counter.
@@ -164,11 +164,9 @@ where
             g[2] - self.bias[2],
         ];
         if recovered {
-            // Restart from the measured rates (remaining states at zero).
-            let mut x0 = [S::ZERO; 16];
-            for (x, yi) in x0.iter_mut().zip(y) {
-                *x = yi;
-            }
+            // Restart the estimator at the operating point (the filter
+            // converges within a few samples) and clear the law's memory.
+            let x0 = [S::ZERO; 16];
             let nx = self.estimator.nx().min(16);
             let _ = self.estimator.reset(&x0[..nx]);
             self.law.restart();
@@ -177,12 +175,15 @@ where
             core::hint::black_box(self.estimator.measurement_update(core::hint::black_box(&y)));
         core::hint::black_box(self.estimator.estimate());
         let t1 = clock.now();
-        out.kalman_cycles = t1.wrapping_sub(t0);
         let mut u = [S::ZERO; NU];
         let law = est.and_then(|_| self.law.control(self.estimator.estimate(), &r, &mut u));
-        let tu = law.and_then(|_| self.estimator.time_update(&u));
-        let (tu, u) = core::hint::black_box((tu, u));
+        let (law, u) = core::hint::black_box((law, u));
         let t2 = clock.now();
+        let tu = law.and_then(|_| self.estimator.time_update(&u));
+        let tu = core::hint::black_box(tu);
+        let t3 = clock.now();
+        // The Kalman step is the measurement update plus the time update.
+        out.kalman_cycles = t1.wrapping_sub(t0).wrapping_add(t3.wrapping_sub(t2));
         out.solver_cycles = t2.wrapping_sub(t1);
         out.iterations = self.law.iterations();
         if tu.is_err() {

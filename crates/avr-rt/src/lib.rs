@@ -7,6 +7,7 @@ pub mod crc;
 pub mod cycles;
 pub mod frame;
 pub mod interim;
+pub mod law;
 pub mod mac;
 pub mod output;
 pub mod progmem;
