@@ -597,7 +597,7 @@ fn fgm_bench(scalar_features: &[&str], scalar: &str) {
     );
     if std::env::var_os("KESTREL_HIL_REPORT").is_some() {
         println!(
-            "HIL-BENCH {{\"scalar\": \"{scalar}\", \"solver\": \"fgm-kernel\", \"kalman_cycles\": {{\"min\": {kc}, \"mean\": {kc}, \"max\": {kc}}}, \"solver_cycles\": {{\"min\": {at56}, \"mean\": {at56}, \"max\": {at56}}}, \"period_cycles\": null, \"iterations\": 56, \"flash_bytes\": {flash}, \"ram_bytes\": {ram}, \"cycles_per_iteration\": {:.0}, \"note\": \"kestrel-fgm kernel timed at boot on synthetic thesis-sized tables (n=4, p=9); not yet in the closed loop; 56 = the thesis's accurate count, not a kestrel certificate; kalman_cycles = one 5-state stationary-Kalman-sized step with kestrel-core kernels (kestrel-kalman has no run-time step yet); the same step with 16-bit coefficients and the narrow MAC: {nk} cycles\"}}",
+            "HIL-BENCH {{\"scalar\": \"{scalar}\", \"solver\": \"fgm-kernel\", \"kalman_cycles\": {{\"min\": {kc}, \"mean\": {kc}, \"max\": {kc}}}, \"solver_cycles\": {{\"min\": {at56}, \"mean\": {at56}, \"max\": {at56}}}, \"period_cycles\": null, \"iterations\": 56, \"flash_bytes\": {flash}, \"ram_bytes\": {ram}, \"cycles_per_iteration\": {:.0}, \"note\": \"kestrel-fgm kernel timed at boot on synthetic thesis-sized tables (n=4, p=9); a kernel benchmark, the closed-loop figures are the HIL-REPORT lines; 56 = the thesis's accurate count; kalman_cycles = one 5-state Kalman-shaped step with kestrel-core kernels; the same step with 16-bit coefficients and the narrow MAC: {nk} cycles\"}}",
             per_iter,
             kc = kalman.cycles,
             nk = narrow.cycles
