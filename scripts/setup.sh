@@ -6,7 +6,7 @@
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 
-packages=(gcc-avr avr-libc binutils-avr simavr libelf-dev libclang-dev clang pkg-config zlib1g-dev libzstd-dev)
+packages=(gcc-avr avr-libc binutils-avr simavr libelf-dev libclang-dev clang pkg-config zlib1g-dev libzstd-dev fonts-dejavu-core libopenblas-dev libgfortran-12-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -22,12 +22,33 @@ struct Cli {
 enum Command {
     /// Discretise a continuous-time `kestrel.ss.v1` model (zero-order hold).
     C2d(commands::c2d::Args),
+    /// Fly a thesis experiment in the tricopter simulator; write the CSV log.
+    Simulate(commands::simulate::Args),
+    /// Build the condensed MPC problem of a model; write `kestrel.mpqp.v1`.
+    Mpc(commands::mpc::Args),
+    /// Fly a rate controller (MPC or PI) in the closed-loop simulator; write the CSV trace.
+    ClosedLoop(commands::closed_loop::Args),
+    /// Explicit MPC: solve an mpQP, evaluate the solution, export flash tables.
+    Empc(commands::empc::Args),
+    /// Identify a state-space model from a CSV log (N4SID, PEM); write `kestrel.ss.v1`.
+    Identify(commands::identify::Args),
+    /// Fast gradient method: certify iteration counts, solve, export firmware tables.
+    Fgm(commands::fgm::Args),
+    /// Stationary Kalman filter design (dlqe); write `kestrel.kalman.v1`.
+    Kalman(commands::kalman::Args),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::C2d(args) => commands::c2d::run(args),
+        Command::Simulate(args) => commands::simulate::run(args),
+        Command::Mpc(args) => commands::mpc::run(args),
+        Command::ClosedLoop(args) => commands::closed_loop::run(args),
+        Command::Empc(args) => commands::empc::run(args),
+        Command::Identify(args) => commands::identify::run(args),
+        Command::Fgm(args) => commands::fgm::run(args),
+        Command::Kalman(args) => commands::kalman::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -601,7 +601,10 @@ impl Prepared {
                 }
             }
             let (j, t) = best;
-            let gap_ok = matches!((second - t).partial_cmp(&1e-9), Some(std::cmp::Ordering::Greater));
+            let gap_ok = matches!(
+                (second - t).partial_cmp(&1e-9),
+                Some(std::cmp::Ordering::Greater)
+            );
             if j == usize::MAX || !gap_ok {
                 return None;
             }

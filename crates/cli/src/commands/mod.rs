@@ -1,3 +1,10 @@
 //! One module per subcommand.
 
 pub mod c2d;
+pub mod closed_loop;
+pub mod empc;
+pub mod fgm;
+pub mod identify;
+pub mod kalman;
+pub mod mpc;
+pub mod simulate;

@@ -149,8 +149,8 @@ pub fn build(args: &Args) -> anyhow::Result<MpcProblem> {
         ),
         _ => bail!("give both --u-min and --u-max, or neither"),
     };
-    Ok(MpcProblem::build(&model, &bounds, &settings)
-        .with_context(|| format!("building the MPC problem of {}", args.model.display()))?)
+    MpcProblem::build(&model, &bounds, &settings)
+        .with_context(|| format!("building the MPC problem of {}", args.model.display()))
 }
 
 /// Runs the command.
