@@ -251,15 +251,8 @@ impl KalmanDesign {
     pub fn from_object(obj: &Object) -> Result<Self, FormatError> {
         json::check_format(obj, Self::FORMAT)?;
         let ts = json::number(obj, "ts")?;
-        let a = json::matrix(obj, "A", None, None)?;
+        let a = json::square_matrix(obj, "A")?;
         let nx = a.nrows();
-        if a.ncols() != nx {
-            return Err(FormatError::Shape {
-                key: "A".into(),
-                expected: "a square matrix".into(),
-                found: format!("a {} x {} matrix", nx, a.ncols()),
-            });
-        }
         let b = json::matrix(obj, "B", Some(nx), None)?;
         let nu = b.ncols();
         let c = json::matrix(obj, "C", None, Some(nx))?;

@@ -225,6 +225,19 @@ pub fn matrix(
     )
 }
 
+/// Reads a required square matrix of any size.
+pub fn square_matrix(obj: &Object, key: &str) -> Result<DMatrix<f64>, FormatError> {
+    let m = matrix(obj, key, None, None)?;
+    if m.ncols() != m.nrows() {
+        return Err(FormatError::Shape {
+            key: key.into(),
+            expected: "a square matrix".into(),
+            found: format!("a {} x {} matrix", m.nrows(), m.ncols()),
+        });
+    }
+    Ok(m)
+}
+
 /// Reads an optional matrix.
 pub fn opt_matrix(
     obj: &Object,
@@ -412,6 +425,14 @@ mod tests {
         assert_eq!(
             e,
             "missing key \"C\" (expected a 2 x 2 matrix (array of 2 rows of 2 numbers))"
+        );
+        let e = square_matrix(&obj, "B").unwrap_err().to_string();
+        assert!(e.contains("row 1 with 2 entries"), "{e}");
+        let sq = parse_object(r#"{"S": [[1, 2]]}"#).unwrap();
+        let e = square_matrix(&sq, "S").unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "key \"S\": expected a square matrix, found a 1 x 2 matrix"
         );
         let e = number(&obj, "x").unwrap_err().to_string();
         assert!(e.contains("the string \"a\""), "{e}");

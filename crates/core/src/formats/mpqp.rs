@@ -131,15 +131,8 @@ impl MpqpProblem {
     /// Reads a problem from a parsed JSON object.
     pub fn from_object(obj: &Object) -> Result<Self, FormatError> {
         json::check_format(obj, Self::FORMAT)?;
-        let h = json::matrix(obj, "H", None, None)?;
+        let h = json::square_matrix(obj, "H")?;
         let n = h.nrows();
-        if h.ncols() != n {
-            return Err(FormatError::Shape {
-                key: "H".into(),
-                expected: "a square matrix".into(),
-                found: format!("a {} x {} matrix", n, h.ncols()),
-            });
-        }
         let f_theta = json::matrix(obj, "F", None, Some(n))?;
         let p = f_theta.nrows();
         let f = json::opt_vector(obj, "f", Some(n))?.unwrap_or_else(|| DVector::zeros(n));
