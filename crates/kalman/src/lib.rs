@@ -12,6 +12,8 @@ mod error;
 #[cfg(feature = "std")]
 mod lqr;
 #[cfg(feature = "std")]
+pub mod noise;
+#[cfg(feature = "std")]
 mod tv;
 
 pub use stationary::{FilterStatus, StationaryFilter, StationaryGains};
