@@ -76,6 +76,15 @@ pub enum MpcError {
     /// The reference solver stopped without a solution.
     #[error("QP solver stopped with status {0}")]
     Solver(String),
+    /// The explicit (kestrel-empc) or fast-gradient (kestrel-fgm) solver
+    /// refused the problem or failed.
+    #[error("{solver}: {reason}")]
+    ExternalSolver {
+        /// `"explicit MPC"` or `"fast gradient"`.
+        solver: &'static str,
+        /// The solver's message.
+        reason: String,
+    },
     /// An interchange file is malformed.
     #[error(transparent)]
     Format(#[from] FormatError),

@@ -92,6 +92,41 @@ impl MpcLaw<ReferenceSolver> {
     }
 }
 
+/// The MPC law with the explicit solution of kestrel-empc (feature `empc`).
+#[cfg(feature = "empc")]
+pub type ExplicitMpc = MpcLaw<crate::solvers::ExplicitSolver>;
+
+#[cfg(feature = "empc")]
+impl MpcLaw<crate::solvers::ExplicitSolver> {
+    /// The explicit MPC law of `problem`: solved multi-parametrically by
+    /// kestrel-empc, evaluated by point location in its search tree.
+    pub fn explicit(
+        problem: &MpcProblem,
+        settings: &kestrel_empc::Settings,
+    ) -> Result<Self, MpcError> {
+        let solver = crate::solvers::ExplicitSolver::build(&problem.to_mpqp(), settings)?;
+        MpcLaw::new(problem, solver)
+    }
+}
+
+/// The MPC law with kestrel-fgm's fast gradient method (feature `fgm`).
+#[cfg(feature = "fgm")]
+pub type FgmMpc = MpcLaw<crate::solvers::FastGradientSolver>;
+
+#[cfg(feature = "fgm")]
+impl MpcLaw<crate::solvers::FastGradientSolver> {
+    /// The fast-gradient MPC law of `problem` with a fixed iteration count;
+    /// [`crate::FgmStart::WarmShifted`] shifts by one input move (`nu`).
+    pub fn fast_gradient(
+        problem: &MpcProblem,
+        options: &crate::solvers::FgmOptions,
+    ) -> Result<Self, MpcError> {
+        let solver = crate::solvers::FastGradientSolver::new(&problem.to_mpqp(), options)?
+            .with_shift(problem.nu);
+        MpcLaw::new(problem, solver)
+    }
+}
+
 impl<S: ParametricQpSolver> MpcLaw<S> {
     /// The MPC law of `problem` with any solver of its QP; the solver's
     /// sizes must match the problem's.

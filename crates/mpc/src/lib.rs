@@ -18,6 +18,8 @@ mod qp;
 #[cfg(feature = "std")]
 pub mod sim;
 #[cfg(feature = "std")]
+mod solvers;
+#[cfg(feature = "std")]
 mod tricopter;
 
 #[cfg(feature = "std")]
@@ -28,14 +30,22 @@ pub use design::{
 };
 #[cfg(feature = "std")]
 pub use error::MpcError;
+#[cfg(feature = "empc")]
+pub use law::ExplicitMpc;
+#[cfg(feature = "fgm")]
+pub use law::FgmMpc;
 #[cfg(feature = "std")]
 pub use law::{MpcLaw, ParametricQpSolver, QpMpc};
 #[cfg(feature = "std")]
 pub use offset_free::{DisturbanceModel, OffsetFreeDesign};
 #[cfg(feature = "std")]
 pub use qp::{KktResiduals, QpSettings, QpSolution, ReferenceSolver, kkt_residuals};
+#[cfg(feature = "empc")]
+pub use solvers::ExplicitSolver;
+#[cfg(feature = "fgm")]
+pub use solvers::{FastGradientSolver, FgmOptions, FgmStart};
 #[cfg(feature = "std")]
 pub use tricopter::{
-    Actuation, ProblemSize, TricopterTrim, default_weights, design_model, tricopter_problem,
-    tricopter_trim,
+    Actuation, IDENTIFIED_MODEL_JSON, ProblemSize, TricopterTrim, default_weights, design_model,
+    identified_model, tricopter_problem, tricopter_trim,
 };

@@ -339,8 +339,16 @@ pub fn run_mpc<P: RatePlant, L: ControlLaw<Scalar = f64>, E: StateEstimator<Scal
     scenario: &Scenario,
     z_of: impl Fn(&L) -> Option<Vec<f64>>,
 ) -> Result<Trace, MpcError> {
+    if model.ny() != 3 {
+        return Err(MpcError::dim(
+            "closed-loop model outputs",
+            "3 rate outputs [p, q, r]",
+            format!("{} outputs", model.ny()),
+        ));
+    }
     let trim = crate::tricopter::tricopter_trim(model)?;
     let u0 = model.u0.clone().unwrap_or_else(|| DVector::zeros(4));
+    let y0 = model.y0.clone().unwrap_or_else(|| DVector::zeros(3));
     let throttle = scenario.throttle.unwrap_or(trim.hover_throttle);
     if law.nx() != estimator.nx() || law.nu() != 4 || law.nr() != 4 {
         return Err(MpcError::dim(
@@ -370,7 +378,7 @@ pub fn run_mpc<P: RatePlant, L: ControlLaw<Scalar = f64>, E: StateEstimator<Scal
     };
     // Start the estimator at the state that explains the first sample.
     let y_first = plant.measure();
-    let x_first = &pinv * DVector::from_column_slice(&y_first);
+    let x_first = &pinv * (DVector::from_column_slice(&y_first) - &y0);
     estimator.reset(x_first.as_slice())?;
     let mut u = [0.0; 4];
     for k in 0..steps {
@@ -379,7 +387,13 @@ pub fn run_mpc<P: RatePlant, L: ControlLaw<Scalar = f64>, E: StateEstimator<Scal
         let y = if k == 0 { y_first } else { plant.measure() };
         estimator.measurement_update(&y)?;
         let x_hat = estimator.estimate().to_vec();
-        let r = [reference[0], reference[1], reference[2], throttle];
+        // The law works in the model's deviation outputs: `r - y0`.
+        let r = [
+            reference[0] - y0[0],
+            reference[1] - y0[1],
+            reference[2] - y0[2],
+            throttle,
+        ];
         law.control(&x_hat, &r, &mut u)?;
         let act = trim.actuate(&u, throttle)?;
         let cost = match z_of(law) {
@@ -389,7 +403,7 @@ pub fn run_mpc<P: RatePlant, L: ControlLaw<Scalar = f64>, E: StateEstimator<Scal
             ),
             None => f64::NAN,
         };
-        let y_est = &model.c * DVector::from_column_slice(&x_hat);
+        let y_est = &model.c * DVector::from_column_slice(&x_hat) + &y0;
         trace.rows.push(TraceRow {
             t,
             reference,
@@ -441,6 +455,274 @@ pub fn run_pid<P: RatePlant>(
         plant.advance(&out.pwm)?;
     }
     Ok(trace)
+}
+
+/// Which plant a closed-loop run flies.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum PlantKind {
+    /// The nonlinear tricopter of kestrel-tricopter-model ([`NonlinearPlant`]).
+    #[default]
+    Nonlinear,
+    /// The design model itself ([`LinearPlant`]), with the same gyro.
+    Linear,
+}
+
+/// Settings of a closed-loop run ([`fly_mpc`], [`fly_offset_free`], [`fly_pi`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunSettings {
+    /// Initial rates, references and their steps, throttle, duration.
+    pub scenario: Scenario,
+    /// The plant.
+    pub plant: PlantKind,
+    /// The nonlinear plant's configuration (aircraft, gyro, gusts); the
+    /// linear plant uses its gyro.
+    pub config: PlantConfig,
+    /// Seed of the gyro noise and the gusts.
+    pub seed: u64,
+}
+
+impl Default for RunSettings {
+    /// The step scenario of 7.7.1 on the nonlinear plant in calm air with
+    /// an ideal gyro (no bias, no noise), seed 1.
+    fn default() -> Self {
+        RunSettings {
+            scenario: Scenario::thesis_step(),
+            plant: PlantKind::Nonlinear,
+            config: PlantConfig {
+                gyro: GyroConfig::ideal(),
+                gust: kestrel_tricopter_model::GustConfig::calm(),
+                ..PlantConfig::default()
+            },
+            seed: 1,
+        }
+    }
+}
+
+impl RunSettings {
+    /// The noisy runs of figures 7.18-7.21: the thesis's gyro noise and
+    /// bias (7.5)-(7.6) and kestrel-tricopter-model's default gusts.
+    pub fn noisy() -> Self {
+        RunSettings {
+            config: PlantConfig::default(),
+            ..RunSettings::default()
+        }
+    }
+
+    fn plant(&self, model: &SsModel) -> Result<Box<dyn RatePlant>, MpcError> {
+        let rates = self.scenario.initial_rates;
+        Ok(match self.plant {
+            PlantKind::Nonlinear => {
+                Box::new(NonlinearPlant::hovering(self.config, rates, self.seed)?)
+            }
+            PlantKind::Linear => {
+                Box::new(LinearPlant::new(model, rates, self.config.gyro, self.seed)?)
+            }
+        })
+    }
+}
+
+impl RatePlant for Box<dyn RatePlant> {
+    fn measure(&mut self) -> [f64; 3] {
+        (**self).measure()
+    }
+    fn rates(&self) -> [f64; 3] {
+        (**self).rates()
+    }
+    fn advance(&mut self, pwm: &[f64; 4]) -> Result<(), MpcError> {
+        (**self).advance(pwm)
+    }
+}
+
+impl Scenario {
+    /// The first reference step as `(time, from, to)`; without steps, a
+    /// "step" at `t = 0` from and to the initial reference.
+    pub fn first_step(&self) -> (f64, [f64; 3], [f64; 3]) {
+        match self.steps.first() {
+            Some(s) => (s.time, self.initial_reference, s.rates),
+            None => (0.0, self.initial_reference, self.initial_reference),
+        }
+    }
+}
+
+/// A closed-loop run: the trace and the step-response figures of the
+/// scenario's first step.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunResult {
+    /// One row per sample, with the pulses and the cost `J`.
+    pub trace: Trace,
+    /// Rise time, overshoot, RMS error, effort, bound violation.
+    pub metrics: StepMetrics,
+}
+
+/// Largest model order the closed-loop helpers support (the estimator is
+/// kestrel-kalman's const-dimension stationary filter).
+pub const MAX_STATES: usize = 16;
+
+macro_rules! with_filter {
+    ($design:expr, |$f:ident| $body:expr) => {{
+        let design = $design;
+        let kf_err =
+            |e: kestrel_kalman::KalmanError| MpcError::setting("Kalman filter", e.to_string());
+        match design.nx() {
+            1 => {
+                let mut $f = design.filter::<f64, 1, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            2 => {
+                let mut $f = design.filter::<f64, 2, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            3 => {
+                let mut $f = design.filter::<f64, 3, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            4 => {
+                let mut $f = design.filter::<f64, 4, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            5 => {
+                let mut $f = design.filter::<f64, 5, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            6 => {
+                let mut $f = design.filter::<f64, 6, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            7 => {
+                let mut $f = design.filter::<f64, 7, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            8 => {
+                let mut $f = design.filter::<f64, 8, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            9 => {
+                let mut $f = design.filter::<f64, 9, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            10 => {
+                let mut $f = design.filter::<f64, 10, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            11 => {
+                let mut $f = design.filter::<f64, 11, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            12 => {
+                let mut $f = design.filter::<f64, 12, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            13 => {
+                let mut $f = design.filter::<f64, 13, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            14 => {
+                let mut $f = design.filter::<f64, 14, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            15 => {
+                let mut $f = design.filter::<f64, 15, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            16 => {
+                let mut $f = design.filter::<f64, 16, 4, 3>().map_err(kf_err)?;
+                $body
+            }
+            n => {
+                return Err(MpcError::dim(
+                    "closed-loop design model",
+                    format!("1 to {MAX_STATES} states"),
+                    format!("{n} states"),
+                ));
+            }
+        }
+    }};
+}
+
+fn fly_with<S: crate::law::ParametricQpSolver>(
+    model: &SsModel,
+    nd: usize,
+    problem: &MpcProblem,
+    law: &mut crate::law::MpcLaw<S>,
+    settings: &RunSettings,
+) -> Result<RunResult, MpcError> {
+    if model.nu() != 4 || model.ny() != 3 {
+        return Err(MpcError::dim(
+            "closed-loop design model",
+            "4 pulse inputs and 3 rate outputs",
+            format!("{} inputs and {} outputs", model.nu(), model.ny()),
+        ));
+    }
+    let mut plant = settings.plant(model)?;
+    let sc = &settings.scenario;
+    let trace = with_filter!(kalman_design_with_disturbance(model, nd)?, |f| run_mpc(
+        &mut plant,
+        law,
+        &mut f,
+        model,
+        problem,
+        sc,
+        |l| Some(l.last_z().to_vec())
+    )?);
+    let (t, from, to) = sc.first_step();
+    let metrics = trace.step_metrics(t, from, to);
+    Ok(RunResult { trace, metrics })
+}
+
+/// Flies an MPC law in the closed loop of section 7.7: the plant of
+/// `settings`, the stationary Kalman filter of [`kalman_design`] for
+/// `model`, the law (any [`crate::ParametricQpSolver`]: clarabel,
+/// explicit, fast gradient) on `theta = [x_hat; r - y0; throttle]`, the
+/// actuation with clipping; the trace holds the cost `J` of the law's
+/// whole move sequence at every step.
+///
+/// ```
+/// use kestrel_mpc::sim::{RunSettings, fly_mpc};
+/// use kestrel_mpc::{MpcLaw, ProblemSize, QpSettings, default_weights, identified_model, tricopter_problem};
+/// let model = identified_model().unwrap();
+/// let (q1, q2) = default_weights();
+/// let problem = tricopter_problem(&model, ProblemSize::Thesis, q1, q2).unwrap();
+/// let mut law = MpcLaw::clarabel(&problem, QpSettings::default()).unwrap();
+/// let run = fly_mpc(&model, &problem, &mut law, &RunSettings::default()).unwrap();
+/// assert_eq!(run.metrics.max_bound_violation, 0.0);          // inputs inside their ranges
+/// let last = run.trace.rows.last().unwrap();                // on the step [1, -1, 0.5] at the end
+/// assert!((0..3).all(|k| (last.rates[k] - last.reference[k]).abs() < 0.15));
+/// ```
+pub fn fly_mpc<S: crate::law::ParametricQpSolver>(
+    model: &SsModel,
+    problem: &MpcProblem,
+    law: &mut crate::law::MpcLaw<S>,
+    settings: &RunSettings,
+) -> Result<RunResult, MpcError> {
+    fly_with(model, 0, problem, law, settings)
+}
+
+/// [`fly_mpc`] for an offset-free design: the filter of
+/// [`kalman_design_with_disturbance`] on the augmented model.
+pub fn fly_offset_free<S: crate::law::ParametricQpSolver>(
+    design: &crate::OffsetFreeDesign,
+    law: &mut crate::law::MpcLaw<S>,
+    settings: &RunSettings,
+) -> Result<RunResult, MpcError> {
+    fly_with(&design.augmented, design.nd, &design.problem, law, settings)
+}
+
+/// Flies the baseline PI rate controller (kestrel-tricopter-model's
+/// `RatePid` with its default gains, mixing around `model`'s trim) on the
+/// raw gyro samples.
+pub fn fly_pi(model: &SsModel, settings: &RunSettings) -> Result<RunResult, MpcError> {
+    let trim = crate::tricopter::tricopter_trim(model)?;
+    let o = trim.offsets;
+    let mut pid = RatePid::new(
+        kestrel_tricopter_model::RatePidGains::default(),
+        kestrel_tricopter_model::Mixer::new([o[0], o[1], o[2], 1500.0 + o[3]]),
+    );
+    let mut plant = settings.plant(model)?;
+    let sc = &settings.scenario;
+    let trace = run_pid(&mut plant, &mut pid, &trim, sc, model.ts)?;
+    let (t, from, to) = sc.first_step();
+    let metrics = trace.step_metrics(t, from, to);
+    Ok(RunResult { trace, metrics })
 }
 
 /// The stationary Kalman filter design used in the closed loop: process
@@ -509,10 +791,7 @@ mod tests {
     use super::*;
     use crate::law::MpcLaw;
     use crate::qp::QpSettings;
-    use crate::tricopter::{
-        ProblemSize, default_weights, design_model, tricopter_problem, tricopter_trim,
-    };
-    use kestrel_tricopter_model::{Mixer, RatePidGains};
+    use crate::tricopter::{ProblemSize, default_weights, identified_model, tricopter_problem};
 
     fn qp_settings() -> QpSettings {
         QpSettings {
@@ -521,65 +800,40 @@ mod tests {
         }
     }
 
-    fn run(size: ProblemSize, noisy: bool) -> (Trace, StepMetrics) {
-        let model = design_model().unwrap();
+    fn settings(noisy: bool) -> RunSettings {
+        let mut s = if noisy {
+            RunSettings::noisy()
+        } else {
+            RunSettings::default()
+        };
+        s.seed = 5;
+        s
+    }
+
+    fn run(size: ProblemSize, noisy: bool) -> RunResult {
+        let model = identified_model().unwrap();
         let (q1, q2) = default_weights();
         let problem = tricopter_problem(&model, size, q1, q2).unwrap();
         let mut law = MpcLaw::clarabel(&problem, qp_settings()).unwrap();
-        let mut kf = kalman_design(&model)
-            .unwrap()
-            .filter::<f64, 8, 4, 3>()
-            .unwrap();
-        let mut cfg = PlantConfig::default();
-        if !noisy {
-            cfg.gyro = GyroConfig::ideal();
-            cfg.gust = kestrel_tricopter_model::GustConfig::calm();
-        }
-        let sc = Scenario::thesis_step();
-        let mut plant = NonlinearPlant::hovering(cfg, sc.initial_rates, 5).unwrap();
-        let trace = run_mpc(&mut plant, &mut law, &mut kf, &model, &problem, &sc, |l| {
-            Some(l.last_z().to_vec())
-        })
-        .unwrap();
-        let m = trace.step_metrics(2.0, [0.0; 3], [1.0, -1.0, 0.5]);
-        (trace, m)
-    }
-
-    fn run_baseline(noisy: bool) -> (Trace, StepMetrics) {
-        let model = design_model().unwrap();
-        let trim = tricopter_trim(&model).unwrap();
-        let o = trim.offsets;
-        let mut pid = RatePid::new(
-            RatePidGains::default(),
-            Mixer::new([o[0], o[1], o[2], 1500.0 + o[3]]),
-        );
-        let mut cfg = PlantConfig::default();
-        if !noisy {
-            cfg.gyro = GyroConfig::ideal();
-            cfg.gust = kestrel_tricopter_model::GustConfig::calm();
-        }
-        let sc = Scenario::thesis_step();
-        let mut plant = NonlinearPlant::hovering(cfg, sc.initial_rates, 5).unwrap();
-        let trace = run_pid(&mut plant, &mut pid, &trim, &sc, 0.02).unwrap();
-        let m = trace.step_metrics(2.0, [0.0; 3], [1.0, -1.0, 0.5]);
-        (trace, m)
+        fly_mpc(&model, &problem, &mut law, &settings(noisy)).unwrap()
     }
 
     #[test]
-    fn both_sizes_track_the_thesis_step_on_the_nonlinear_plant() {
+    fn both_sizes_track_the_thesis_step_with_the_identified_model() {
         for size in [ProblemSize::Thesis, ProblemSize::Larger] {
             for noisy in [false, true] {
-                let (trace, m) = run(size, noisy);
+                let RunResult { trace, metrics: m } = run(size, noisy);
                 eprintln!("{size:?} noisy={noisy}: {m:?}");
                 // Inputs inside their ranges without clipping (to solver accuracy).
                 assert!(m.max_bound_violation <= 0.0, "{m:?}");
+                assert!(trace.rows.iter().all(|r| !r.saturated));
                 assert!(
                     trace
                         .rows
                         .iter()
                         .all(|r| r.cost.is_finite() && r.cost >= -1e-9)
                 );
-                // Settled from [2, 2, 2] before the step and on the new reference at the end.
+                // Settled from [2, 2, 2] before the step and near the new reference at the end.
                 let before = trace
                     .rows
                     .iter()
@@ -598,17 +852,57 @@ mod tests {
                         last.rates,
                         last.reference
                     );
-                    assert!(m.rise_time[k].is_finite() && m.rise_time[k] < 1.0, "{m:?}");
+                    assert!(m.rise_time[k].is_finite() && m.rise_time[k] < 0.3, "{m:?}");
                 }
+                // The filter follows the true rates (it is what the law sees).
+                let est_err = trace
+                    .rows
+                    .iter()
+                    .skip(5)
+                    .flat_map(|r| (0..3).map(move |k| (r.estimated[k] - r.rates[k]).abs()))
+                    .fold(0.0, f64::max);
+                assert!(
+                    est_err < 0.1,
+                    "{size:?} noisy={noisy}: estimate off by {est_err}"
+                );
             }
         }
-        let (_, pid) = run_baseline(true);
-        eprintln!("PI noisy: {pid:?}");
+    }
+
+    #[test]
+    fn mpc_against_the_pi_baseline() {
+        // The same step on the same plant: the PI on the raw gyro, the MPC
+        // (both sizes) on the Kalman estimate of the identified model.
+        let model = identified_model().unwrap();
+        for noisy in [false, true] {
+            let pi = fly_pi(&model, &settings(noisy)).unwrap().metrics;
+            eprintln!("PI noisy={noisy}: {pi:?}");
+            assert!(pi.max_bound_violation <= 0.0);
+            for size in [ProblemSize::Thesis, ProblemSize::Larger] {
+                let m = run(size, noisy).metrics;
+                eprintln!("{size:?} noisy={noisy}: {m:?}");
+                for k in 0..3 {
+                    // The MPC rises faster than the PI on every axis ...
+                    assert!(
+                        m.rise_time[k] < pi.rise_time[k],
+                        "axis {k}: {m:?} vs {pi:?}"
+                    );
+                }
+                // ... and its total RMS tracking error over the step window is
+                // at most that of the PI.
+                let total = |v: &[f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+                assert!(
+                    total(&m.rms_error) <= total(&pi.rms_error),
+                    "{m:?} vs {pi:?}"
+                );
+            }
+        }
     }
 
     /// Mean absolute tracking error over the last second.
     fn steady_error(trace: &Trace) -> f64 {
-        let tail: Vec<&TraceRow> = trace.rows.iter().filter(|r| r.t >= 3.0).collect();
+        let end = trace.rows.last().map_or(0.0, |r| r.t);
+        let tail: Vec<&TraceRow> = trace.rows.iter().filter(|r| r.t > end - 1.0).collect();
         tail.iter()
             .map(|r| {
                 (0..3)
@@ -622,51 +916,60 @@ mod tests {
 
     #[test]
     fn offset_free_option_reduces_steady_error_on_the_nonlinear_plant() {
-        let model = design_model().unwrap();
+        let model = identified_model().unwrap();
         let (q1, q2) = default_weights();
-        let trim = tricopter_trim(&model).unwrap();
-        let settings = ProblemSize::Thesis.settings(q1, q2);
+        let trim = crate::tricopter_trim(&model).unwrap();
         let design = MpcProblem::build_offset_free(
             &model,
             &trim.bounds(),
-            &settings,
+            &ProblemSize::Thesis.settings(q1.clone(), q2.clone()),
             &crate::DisturbanceModel::OutputStates,
         )
         .unwrap();
         let mut law = MpcLaw::clarabel(&design.problem, qp_settings()).unwrap();
-        let mut kf = kalman_design_with_disturbance(&design.augmented, design.nd)
-            .unwrap()
-            .filter::<f64, 11, 4, 3>()
-            .unwrap();
-        let cfg = PlantConfig {
-            gyro: GyroConfig::ideal(),
-            gust: kestrel_tricopter_model::GustConfig::calm(),
-            ..PlantConfig::default()
-        };
-        let sc = Scenario::thesis_step();
-        let mut plant = NonlinearPlant::hovering(cfg, sc.initial_rates, 5).unwrap();
-        let trace = run_mpc(
-            &mut plant,
-            &mut law,
-            &mut kf,
-            &design.augmented,
-            &design.problem,
-            &sc,
-            |l| Some(l.last_z().to_vec()),
-        )
-        .unwrap();
-        let (plain, _) = run(ProblemSize::Thesis, false);
-        let (e_of, e_plain) = (steady_error(&trace), steady_error(&plain));
-        eprintln!("steady error: offset-free {e_of:.4}, plain {e_plain:.4} rad/s");
-        assert!(
-            trace
-                .step_metrics(2.0, [0.0; 3], [1.0, -1.0, 0.5])
-                .max_bound_violation
-                <= 0.0
+        // Hold the step for 4 s so the disturbance estimate settles.
+        let mut s = settings(false);
+        s.scenario.duration = 6.0;
+        let of = fly_offset_free(&design, &mut law, &s).unwrap();
+        let problem = tricopter_problem(&model, ProblemSize::Thesis, q1, q2).unwrap();
+        let mut plain_law = MpcLaw::clarabel(&problem, qp_settings()).unwrap();
+        let plain = fly_mpc(&model, &problem, &mut plain_law, &s).unwrap();
+        let (e_of, e_plain) = (steady_error(&of.trace), steady_error(&plain.trace));
+        eprintln!(
+            "steady error: offset-free {e_of:.4}, plain {e_plain:.4} rad/s; {:?}",
+            of.metrics
         );
+        assert!(of.metrics.max_bound_violation <= 0.0);
         assert!(
             e_of < 0.5 * e_plain,
             "offset-free {e_of} vs plain {e_plain}"
         );
+    }
+
+    #[test]
+    fn linear_plant_and_bad_models_through_the_run_helpers() {
+        let model = identified_model().unwrap();
+        let (q1, q2) = default_weights();
+        let problem = tricopter_problem(&model, ProblemSize::Thesis, q1, q2).unwrap();
+        let mut law = MpcLaw::clarabel(&problem, qp_settings()).unwrap();
+        // On its own design model (no mismatch) the MPC settles on the reference.
+        let s = RunSettings {
+            plant: PlantKind::Linear,
+            ..RunSettings::default()
+        };
+        let run = fly_mpc(&model, &problem, &mut law, &s).unwrap();
+        assert!(
+            steady_error(&run.trace) < 0.05,
+            "{}",
+            steady_error(&run.trace)
+        );
+        // A model with the wrong number of outputs is refused, not flown.
+        let mut two = model.clone();
+        two.c = two.c.rows(0, 2).into_owned();
+        two.d = two.d.rows(0, 2).into_owned();
+        two.y0 = None;
+        two.outputs = None;
+        let e = fly_mpc(&two, &problem, &mut law, &s).unwrap_err();
+        assert!(e.to_string().contains("3 rate outputs"), "{e}");
     }
 }

@@ -158,8 +158,8 @@ impl ProblemSize {
     }
 }
 
-/// The design model used until an identified model is available: the
-/// rates-plus-actuators linearisation of kestrel-tricopter-model's default
+/// The physical design model (for comparison with [`identified_model`],
+/// which is the default): the rates-plus-actuators linearisation of kestrel-tricopter-model's default
 /// aircraft at hover (`[p, q, r, w1, w2, w3, alpha, alpha_dot]`, 8 states,
 /// PWM inputs with absolute `u0`), discretised at 50 Hz.
 pub fn design_model() -> Result<SsModel, MpcError> {
@@ -171,6 +171,26 @@ pub fn design_model() -> Result<SsModel, MpcError> {
     )
     .map_err(|e| MpcError::setting("tricopter design model", e.to_string()))
 }
+
+/// The identified design model: `models/tricopter-blackbox-5.json` of
+/// this repository (`kestrel.ss.v1`), the 5-state black-box rate model of
+/// kestrel-tricopter-model's default aircraft identified as in section 7.4
+/// (inputs `pwm1, pwm2, pwm3, servo` in us, outputs `p, q, r` in rad/s,
+/// 50 Hz, operating point `u0`/`y0` in absolute pulses and rad/s). It is
+/// embedded at compile time, so a re-identified model is picked up by the
+/// next build.
+///
+/// ```
+/// let m = kestrel_mpc::identified_model().unwrap();
+/// assert_eq!((m.nx(), m.nu(), m.ny()), (5, 4, 3));
+/// assert!(m.u0.is_some());
+/// ```
+pub fn identified_model() -> Result<SsModel, MpcError> {
+    SsModel::from_json_str(IDENTIFIED_MODEL_JSON).map_err(MpcError::from)
+}
+
+/// The text of [`identified_model`] (`models/tricopter-blackbox-5.json`).
+pub const IDENTIFIED_MODEL_JSON: &str = include_str!("../../../models/tricopter-blackbox-5.json");
 
 /// The tricopter problem of a given size for a 4-input model with `u0`
 /// (bounds from [`TricopterTrim::from_u0`]); a model without `u0` is taken
