@@ -299,3 +299,124 @@ impl ParametricQpSolver for FastGradientSolver {
         Ok(())
     }
 }
+
+#[cfg(all(test, feature = "empc", feature = "fgm"))]
+mod tests {
+    use super::*;
+    use crate::sim::{RunResult, RunSettings, fly_mpc};
+    use crate::{
+        MpcLaw, MpcProblem, ProblemSize, QpSettings, default_weights, identified_model,
+        tricopter_problem,
+    };
+
+    fn thesis() -> (kestrel_core::formats::SsModel, MpcProblem) {
+        let model = identified_model().unwrap();
+        let (q1, q2) = default_weights();
+        let problem = tricopter_problem(&model, ProblemSize::Thesis, q1, q2).unwrap();
+        (model, problem)
+    }
+
+    fn qp_run(settings: &RunSettings) -> RunResult {
+        let (model, problem) = thesis();
+        let mut law = MpcLaw::clarabel(
+            &problem,
+            QpSettings {
+                kkt_tolerance: Some(1e-7),
+                ..QpSettings::default()
+            },
+        )
+        .unwrap();
+        fly_mpc(&model, &problem, &mut law, settings).unwrap()
+    }
+
+    /// Largest pulse difference between two runs (us).
+    fn max_pwm_diff(a: &RunResult, b: &RunResult) -> f64 {
+        a.trace
+            .rows
+            .iter()
+            .zip(&b.trace.rows)
+            .flat_map(|(r, s)| (0..4).map(move |i| (r.pwm[i] - s.pwm[i]).abs()))
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn explicit_law_flies_the_qp_law() {
+        let (model, problem) = thesis();
+        let mut law = MpcLaw::explicit(&problem, &kestrel_empc::Settings::default()).unwrap();
+        for settings in [RunSettings::default(), RunSettings::noisy()] {
+            let qp = qp_run(&settings);
+            let ex = fly_mpc(&model, &problem, &mut law, &settings).unwrap();
+            let d = max_pwm_diff(&qp, &ex);
+            let dj = qp
+                .trace
+                .rows
+                .iter()
+                .zip(&ex.trace.rows)
+                .map(|(r, s)| (r.cost - s.cost).abs() / r.cost.abs().max(1.0))
+                .fold(0.0, f64::max);
+            eprintln!(
+                "explicit vs QP: {} regions, {} of {} steps outside the explored set, max |pwm diff| {d:.2e} us, max rel |J diff| {dj:.2e}",
+                law.solver().regions(),
+                law.solver().outside(),
+                ex.trace.rows.len()
+            );
+            assert!(law.solver().regions() > 1);
+            // Same law: the same pulses and costs to solver precision.
+            assert!(d < 1e-3, "{d}");
+            assert!(dj < 1e-6, "{dj}");
+        }
+        // Wrong lengths and NaN parameters give errors, not panics.
+        let ex = law.solver_mut();
+        let mut z = vec![0.0; problem.n()];
+        let mut theta = vec![0.0; problem.p()];
+        theta[0] = f64::NAN;
+        assert!(ex.solve_into(&theta, &mut z).is_err());
+        assert!(ex.solve_into(&[0.0; 3], &mut z).is_err());
+    }
+
+    #[test]
+    fn fast_gradient_approaches_the_qp_law_with_more_iterations() {
+        let (model, problem) = thesis();
+        let settings = RunSettings::default();
+        let qp = qp_run(&settings);
+        let mut last = f64::INFINITY;
+        for iterations in [2, 12, 50, 400] {
+            let mut diffs = Vec::new();
+            for start in [FgmStart::Cold, FgmStart::Warm, FgmStart::WarmShifted] {
+                let opts = FgmOptions {
+                    iterations,
+                    start,
+                    ..FgmOptions::default()
+                };
+                let mut law = MpcLaw::fast_gradient(&problem, &opts).unwrap();
+                let run = fly_mpc(&model, &problem, &mut law, &settings).unwrap();
+                // Always inside the bounds, whatever the iteration count.
+                assert!(run.metrics.max_bound_violation <= 0.0);
+                diffs.push(max_pwm_diff(&qp, &run));
+            }
+            eprintln!(
+                "FGM {iterations} iterations: max |pwm - pwm_QP| cold/warm/shifted {diffs:?} us"
+            );
+            assert!(diffs[0] <= last, "{iterations}: {} > {last}", diffs[0]);
+            last = diffs[0];
+        }
+        assert!(last < 0.1, "{last}");
+    }
+
+    #[test]
+    fn solver_errors_are_values() {
+        // An mpQP whose constraints are not a box is refused by the fast gradient.
+        let (_, problem) = thesis();
+        let mut mp = problem.to_mpqp();
+        mp.g[(0, 1)] = 1.0;
+        let e = FastGradientSolver::new(&mp, &FgmOptions::default()).unwrap_err();
+        assert!(matches!(e, MpcError::ExternalSolver { .. }), "{e}");
+        // Wrong lengths and NaN parameters give errors, not panics.
+        let mut fgm = FastGradientSolver::new(&problem.to_mpqp(), &FgmOptions::default()).unwrap();
+        let mut z = vec![0.0; problem.n()];
+        assert!(fgm.solve_into(&[0.0; 3], &mut z).is_err());
+        let mut theta = vec![0.0; problem.p()];
+        theta[0] = f64::NAN;
+        assert!(fgm.solve_into(&theta, &mut z).is_err());
+    }
+}
