@@ -1,4 +1,5 @@
-//! One reference QP solve (clarabel) of the tricopter MPC, for the
+//! One reference QP solve (clarabel) of the tricopter MPC designed from
+//! the identified 5-state model (models/tricopter-blackbox-5.json), for the
 //! thesis-sized problem (N = 2, one block, n = 4) and the larger one
 //! (N = 10, blocks [1, 1, 2, 6], n = 16): the yardstick the explicit and
 //! fast-gradient solvers must beat. Two parameters each: the state of
@@ -8,14 +9,14 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use kestrel_mpc::{
-    ProblemSize, QpSettings, ReferenceSolver, default_weights, design_model, tricopter_problem,
-    tricopter_trim,
+    ProblemSize, QpSettings, ReferenceSolver, default_weights, identified_model,
+    tricopter_problem, tricopter_trim,
 };
 use nalgebra::DVector;
 use std::hint::black_box;
 
 fn solves(c: &mut Criterion) {
-    let model = design_model().expect("design model");
+    let model = identified_model().expect("identified model");
     let trim = tricopter_trim(&model).expect("trim");
     let pinv = model.c.clone().pseudo_inverse(1e-12).expect("pinv");
     for (size, name) in [

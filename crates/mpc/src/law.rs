@@ -154,6 +154,10 @@ impl<S: ParametricQpSolver> MpcLaw<S> {
     pub fn solver_mut(&mut self) -> &mut S {
         &mut self.solver
     }
+    /// The solver, giving up the law.
+    pub fn into_solver(self) -> S {
+        self.solver
+    }
     /// The parameter vector of the last call.
     pub fn last_theta(&self) -> &[f64] {
         &self.theta
