@@ -132,6 +132,20 @@ fn default_names(prefix: &str, n: usize) -> Vec<String> {
     (1..=n).map(|i| format!("{prefix}{i}")).collect()
 }
 
+/// The nominal sample time behind a measured step: time columns written
+/// with a few decimals (or accumulated in floating point) give steps like
+/// `0.019999999999999574`; the step is rounded to 6 significant digits,
+/// which is far finer than any clock jitter the 1 % uniformity check lets
+/// through, so `0.02` comes back as `0.02` exactly.
+pub(crate) fn snap_sample_time(step: f64) -> f64 {
+    if !(step.is_finite() && step > 0.0) {
+        return step;
+    }
+    let scale = 10f64.powi(5 - step.log10().floor() as i32);
+    let snapped = (step * scale).round() / scale;
+    if snapped > 0.0 { snapped } else { step }
+}
+
 impl IoData {
     /// A single-experiment data set from `N x nu` inputs and `N x ny`
     /// outputs, named `u1..`, `y1..`, times `k * ts`.
@@ -429,13 +443,13 @@ impl IoData {
                 ));
             }
             steps.sort_by(f64::total_cmp);
-            let ts = steps[steps.len() / 2];
-            if let Some(bad) = steps.iter().find(|d| ((*d - ts) / ts).abs() > 0.01) {
+            let median = steps[steps.len() / 2];
+            if let Some(bad) = steps.iter().find(|d| ((*d - median) / median).abs() > 0.01) {
                 return Err(err(format!(
-                    "non-uniform sampling: step {bad} differs from the median {ts} by more than 1 %"
+                    "non-uniform sampling: step {bad} differs from the median {median} by more than 1 %"
                 )));
             }
-            ts
+            snap_sample_time(median)
         } else {
             columns.ts.unwrap_or(1.0)
         };
@@ -751,6 +765,28 @@ mod tests {
         assert_eq!(e0.u[(2, 0)], 6.0);
         assert_eq!(e0.u[(2, 1)], 3.0);
         assert_eq!(e0.y[(3, 0)], 0.1);
+    }
+
+    #[test]
+    fn csv_sample_time_is_snapped_to_the_nominal_value() {
+        // A time column accumulated in floating point and printed in full,
+        // like 0.019999999999999574 steps.
+        let mut text = String::from("t,a,q\n");
+        let mut t = 25.0f64;
+        for k in 0..200 {
+            text.push_str(&format!("{t:?},{},{}\n", k % 3, k % 5));
+            t += 0.02;
+        }
+        let d = IoData::from_csv_reader(text.as_bytes(), &CsvColumns::new(&["a"], &["q"]), "f")
+            .unwrap();
+        assert_eq!(d.ts(), 0.02);
+        assert_eq!(format!("{}", d.ts()), "0.02");
+        assert_eq!(snap_sample_time(0.019999999999999574), 0.02);
+        assert_eq!(snap_sample_time(0.0010000000000000009), 0.001);
+        assert_eq!(snap_sample_time(1.0), 1.0);
+        assert_eq!(snap_sample_time(0.1 + 0.2), 0.3);
+        // A genuinely odd sample time keeps its 6 significant digits.
+        assert_eq!(snap_sample_time(0.0123457), 0.0123457);
     }
 
     #[test]

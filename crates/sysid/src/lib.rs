@@ -23,6 +23,8 @@ mod reduce;
 pub mod synthetic;
 #[cfg(feature = "std")]
 mod validate;
+#[cfg(feature = "std")]
+pub mod workflow;
 
 #[cfg(feature = "std")]
 pub use data::{CsvColumns, Experiment, IoData, Offsets, SignalSelection, TimeInterval};

@@ -2,12 +2,8 @@
 
 use crate::io;
 use anyhow::{Context, bail};
-use kestrel_sysid::{
-    BalredSettings, Butterworth, CsvColumns, Focus, InnovationModel, IoData, N4sidSettings,
-    Offsets, PemSettings, ReductionMethod, SignalSelection, TimeInterval, Weighting, balred, n4sid,
-    pem, transmission_zeros, validate,
-};
-use nalgebra::{DMatrix, DVector};
+use kestrel_sysid::workflow::{self, IdentifySpec, InputMap, Lowpass};
+use kestrel_sysid::{CsvColumns, Focus, IoData, TimeInterval, Weighting};
 use std::path::PathBuf;
 
 /// Identification method.
@@ -117,185 +113,70 @@ pub struct Args {
     pub out: Option<PathBuf>,
 }
 
-fn virtual_map() -> DMatrix<f64> {
-    let cr = 1.0 / 3f64.sqrt();
-    let cp = 2.0 / 3.0;
-    DMatrix::from_row_slice(
-        3,
-        4,
-        &[
-            0.0,
-            cr,
-            -cr,
-            0.0, //
-            -cp,
-            cp / 2.0,
-            cp / 2.0,
-            0.0, //
-            0.0,
-            0.0,
-            0.0,
-            1.0,
-        ],
-    )
-}
-
-/// Runs the command.
+/// Runs the command: the library's [`kestrel_sysid::workflow::identify`]
+/// with the flags as its [`IdentifySpec`].
 pub fn run(args: Args) -> anyhow::Result<()> {
     let src = args.data.display().to_string();
     let mut cols = CsvColumns::new(&[], &[]);
     cols.inputs = args.inputs.clone();
     cols.outputs = args.outputs.clone();
     cols.ts = args.ts;
-    let mut data = IoData::read_csv(&args.data, &cols).with_context(|| format!("reading {src}"))?;
-    if args.virtual_inputs {
-        if data.nu() != 4 {
-            bail!(
-                "--virtual needs four inputs (motor 1, motor 2, motor 3, servo), found {}",
-                data.nu()
-            );
-        }
-        data = data.map_inputs(
-            &virtual_map(),
-            vec!["u_roll".into(), "u_pitch".into(), "u_yaw".into()],
-        )?;
+    let data = IoData::read_csv(&args.data, &cols).with_context(|| format!("reading {src}"))?;
+    if args.virtual_inputs && data.nu() != 4 {
+        bail!(
+            "--virtual needs four inputs (motor 1, motor 2, motor 3, servo), found {}",
+            data.nu()
+        );
     }
-    let parse = |s: &Option<String>, what: &str| -> anyhow::Result<Option<Vec<TimeInterval>>> {
-        s.as_deref()
+    let parse = |s: &Option<String>, what: &str| -> anyhow::Result<Vec<TimeInterval>> {
+        Ok(s.as_deref()
             .map(|t| TimeInterval::parse_list(t).with_context(|| format!("--{what}")))
-            .transpose()
+            .transpose()?
+            .unwrap_or_default())
     };
-    let est = match parse(&args.estimate, "estimate")? {
-        Some(iv) => data.select(&iv).context("--estimate")?,
-        None => data.clone(),
-    };
-    let val = match parse(&args.validate, "validate")? {
-        Some(iv) => Some(data.select(&iv).context("--validate")?),
-        None => None,
-    };
-    // Operating point: given, or the means of the estimation data.
-    let means = est.means();
-    let vec_arg = |v: &Option<Vec<f64>>,
-                   n: usize,
-                   default: &DVector<f64>,
-                   what: &str|
-     -> anyhow::Result<DVector<f64>> {
-        match v {
-            Some(v) if v.len() != n => bail!("--{what} needs {n} values, found {}", v.len()),
-            Some(v) => Ok(DVector::from_vec(v.clone())),
-            None => Ok(default.clone()),
+    let raw_nu = data.nu();
+    if let Some(u0) = &args.u0 {
+        if u0.len() != raw_nu {
+            bail!("--u0 needs {raw_nu} values, found {}", u0.len());
         }
-    };
-    let u0 = if args.virtual_inputs && args.u0.is_some() {
-        // A given u0 is in the raw inputs; map it too.
-        let raw = vec_arg(&args.u0, 4, &DVector::zeros(4), "u0")?;
-        virtual_map() * raw
-    } else {
-        vec_arg(&args.u0, est.nu(), &means.u0, "u0")?
-    };
-    let y0 = vec_arg(&args.y0, est.ny(), &means.y0, "y0")?;
-    let offsets = Offsets { u0, y0 };
-    let mut est = est.subtract(&offsets)?;
-    let mut val = val.map(|v| v.subtract(&offsets)).transpose()?;
-    if let Some(wc) = args.lowpass {
-        let f = Butterworth::design(args.lowpass_order, wc, data.ts()).context("--lowpass")?;
-        est = est.lowpass(&f, SignalSelection::Both);
-        val = val.map(|v| v.lowpass(&f, SignalSelection::Both));
     }
-    let n4 = N4sidSettings {
+    if let Some(y0) = &args.y0 {
+        if y0.len() != data.ny() {
+            bail!("--y0 needs {} values, found {}", data.ny(), y0.len());
+        }
+    }
+    let spec = IdentifySpec {
+        estimate: parse(&args.estimate, "estimate")?,
+        validate: parse(&args.validate, "validate")?,
         order: args.order,
-        max_order: args.order.unwrap_or(10).max(10),
-        horizon: args.horizon,
+        reduce: args.reduce,
+        match_dc: args.match_dc,
+        method: match args.method {
+            Method::N4sid => workflow::Method::N4sid,
+            Method::Pem => workflow::Method::Pem,
+        },
         weighting: match args.weighting {
             WeightingArg::Moesp => Weighting::Moesp,
             WeightingArg::Cva => Weighting::Cva,
         },
+        horizon: args.horizon,
+        focus: match args.focus {
+            FocusArg::Prediction => Focus::Prediction,
+            FocusArg::Simulation => Focus::Simulation,
+        },
         feedthrough: args.feedthrough,
-        estimate_k: true,
+        max_iterations: args.max_iterations,
+        input_map: args.virtual_inputs.then(InputMap::tricopter_virtual),
+        u0: args.u0.clone(),
+        y0: args.y0.clone(),
+        lowpass: args.lowpass.map(|cutoff| Lowpass {
+            order: args.lowpass_order,
+            cutoff,
+        }),
+        horizons: args.horizons.clone(),
     };
-    let start = n4sid(&est, &n4).context("N4SID")?;
-    let mut report = String::new();
-    report.push_str(&format!(
-        "data: {} estimation samples in {} experiment(s), ts = {} s; N4SID order {} (suggested {}), horizon {}\n",
-        est.n_samples(),
-        est.experiments().len(),
-        est.ts(),
-        start.order,
-        start.suggested_order,
-        start.horizon
-    ));
-    let mut model: InnovationModel = start.model.clone();
-    if args.method == Method::Pem {
-        let settings = PemSettings {
-            focus: match args.focus {
-                FocusArg::Prediction => Focus::Prediction,
-                FocusArg::Simulation => Focus::Simulation,
-            },
-            feedthrough: args.feedthrough,
-            max_iterations: args.max_iterations,
-            ..Default::default()
-        };
-        let r = pem(&est, &start.model, &settings).context("PEM")?;
-        report.push_str(&format!(
-            "PEM: {} iterations, {} free parameters, cost {:.6} -> {:.6}, stopped: {:?}\n",
-            r.iterations, r.free_parameters, r.initial_cost, r.cost, r.stop
-        ));
-        model = r.model;
-    }
-    if let Some(r) = args.reduce {
-        let red = balred(
-            &model,
-            r,
-            &BalredSettings {
-                method: if args.match_dc {
-                    ReductionMethod::MatchDc
-                } else {
-                    ReductionMethod::Truncate
-                },
-                include_noise: true,
-            },
-        )
-        .context("--reduce")?;
-        report.push_str(&format!(
-            "balred {} -> {}: Hankel singular values {:.4?}, error bound {:.4}\n",
-            model.nx(),
-            r,
-            red.hankel_singular_values,
-            red.error_bound
-        ));
-        model = red.model;
-    }
-    match transmission_zeros(&model) {
-        Ok(z) => {
-            let nmp: Vec<String> = z
-                .iter()
-                .filter(|z| z.non_minimum_phase)
-                .map(|z| format!("{:.4}{:+.4}i", z.z.re, z.z.im))
-                .collect();
-            report.push_str(&format!(
-                "transmission zeros: {} ({} outside the unit circle{}{})\n",
-                z.len(),
-                nmp.len(),
-                if nmp.is_empty() { "" } else { ": " },
-                nmp.join(", ")
-            ));
-        }
-        Err(e) => report.push_str(&format!("transmission zeros: not computed ({e})\n")),
-    }
-    let vdata = val.as_ref().unwrap_or(&est);
-    report.push_str(if val.is_some() {
-        "validation data:\n"
-    } else {
-        "no --validate intervals: table on the estimation data\n"
-    });
-    let rep = validate(&model, vdata, &args.horizons).context("validation")?;
-    report.push_str(&rep.to_string());
-    let ss = model.to_ss_model(
-        Some(&offsets.u0),
-        Some(&offsets.y0),
-        Some(est.input_names()),
-        Some(est.output_names()),
-    )?;
+    let report = workflow::identify(&data, &spec).context("identification")?;
+    let ss = report.to_ss_model()?;
     io::write_output(args.out.as_deref(), &ss.to_json_string())?;
     if args.out.is_some() {
         print!("{report}");

@@ -1,0 +1,518 @@
+//! The whole identification workflow of `kestrel identify` (and of
+//! `kestrel pipeline`) as one library call: select intervals, remove the
+//! operating point, optional input map and low-pass, N4SID, PEM, `balred`,
+//! transmission zeros and the validation table.
+
+use crate::data::{IoData, Offsets, SignalSelection, TimeInterval};
+use crate::error::{Result, SysidError};
+use crate::filter::Butterworth;
+use crate::model::InnovationModel;
+use crate::n4sid::{N4sidSettings, Weighting, n4sid};
+use crate::pem::{Focus, PemSettings, StopReason, pem};
+use crate::reduce::{BalredSettings, ReductionMethod, Zero, balred, transmission_zeros};
+use crate::validate::{ValidationReport, validate};
+use core::fmt;
+use kestrel_core::formats::SsModel;
+use nalgebra::{DMatrix, DVector};
+
+/// Identification method of the workflow.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Method {
+    /// Subspace identification only.
+    N4sid,
+    /// Prediction-error method started from N4SID.
+    #[default]
+    Pem,
+}
+
+/// A linear map of the inputs before identification, `u_new = M u`
+/// (e.g. the tricopter mixer's virtual inputs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct InputMap {
+    /// `nu_new x nu` matrix.
+    pub matrix: DMatrix<f64>,
+    /// Names of the new inputs (`nu_new`).
+    pub names: Vec<String>,
+}
+
+impl InputMap {
+    /// The black-box virtual model's map of the thesis: motor 1, 2, 3 and
+    /// servo pulses to `(U_r, U_p, U_y)` through the inverse of the mixer
+    /// (3.28) with `C_r = 1/sqrt(3)`, `C_p = 2/3`, `C_y = 1`; the new inputs
+    /// are named `u_roll, u_pitch, u_yaw`.
+    pub fn tricopter_virtual() -> Self {
+        let cr = 1.0 / 3f64.sqrt();
+        let cp = 2.0 / 3.0;
+        #[rustfmt::skip]
+        let matrix = DMatrix::from_row_slice(3, 4, &[
+            0.0, cr, -cr, 0.0,
+            -cp, cp / 2.0, cp / 2.0, 0.0,
+            0.0, 0.0, 0.0, 1.0,
+        ]);
+        InputMap {
+            matrix,
+            names: vec!["u_roll".into(), "u_pitch".into(), "u_yaw".into()],
+        }
+    }
+}
+
+/// Zero-phase Butterworth low-pass applied to inputs and outputs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lowpass {
+    /// Filter order.
+    pub order: usize,
+    /// Cut-off in rad/s.
+    pub cutoff: f64,
+}
+
+/// What to identify and how: the library form of `kestrel identify`'s flags.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IdentifySpec {
+    /// Estimation intervals (time units of the data); empty: all data.
+    pub estimate: Vec<TimeInterval>,
+    /// Validation intervals; empty: validate on the estimation data.
+    pub validate: Vec<TimeInterval>,
+    /// Model order; `None`: suggested from the singular values.
+    pub order: Option<usize>,
+    /// Reduce to this order by balanced truncation.
+    pub reduce: Option<usize>,
+    /// Keep the DC gain when reducing.
+    pub match_dc: bool,
+    /// N4SID only, or PEM started from N4SID.
+    pub method: Method,
+    /// N4SID weighting.
+    pub weighting: Weighting,
+    /// N4SID horizon (block rows); `None`: chosen from the order.
+    pub horizon: Option<usize>,
+    /// PEM focus.
+    pub focus: Focus,
+    /// Estimate a feed-through `D`.
+    pub feedthrough: bool,
+    /// Largest number of PEM iterations.
+    pub max_iterations: usize,
+    /// Map the inputs before identification (applied before the offsets).
+    pub input_map: Option<InputMap>,
+    /// Known input operating point in the units of the data *before* the
+    /// input map (mapped with it); `None`: mean of the estimation data.
+    pub u0: Option<Vec<f64>>,
+    /// Known output offset (e.g. gyro bias); `None`: mean of the estimation data.
+    pub y0: Option<Vec<f64>>,
+    /// Optional zero-phase low-pass of inputs and outputs.
+    pub lowpass: Option<Lowpass>,
+    /// Horizons of the k-step prediction table.
+    pub horizons: Vec<usize>,
+}
+
+impl Default for IdentifySpec {
+    fn default() -> Self {
+        IdentifySpec {
+            estimate: Vec::new(),
+            validate: Vec::new(),
+            order: None,
+            reduce: None,
+            match_dc: false,
+            method: Method::Pem,
+            weighting: Weighting::Moesp,
+            horizon: None,
+            focus: Focus::Prediction,
+            feedthrough: false,
+            max_iterations: 30,
+            input_map: None,
+            u0: None,
+            y0: None,
+            lowpass: None,
+            horizons: vec![1, 5],
+        }
+    }
+}
+
+/// Summary of the N4SID step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct N4sidSummary {
+    /// Order used.
+    pub order: usize,
+    /// Order suggested from the singular values.
+    pub suggested_order: usize,
+    /// Horizon (block rows) used.
+    pub horizon: usize,
+}
+
+/// Summary of the PEM step (stopping information).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PemSummary {
+    /// Iterations done.
+    pub iterations: usize,
+    /// Free parameters.
+    pub free_parameters: usize,
+    /// Cost at the start.
+    pub initial_cost: f64,
+    /// Cost at the end.
+    pub cost: f64,
+    /// Why the search stopped.
+    pub stop: StopReason,
+}
+
+/// Summary of the reduction step.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReductionSummary {
+    /// Order before reduction.
+    pub from: usize,
+    /// Order after reduction.
+    pub to: usize,
+    /// Hankel singular values of the full model (stable part).
+    pub hankel_singular_values: Vec<f64>,
+    /// A-priori error bound.
+    pub error_bound: f64,
+}
+
+/// Everything [`identify`] produced.
+#[derive(Clone, Debug)]
+pub struct IdentifyReport {
+    /// Estimation samples (all experiments).
+    pub estimation_samples: usize,
+    /// Estimation experiments.
+    pub experiments: usize,
+    /// Sample time.
+    pub ts: f64,
+    /// The removed operating point (in the units of the mapped inputs).
+    pub offsets: Offsets,
+    /// Input names of the model.
+    pub input_names: Vec<String>,
+    /// Output names of the model.
+    pub output_names: Vec<String>,
+    /// The N4SID step.
+    pub n4sid: N4sidSummary,
+    /// The PEM step (`None` for [`Method::N4sid`]).
+    pub pem: Option<PemSummary>,
+    /// The model of the identified order (before reduction).
+    pub full_model: InnovationModel,
+    /// The reduction step, when asked for.
+    pub reduction: Option<ReductionSummary>,
+    /// The final model (reduced when asked for).
+    pub model: InnovationModel,
+    /// Transmission zeros of the final model, or why they were not computed.
+    pub zeros: core::result::Result<Vec<Zero>, String>,
+    /// Whether the table is on separate validation data.
+    pub on_validation_data: bool,
+    /// Validation table of the final model.
+    pub validation: ValidationReport,
+    /// Validation table of the full model when it was reduced.
+    pub full_validation: Option<ValidationReport>,
+}
+
+impl IdentifyReport {
+    /// The final model as `kestrel.ss.v1` with the removed offsets as `u0`/`y0`.
+    pub fn to_ss_model(&self) -> Result<SsModel> {
+        self.model.to_ss_model(
+            Some(&self.offsets.u0),
+            Some(&self.offsets.y0),
+            Some(&self.input_names),
+            Some(&self.output_names),
+        )
+    }
+}
+
+impl fmt::Display for IdentifyReport {
+    /// The text `kestrel identify` prints.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "data: {} estimation samples in {} experiment(s), ts = {} s; N4SID order {} (suggested {}), horizon {}",
+            self.estimation_samples,
+            self.experiments,
+            self.ts,
+            self.n4sid.order,
+            self.n4sid.suggested_order,
+            self.n4sid.horizon
+        )?;
+        if let Some(p) = &self.pem {
+            writeln!(
+                f,
+                "PEM: {} iterations, {} free parameters, cost {:.6} -> {:.6}, stopped: {:?}",
+                p.iterations, p.free_parameters, p.initial_cost, p.cost, p.stop
+            )?;
+        }
+        if let Some(r) = &self.reduction {
+            writeln!(
+                f,
+                "balred {} -> {}: Hankel singular values {:.4?}, error bound {:.4}",
+                r.from, r.to, r.hankel_singular_values, r.error_bound
+            )?;
+        }
+        match &self.zeros {
+            Ok(z) => {
+                let nmp: Vec<String> = z
+                    .iter()
+                    .filter(|z| z.non_minimum_phase)
+                    .map(|z| format!("{:.4}{:+.4}i", z.z.re, z.z.im))
+                    .collect();
+                writeln!(
+                    f,
+                    "transmission zeros: {} ({} outside the unit circle{}{})",
+                    z.len(),
+                    nmp.len(),
+                    if nmp.is_empty() { "" } else { ": " },
+                    nmp.join(", ")
+                )?;
+            }
+            Err(e) => writeln!(f, "transmission zeros: not computed ({e})")?,
+        }
+        f.write_str(if self.on_validation_data {
+            "validation data:\n"
+        } else {
+            "no --validate intervals: table on the estimation data\n"
+        })?;
+        write!(f, "{}", self.validation)
+    }
+}
+
+fn offset_vec(
+    v: &Option<Vec<f64>>,
+    n: usize,
+    default: &DVector<f64>,
+    what: &str,
+) -> Result<DVector<f64>> {
+    match v {
+        Some(v) if v.len() != n => Err(SysidError::dim(what, n, v.len())),
+        Some(v) => Ok(DVector::from_vec(v.clone())),
+        None => Ok(default.clone()),
+    }
+}
+
+/// Runs the identification workflow on `data` (as loaded, e.g. by
+/// [`IoData::read_csv`]): input map, interval selection, operating point,
+/// low-pass, N4SID, PEM, `balred`, zeros and the validation table.
+///
+/// ```
+/// use kestrel_sysid::{synthetic, workflow::{identify, IdentifySpec}, TimeInterval};
+/// let truth = synthetic::random_model(2, 2, 1, 9, 0.9);
+/// let data = synthetic::simulate(&truth, 1200, 0.05, 3).unwrap();
+/// let spec = IdentifySpec {
+///     estimate: vec![TimeInterval::new(0.0, 799.0).unwrap()],
+///     validate: vec![TimeInterval::new(800.0, 1199.0).unwrap()],
+///     order: Some(2),
+///     ..Default::default()
+/// };
+/// let report = identify(&data, &spec).unwrap();
+/// assert!(report.validation.row("model 1-step").unwrap().mean() > 80.0);
+/// println!("{report}");
+/// ```
+pub fn identify(data: &IoData, spec: &IdentifySpec) -> Result<IdentifyReport> {
+    let raw_nu = data.nu();
+    let data = match &spec.input_map {
+        Some(m) => data.map_inputs(&m.matrix, m.names.clone())?,
+        None => data.clone(),
+    };
+    let est = if spec.estimate.is_empty() {
+        data.clone()
+    } else {
+        data.select(&spec.estimate)?
+    };
+    let val = if spec.validate.is_empty() {
+        None
+    } else {
+        Some(data.select(&spec.validate)?)
+    };
+    let means = est.means();
+    let u0 = match (&spec.input_map, &spec.u0) {
+        (Some(m), Some(_)) => &m.matrix * offset_vec(&spec.u0, raw_nu, &means.u0, "u0")?,
+        _ => offset_vec(&spec.u0, est.nu(), &means.u0, "u0")?,
+    };
+    let y0 = offset_vec(&spec.y0, est.ny(), &means.y0, "y0")?;
+    let offsets = Offsets { u0, y0 };
+    let mut est = est.subtract(&offsets)?;
+    let mut val = val.map(|v| v.subtract(&offsets)).transpose()?;
+    if let Some(lp) = spec.lowpass {
+        let f = Butterworth::design(lp.order, lp.cutoff, data.ts())?;
+        est = est.lowpass(&f, SignalSelection::Both);
+        val = val.map(|v| v.lowpass(&f, SignalSelection::Both));
+    }
+    let n4 = N4sidSettings {
+        order: spec.order,
+        max_order: spec.order.unwrap_or(10).max(10),
+        horizon: spec.horizon,
+        weighting: spec.weighting,
+        feedthrough: spec.feedthrough,
+        estimate_k: true,
+    };
+    let start = n4sid(&est, &n4)?;
+    let n4sid_summary = N4sidSummary {
+        order: start.order,
+        suggested_order: start.suggested_order,
+        horizon: start.horizon,
+    };
+    let (full_model, pem_summary) = match spec.method {
+        Method::N4sid => (start.model, None),
+        Method::Pem => {
+            let settings = PemSettings {
+                focus: spec.focus,
+                feedthrough: spec.feedthrough,
+                max_iterations: spec.max_iterations,
+                ..Default::default()
+            };
+            let r = pem(&est, &start.model, &settings)?;
+            let s = PemSummary {
+                iterations: r.iterations,
+                free_parameters: r.free_parameters,
+                initial_cost: r.initial_cost,
+                cost: r.cost,
+                stop: r.stop,
+            };
+            (r.model, Some(s))
+        }
+    };
+    let (model, reduction) = match spec.reduce {
+        Some(r) => {
+            let red = balred(
+                &full_model,
+                r,
+                &BalredSettings {
+                    method: if spec.match_dc {
+                        ReductionMethod::MatchDc
+                    } else {
+                        ReductionMethod::Truncate
+                    },
+                    include_noise: true,
+                },
+            )?;
+            let s = ReductionSummary {
+                from: full_model.nx(),
+                to: r,
+                hankel_singular_values: red.hankel_singular_values,
+                error_bound: red.error_bound,
+            };
+            (red.model, Some(s))
+        }
+        None => (full_model.clone(), None),
+    };
+    let zeros = transmission_zeros(&model).map_err(|e| e.to_string());
+    let vdata = val.as_ref().unwrap_or(&est);
+    let validation = validate(&model, vdata, &spec.horizons)?;
+    let full_validation = if reduction.is_some() {
+        Some(validate(&full_model, vdata, &spec.horizons)?)
+    } else {
+        None
+    };
+    Ok(IdentifyReport {
+        estimation_samples: est.n_samples(),
+        experiments: est.experiments().len(),
+        ts: est.ts(),
+        offsets,
+        input_names: est.input_names().to_vec(),
+        output_names: est.output_names().to_vec(),
+        n4sid: n4sid_summary,
+        pem: pem_summary,
+        full_model,
+        reduction,
+        model,
+        zeros,
+        on_validation_data: val.is_some(),
+        validation,
+        full_validation,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synthetic;
+
+    fn data() -> IoData {
+        let truth = synthetic::random_model(2, 2, 1, 9, 0.9);
+        synthetic::simulate(&truth, 1200, 0.05, 3).unwrap()
+    }
+
+    #[test]
+    fn identify_matches_the_separate_steps() {
+        let d = data();
+        let spec = IdentifySpec {
+            estimate: vec![TimeInterval::new(0.0, 799.0).unwrap()],
+            validate: vec![TimeInterval::new(800.0, 1199.0).unwrap()],
+            order: Some(3),
+            reduce: Some(2),
+            ..Default::default()
+        };
+        let r = identify(&d, &spec).unwrap();
+        // The same steps by hand.
+        let est = d.select(&spec.estimate).unwrap();
+        let (est, off) = est.remove_means().unwrap();
+        let val = d.select(&spec.validate).unwrap().subtract(&off).unwrap();
+        let start = n4sid(
+            &est,
+            &N4sidSettings {
+                order: Some(3),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let p = pem(&est, &start.model, &PemSettings::default()).unwrap();
+        let red = balred(
+            &p.model,
+            2,
+            &BalredSettings {
+                include_noise: true,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let rep = validate(&red.model, &val, &[1, 5]).unwrap();
+        assert_eq!(r.validation, rep);
+        assert_eq!(r.model, red.model);
+        assert_eq!(r.full_model, p.model);
+        assert_eq!(r.offsets.u0, off.u0);
+        assert_eq!(r.model.nx(), 2);
+        assert!(r.on_validation_data);
+        assert_eq!(r.pem.unwrap().stop, p.stop);
+        let text = r.to_string();
+        for want in [
+            "PEM:",
+            "balred 3 -> 2",
+            "model simulation",
+            "persistence 5-step",
+        ] {
+            assert!(text.contains(want), "{want} missing in {text}");
+        }
+        let ss = r.to_ss_model().unwrap();
+        assert_eq!(ss.u0.unwrap().len(), 2);
+    }
+
+    #[test]
+    fn given_offsets_are_checked_and_mapped() {
+        let d = data();
+        let spec = IdentifySpec {
+            order: Some(2),
+            method: Method::N4sid,
+            u0: Some(vec![1.0]),
+            ..Default::default()
+        };
+        assert!(matches!(
+            identify(&d, &spec),
+            Err(SysidError::Dimension { .. })
+        ));
+        // An input map maps a given u0 too.
+        let spec = IdentifySpec {
+            order: Some(2),
+            method: Method::N4sid,
+            u0: Some(vec![1.0, 2.0]),
+            input_map: Some(InputMap {
+                matrix: DMatrix::from_row_slice(1, 2, &[1.0, 1.0]),
+                names: vec!["s".into()],
+            }),
+            ..Default::default()
+        };
+        let r = identify(&d, &spec).unwrap();
+        assert_eq!(r.offsets.u0.as_slice(), &[3.0]);
+        assert_eq!(r.input_names, vec!["s".to_string()]);
+        assert!(r.pem.is_none() && !r.on_validation_data);
+    }
+
+    #[test]
+    fn tricopter_virtual_map_inverts_the_mixer_directions() {
+        // Roll input moves motors 2 and 3 in opposite directions, pitch the
+        // rear against the front, yaw is the servo.
+        let m = InputMap::tricopter_virtual().matrix;
+        let u = DVector::from_vec(vec![0.0, 1.0, -1.0, 0.0]);
+        let v = &m * u;
+        assert!(v[0] > 0.0 && v[1].abs() < 1e-15 && v[2] == 0.0);
+    }
+}
