@@ -1,14 +1,22 @@
 //! A small dense linear-programming solver (design time).
 //!
-//! `maximise c'x subject to A x <= b` with `x` free is solved through its
-//! dual in standard form, `minimise b'y subject to A'y = c, y >= 0`, by a
-//! two-phase tableau simplex. The tableau has one row per primal variable
-//! (the parameters plus one, at most a dozen here) and one column per
-//! constraint, so every pivot is a few hundred multiply-adds: much cheaper
-//! than a general-purpose sparse solver for the thousands of tiny LPs of a
-//! region exploration. The primal solution is read back from the simplex
-//! multipliers. Dantzig's rule is used, with Bland's rule after a run of
-//! degenerate pivots to rule out cycling.
+//! `maximise c'x subject to A x <= b` with `x` free, started from a feasible
+//! point `x0` that the caller supplies (every LP of the exploration and the
+//! tree has one at hand: a region's centre, or any point with a free
+//! "smallest slack" variable set to the smallest slack). The method is the
+//! primal active-set form of the simplex method: move along the projection
+//! of `c` onto the null space of the working constraints until a
+//! constraint blocks (it joins the working set); at a point where `c` lies
+//! in their span, drop a constraint with a negative multiplier, or stop
+//! (all multipliers non-negative: optimal). The working rows are kept as an
+//! orthonormal basis (modified Gram-Schmidt, rebuilt from the original rows
+//! after every drop), so every step is computed from the problem data
+//! rather than from a long chain of tableau updates: the answer is exact up
+//! to a few rounding errors however many pivots it took, and optimality is
+//! certified by the multipliers. Bland's rule after a run of degenerate
+//! steps rules out cycling. A previous two-phase tableau simplex on the
+//! dual could return "optimal" with a wrong dual after an ill-conditioned
+//! pivot, which made the search tree drop regions from cells they meet.
 #![allow(clippy::needless_range_loop)] // dense numerical kernels read best with indices
 
 /// Outcome of an LP solve.
@@ -16,209 +24,249 @@
 pub(crate) enum LpStatus {
     /// An optimum was found.
     Optimal,
-    /// The constraints admit no point.
-    Infeasible,
-    /// The objective is unbounded above (or the dual is infeasible).
+    /// The objective is unbounded above.
     Unbounded,
-    /// The iteration limit was hit.
+    /// The iteration limit was hit (or the start point was not finite).
     NotConverged,
 }
 
 /// Caller-owned workspace of the LP solver (reused across solves).
 #[derive(Default, Debug)]
 pub(crate) struct LpWorkspace {
-    t: Vec<f64>,
-    obj: Vec<f64>,
-    basis: Vec<usize>,
-    sign: Vec<f64>,
-    /// The primal solution of the last optimal solve.
+    /// Orthonormal basis of the working rows, `k x d` row-major.
+    q: Vec<f64>,
+    /// `R` with `a_{W[j]} = sum_i R[i][j] q_i`, stored `k_max x k_max`.
+    r: Vec<f64>,
+    work: Vec<usize>,
+    in_work: Vec<bool>,
+    dir: Vec<f64>,
+    qc: Vec<f64>,
+    lam: Vec<f64>,
+    anorm: Vec<f64>,
+    /// The maximiser of the last optimal solve.
     pub x: Vec<f64>,
+    /// Iterations of the last solve.
+    pub iterations: usize,
 }
 
-const PIV_TOL: f64 = 1e-11;
+#[inline]
+fn dot(x: &[f64], y: &[f64]) -> f64 {
+    x.iter().zip(y).map(|(a, b)| a * b).sum()
+}
 
 impl LpWorkspace {
-    /// maximise `c'x` subject to `A x <= b`; `a` is `m x d` row-major.
-    /// On `Optimal`, `self.x` holds the maximiser and the value is returned.
-    pub fn maximize(&mut self, c: &[f64], a: &[f64], b: &[f64]) -> (LpStatus, f64) {
+    /// Appends row `a_i` to the orthonormal basis; false if it is (numerically) dependent.
+    fn push_row(&mut self, a: &[f64], i: usize, d: usize) -> bool {
+        let k = self.work.len();
+        let row = &a[i * d..(i + 1) * d];
+        let mut v: Vec<f64> = row.to_vec();
+        let mut coef = vec![0.0; k];
+        // Modified Gram-Schmidt, twice for orthogonality to working precision.
+        for _ in 0..2 {
+            for j in 0..k {
+                let qj = &self.q[j * d..(j + 1) * d];
+                let s = dot(qj, &v);
+                coef[j] += s;
+                for t in 0..d {
+                    v[t] -= s * qj[t];
+                }
+            }
+        }
+        let nv = dot(&v, &v).sqrt();
+        if nv <= 1e-12 * self.anorm[i] {
+            return false;
+        }
+        for t in 0..d {
+            v[t] /= nv;
+        }
+        self.q.extend_from_slice(&v);
+        // R is d x d, column k gets the coefficients.
+        for j in 0..k {
+            self.r[j * d + k] = coef[j];
+        }
+        self.r[k * d + k] = nv;
+        for j in k + 1..d {
+            self.r[j * d + k] = 0.0;
+        }
+        self.work.push(i);
+        self.in_work[i] = true;
+        true
+    }
+
+    fn rebuild(&mut self, a: &[f64], d: usize) {
+        let rows = std::mem::take(&mut self.work);
+        self.q.clear();
+        for &i in &rows {
+            self.in_work[i] = false;
+        }
+        for &i in &rows {
+            let _ = self.push_row(a, i, d);
+        }
+    }
+
+    /// maximise `c'x` subject to `A x <= b` (`a` is `m x d` row-major),
+    /// starting from `x0`, which must satisfy the constraints (up to
+    /// rounding). On `Optimal`, `self.x` holds the maximiser and the value
+    /// is returned.
+    pub fn maximize_from(
+        &mut self,
+        c: &[f64],
+        a: &[f64],
+        b: &[f64],
+        x0: &[f64],
+    ) -> (LpStatus, f64) {
         let d = c.len();
         let m = b.len();
         debug_assert_eq!(a.len(), m * d);
-        let ncol = m + d + 1; // y, artificials, rhs
-        let last = ncol - 1;
-        self.t.clear();
-        self.t.resize(d * ncol, 0.0);
-        self.obj.clear();
-        self.obj.resize(ncol, 0.0);
-        self.basis.clear();
-        self.sign.clear();
+        debug_assert_eq!(x0.len(), d);
         self.x.clear();
-        self.x.resize(d, 0.0);
-        let bscale = 1.0 + b.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
-        let cscale = 1.0 + c.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
-        for i in 0..d {
-            let s = if c[i] < 0.0 { -1.0 } else { 1.0 };
-            self.sign.push(s);
-            let row = &mut self.t[i * ncol..(i + 1) * ncol];
-            for j in 0..m {
-                row[j] = s * a[j * d + i];
-            }
-            row[m + i] = 1.0;
-            row[last] = s * c[i];
-            self.basis.push(m + i);
+        self.x.extend_from_slice(x0);
+        self.iterations = 0;
+        if !x0.iter().all(|v| v.is_finite()) {
+            return (LpStatus::NotConverged, 0.0);
         }
-        // Phase 1: minimise the sum of artificials.
-        for i in 0..d {
-            for j in 0..ncol {
-                if j >= m && j < m + d {
-                    continue;
-                }
-                self.obj[j] -= self.t[i * ncol + j];
-            }
+        self.q.clear();
+        self.r.clear();
+        self.r.resize(d * d, 0.0);
+        self.work.clear();
+        self.in_work.clear();
+        self.in_work.resize(m, false);
+        self.anorm.clear();
+        self.anorm
+            .extend((0..m).map(|i| dot(&a[i * d..(i + 1) * d], &a[i * d..(i + 1) * d]).sqrt()));
+        self.dir.clear();
+        self.dir.resize(d, 0.0);
+        let cn = dot(c, c).sqrt();
+        if cn == 0.0 {
+            return (LpStatus::Optimal, 0.0);
         }
-        let max_iter = 50 * (m + d) + 100;
-        match self.iterate(d, m, ncol, m, 1e-12 * cscale, max_iter) {
-            Ok(()) => {}
-            Err(s) => return (s, 0.0),
-        }
-        if -self.obj[last] > 1e-9 * cscale {
-            // The dual A'y = c, y >= 0 is infeasible: the primal is unbounded (or infeasible).
-            return (LpStatus::Unbounded, 0.0);
-        }
-        // Drive artificials out of the basis where possible.
-        for i in 0..d {
-            if self.basis[i] >= m {
-                let row = i * ncol;
-                let mut best = None;
-                let mut bv = PIV_TOL * 100.0;
-                for j in 0..m {
-                    let v = self.t[row + j].abs();
-                    if v > bv {
-                        bv = v;
-                        best = Some(j);
-                    }
-                }
-                if let Some(j) = best {
-                    self.pivot(i, j, d, ncol);
-                }
-            }
-        }
-        // Phase 2: minimise b'y.
-        for v in self.obj.iter_mut() {
-            *v = 0.0;
-        }
-        self.obj[..m].copy_from_slice(b);
-        for i in 0..d {
-            let k = self.basis[i];
-            let ck = if k < m { b[k] } else { 0.0 };
-            if ck != 0.0 {
-                for j in 0..ncol {
-                    self.obj[j] -= ck * self.t[i * ncol + j];
-                }
-            }
-        }
-        match self.iterate(d, m, ncol, m, 1e-12 * bscale, max_iter) {
-            Ok(()) => {}
-            Err(LpStatus::Unbounded) => return (LpStatus::Infeasible, 0.0),
-            Err(s) => return (s, 0.0),
-        }
-        for i in 0..d {
-            self.x[i] = -self.obj[m + i] * self.sign[i];
-        }
-        (LpStatus::Optimal, -self.obj[last])
-    }
-
-    fn pivot(&mut self, r: usize, q: usize, d: usize, ncol: usize) {
-        let _ = d;
-        let (before, rest) = self.t.split_at_mut(r * ncol);
-        let (prow, after) = rest.split_at_mut(ncol);
-        let inv = 1.0 / prow[q];
-        for v in prow.iter_mut() {
-            *v *= inv;
-        }
-        prow[q] = 1.0;
-        let prow: &[f64] = prow;
-        let elim = |row: &mut [f64]| {
-            let f = row[q];
-            if f != 0.0 {
-                for (x, &pv) in row.iter_mut().zip(prow) {
-                    *x -= f * pv;
-                }
-                row[q] = 0.0;
-            }
-        };
-        for row in before.chunks_exact_mut(ncol) {
-            elim(row);
-        }
-        for row in after.chunks_exact_mut(ncol) {
-            elim(row);
-        }
-        elim(&mut self.obj[..ncol]);
-        self.basis[r] = q;
-    }
-
-    /// Simplex iterations over the first `nenter` columns.
-    fn iterate(
-        &mut self,
-        d: usize,
-        _m: usize,
-        ncol: usize,
-        nenter: usize,
-        dj_tol: f64,
-        max_iter: usize,
-    ) -> Result<(), LpStatus> {
-        let last = ncol - 1;
+        let max_iter = 10 * (m + d) + 100;
         let mut degenerate_run = 0usize;
         for _ in 0..max_iter {
-            let bland = degenerate_run > 20;
-            let mut q = None;
-            let mut best = -dj_tol;
-            for j in 0..nenter {
-                let v = self.obj[j];
-                if v < best {
-                    q = Some(j);
-                    if bland {
-                        break;
-                    }
-                    best = v;
+            self.iterations += 1;
+            let bland = degenerate_run > 2 * d + 5;
+            let k = self.work.len();
+            // qc = Q c, dir = c - Q'qc.
+            self.qc.clear();
+            self.dir.copy_from_slice(c);
+            for j in 0..k {
+                let qj = &self.q[j * d..(j + 1) * d];
+                let s = dot(qj, c);
+                self.qc.push(s);
+                for t in 0..d {
+                    self.dir[t] -= s * qj[t];
                 }
             }
-            let Some(q) = q else {
-                return Ok(());
-            };
-            let mut r = None;
-            let mut best_ratio = f64::INFINITY;
-            let mut best_piv = 0.0;
-            for i in 0..d {
-                let a = self.t[i * ncol + q];
-                if a > PIV_TOL {
-                    let ratio = self.t[i * ncol + last].max(0.0) / a;
-                    let better = if bland {
-                        ratio < best_ratio - 1e-12
-                            || (ratio <= best_ratio + 1e-12
-                                && r.is_some_and(|rr: usize| self.basis[i] < self.basis[rr]))
-                    } else {
-                        ratio < best_ratio - 1e-12 || (ratio <= best_ratio + 1e-12 && a > best_piv)
+            // Re-orthogonalise the direction once (it must lie in the null space).
+            for j in 0..k {
+                let qj = &self.q[j * d..(j + 1) * d];
+                let s = dot(qj, &self.dir);
+                for t in 0..d {
+                    self.dir[t] -= s * qj[t];
+                }
+            }
+            let dn = dot(&self.dir, &self.dir).sqrt();
+            if k < d && dn > 1e-11 * cn {
+                // Ratio test along dir.
+                let mut best: Option<usize> = None;
+                let mut tmin = f64::INFINITY;
+                let mut best_ad = 0.0;
+                for i in 0..m {
+                    if self.in_work[i] {
+                        continue;
+                    }
+                    let row = &a[i * d..(i + 1) * d];
+                    let ad = dot(row, &self.dir);
+                    if ad <= 1e-11 * dn * self.anorm[i] {
+                        continue;
+                    }
+                    let slack = (b[i] - dot(row, &self.x)).max(0.0);
+                    let t = slack / ad;
+                    let better = match best {
+                        None => true,
+                        Some(_) if bland => t < tmin * (1.0 - 1e-12) - 1e-300,
+                        Some(_) => {
+                            t < tmin * (1.0 - 1e-12) - 1e-300
+                                || (t <= tmin * (1.0 + 1e-12) + 1e-300
+                                    && ad / self.anorm[i] > best_ad)
+                        }
                     };
-                    if r.is_none() || better {
-                        r = Some(i);
-                        best_ratio = ratio;
-                        best_piv = a;
+                    if better {
+                        best = Some(i);
+                        tmin = t;
+                        best_ad = ad / self.anorm[i];
+                    }
+                }
+                let Some(i) = best else {
+                    return (LpStatus::Unbounded, f64::INFINITY);
+                };
+                for t in 0..d {
+                    self.x[t] += tmin * self.dir[t];
+                }
+                if tmin * dn <= 1e-14 * (1.0 + dot(&self.x, &self.x).sqrt()) {
+                    degenerate_run += 1;
+                } else {
+                    degenerate_run = 0;
+                }
+                if !self.push_row(a, i, d) {
+                    // Cannot happen in exact arithmetic (a_i'dir > 0 with dir in
+                    // the null space of the working rows); give up safely.
+                    return (LpStatus::NotConverged, 0.0);
+                }
+                continue;
+            }
+            // c lies in the span of the working rows: multipliers R lam = qc.
+            self.lam.clear();
+            self.lam.resize(k, 0.0);
+            for j in (0..k).rev() {
+                let mut s = self.qc[j];
+                for t in j + 1..k {
+                    s -= self.r[j * d + t] * self.lam[t];
+                }
+                self.lam[j] = s / self.r[j * d + j];
+            }
+            let mut drop: Option<usize> = None;
+            let mut most = -1e-11 * cn;
+            for j in 0..k {
+                let v = self.lam[j] * self.anorm[self.work[j]];
+                if v < -1e-11 * cn {
+                    let pick = match drop {
+                        None => true,
+                        Some(o) if bland => self.work[j] < self.work[o],
+                        Some(_) => v < most,
+                    };
+                    if pick {
+                        drop = Some(j);
+                        most = v;
                     }
                 }
             }
-            let Some(r) = r else {
-                return Err(LpStatus::Unbounded);
+            let Some(j) = drop else {
+                return (LpStatus::Optimal, dot(c, &self.x));
             };
-            if best_ratio <= 1e-14 {
-                degenerate_run += 1;
-            } else {
-                degenerate_run = 0;
-            }
-            self.pivot(r, q, d, ncol);
+            let i = self.work.remove(j);
+            self.in_work[i] = false;
+            self.rebuild(a, d);
         }
-        Err(LpStatus::NotConverged)
+        (LpStatus::NotConverged, 0.0)
     }
+}
+
+/// A feasible start for an LP with a free "smallest slack" variable in
+/// column `rcol`: `x` given except `x[rcol]`, which is set to the largest
+/// value every row allows (rows without that variable must already hold).
+pub(crate) fn slack_start(a: &[f64], b: &[f64], x: &mut [f64], rcol: usize) {
+    let d = x.len();
+    x[rcol] = 0.0;
+    let mut r = f64::INFINITY;
+    for i in 0..b.len() {
+        let row = &a[i * d..(i + 1) * d];
+        let coef = row[rcol];
+        if coef > 0.0 {
+            r = r.min((b[i] - dot(row, x)) / coef);
+        }
+    }
+    x[rcol] = if r.is_finite() { r } else { 0.0 };
 }
 
 #[cfg(test)]
@@ -231,23 +279,62 @@ mod tests {
         // max x + 2y s.t. 0 <= x <= 1, 0 <= y <= 3, x + y <= 3
         let a = [1.0, 0.0, -1.0, 0.0, 0.0, 1.0, 0.0, -1.0, 1.0, 1.0];
         let b = [1.0, 0.0, 3.0, 0.0, 3.0];
-        let (s, v) = ws.maximize(&[1.0, 2.0], &a, &b);
+        let (s, v) = ws.maximize_from(&[1.0, 2.0], &a, &b, &[0.5, 0.5]);
         assert_eq!(s, LpStatus::Optimal);
         assert!((v - 6.0).abs() < 1e-12);
         assert!((ws.x[0]).abs() < 1e-12 && (ws.x[1] - 3.0).abs() < 1e-12);
-        // negative objective entries
-        let (s, v) = ws.maximize(&[-1.0, -1.0], &a, &b);
+        // negative objective entries, degenerate start at a vertex
+        let (s, v) = ws.maximize_from(&[-1.0, -1.0], &a, &b, &[1.0, 0.0]);
         assert_eq!(s, LpStatus::Optimal);
         assert!(v.abs() < 1e-12);
     }
 
     #[test]
-    fn infeasible_and_unbounded() {
+    fn unbounded() {
         let mut ws = LpWorkspace::default();
-        // x <= -1, -x <= -1 (x >= 1)
-        let (s, _) = ws.maximize(&[1.0], &[1.0, -1.0], &[-1.0, -1.0]);
-        assert_eq!(s, LpStatus::Infeasible);
-        let (s, _) = ws.maximize(&[1.0], &[-1.0], &[0.0]);
+        let (s, _) = ws.maximize_from(&[1.0], &[-1.0], &[0.0], &[1.0]);
         assert_eq!(s, LpStatus::Unbounded);
+    }
+
+    /// Random LPs against the vertex enumeration in 2-D and the optimality
+    /// certificate in 6-D: the value equals b'y for the recovered dual.
+    #[test]
+    fn random_lps_match_vertex_enumeration() {
+        let mut rng = crate::mpqp::Rng::new(5);
+        let mut ws = LpWorkspace::default();
+        for _ in 0..300 {
+            let m = 3 + (rng.next_u64() % 12) as usize;
+            let mut a = Vec::new();
+            let mut b = Vec::new();
+            for _ in 0..m {
+                let (u, v) = (rng.sym(), rng.sym());
+                a.extend([u, v]);
+                b.push(1.0 + rng.sym().abs());
+            }
+            // bounded: a box
+            a.extend([1.0, 0.0, -1.0, 0.0, 0.0, 1.0, 0.0, -1.0]);
+            b.extend([5.0, 5.0, 5.0, 5.0]);
+            let c = [rng.sym(), rng.sym()];
+            let (s, v) = ws.maximize_from(&c, &a, &b, &[0.0, 0.0]);
+            assert_eq!(s, LpStatus::Optimal);
+            // Vertex enumeration.
+            let mm = b.len();
+            let mut best = f64::NEG_INFINITY;
+            for i in 0..mm {
+                for j in i + 1..mm {
+                    let (a1, a2, a3, a4) = (a[2 * i], a[2 * i + 1], a[2 * j], a[2 * j + 1]);
+                    let det = a1 * a4 - a2 * a3;
+                    if det.abs() < 1e-12 {
+                        continue;
+                    }
+                    let x = (b[i] * a4 - a2 * b[j]) / det;
+                    let y = (a1 * b[j] - b[i] * a3) / det;
+                    if (0..mm).all(|k| a[2 * k] * x + a[2 * k + 1] * y <= b[k] + 1e-9) {
+                        best = best.max(c[0] * x + c[1] * y);
+                    }
+                }
+            }
+            assert!((v - best).abs() < 1e-9, "{v} vs {best}");
+        }
     }
 }

@@ -24,7 +24,7 @@
 #![allow(clippy::needless_range_loop)] // dense numerical kernels read best with indices
 
 use crate::error::EmpcError;
-use crate::lp::{LpStatus, LpWorkspace};
+use crate::lp::{LpStatus, LpWorkspace, slack_start};
 use crate::qp;
 use kestrel_core::formats::MpqpProblem;
 use nalgebra::{DMatrix, DVector};
@@ -429,7 +429,20 @@ impl Prepared {
         lb.push(self.scale);
         let mut c = vec![0.0; d];
         c[p] = 1.0;
-        let (st, r) = lp.maximize(&c, la, lb);
+        // Start: the box centre (on the hyperplane `on`), r its smallest slack.
+        let mut x0: Vec<f64> = (0..p)
+            .map(|j| 0.5 * (self.theta_lb[j] + self.theta_ub[j]))
+            .chain([0.0])
+            .collect();
+        if let Some(k) = on {
+            let ak = &a[k * p..(k + 1) * p];
+            let s = ak.iter().zip(&x0).map(|(u, v)| u * v).sum::<f64>() - b[k];
+            for j in 0..p {
+                x0[j] -= s * ak[j];
+            }
+        }
+        slack_start(la, lb, &mut x0, p);
+        let (st, r) = lp.maximize_from(&c, la, lb, &x0);
         if st != LpStatus::Optimal {
             return None;
         }
@@ -670,7 +683,7 @@ impl Prepared {
                 la.extend_from_slice(row(k));
                 lb.push(b[k] + self.scale);
                 *lps += 1;
-                let (st, val) = lp.maximize(row(k), &la, &lb);
+                let (st, val) = lp.maximize_from(row(k), &la, &lb, c);
                 if st == LpStatus::Optimal && val <= b[k] + 1e-9 * self.scale {
                     state[k] = 2;
                     break;
@@ -1115,10 +1128,14 @@ fn interior_parameter(prep: &Prepared, lp: &mut LpWorkspace) -> Result<(Vec<f64>
     b.push(prep.scale);
     let mut c = vec![0.0; d];
     c[d - 1] = 1.0;
-    let (st, r) = lp.maximize(&c, &a, &b);
+    let mut x0: Vec<f64> = std::iter::repeat_n(0.0, n)
+        .chain((0..p).map(|j| 0.5 * (prep.theta_lb[j] + prep.theta_ub[j])))
+        .chain([0.0])
+        .collect();
+    slack_start(&a, &b, &mut x0, d - 1);
+    let (st, r) = lp.maximize_from(&c, &a, &b, &x0);
     match st {
         LpStatus::Optimal => {}
-        LpStatus::Infeasible => return Err(EmpcError::EmptyFeasibleSet),
         other => {
             return Err(EmpcError::Numerical(format!(
                 "the LP for an interior feasible parameter ended with {other:?}"
@@ -1175,25 +1192,39 @@ pub fn brute_force_active_sets(
 /// Whether some (z, theta) satisfies all constraints with those of `set` active.
 fn feasible_set(prep: &Prepared, set: &[usize], lp: &mut LpWorkspace) -> bool {
     let (n, p, m) = (prep.n, prep.p, prep.m);
-    let d = n + p;
+    // Variables (z, theta, r): maximise the smallest slack r <= 0.
+    let d = n + p + 1;
     let mut a = Vec::new();
     let mut b = Vec::new();
     let tol = 1e-9 * prep.scale;
     for i in 0..m {
         a.extend(prep.g.row(i).iter());
         a.extend(prep.e.row(i).iter().map(|v| -v));
+        a.push(1.0);
         b.push(prep.w[i] + tol);
         if set.contains(&i) {
             a.extend(prep.g.row(i).iter().map(|v| -v));
             a.extend(prep.e.row(i).iter());
+            a.push(1.0);
             b.push(-prep.w[i] + tol);
         }
     }
     for i in 0..prep.param_b.len() {
         a.extend(std::iter::repeat_n(0.0, n));
         a.extend(prep.param_a.row(i).iter());
+        a.push(1.0);
         b.push(prep.param_b[i]);
     }
-    let c = vec![0.0; d];
-    matches!(lp.maximize(&c, &a, &b).0, LpStatus::Optimal)
+    a.extend(std::iter::repeat_n(0.0, n + p));
+    a.push(1.0);
+    b.push(0.0);
+    let mut c = vec![0.0; d];
+    c[d - 1] = 1.0;
+    let mut x0: Vec<f64> = std::iter::repeat_n(0.0, n)
+        .chain((0..p).map(|j| 0.5 * (prep.theta_lb[j] + prep.theta_ub[j])))
+        .chain([0.0])
+        .collect();
+    slack_start(&a, &b, &mut x0, d - 1);
+    let (st, r) = lp.maximize_from(&c, &a, &b, &x0);
+    st == LpStatus::Optimal && r >= -1e-12 * prep.scale
 }

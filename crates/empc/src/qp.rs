@@ -8,7 +8,7 @@
 //! at once (LICQ fails) — exactly the basis the mpQP exploration needs.
 #![allow(clippy::needless_range_loop)] // dense numerical kernels read best with indices
 
-use crate::lp::{LpStatus, LpWorkspace};
+use crate::lp::{LpStatus, LpWorkspace, slack_start};
 use nalgebra::{DMatrix, DVector};
 
 /// The optimum of a QP.
@@ -55,13 +55,11 @@ pub(crate) fn solve(
     b[m] = wscale;
     let mut c = vec![0.0; d];
     c[n] = 1.0;
-    let (st, r) = lp.maximize(&c, &a, &b);
+    let mut x0 = vec![0.0; d];
+    slack_start(&a, &b, &mut x0, n);
+    let (st, r) = lp.maximize_from(&c, &a, &b, &x0);
     if st != LpStatus::Optimal {
-        return Err(if st == LpStatus::NotConverged {
-            QpFailure::NotConverged
-        } else {
-            QpFailure::Infeasible
-        });
+        return Err(QpFailure::NotConverged);
     }
     if r < -feas_tol {
         return Err(QpFailure::Infeasible);

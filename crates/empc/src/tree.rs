@@ -13,7 +13,7 @@
 
 use crate::error::EmpcError;
 use crate::eval::{LEAF, NO_ROW, SliceTables};
-use crate::lp::{LpStatus, LpWorkspace};
+use crate::lp::{LpStatus, LpWorkspace, slack_start};
 use crate::mpqp::MpqpSolution;
 use kestrel_core::Scalar;
 use kestrel_core::formats::MpqpProblem;
@@ -43,6 +43,13 @@ pub struct TreeSettings {
     /// A node scores every facet of its regions exactly (one LP per
     /// straddling region and side) when regions x facets is at most this.
     pub exact_budget: usize,
+    /// Clipping: a leaf may hold one law for regions with other laws when,
+    /// after the evaluation clamps the outputs to their bounds, it gives
+    /// the same `z` on all of them (each differing output of a region is
+    /// saturated there, and the leaf's law lies beyond that bound on the
+    /// whole region; checked with one LP per output). Fewer leaves, the
+    /// same answers.
+    pub clipping: bool,
 }
 
 impl Default for TreeSettings {
@@ -52,6 +59,7 @@ impl Default for TreeSettings {
             law_tol: 1e-9,
             max_candidates: 40,
             exact_budget: 60_000,
+            clipping: true,
         }
     }
 }
@@ -163,7 +171,17 @@ struct Builder<'a> {
     reg_facets: Vec<Vec<(usize, bool)>>,
     reg_a: Vec<Vec<f64>>,
     reg_b: Vec<Vec<f64>>,
+    /// An interior point of every region (the LPs' feasible start).
+    reg_center: Vec<Vec<f64>>,
     law: &'a [u16],
+    /// Row indices of every law (`k` each), the affine rows and the output bounds.
+    law_rows: Vec<Vec<usize>>,
+    rows: Vec<f64>,
+    bounds: Vec<[u16; 2]>,
+    clipping: bool,
+    /// Clamping tolerance of the clipping test.
+    clip_tol: f64,
+    serve_cache: HashMap<(u16, usize), bool>,
     hp: Vec<(Vec<f64>, f64)>,
     side_cache: HashMap<(usize, usize), i8>,
     lp: LpWorkspace,
@@ -188,12 +206,13 @@ impl Builder<'_> {
         let tol = 1e-9 * self.scale;
         let ra = &self.reg_a[r];
         let rb = &self.reg_b[r];
-        let (st, hi) = self.lp.maximize(&a, ra, rb);
+        let x0 = &self.reg_center[r];
+        let (st, hi) = self.lp.maximize_from(&a, ra, rb, x0);
         let v = if st == LpStatus::Optimal && hi <= b + tol {
             -1
         } else {
             let na: Vec<f64> = a.iter().map(|v| -v).collect();
-            let (st, lo) = self.lp.maximize(&na, ra, rb);
+            let (st, lo) = self.lp.maximize_from(&na, ra, rb, x0);
             if st == LpStatus::Optimal && -lo >= b - tol {
                 1
             } else {
@@ -224,13 +243,72 @@ impl Builder<'_> {
         b.push(self.scale);
         let mut c = vec![0.0; p + 1];
         c[p] = 1.0;
-        let (st, rad) = self.lp.maximize(&c, &a, &b);
+        let mut x0: Vec<f64> = self.reg_center[r].iter().copied().chain([0.0]).collect();
+        slack_start(&a, &b, &mut x0, p);
+        let (st, rad) = self.lp.maximize_from(&c, &a, &b, &x0);
         match st {
             LpStatus::Optimal => rad > 1e-9 * self.scale,
-            LpStatus::Infeasible => false,
             // An LP that did not finish proves nothing: keep the region.
             _ => true,
         }
+    }
+
+    /// Whether law `l`, clamped to the output bounds, equals region `r`'s law on all of `r`.
+    fn serves(&mut self, l: u16, r: usize) -> bool {
+        let lr = self.law[r];
+        if l == lr {
+            return true;
+        }
+        if let Some(&v) = self.serve_cache.get(&(l, r)) {
+            return v;
+        }
+        let p = self.p;
+        let w = p + 1;
+        let mut ok = true;
+        for o in 0..self.bounds.len() {
+            let (rl, rr) = (self.law_rows[l as usize][o], self.law_rows[lr as usize][o]);
+            if rl == rr {
+                continue;
+            }
+            // Region r saturates output o at a bound; law l must lie beyond it on r.
+            let sign = if rr == self.bounds[o][1] as usize {
+                1.0 // upper: max over r of (rr - rl) <= tol
+            } else if rr == self.bounds[o][0] as usize {
+                -1.0 // lower: max over r of (rl - rr) <= tol
+            } else {
+                ok = false;
+                break;
+            };
+            let c: Vec<f64> = (0..p)
+                .map(|j| sign * (self.rows[rr * w + j] - self.rows[rl * w + j]))
+                .collect();
+            let c0 = sign * (self.rows[rr * w + p] - self.rows[rl * w + p]);
+            let (st, v) =
+                self.lp
+                    .maximize_from(&c, &self.reg_a[r], &self.reg_b[r], &self.reg_center[r]);
+            if st != LpStatus::Optimal || v + c0 > self.clip_tol {
+                ok = false;
+                break;
+            }
+        }
+        self.serve_cache.insert((l, r), ok);
+        ok
+    }
+
+    /// A law that serves every region of the set (clipping), if any.
+    fn serving_law(&mut self, set: &[usize]) -> Option<u16> {
+        let mut laws: Vec<(usize, u16)> = Vec::new();
+        for &r in set {
+            let l = self.law[r];
+            match laws.iter_mut().find(|x| x.1 == l) {
+                Some(x) => x.0 += 1,
+                None => laws.push((1, l)),
+            }
+        }
+        laws.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+        laws.into_iter()
+            .map(|x| x.1)
+            .find(|&l| set.iter().all(|&r| self.serves(l, r)))
     }
 
     fn build(&mut self, set: Vec<usize>, cell: &mut Vec<(Vec<f64>, f64)>, depth: usize) -> u16 {
@@ -241,6 +319,11 @@ impl Builder<'_> {
                 self.ambiguous += 1;
             }
             return LEAF | first_law;
+        }
+        if self.clipping
+            && let Some(l) = self.serving_law(&set)
+        {
+            return LEAF | l;
         }
         // Candidates: the most frequent facets of the regions in the set.
         let mut freq: HashMap<usize, usize> = HashMap::new();
@@ -258,6 +341,12 @@ impl Builder<'_> {
             cands.truncate(self.max_candidates);
         }
         let mut best: Option<(usize, usize, usize)> = None; // (h, max, sum)
+        let n_laws = {
+            let mut v: Vec<u16> = set.iter().map(|&r| self.law[r]).collect();
+            v.sort_unstable();
+            v.dedup();
+            v.len()
+        };
         let mut seen_l: Vec<u16> = Vec::new();
         let mut seen_r: Vec<u16> = Vec::new();
         for &(h, _) in &cands {
@@ -294,7 +383,11 @@ impl Builder<'_> {
             if nl == set.len() && nr == set.len() {
                 continue;
             }
-            let key = (seen_l.len().max(seen_r.len()), seen_l.len() + seen_r.len());
+            if seen_l.len() >= n_laws || seen_r.len() >= n_laws {
+                continue; // no progress on one side
+            }
+            let (ll, lr) = (seen_l.len(), seen_r.len());
+            let key = (ll.max(lr), ll + lr);
             if best.is_none_or(|(_, m, s)| key < (m, s)) {
                 best = Some((h, key.0, key.1));
             }
@@ -438,6 +531,19 @@ pub fn build_controller(
         }
     }
     let nrows = rows.len() / w;
+    // Size of the outputs over the parameter box (for the clipping tolerance).
+    let zscale = 1.0
+        + (0..nrows)
+            .map(|i| {
+                (0..p)
+                    .map(|j| {
+                        rows[i * w + j].abs()
+                            * solution.theta_lb[j].abs().max(solution.theta_ub[j].abs())
+                    })
+                    .sum::<f64>()
+                    + rows[i * w + p].abs()
+            })
+            .fold(0.0, f64::max);
     if nrows >= NO_ROW as usize || distinct_laws >= LEAF as usize {
         return Err(EmpcError::TooLarge(format!(
             "{nrows} affine rows, {distinct_laws} laws (at most 32767 laws and 65534 rows)"
@@ -455,7 +561,9 @@ pub fn build_controller(
     let mut reg_facets = Vec::new();
     let mut reg_a = Vec::new();
     let mut reg_b = Vec::new();
+    let mut reg_center = Vec::new();
     for r in &solution.regions {
+        reg_center.push(r.center.iter().copied().collect::<Vec<f64>>());
         let mut fs = Vec::new();
         let mut ra = Vec::new();
         for i in 0..r.a.nrows() {
@@ -487,7 +595,17 @@ pub fn build_controller(
         reg_facets,
         reg_a,
         reg_b,
+        reg_center,
         law: &region_law,
+        law_rows: laws
+            .chunks(k)
+            .map(|c| c.iter().map(|&i| i as usize).collect())
+            .collect(),
+        rows: rows.clone(),
+        bounds: bounds.clone(),
+        clipping: settings.clipping,
+        clip_tol: 1e-10 * zscale,
+        serve_cache: HashMap::new(),
         hp,
         side_cache: HashMap::new(),
         lp: LpWorkspace::default(),

@@ -2,15 +2,15 @@
 // 14 nodes, 11 laws, 312 bytes). Do not edit.
 /// Tree nodes `[row a, row b, child if a(theta) <= b(theta), child otherwise]`.
 pub static NODES: [[u16; 4]; 14] = [
-    [4, 0, 1, 7], [3, 5, 2, 5], [10, 5, 3, 4], [4, 8, 32776, 32775], [1, 5, 32772, 32770], [8, 2, 6, 32769], 
-    [9, 4, 32775, 32778], [3, 4, 8, 12], [0, 2, 9, 10], [1, 0, 32768, 32771], [1, 2, 32769, 11], [1, 7, 32774, 32771], 
-    [1, 6, 32773, 13], [4, 7, 32777, 32774], 
+    [2, 7, 1, 7], [1, 3, 2, 5], [10, 3, 3, 4], [2, 8, 32775, 32773], [5, 3, 32769, 32774], [8, 0, 6, 32768], 
+    [9, 2, 32773, 32777], [1, 2, 8, 12], [1, 6, 9, 11], [1, 5, 10, 32768], [5, 7, 32772, 32778], [5, 6, 32771, 32778], 
+    [5, 4, 32770, 13], [2, 6, 32776, 32771], 
 ];
 /// Affine rows `gains, constant` shared by the laws.
 pub static ROWS: [kestrel_core::Q16; 33] = [
-    kestrel_core::Q16::from_bits(-32768), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(16384), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(-65536), kestrel_core::Q16::from_bits(-37449), kestrel_core::Q16::from_bits(18725), 
-    kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(18725), kestrel_core::Q16::from_bits(-74898), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(65536), kestrel_core::Q16::from_bits(0), 
-    kestrel_core::Q16::from_bits(-65536), kestrel_core::Q16::from_bits(-32768), kestrel_core::Q16::from_bits(-32768), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(-16384), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(-65536), kestrel_core::Q16::from_bits(32768), 
+    kestrel_core::Q16::from_bits(-37449), kestrel_core::Q16::from_bits(18725), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(18725), kestrel_core::Q16::from_bits(-74898), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(0), 
+    kestrel_core::Q16::from_bits(65536), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(-65536), kestrel_core::Q16::from_bits(-32768), kestrel_core::Q16::from_bits(-32768), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(-16384), kestrel_core::Q16::from_bits(0), 
+    kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(-65536), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(-65536), kestrel_core::Q16::from_bits(32768), kestrel_core::Q16::from_bits(-32768), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(16384), 
     kestrel_core::Q16::from_bits(-32768), kestrel_core::Q16::from_bits(32768), kestrel_core::Q16::from_bits(24576), kestrel_core::Q16::from_bits(32768), kestrel_core::Q16::from_bits(-32768), kestrel_core::Q16::from_bits(73728), kestrel_core::Q16::from_bits(0), kestrel_core::Q16::from_bits(0), 
     kestrel_core::Q16::from_bits(32768), 
 ];
@@ -25,9 +25,9 @@ pub static THETA_UB: [kestrel_core::Q16; 2] = [
     kestrel_core::Q16::from_bits(196608), kestrel_core::Q16::from_bits(196608), 
 ];
 /// Laws: one row index per output.
-pub static LAWS: [u16; 22] = [0, 1, 2, 3, 4, 1, 1, 1, 4, 5, 6, 4, 1, 7, 8, 9, 4, 10, 1, 4, 10, 4];
+pub static LAWS: [u16; 22] = [0, 1, 2, 3, 4, 2, 5, 6, 7, 5, 8, 9, 2, 5, 2, 10, 5, 2, 10, 2, 5, 5];
 /// Output bounds: rows of the lower and upper bound (65535: none).
-pub static BOUNDS: [[u16; 2]; 2] = [[1, 4], [1, 4]];
+pub static BOUNDS: [[u16; 2]; 2] = [[5, 2], [5, 2]];
 /// The tables for `kestrel_empc::evaluate`.
 pub static TABLES: kestrel_empc::SliceTables<'static, kestrel_core::Q16> = kestrel_empc::SliceTables {
     n_params: 2,
