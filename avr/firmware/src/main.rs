@@ -20,13 +20,13 @@ use kestrel_avr_rt::cycles::timer1::{self, Timer1Clock};
 use kestrel_avr_rt::frame::{
     Boot, Command, Frame, FrameDecoder, Kind, MAX_FRAME, Reply, SeqTracker, status,
 };
-use kestrel_avr_rt::law::{FgmLaw, FgmStart};
+use kestrel_avr_rt::kalman16::Kalman16;
+use kestrel_avr_rt::fgm16::Fgm16Law;
 use kestrel_avr_rt::output::{PwmLimits, RtScalar, SafeOutput};
 use kestrel_avr_rt::progmem::{FarTable, TableRead};
 use kestrel_avr_rt::{crc16, far_table};
 use kestrel_core::{Matrix, Scalar};
 use kestrel_fgm::FgmTables;
-use kestrel_kalman::{StationaryFilter, StationaryGains};
 
 #[cfg(all(feature = "fixed", not(feature = "fixed-mac")))]
 type S = kestrel_core::Q16;
@@ -239,21 +239,12 @@ pub extern "C" fn main() -> ! {
     let safe = SafeOutput::default();
     set_pwm(&safe.pwm(&limits));
 
-    // Table layout: see generated.rs.
-    let gains = StationaryGains::<S, NX, 4, 3> {
-        a: vm(&table, KF_A),
-        b: vm(&table, KF_B),
-        c: vm(&table, KF_C),
-        d: Matrix::zeros(),
-        m: vm(&table, KF_M),
-        cross: Matrix::zeros(),
-        u0: [S::ZERO; 4],
-        y0: va(&table, KF_Y0),
-        y_offset: va(&table, KF_Y0),
-        use_d: false,
-        use_cross: false,
-    };
-    let filter = StationaryFilter::new(gains, [S::ZERO; NX]);
+    // Table layout: see generated.rs. The Kalman filter runs with 16-bit
+    // coefficients on the hardware multiplier (kestrel_avr_rt::kalman16).
+    if KF16.check().is_err() {
+        loop {}
+    }
+    let filter = Kalman16::<S, NX, 4, 3>::new(KF16);
     let fgm = FgmTables::<S, NZ, NP, FGM_T> {
         m: vm(&table, FGM_M),
         k_theta: vm(&table, FGM_K),
@@ -269,8 +260,15 @@ pub extern "C" fn main() -> ! {
         warm_iterations: FGM_ITERATIONS,
         shift: 0,
     };
-    let Ok(law) = FgmLaw::<S, NZ, NP, FGM_T, 4>::new(fgm, NX, FgmStart::Warm, FGM_LOOP_ITERATIONS as u16)
-    else {
+    // Set-up in S, iterations in Q15.16 with 16-bit M rows (kestrel_avr_rt::fgm16).
+    let Ok(law) = Fgm16Law::<S, NZ, NP, FGM_T, 4>::new(
+        fgm,
+        FGM16_M,
+        FGM16_BETAS,
+        NX,
+        FGM_WARM,
+        FGM_LOOP_ITERATIONS as u16,
+    ) else {
         loop {}
     };
     let bias = va(&table, BIAS);

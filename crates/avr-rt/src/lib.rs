@@ -5,8 +5,12 @@
 pub mod control;
 pub mod crc;
 pub mod cycles;
+#[cfg(feature = "std")]
+pub mod design;
+pub mod fgm16;
 pub mod frame;
 pub mod interim;
+pub mod kalman16;
 pub mod law;
 pub mod mac;
 pub mod output;

@@ -544,6 +544,14 @@ impl crate::output::RtScalar for Q16Mac {
     fn to_us(self) -> Option<i32> {
         Some(((self.0 as i64 + 0x8000) >> 16) as i32)
     }
+    #[inline]
+    fn to_q16(self) -> Option<i32> {
+        Some(self.0)
+    }
+    #[inline]
+    fn from_q16(bits: i32) -> Self {
+        Q16Mac(bits)
+    }
 }
 
 /// The narrower MAC: `sum x[i] c[i]` of Q15.16 values `x` (i32) and

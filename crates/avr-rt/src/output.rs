@@ -26,12 +26,48 @@ pub trait RtScalar: Scalar {
     fn from_f32_fast(v: f32) -> Self;
     /// Rounds to the nearest integer microsecond; `None` if not finite.
     fn to_us(self) -> Option<i32>;
+    /// The nearest Q15.16 value as raw bits (saturated); `None` if not finite.
+    fn to_q16(self) -> Option<i32>;
+    /// From Q15.16 raw bits.
+    fn from_q16(bits: i32) -> Self;
 }
+
+/// `2^16` as f32 bits' exponent step.
+const EXP16: u32 = 16 << 23;
 
 impl RtScalar for f32 {
     #[inline]
     fn from_f32_fast(v: f32) -> Self {
         v
+    }
+    /// Scales by `2^16` through the exponent (no multiply), then one
+    /// rounding addition and avr-libc's conversion.
+    #[inline]
+    fn to_q16(self) -> Option<i32> {
+        if !self.is_finite() {
+            return None;
+        }
+        let a = self.abs();
+        if a < 1.0 / 262_144.0 {
+            return Some(0); // below a quarter of the resolution (and subnormals)
+        }
+        if a >= 32_768.0 {
+            return Some(if self > 0.0 { i32::MAX } else { i32::MIN });
+        }
+        let scaled = f32::from_bits(self.to_bits() + EXP16);
+        Some(if scaled >= 0.0 {
+            (scaled + 0.5) as i32
+        } else {
+            (scaled - 0.5) as i32
+        })
+    }
+    /// avr-libc's conversion, then scales by `2^-16` through the exponent.
+    #[inline]
+    fn from_q16(bits: i32) -> Self {
+        if bits == 0 {
+            return 0.0;
+        }
+        f32::from_bits((bits as f32).to_bits() - EXP16)
     }
     #[inline]
     fn to_us(self) -> Option<i32> {
@@ -51,6 +87,18 @@ impl RtScalar for f64 {
     #[inline]
     fn from_f32_fast(v: f32) -> Self {
         v as f64
+    }
+    #[inline]
+    fn to_q16(self) -> Option<i32> {
+        if !self.is_finite() {
+            return None;
+        }
+        let s = self * 65536.0;
+        Some(if s >= 0.0 { s + 0.5 } else { s - 0.5 } as i32)
+    }
+    #[inline]
+    fn from_q16(bits: i32) -> Self {
+        bits as f64 / 65536.0
     }
     #[inline]
     fn to_us(self) -> Option<i32> {
@@ -76,6 +124,28 @@ impl<const FRAC: u32> RtScalar for Fixed<FRAC> {
     fn to_us(self) -> Option<i32> {
         let half = 1i64 << (FRAC - 1);
         Some(((self.0 as i64 + half) >> FRAC) as i32)
+    }
+    #[inline]
+    fn to_q16(self) -> Option<i32> {
+        let v = self.0 as i64;
+        let q = if FRAC >= 16 {
+            let s = FRAC - 16;
+            if s == 0 { v } else { (v + (1 << (s - 1))) >> s }
+        } else {
+            v << (16 - FRAC)
+        };
+        Some(q.clamp(i32::MIN as i64, i32::MAX as i64) as i32)
+    }
+    #[inline]
+    fn from_q16(bits: i32) -> Self {
+        let v = bits as i64;
+        let f = if FRAC >= 16 {
+            v << (FRAC - 16)
+        } else {
+            let s = 16 - FRAC;
+            (v + (1 << (s - 1))) >> s
+        };
+        Fixed(f.clamp(i32::MIN as i64, i32::MAX as i64) as i32)
     }
 }
 
@@ -339,6 +409,33 @@ mod tests {
             let p = l.saturate(&[v, v, v, v]).unwrap();
             prop_assert_eq!(p[0] as f64, v.round().clamp(1000.0, 2000.0));
             prop_assert_eq!(p[3] as f64, v.round().clamp(1200.0, 1800.0));
+        }
+    }
+
+    #[test]
+    fn q16_conversions_handle_the_edges() {
+        assert_eq!(f32::NAN.to_q16(), None);
+        assert_eq!(f64::INFINITY.to_q16(), None);
+        assert_eq!(1.0e6f32.to_q16(), Some(i32::MAX));
+        assert_eq!((-1.0e6f32).to_q16(), Some(i32::MIN));
+        assert_eq!(1.0e-30f32.to_q16(), Some(0));
+        assert_eq!(<f32 as RtScalar>::from_q16(0), 0.0);
+        assert_eq!(<f32 as RtScalar>::from_q16(-65536), -1.0);
+        assert_eq!(Q16::from_f64(1.5).to_q16(), Some(98304));
+        assert_eq!(<Fixed<8> as RtScalar>::from_q16(98304).0, 384);
+        assert_eq!(Fixed::<20>(3 << 20).to_q16(), Some(3 << 16));
+    }
+
+    proptest! {
+        #[test]
+        fn q16_conversions_round_to_nearest(v in -32000.0f64..32000.0) {
+            let exact = (v * 65536.0).round();
+            let f = v as f32;
+            let from_f32 = f.to_q16().unwrap() as f64;
+            prop_assert!((from_f32 - (f as f64 * 65536.0).round()).abs() <= 1.0);
+            prop_assert!((v.to_q16().unwrap() as f64 - exact).abs() <= 0.5 + 1e-9);
+            let back = <f32 as RtScalar>::from_q16(exact as i32) as f64;
+            prop_assert!((back - exact / 65536.0).abs() <= 1e-7 * v.abs().max(1.0));
         }
     }
 }

@@ -1,0 +1,346 @@
+//! [`Kalman16`]: the stationary Kalman step in fixed point with 16-bit
+//! coefficients, for the AVR's hardware multiplier.
+//!
+//! The same filter as kestrel-kalman's `StationaryFilter` (no feed-through,
+//! no cross term), in the form the firmware runs it:
+//!
+//! ```text
+//! measurement update  e = y - y0 - C x,        x^ = x + M e
+//! time update         x+ = x^ + (A - I) x^ + B u     (two rounded sums)
+//! ```
+//!
+//! States, measurements and inputs are Q15.16 (`i32`); every coefficient
+//! row is an `i16` with its own binary point (`value = c / 2^shift`), chosen
+//! offline so the row's largest entry uses the full 16 bits
+//! ([`Row16`]). Storing `A - I` instead of `A` keeps the near-unit poles of
+//! a 50 Hz rate model exact to the row's resolution. The sums are exact
+//! ([`crate::mac::dot_q16_i16`], 8 hardware `MUL`s per term on the AVR) and
+//! rounded once per row. A row may start at a column (`start`): with the
+//! model in real Schur form `A - I` is upper quasi-triangular and the
+//! time update skips the zeros.
+//!
+//! The estimator works in any [`RtScalar`] at its interface (f32 on the
+//! f32 firmware, `Q16Mac` on the fixed-point one): measurements and inputs
+//! are converted to Q15.16 on entry, the estimate back on exit.
+//!
+//! ```
+//! use kestrel_avr_rt::kalman16::{Kalman16, Kalman16Tables, Row16};
+//! use kestrel_core::StateEstimator;
+//! // x+ = 0.9 x + 0.1 u, y = x, M = 0.5: one step from x = 0 with y = 1, u = 2.
+//! let t = Kalman16Tables::<1, 1, 1> {
+//!     c: [Row16::new([16384], 14, 0)],     // 1.0
+//!     y0: [0],
+//!     m: [Row16::new([16384], 15, 0)],     // 0.5
+//!     a: [Row16::new([-26214], 18, 0)],    // A - I = -0.1
+//!     b: [Row16::new([26214], 18, 0)],     // 0.1
+//! };
+//! let mut kf = Kalman16::<f32, 1, 1, 1>::new(t);
+//! kf.measurement_update(&[1.0]).unwrap();
+//! assert!((kf.estimate()[0] - 0.5).abs() < 1e-4);
+//! kf.time_update(&[2.0]).unwrap();
+//! assert!((kf.estimate()[0] - (0.9 * 0.5 + 0.2)).abs() < 1e-4);
+//! ```
+
+use crate::mac::dot_q16_i16;
+use crate::output::RtScalar;
+use kestrel_core::{Error, StateEstimator, check_len};
+
+/// One coefficient row: `value_j = c[j] / 2^shift` for `j >= start`
+/// (entries before `start` are zero and skipped).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Row16<const N: usize> {
+    /// The coefficients.
+    pub c: [i16; N],
+    /// Fraction bits of the coefficients (0 to 40).
+    pub shift: u8,
+    /// First non-zero column.
+    pub start: u8,
+}
+
+impl<const N: usize> Row16<N> {
+    /// A row from its parts.
+    pub const fn new(c: [i16; N], shift: u8, start: u8) -> Self {
+        Row16 { c, shift, start }
+    }
+
+    /// `round(sum_j c_j v_j / 2^shift)` for Q15.16 `v`, saturated to `i32`.
+    #[inline]
+    pub fn apply(&self, v: &[i32; N]) -> i32 {
+        round_shift(self.dot(v), self.shift)
+    }
+
+    /// The exact sum `sum_{j >= start} c_j v_j` (`16 + shift` fraction bits).
+    #[inline]
+    pub fn dot(&self, v: &[i32; N]) -> i64 {
+        let s = (self.start as usize).min(N);
+        match (v.get(s..), self.c.get(s..)) {
+            (Some(v), Some(c)) if !v.is_empty() => dot_q16_i16(v, c),
+            _ => 0,
+        }
+    }
+}
+
+/// `round(acc / 2^shift)` saturated to `i32`, ties rounded up (as
+/// `kestrel_core::Q16`); shifts above 48 are taken as 48.
+///
+/// Written with constant shifts only (whole bytes, then 0-7 bits, picked
+/// by `match`): on the AVR a variable 64-bit shift is a library call of
+/// hundreds of cycles, a constant one a few register moves.
+#[inline]
+pub fn round_shift(acc: i64, shift: u8) -> i32 {
+    if shift == 0 {
+        return sat_i32(acc);
+    }
+    // floor(acc / 2^(shift - 1)), then round the last bit away.
+    let s1 = shift.min(48) - 1;
+    let q = match s1 >> 3 {
+        0 => acc,
+        1 => acc >> 8,
+        2 => acc >> 16,
+        3 => acc >> 24,
+        4 => acc >> 32,
+        _ => acc >> 40,
+    };
+    let v = match s1 & 7 {
+        0 => q,
+        1 => q >> 1,
+        2 => q >> 2,
+        3 => q >> 3,
+        4 => q >> 4,
+        5 => q >> 5,
+        6 => q >> 6,
+        _ => q >> 7,
+    };
+    sat_i32((v >> 1) + (v & 1))
+}
+
+#[inline]
+fn sat_i32(v: i64) -> i32 {
+    if v > i32::MAX as i64 {
+        i32::MAX
+    } else if v < i32::MIN as i64 {
+        i32::MIN
+    } else {
+        v as i32
+    }
+}
+
+/// `round(v b / 2^15)` for a Q15.16 `v` and a Q1.15 `b`, saturated: two
+/// 16 x 16-bit hardware products instead of a 64-bit multiply.
+#[inline]
+pub fn mul_q15(v: i32, b: i16) -> i32 {
+    let hi = (v >> 16) as i16 as i32;
+    let lo = v & 0xFFFF;
+    let b = b as i32;
+    let p_hi = hi * b; // |.| <= 2^30
+    let p_lo = lo * b; // |.| < 2^31
+    sat_i32(2 * p_hi as i64 + ((p_lo as i64 + (1 << 14)) >> 15))
+}
+
+/// Saturating Q15.16 addition.
+#[inline]
+fn add_sat(a: i32, b: i32) -> i32 {
+    a.saturating_add(b)
+}
+
+/// The filter's tables (`NX` states, `NU` inputs, `NY` outputs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Kalman16Tables<const NX: usize, const NU: usize, const NY: usize> {
+    /// Output matrix rows.
+    pub c: [Row16<NX>; NY],
+    /// Output offset (Q15.16).
+    pub y0: [i32; NY],
+    /// Measurement-update gain rows.
+    pub m: [Row16<NY>; NX],
+    /// `A - I` rows.
+    pub a: [Row16<NX>; NX],
+    /// Input matrix rows.
+    pub b: [Row16<NU>; NX],
+}
+
+impl<const NX: usize, const NU: usize, const NY: usize> Kalman16Tables<NX, NU, NY> {
+    /// Multiply-adds per step (measurement and time update).
+    pub fn multiply_adds(&self) -> usize {
+        let n = |s: u8, len: usize| len.saturating_sub(s as usize);
+        self.c.iter().map(|r| n(r.start, NX)).sum::<usize>()
+            + self.m.iter().map(|r| n(r.start, NY)).sum::<usize>()
+            + self.a.iter().map(|r| n(r.start, NX)).sum::<usize>()
+            + self.b.iter().map(|r| n(r.start, NU)).sum::<usize>()
+    }
+
+    /// Checks the row shifts (all at most 40).
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] otherwise.
+    pub fn check(&self) -> Result<(), Error> {
+        let ok = self.a.iter().all(|r| r.shift <= 40)
+            && self.b.iter().all(|r| r.shift <= 40)
+            && self.c.iter().all(|r| r.shift <= 40)
+            && self.m.iter().all(|r| r.shift <= 40);
+        if ok {
+            Ok(())
+        } else {
+            Err(Error::InvalidArgument(
+                "Kalman16 tables: a row shift above 40",
+            ))
+        }
+    }
+}
+
+/// The stationary Kalman filter with 16-bit coefficients (see the module
+/// docs), a [`StateEstimator`] in scalar `S`.
+#[derive(Clone, Debug)]
+pub struct Kalman16<S, const NX: usize, const NU: usize, const NY: usize> {
+    tables: Kalman16Tables<NX, NU, NY>,
+    /// Predicted (after a time update) or filtered state, Q15.16.
+    x: [i32; NX],
+    /// The same state in `S`.
+    xs: [S; NX],
+}
+
+impl<S: RtScalar, const NX: usize, const NU: usize, const NY: usize> Kalman16<S, NX, NU, NY> {
+    /// A filter at `x = 0` (the operating point).
+    pub fn new(tables: Kalman16Tables<NX, NU, NY>) -> Self {
+        Kalman16 {
+            tables,
+            x: [0; NX],
+            xs: [S::ZERO; NX],
+        }
+    }
+
+    /// The tables.
+    pub fn tables(&self) -> &Kalman16Tables<NX, NU, NY> {
+        &self.tables
+    }
+
+    /// The state in Q15.16.
+    pub fn state_q16(&self) -> &[i32; NX] {
+        &self.x
+    }
+
+    fn publish(&mut self) {
+        for (s, x) in self.xs.iter_mut().zip(self.x.iter()) {
+            *s = S::from_q16(*x);
+        }
+    }
+}
+
+fn to_q16<S: RtScalar, const N: usize>(v: &[S]) -> Result<[i32; N], Error> {
+    check_len(v, N)?;
+    let mut out = [0i32; N];
+    for (o, x) in out.iter_mut().zip(v.iter()) {
+        *o = x.to_q16().ok_or(Error::NonFinite)?;
+    }
+    Ok(out)
+}
+
+impl<S: RtScalar, const NX: usize, const NU: usize, const NY: usize> StateEstimator
+    for Kalman16<S, NX, NU, NY>
+{
+    type Scalar = S;
+    fn nx(&self) -> usize {
+        NX
+    }
+    fn nu(&self) -> usize {
+        NU
+    }
+    fn ny(&self) -> usize {
+        NY
+    }
+    fn measurement_update(&mut self, y: &[S]) -> Result<(), Error> {
+        let y: [i32; NY] = to_q16(y)?;
+        let mut e = [0i32; NY];
+        for ((ei, yi), (row, y0)) in e
+            .iter_mut()
+            .zip(y.iter())
+            .zip(self.tables.c.iter().zip(self.tables.y0.iter()))
+        {
+            *ei = yi.saturating_sub(*y0).saturating_sub(row.apply(&self.x));
+        }
+        for (xi, row) in self.x.iter_mut().zip(self.tables.m.iter()) {
+            *xi = add_sat(*xi, row.apply(&e));
+        }
+        self.publish();
+        Ok(())
+    }
+    fn time_update(&mut self, u: &[S]) -> Result<(), Error> {
+        let u: [i32; NU] = to_q16(u)?;
+        let x = self.x;
+        for ((xi, a), b) in self
+            .x
+            .iter_mut()
+            .zip(self.tables.a.iter())
+            .zip(self.tables.b.iter())
+        {
+            *xi = add_sat(add_sat(*xi, a.apply(&x)), b.apply(&u));
+        }
+        self.publish();
+        Ok(())
+    }
+    fn estimate(&self) -> &[S] {
+        &self.xs
+    }
+    fn reset(&mut self, x0: &[S]) -> Result<(), Error> {
+        self.x = to_q16(x0)?;
+        self.publish();
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_shift_rounds_and_saturates() {
+        assert_eq!(round_shift(5, 1), 3);
+        assert_eq!(round_shift(-5, 1), -2);
+        assert_eq!(round_shift(7, 0), 7);
+        assert_eq!(round_shift(i64::MAX, 2), i32::MAX);
+        assert_eq!(round_shift(i64::MIN, 2), i32::MIN);
+        assert_eq!(round_shift(3 << 40, 40), 3);
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn round_shift_is_the_rounded_quotient(acc in -(1i64 << 56)..(1i64 << 56), shift in 0u8..=48) {
+            let exact = (acc as i128 + if shift == 0 { 0 } else { 1i128 << (shift - 1) }) >> shift;
+            let want = exact.clamp(i32::MIN as i128, i32::MAX as i128) as i32;
+            proptest::prop_assert_eq!(round_shift(acc, shift), want);
+        }
+
+        #[test]
+        fn mul_q15_is_the_rounded_product(v in proptest::num::i32::ANY, b in proptest::num::i16::ANY) {
+            let exact = ((v as i64 * b as i64) + (1 << 14)) >> 15;
+            let want = exact.clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+            proptest::prop_assert_eq!(mul_q15(v, b), want);
+        }
+    }
+
+    fn tables() -> Kalman16Tables<2, 1, 1> {
+        Kalman16Tables {
+            c: [Row16::new([16384, 0], 14, 0)],
+            y0: [65536],
+            m: [Row16::new([16384], 15, 0), Row16::new([8192], 15, 0)],
+            a: [
+                Row16::new([0, 20972], 20, 0),
+                Row16::new([0, -20972], 22, 1),
+            ],
+            b: [Row16::new([0], 20, 0), Row16::new([20972], 22, 0)],
+        }
+    }
+
+    #[test]
+    fn rejects_bad_input_and_tables() {
+        let mut kf = Kalman16::<f64, 2, 1, 1>::new(tables());
+        assert_eq!(kf.measurement_update(&[f64::NAN]), Err(Error::NonFinite));
+        assert!(kf.measurement_update(&[1.0, 2.0]).is_err());
+        assert_eq!(kf.time_update(&[f64::INFINITY]), Err(Error::NonFinite));
+        assert!(kf.reset(&[0.0]).is_err());
+        assert!(tables().check().is_ok());
+        let mut bad = tables();
+        bad.b[0].shift = 41;
+        assert!(bad.check().is_err());
+        assert_eq!(tables().multiply_adds(), 2 + 2 + 2 + 1 + 1 + 1);
+    }
+}

@@ -1,0 +1,153 @@
+//! `kestrel export`: the example firmware's controller tables from design files.
+
+use crate::io;
+use anyhow::{Context, bail};
+use kestrel_avr_rt::design::{DesignSettings, FirmwareDesign, IterationBudget, generate_tables};
+use kestrel_core::formats::{MpqpProblem, SsModel};
+use kestrel_fgm::Preconditioner;
+use kestrel_kalman::KalmanDesign;
+use kestrel_mpc::ProblemSize;
+use std::path::PathBuf;
+
+/// Writes the firmware tables (`avr/firmware/src/generated.rs`, Rust source)
+/// from design files.
+///
+/// In: the 50 Hz design model (`kestrel.ss.v1`, 4 inputs pwm1, pwm2, pwm3,
+/// servo in us with the hover trim as `u0`; 3 outputs p, q, r in rad/s);
+/// optionally the stationary Kalman filter (`kestrel.kalman.v1`, from
+/// `kestrel kalman`; default: kestrel-mpc's noise design with the thesis's
+/// gyro covariance and bias) and the condensed MPC problem
+/// (`kestrel.mpqp.v1`, from `kestrel mpc`, parameters `[x; p_ref, q_ref,
+/// r_ref; throttle]`; default: the tricopter problem of `--size`).
+/// The fast gradient method is preconditioned and certified for the
+/// iteration count that keeps every input within `--max-input-error` us of
+/// the optimum.
+///
+/// Out: Rust source with the dimensions, the iteration counts, the offset
+/// of each part and the flat table (Kalman A, B, C, M, y0; fast-gradient
+/// data; mixer trim; gyro bias) in f32 and in Q15.16 raw bits.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Design model (`kestrel.ss.v1`, discrete, 4 inputs, 3 outputs).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Stationary Kalman filter (`kestrel.kalman.v1`) of the same model.
+    #[arg(long)]
+    pub kalman: Option<PathBuf>,
+    /// Condensed MPC problem (`kestrel.mpqp.v1`) of the same model.
+    #[arg(long)]
+    pub problem: Option<PathBuf>,
+    /// Problem built when `--problem` is not given.
+    #[arg(long, value_enum, default_value_t = Size::Thesis)]
+    pub size: Size,
+    /// Largest error (us) of any input against the exact optimum; sets the
+    /// fast gradient's certified iteration count.
+    #[arg(long, default_value_t = 1.0)]
+    pub max_input_error: f64,
+    /// Preconditioner of the fast gradient method.
+    #[arg(long, value_enum, default_value_t = Precond::OptimalDiagonal)]
+    pub preconditioner: Precond,
+    /// Run this many warm-started iterations per period instead of the
+    /// certified cold-start count (not certified).
+    #[arg(long)]
+    pub warm_iterations: Option<usize>,
+    /// State coordinates when the filter and problem are designed here
+    /// (neither `--kalman` nor `--problem`): `schur` (real Schur form, the
+    /// Kalman step skips the zeros of the quasi-triangular A) or `as-given`.
+    #[arg(long, value_enum, default_value_t = Coordinates::Schur)]
+    pub realization: Coordinates,
+    /// Output file (default: standard output).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// `--realization`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum Coordinates {
+    /// Real Schur form.
+    Schur,
+    /// The model's own.
+    AsGiven,
+}
+
+/// `--size`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum Size {
+    /// N = 2, Ns = 1 (the thesis's).
+    Thesis,
+    /// N = 10, blocks [1, 1, 2, 6].
+    Larger,
+}
+
+/// `--preconditioner`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum Precond {
+    /// No scaling.
+    None,
+    /// Unit diagonal.
+    Jacobi,
+    /// The condition-minimising diagonal (SDP).
+    OptimalDiagonal,
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let model = SsModel::read(&args.model).with_context(|| format!("{}", args.model.display()))?;
+    if model.ts <= 0.0 {
+        bail!(
+            "{}: the model is continuous-time (ts = {}); discretise it first with `kestrel c2d`",
+            args.model.display(),
+            model.ts
+        );
+    }
+    let settings = DesignSettings {
+        max_input_error_us: args.max_input_error,
+        preconditioner: match args.preconditioner {
+            Precond::None => Preconditioner::None,
+            Precond::Jacobi => Preconditioner::Jacobi,
+            Precond::OptimalDiagonal => Preconditioner::OptimalDiagonal,
+        },
+        size: match args.size {
+            Size::Thesis => ProblemSize::Thesis,
+            Size::Larger => ProblemSize::Larger,
+        },
+        budget: match args.warm_iterations {
+            Some(k) => IterationBudget::WarmFixed(k),
+            None => IterationBudget::Certified,
+        },
+        realization: match args.realization {
+            Coordinates::Schur => Realization::Schur,
+            Coordinates::AsGiven => Realization::AsGiven,
+        },
+    };
+    let design = match (&args.kalman, &args.problem) {
+        (None, None) => FirmwareDesign::from_model(&model, &settings)?,
+        (kalman, problem) => {
+            let kalman = match kalman {
+                Some(p) => KalmanDesign::read(p).with_context(|| format!("{}", p.display()))?,
+                None => kestrel_mpc::sim::kalman_design(&model)?,
+            };
+            let problem = match problem {
+                Some(p) => MpqpProblem::read(p).with_context(|| format!("{}", p.display()))?,
+                None => {
+                    let (q1, q2) = kestrel_mpc::default_weights();
+                    kestrel_mpc::tricopter_problem(&model, settings.size, q1, q2)?.to_mpqp()
+                }
+            };
+            FirmwareDesign::new(&model, kalman, problem, &settings)?
+        }
+    };
+    let source = generate_tables(&design)?;
+    io::write_output(args.out.as_deref(), &source)?;
+    eprintln!(
+        "export: {} states, {} variables, {} parameters; fast gradient eps {:.3e}, condition {:.3}, {} certified iterations, {} per period",
+        design.nx(),
+        design.data_f64.n,
+        design.data_f64.p,
+        design.eps,
+        design.cert.condition,
+        design.cert.iterations,
+        design.loop_iterations()
+    );
+    Ok(())
+}
