@@ -107,6 +107,47 @@ pub trait Scalar:
         }
         acc
     }
+    /// The transposed matrix-vector product on arrays,
+    /// `out[i] = sum_j a[j][i] x[j]` (`out = A' x`; `A x` for a symmetric
+    /// `A`), each entry accumulated exactly as [`Scalar::dot`] would
+    /// accumulate column `i` with `x`.
+    ///
+    /// The default gathers each column and calls [`Scalar::dot`] (so a
+    /// type's own dot, e.g. fixed point's wide accumulator, is kept);
+    /// `f32` and `f64` override it with row-wise multiply-adds in the same
+    /// order, bit-identical to the default and free of the serial
+    /// dependency of a dot product (the compiler vectorises it).
+    #[inline]
+    fn tr_mat_vec<const R: usize, const C: usize>(
+        a: &[[Self; C]; R],
+        x: &[Self; R],
+        out: &mut [Self; C],
+    ) {
+        for (i, o) in out.iter_mut().enumerate() {
+            let col: [Self; R] = core::array::from_fn(|j| {
+                a.get(j)
+                    .and_then(|r| r.get(i))
+                    .copied()
+                    .unwrap_or(Self::ZERO)
+            });
+            *o = Self::dot(&col, x);
+        }
+    }
+}
+
+/// Row-wise `out = A' x` for floats: the same per-entry order as `dot`.
+#[inline]
+fn float_tr_mat_vec<S: Scalar, const R: usize, const C: usize>(
+    a: &[[S; C]; R],
+    x: &[S; R],
+    out: &mut [S; C],
+) {
+    *out = [S::ZERO; C];
+    for (row, xj) in a.iter().zip(x.iter()) {
+        for (o, aji) in out.iter_mut().zip(row.iter()) {
+            *o = o.mul_add(*aji, *xj);
+        }
+    }
 }
 
 impl Scalar for f64 {
@@ -126,6 +167,14 @@ impl Scalar for f64 {
     #[inline]
     fn is_finite(self) -> bool {
         f64::is_finite(self)
+    }
+    #[inline]
+    fn tr_mat_vec<const R: usize, const C: usize>(
+        a: &[[Self; C]; R],
+        x: &[Self; R],
+        out: &mut [Self; C],
+    ) {
+        float_tr_mat_vec(a, x, out);
     }
 }
 
@@ -154,6 +203,14 @@ impl Scalar for f32 {
     #[inline]
     fn is_finite(self) -> bool {
         f32::is_finite(self)
+    }
+    #[inline]
+    fn tr_mat_vec<const R: usize, const C: usize>(
+        a: &[[Self; C]; R],
+        x: &[Self; R],
+        out: &mut [Self; C],
+    ) {
+        float_tr_mat_vec(a, x, out);
     }
 }
 
@@ -308,6 +365,30 @@ impl<const FRAC: u32> Scalar for Fixed<FRAC> {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// `tr_mat_vec` is `A' x` and bit-identical to dotting each column
+    /// (the default), for floats and fixed point.
+    #[test]
+    fn tr_mat_vec_matches_column_dots() {
+        fn check<S: Scalar + core::fmt::Debug>() {
+            let a: [[S; 3]; 2] = [
+                [S::from_f64(0.1), S::from_f64(-2.5), S::from_f64(3.3)],
+                [S::from_f64(1.7), S::from_f64(0.4), S::from_f64(-0.9)],
+            ];
+            let x = [S::from_f64(1.3), S::from_f64(-0.7)];
+            let mut out = [S::ZERO; 3];
+            S::tr_mat_vec(&a, &x, &mut out);
+            for (i, o) in out.iter().enumerate() {
+                let col = [a[0][i], a[1][i]];
+                assert_eq!(*o, S::dot(&col, &x));
+                let exact = a[0][i].to_f64() * x[0].to_f64() + a[1][i].to_f64() * x[1].to_f64();
+                assert!((o.to_f64() - exact).abs() < 1e-4, "{o:?} vs {exact}");
+            }
+        }
+        check::<f64>();
+        check::<f32>();
+        check::<Q16>();
+    }
 
     #[test]
     fn constants() {
