@@ -64,14 +64,18 @@ impl Default for FgmSettings {
     }
 }
 
-/// A cold-start certificate (Richter, Jones, Morari, IEEE TAC 2012).
+/// A cold-start certificate (Richter, Jones, Morari, IEEE TAC 2012, with a
+/// tighter initial bound).
 ///
-/// After the initial projected gradient step from any point `s` of the box,
-/// `f(z_0) - f* + gamma_0/2 |z_0 - z*|^2 <= (L - mu)/2 |s - z*|^2 <= Delta`
-/// with `Delta = L/2 * max_theta diam(box)^2` (scaled units), and Nesterov's
-/// constant-step scheme gives `f(z_i) - f* <= lambda_i Delta` with
+/// A cold solve starts at the box centre `s` and takes one projected
+/// gradient step; then, for any optimum `z*`,
+/// `f(z_0) - f* + L/2 |z_0 - z*|^2 <= 1/2 (s - z*)'(L I - H_s)(s - z*) <= Delta`
+/// (scaled units; [`FgmDesign::delta`]), and Nesterov's constant-step
+/// scheme gives `f(z_i) - f* <= lambda_i Delta` with
 /// `lambda_i <= (1 - sqrt(mu/L))^i` and, for `gamma_0 = L` (the table
-/// scheme), `lambda_i <= 4 / (i + 2)^2`.
+/// scheme), `lambda_i <= 4 / (i + 2)^2`. Richter's
+/// `Delta = L/2 * max_theta diam(box)^2` (for a start anywhere in the box)
+/// is kept in `delta_richter` for comparison.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Certificate {
     /// The tolerance on `J(z) - J*`.
@@ -82,10 +86,13 @@ pub struct Certificate {
     pub mu: f64,
     /// `L / mu`.
     pub condition: f64,
-    /// `L/2 * squared diameter`.
+    /// The `Delta` the count is certified for (the cold one, or a warm one).
     pub delta: f64,
     /// Squared diameter of the scaled box, maximised over the parameter box.
     pub diameter_sq: f64,
+    /// `L/2 * squared diameter`: Richter, Jones and Morari's `Delta` for a
+    /// start anywhere in the box, for comparison with `delta`.
+    pub delta_richter: f64,
     /// `ceil(ln(eps/Delta) / ln(1 - sqrt(mu/L)))` (`None` if `mu = 0`).
     pub linear_bound: Option<usize>,
     /// `ceil(2 sqrt(Delta/eps) - 2)`.
@@ -94,6 +101,33 @@ pub struct Certificate {
     pub scheme: MomentumScheme,
     /// Certified iterations after the initial step.
     pub iterations: usize,
+}
+
+/// Which decision variables an input tolerance is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum AppliedInputs {
+    /// Every decision variable (all blocked moves).
+    All,
+    /// The first `nu` variables: the move applied to the aircraft (the
+    /// first block of an MPC problem; 4 for the tricopter).
+    FirstMove(usize),
+}
+
+/// The tolerance on `J - J*` that keeps the selected inputs within
+/// `max_error` of the optimum (see [`FgmDesign::pwm_tolerance`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PwmTolerance {
+    /// The allowed input error (problem units, e.g. us of PWM).
+    pub max_error: f64,
+    /// `eps = max_error^2 / (2 max_j (H^-1)_jj)` over the selected `j`.
+    pub eps: f64,
+    /// The variable with the largest `(H^-1)_jj` (the binding one).
+    pub worst_variable: usize,
+    /// That largest diagonal entry of `H^-1`.
+    pub h_inv_diag: f64,
+    /// The cruder `mu_H / 2 * max_error^2` (all variables, from the
+    /// smallest eigenvalue), for comparison: never larger than `eps`.
+    pub eps_eigenvalue: f64,
 }
 
 /// What a warm start may assume about the previous solve.
@@ -115,9 +149,10 @@ pub struct WarmStartAssumption {
 /// (|Lo e_j| + |H_s^-1/2 Q e_j| / sqrt(mu))`. The previous solution is within
 /// `sqrt(2 prev_eps / mu)` of its own optimum, so the start is within
 /// `r = sqrt(2 prev_eps / mu) + lipschitz-term` of the new optimum and
-/// `Delta_warm = L/2 r^2`. When the widths vary with `theta`, or the start is
-/// shifted, the warm bound falls back to the cold one (which covers any
-/// start point in the box).
+/// `Delta_warm = (L - mu)/2 r^2` (as `L I - H_s <= (L - mu) I`). When the
+/// widths vary with `theta`, or the start is shifted, the warm bound falls
+/// back to a start anywhere in the box: `|s - z*|_j <= w_j`, four times the
+/// cold `Delta` (which is for the box centre).
 #[derive(Clone, Debug, PartialEq)]
 pub struct WarmCertificate {
     /// The cold certificate it refines.
@@ -126,7 +161,7 @@ pub struct WarmCertificate {
     pub refined: bool,
     /// Bound on the distance of the start from the new optimum (scaled units).
     pub radius: f64,
-    /// `min(L/2 r^2, Delta_cold)`.
+    /// `min((L - mu)/2 r^2, 4 Delta_cold)`.
     pub delta: f64,
     /// Certified iterations after the initial step.
     pub iterations: usize,
@@ -309,6 +344,12 @@ pub struct FgmDesign {
     pub h_scaled: DMatrix<f64>,
     /// Squared diameter of the scaled box, maximised over the parameter box.
     pub diameter_sq: f64,
+    /// The cold-start `Delta`: the largest `1/2 e'(L I - D H D) e` over
+    /// `|e_j| <= w_j / 2` (`w_j` the scaled width of variable `j`, maximised
+    /// over the parameter box), which bounds
+    /// `f(z_0) - f* + L/2 |z_0 - z*|^2` after the initial projected gradient
+    /// step from the box centre (see [`FgmDesign::delta`]).
+    pub cold_delta: f64,
     /// `c(theta) = K theta + k0` (scaled), `K` is `n x p`.
     pub k_theta: DMatrix<f64>,
     /// `k0`.
@@ -375,6 +416,8 @@ impl FgmDesign {
             .zip(dinv.iter())
             .map(|(w, di)| (w * di).powi(2))
             .sum();
+        let half_widths = DVector::from_fn(widths.len(), |j, _| 0.5 * widths[j] * dinv[j]);
+        let cold_delta = quadratic_box_max(&h_scaled, spectrum, &half_widths);
         Ok(FgmDesign {
             problem,
             settings,
@@ -383,6 +426,7 @@ impl FgmDesign {
             spectrum,
             h_scaled,
             diameter_sq,
+            cold_delta,
             k_theta,
             k0,
             lo_theta,
@@ -397,15 +441,25 @@ impl FgmDesign {
         self.problem.n()
     }
 
-    /// `M = I - D H D / L`.
+    /// `M = I - D H D / L`, exactly symmetric (`(M + M') / 2`).
     pub fn m(&self) -> DMatrix<f64> {
         let n = self.n();
-        DMatrix::identity(n, n) - &self.h_scaled / self.spectrum.l
+        let m = DMatrix::identity(n, n) - &self.h_scaled / self.spectrum.l;
+        (&m + m.transpose()) * 0.5
     }
 
-    /// `L/2 * squared diameter`.
+    /// The cold-start `Delta` ([`FgmDesign::cold_delta`]).
+    ///
+    /// A cold solve starts at the box centre `s = (lo + hi) / 2`, so
+    /// `s - z*` lies in `[-w/2, w/2]` for every optimum `z*`. The initial
+    /// projected gradient step gives, for the quadratic cost exactly,
+    /// `f(z_0) - f* + L/2 |z_0 - z*|^2 <= 1/2 (s - z*)'(L I - H_s)(s - z*)`,
+    /// and this convex quadratic is largest at a vertex of that box:
+    /// all `2^(n-1)` sign patterns are enumerated up to `n = 20` (Gray
+    /// code, `O(n)` each); beyond, `(L - mu)/2 |w/2|^2` is used. Both are at
+    /// most a quarter of Richter's `L/2 diam^2`.
     pub fn delta(&self) -> f64 {
-        0.5 * self.spectrum.l * self.diameter_sq
+        self.cold_delta
     }
 
     /// The constant momentum `(1 - sqrt(mu/L)) / (1 + sqrt(mu/L))`.
@@ -437,6 +491,66 @@ impl FgmDesign {
             a = next;
         }
         out
+    }
+
+    /// The tolerance on `J - J*` that keeps the selected inputs within
+    /// `max_error` of the optimum (e.g. 1 us of PWM), computed from `H`.
+    ///
+    /// For a feasible `z` and the optimum `z*` over the box,
+    /// `J(z) - J* >= grad J(z*)'(z - z*) + 1/2 (z - z*)'H(z - z*)` and the
+    /// first term is non-negative (optimality), so `J - J* <= eps` gives
+    /// `(z - z*)'H(z - z*) <= 2 eps`, and the largest `|z_j - z*_j|` on that
+    /// ellipsoid is `sqrt(2 eps (H^-1)_jj)`. Hence
+    /// `eps = max_error^2 / (2 max_j (H^-1)_jj)`, which is never smaller
+    /// than the eigenvalue form `mu_H / 2 max_error^2`
+    /// ([`eps_for_input_error`](crate::eps_for_input_error)).
+    ///
+    /// # Errors
+    /// [`FgmError::InvalidSetting`] for a non-positive or non-finite
+    /// `max_error`, an empty or too large selection, or a singular `H`
+    /// (then no `eps` bounds the input error).
+    pub fn pwm_tolerance(
+        &self,
+        max_error: f64,
+        applied: AppliedInputs,
+    ) -> Result<PwmTolerance, FgmError> {
+        if !(max_error.is_finite() && max_error > 0.0) {
+            return Err(FgmError::InvalidSetting(format!(
+                "the input error must be positive and finite, got {max_error}"
+            )));
+        }
+        let n = self.n();
+        let count = match applied {
+            AppliedInputs::All => n,
+            AppliedInputs::FirstMove(k) => k,
+        };
+        if count == 0 || count > n {
+            return Err(FgmError::InvalidSetting(format!(
+                "the applied inputs must be 1 ..= {n} variables, got {count}"
+            )));
+        }
+        let mu_h = self.preconditioning.before.mu;
+        let sym = (&self.problem.h + self.problem.h.transpose()) * 0.5;
+        let inv = if mu_h > 1e-12 * self.preconditioning.before.l {
+            sym.cholesky().map(|c| c.inverse())
+        } else {
+            None
+        };
+        let Some(inv) = inv else {
+            return Err(FgmError::InvalidSetting(
+                "H is singular: no tolerance on J - J* bounds the input error".into(),
+            ));
+        };
+        let (worst_variable, h_inv_diag) = (0..count)
+            .map(|j| (j, inv[(j, j)]))
+            .fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+        Ok(PwmTolerance {
+            max_error,
+            eps: max_error * max_error / (2.0 * h_inv_diag),
+            worst_variable,
+            h_inv_diag,
+            eps_eigenvalue: crate::eps_for_input_error(mu_h, max_error),
+        })
     }
 
     /// Certified cold-start iterations for `J - J* <= eps`.
@@ -491,6 +605,7 @@ impl FgmDesign {
             condition: self.spectrum.condition(),
             delta,
             diameter_sq: self.diameter_sq,
+            delta_richter: 0.5 * l * self.diameter_sq,
             linear_bound,
             sublinear_bound,
             scheme,
@@ -534,11 +649,15 @@ impl FgmDesign {
         let Spectrum { l, mu } = self.spectrum;
         let const_width =
             (&self.lo_theta - &self.hi_theta).amax() <= 1e-12 * (1.0 + self.lo_theta.amax());
+        // A start anywhere in the box: |s - z*|_j <= w_j, four times the
+        // centre's quadratic bound (homogeneous of degree 2).
+        let anywhere = 4.0 * self.cold_delta;
         if !(const_width && mu > 0.0) {
+            let any = self.certify_delta(eps, anywhere)?;
             return Ok(WarmCertificate {
-                iterations: cold.iterations,
+                iterations: any.iterations,
                 radius: self.diameter_sq.sqrt(),
-                delta: cold.delta,
+                delta: anywhere,
                 refined: false,
                 cold,
             });
@@ -556,7 +675,8 @@ impl FgmDesign {
             })
             .sum();
         let radius = (2.0 * assume.prev_eps / mu).sqrt() + lip;
-        let delta = (0.5 * l * radius * radius).min(cold.delta);
+        // 1/2 e'(L I - H_s) e <= (L - mu)/2 |e|^2.
+        let delta = (0.5 * (l - mu) * radius * radius).min(anywhere);
         let warm = self.certify_delta(eps, delta)?;
         Ok(WarmCertificate {
             cold,
@@ -803,7 +923,13 @@ impl FgmDesign {
         let e = l * (rho.norm() + sigma.norm());
         let shrink = self.bound_rounding(&r);
         let diam = self.diameter_sq.sqrt();
-        let delta_hat = self.delta() + e * diam;
+        // The computed centre start is off the centre of the (shrunk) box
+        // by the rounding of the bounds (half the shrink) and of
+        // (lo + hi) / 2; sqrt(e'(L I - H)e) is a seminorm, so
+        // sqrt(2 Delta_s) <= sqrt(2 Delta) + sqrt(L - mu) |offset|.
+        let offset = DVector::from_fn(n, |i, _| 0.5 * shrink[i] + r.u * 2.0 * ib.bv[i] + r.a);
+        let delta_start = (self.delta().sqrt() + (0.5 * (l - mu)).sqrt() * offset.norm()).powi(2);
+        let delta_hat = delta_start + e * diam;
         let q = 1.0 - (mu / l).sqrt();
         let k = cert.iterations;
         let geo: f64 = (0..k).map(|j| q.powf(j as f64 / 2.0)).sum();
@@ -834,6 +960,35 @@ impl FgmDesign {
             distance_bound,
         })
     }
+}
+
+/// The largest `1/2 e'(L I - H) e` over the box `|e_j| <= r_j` (see
+/// [`FgmDesign::delta`]).
+fn quadratic_box_max(h: &DMatrix<f64>, spectrum: Spectrum, r: &DVector<f64>) -> f64 {
+    let n = r.len();
+    let Spectrum { l, mu } = spectrum;
+    let fallback = 0.5 * (l - mu).max(0.0) * r.norm_squared();
+    if n == 0 || n > 20 {
+        return fallback;
+    }
+    let a = DMatrix::identity(n, n) * l - h;
+    // e = sigma .* r, sigma_0 = +1 fixed (e and -e give the same value).
+    let mut e = r.clone();
+    let mut u = &a * &e;
+    let mut value = e.dot(&u);
+    let mut best = value;
+    for k in 1u64..(1u64 << (n - 1)) {
+        // Gray code: flip the sign of entry 1 + trailing_zeros(k).
+        let j = 1 + k.trailing_zeros() as usize;
+        let de = -2.0 * e[j];
+        value += 2.0 * de * u[j] + de * de * a[(j, j)];
+        u.axpy(de, &a.column(j), 1.0);
+        e[j] = -e[j];
+        best = best.max(value);
+    }
+    // The updates accumulate rounding (relative ~1e-13 here): a relative
+    // margin of 1e-9 covers it; the eigenvalue bound caps it.
+    (0.5 * best * (1.0 + 1e-9)).min(fallback).max(0.0)
 }
 
 struct Intermediates {

@@ -24,8 +24,8 @@ pub mod reference;
 
 #[cfg(feature = "std")]
 pub use design::{
-    Certificate, FgmData, FgmDesign, FgmSettings, Momentum, MomentumScheme, RoundingBound,
-    WarmCertificate, WarmStartAssumption,
+    AppliedInputs, Certificate, FgmData, FgmDesign, FgmSettings, Momentum, MomentumScheme,
+    PwmTolerance, RoundingBound, WarmCertificate, WarmStartAssumption,
 };
 #[cfg(feature = "std")]
 pub use error::FgmError;

@@ -9,13 +9,13 @@
 //! - `lo(theta) = Lo theta + lo0`, `hi(theta) = Hi theta + hi0` (the box),
 //! - the momentum `beta_i` (one constant or a table).
 //!
-//! A solve computes `c`, `lo`, `hi` once, clamps the start point into the
-//! box, takes one projected gradient step (the *initial step* on which the
+//! A solve computes `c`, `lo`, `hi` once, takes the start point (cold: the
+//! box centre; warm: the given point clamped into the box), takes one projected gradient step (the *initial step* on which the
 //! certificate rests) and then exactly `iterations` fast-gradient
 //! iterations, each one `M y`, an add, a clamp and the momentum update:
 //!
 //! ```text
-//! z_0 = clamp(M s + c)                  s = clamp(start), y_0 = z_0
+//! z_0 = clamp(M s + c)                  s = centre or clamp(start), y_0 = z_0
 //! z_{i+1} = clamp(M y_i + c)
 //! y_{i+1} = z_{i+1} + beta_i (z_{i+1} - z_i)
 //! ```
@@ -80,8 +80,9 @@ pub struct WorkspaceMut<'a, S> {
 /// Where a solve starts.
 #[derive(Clone, Copy, Debug)]
 pub enum Start<'a, S> {
-    /// Cold start from `z = 0` clamped into the box (any point of the box
-    /// is covered by the cold-start certificate).
+    /// Cold start from the centre of the box `(lo(theta) + hi(theta)) / 2`
+    /// (the point the cold-start certificate is for: every optimum is
+    /// within half a width of it in each variable).
     Cold,
     /// Warm start from a point in the problem's units (e.g. the previous
     /// solution, possibly shifted); clamped into the current box first.
@@ -149,7 +150,7 @@ pub fn solve_view<S: Scalar>(
 
     // Start point s in scaled units, clamped into the box.
     match start {
-        Start::Cold => y.fill(S::ZERO),
+        Start::Cold => centre_into(lo, hi, y),
         Start::Warm(z0) => {
             check_len(z0, n)?;
             if !kestrel_core::all_finite(z0) {
@@ -205,6 +206,46 @@ fn gradient_step<S: Scalar>(m: &[S], y: &[S], c: &[S], lo: &[S], hi: &[S], w: &m
     }
 }
 
+/// `out = A theta + b` on arrays (same operation order as `affine_into`).
+#[inline(always)]
+fn affine_fixed<S: Scalar, const N: usize, const P: usize>(
+    a: &Matrix<S, N, P>,
+    b: &[S; N],
+    theta: &[S; P],
+    out: &mut [S; N],
+) {
+    for ((o, row), bi) in out.iter_mut().zip(a.data.iter()).zip(b.iter()) {
+        *o = S::dot(row, theta) + *bi;
+    }
+}
+
+/// `w = clamp(M y + c, lo, hi)` on arrays: `M y` as `M' y`
+/// ([`Scalar::tr_mat_vec`], the same per-entry order as `gradient_step`'s
+/// dot, so bit-identical for the symmetric `M` the design writes).
+#[inline(always)]
+fn gradient_step_fixed<S: Scalar, const N: usize>(
+    m: &Matrix<S, N, N>,
+    y: &[S; N],
+    c: &[S; N],
+    lo: &[S; N],
+    hi: &[S; N],
+    w: &mut [S; N],
+) {
+    S::tr_mat_vec(&m.data, y, w);
+    for (((wi, ci), l), h) in w.iter_mut().zip(c.iter()).zip(lo.iter()).zip(hi.iter()) {
+        *wi = (*wi + *ci).clamp(*l, *h);
+    }
+}
+
+/// `y = (lo + hi) / 2`, the cold start.
+#[inline]
+fn centre_into<S: Scalar>(lo: &[S], hi: &[S], y: &mut [S]) {
+    let half = S::from_f64(0.5);
+    for ((yi, l), h) in y.iter_mut().zip(lo.iter()).zip(hi.iter()) {
+        *yi = (*l + *h) * half;
+    }
+}
+
 #[inline]
 fn clamp_slice<S: Scalar>(x: &mut [S], lo: &[S], hi: &[S]) {
     for ((xi, l), h) in x.iter_mut().zip(lo.iter()).zip(hi.iter()) {
@@ -220,7 +261,9 @@ fn clamp_slice<S: Scalar>(x: &mut [S], lo: &[S], hi: &[S]) {
 /// with [`FgmDesign::tables`](crate::FgmDesign::tables).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FgmTables<S, const N: usize, const P: usize, const T: usize> {
-    /// `M = I - D H D / L`.
+    /// `M = I - D H D / L`, symmetric (the design writes it exactly
+    /// symmetric; the fixed-size kernel reads its rows as columns, i.e.
+    /// computes `M' y`).
     pub m: Matrix<S, N, N>,
     /// `K = -D F' / L`.
     pub k_theta: Matrix<S, N, P>,
@@ -331,6 +374,10 @@ impl<S: Scalar, const N: usize, const P: usize, const T: usize> FgmTables<S, N, 
     /// Runs `iterations` iterations from `start` (see [`solve_view`]) and
     /// stores the result as the previous solution in `ws`.
     ///
+    /// This is the fixed-size kernel: the same operations in the same order
+    /// as [`solve_view`] (so the results are bit-identical), on arrays of
+    /// known length, which the compiler unrolls without bounds checks.
+    ///
     /// # Errors
     /// As [`solve_view`].
     pub fn solve_with(
@@ -340,19 +387,50 @@ impl<S: Scalar, const N: usize, const P: usize, const T: usize> FgmTables<S, N, 
         iterations: usize,
         ws: &mut FgmWorkspace<S, N>,
     ) -> Result<[S; N], Error> {
-        let mut out = [S::ZERO; N];
-        let view = self.view();
+        if T == 0 {
+            return Err(Error::InvalidArgument("betas: the momentum table is empty"));
+        }
+        if !kestrel_core::all_finite(theta) {
+            return Err(Error::NonFinite);
+        }
         let FgmWorkspace {
             lo, hi, c, z, y, w, ..
         } = ws;
-        solve_view(
-            &view,
-            theta,
-            start,
-            iterations,
-            WorkspaceMut { lo, hi, c, z, y, w },
-            &mut out,
-        )?;
+        affine_fixed(&self.lo_theta, &self.lo0, theta, lo);
+        affine_fixed(&self.hi_theta, &self.hi0, theta, hi);
+        if lo.iter().zip(hi.iter()).any(|(l, h)| l > h) {
+            return Err(Error::Infeasible);
+        }
+        affine_fixed(&self.k_theta, &self.k0, theta, c);
+        match start {
+            Start::Cold => centre_into(lo, hi, y),
+            Start::Warm(z0) => {
+                check_len(z0, N)?;
+                if !kestrel_core::all_finite(z0) {
+                    return Err(Error::NonFinite);
+                }
+                for ((yi, zi), di) in y.iter_mut().zip(z0.iter()).zip(self.d_inv.iter()) {
+                    *yi = *zi * *di;
+                }
+            }
+        }
+        clamp_slice(y, lo, hi);
+        gradient_step_fixed(&self.m, y, c, lo, hi, w);
+        *z = *w;
+        *y = *w;
+        let last = self.betas.last().copied().unwrap_or(S::ZERO);
+        for i in 0..iterations {
+            let beta = self.betas.get(i).copied().unwrap_or(last);
+            gradient_step_fixed(&self.m, y, c, lo, hi, w);
+            for ((yi, zi), wi) in y.iter_mut().zip(z.iter_mut()).zip(w.iter()) {
+                *yi = *wi + beta * (*wi - *zi);
+                *zi = *wi;
+            }
+        }
+        let mut out = [S::ZERO; N];
+        for ((o, zi), di) in out.iter_mut().zip(z.iter()).zip(self.d.iter()) {
+            *o = *zi * *di;
+        }
         ws.prev = out;
         ws.has_prev = true;
         Ok(out)

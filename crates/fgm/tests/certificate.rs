@@ -196,3 +196,130 @@ fn preconditioning_lowers_the_condition_number_and_iterations() {
     let eps = 1e-3;
     assert!(opt.certify(eps).unwrap().iterations <= none.certify(eps).unwrap().iterations);
 }
+
+/// The fixed-size kernel (`FgmTables`, `Scalar::tr_mat_vec` on the
+/// symmetric `M`) and the run-time-size kernel (`solve_view`, row dots)
+/// give bit-identical solutions, in f64, f32 and fixed point, cold and warm.
+#[test]
+fn fixed_size_kernel_is_bit_identical_to_the_view_kernel() {
+    fn check<S: Scalar + core::fmt::Debug>(d: &FgmDesign) {
+        let cert = d.certify(1e-6 * d.delta()).unwrap();
+        let data = d.data::<S>(&cert, None).unwrap();
+        let tables = data.to_tables::<6, 4, 1>().unwrap();
+        let mut ws = kestrel_fgm::FgmWorkspace::<S, 6>::new();
+        let mut rng = Rng(77);
+        for _ in 0..50 {
+            let th = random_theta(&mut rng, &d.problem.theta_lb, &d.problem.theta_ub);
+            let ths: [S; 4] = core::array::from_fn(|i| S::from_f64(th[i]));
+            let view = data.solve(&ths, Start::Cold, 7).unwrap();
+            let fixed = tables.solve_with(&ths, Start::Cold, 7, &mut ws).unwrap();
+            assert_eq!(view.as_slice(), fixed.as_slice());
+            let warm_view = data.solve(&ths, Start::Warm(&view), 3).unwrap();
+            let warm_fixed = tables
+                .solve_with(&ths, Start::Warm(&fixed), 3, &mut ws)
+                .unwrap();
+            assert_eq!(warm_view.as_slice(), warm_fixed.as_slice());
+        }
+    }
+    let d = design(1, 3, 2, 3, Preconditioner::OptimalDiagonal);
+    assert_eq!((d.n(), d.problem.p()), (6, 4));
+    check::<f64>(&d);
+    check::<f32>(&d);
+    check::<Q16>(&d);
+}
+
+/// The cold `Delta` is the largest `1/2 e'(L I - H_s) e` over the
+/// half-width box, checked against a direct evaluation at every vertex
+/// and random interior points, and a quarter of Richter's at most.
+#[test]
+fn cold_delta_is_the_vertex_maximum_of_the_quadratic_bound() {
+    let d = design(2, 4, 3, 2, Preconditioner::Jacobi);
+    let n = d.n();
+    let l = d.spectrum.l;
+    let a = nalgebra::DMatrix::identity(n, n) * l - &d.h_scaled;
+    let w = d.problem.max_widths();
+    let r = DVector::from_fn(n, |j, _| 0.5 * w[j] / d.d[j]);
+    let q = |e: &DVector<f64>| 0.5 * e.dot(&(&a * e));
+    let mut brute: f64 = 0.0;
+    for mask in 0u32..(1 << n) {
+        let e = DVector::from_fn(n, |j, _| if mask >> j & 1 == 1 { r[j] } else { -r[j] });
+        brute = brute.max(q(&e));
+    }
+    assert!(
+        (d.delta() - brute).abs() <= 1e-8 * brute,
+        "{} vs {brute}",
+        d.delta()
+    );
+    let mut rng = Rng(5);
+    for _ in 0..1000 {
+        let e = DVector::from_fn(n, |j, _| rng.uniform(-r[j], r[j]));
+        assert!(q(&e) <= d.delta());
+    }
+    let cert = d.certify(1e-3).unwrap();
+    assert!(cert.delta <= 0.25 * cert.delta_richter * (1.0 + 1e-12));
+}
+
+/// The PWM tolerance: the closed form for a diagonal `H` (`eps = e^2
+/// min_j h_jj / 2`), tight (a point with `J - J* = eps` has an input error
+/// of exactly `e`), never below the eigenvalue form, and refused for a
+/// singular `H` or a bad selection.
+#[test]
+fn pwm_tolerance_is_the_closed_form_and_tight() {
+    use kestrel_core::formats::MpqpProblem;
+    use kestrel_fgm::AppliedInputs;
+    let diag = MpqpProblem::from_json_str(
+        r#"{"format": "kestrel.mpqp.v1", "H": [[4, 0, 0], [0, 0.5, 0], [0, 0, 2]],
+        "F": [[1, 0, 0]], "G": [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]],
+        "W": [100, 100, 100, 100, 100, 100], "E": [[0], [0], [0], [0], [0], [0]],
+        "theta_lb": [-1], "theta_ub": [1]}"#,
+    )
+    .unwrap();
+    let d = FgmDesign::new(BoxQp::from_mpqp(&diag).unwrap(), FgmSettings::default()).unwrap();
+    let first = d.pwm_tolerance(2.0, AppliedInputs::FirstMove(1)).unwrap();
+    assert!((first.eps - 4.0 * 4.0 / 2.0).abs() < 1e-9, "{}", first.eps);
+    let all = d.pwm_tolerance(2.0, AppliedInputs::All).unwrap();
+    assert_eq!(all.worst_variable, 1);
+    assert!((all.eps - 4.0 * 0.5 / 2.0).abs() < 1e-9);
+    assert!((all.eps_eigenvalue - all.eps).abs() < 1e-9);
+    // Tight on a coupled H: z = z* + t H^-1 e_j with J - J* = eps moves z_j by e.
+    let prob = mpc_problem(4, 3, 2, 2);
+    let d = FgmDesign::new(BoxQp::from_mpqp(&prob).unwrap(), FgmSettings::default()).unwrap();
+    let tol = d.pwm_tolerance(1.0, AppliedInputs::FirstMove(2)).unwrap();
+    assert!(tol.eps >= tol.eps_eigenvalue);
+    let h = &d.problem.h;
+    let hinv = h.clone().try_inverse().unwrap();
+    let j = tol.worst_variable;
+    let dir = hinv.column(j).into_owned();
+    // 1/2 t^2 dir' H dir = eps  (interior optimum: theta with z* = -H^-1 q).
+    let t = (2.0 * tol.eps / dir.dot(&(h * &dir))).sqrt();
+    assert!(((t * dir[j]).abs() - 1.0).abs() < 1e-9);
+    // Any feasible z with J - J* <= eps: random probes never exceed e.
+    let th = (&d.problem.theta_lb + &d.problem.theta_ub) * 0.5;
+    let best = ReferenceSolver::new(&d.problem)
+        .solve(&d.problem, &th)
+        .unwrap();
+    let b = d.problem.bounds(&th);
+    let mut rng = Rng(9);
+    for _ in 0..2000 {
+        let z = DVector::from_fn(d.n(), |i, _| {
+            (best.z[i] + rng.uniform(-1.5, 1.5)).clamp(b.lo[i], b.hi[i])
+        });
+        if d.problem.cost(&z, &th) - best.cost <= tol.eps {
+            assert!((0..2).all(|i| (z[i] - best.z[i]).abs() <= 1.0 + 1e-6));
+        }
+    }
+    assert!(d.pwm_tolerance(0.0, AppliedInputs::All).is_err());
+    assert!(d.pwm_tolerance(1.0, AppliedInputs::FirstMove(0)).is_err());
+    assert!(
+        d.pwm_tolerance(1.0, AppliedInputs::FirstMove(d.n() + 1))
+            .is_err()
+    );
+    let mut singular = diag.clone();
+    singular.h = nalgebra::DMatrix::from_row_slice(3, 3, &[1., 1., 0., 1., 1., 0., 0., 0., 2.]);
+    let none = FgmSettings {
+        preconditioner: Preconditioner::None,
+        ..FgmSettings::default()
+    };
+    let d = FgmDesign::new(BoxQp::from_mpqp(&singular).unwrap(), none).unwrap();
+    assert!(d.pwm_tolerance(1.0, AppliedInputs::All).is_err());
+}

@@ -22,7 +22,7 @@ pub static FGM: kestrel_fgm::FgmTables<kestrel_core::Q16, 2, 2, 1> = kestrel_fgm
     d: [kestrel_core::Q16::from_bits(36), kestrel_core::Q16::from_bits(51)],
     d_inv: [kestrel_core::Q16::from_bits(119304647), kestrel_core::Q16::from_bits(84361125)],
     betas: [kestrel_core::Q16::from_bits(11972)],
-    iterations: 15,
-    warm_iterations: 15,
+    iterations: 13,
+    warm_iterations: 13,
     shift: 0,
 };
