@@ -255,7 +255,11 @@ pub fn dare_with(
         });
     }
     let ac = best.closed_loop().unwrap_or_else(|| a.clone());
-    let eig = ac.complex_eigenvalues();
+    let Some(eig) = eigenvalues(&ac) else {
+        return Err(KalmanError::NoStabilizingSolution {
+            reason: "the eigenvalues of the closed loop A - BK could not be computed (Schur iteration limit)".into(),
+        });
+    };
     let rho = eig.iter().map(|z| z.norm()).fold(0.0, f64::max);
     if rho.is_nan() || rho >= 1.0 {
         return Err(diagnose(
@@ -499,6 +503,45 @@ fn invert_in_place(w: &mut DMatrix<f64>, piv: &mut [usize], tmp: &mut [f64]) -> 
     true
 }
 
+/// Eigenvalues of a real square matrix, or `None` when the QR iteration does
+/// not converge.
+///
+/// nalgebra's `complex_eigenvalues` runs its Francis iteration without an
+/// iteration limit and deflates only when a subdiagonal entry falls below
+/// machine epsilon times its diagonal neighbours; on a Kalman closed loop
+/// with several identical, decoupled actuator and disturbance modes a
+/// subdiagonal entry can stall just above that, and the iteration cycles
+/// for ever (see `dare_tests::repeated_decoupled_modes_do_not_hang`).
+/// Here the Schur decomposition gets a limit of `30 n + 30` sweeps
+/// (LAPACK's `dhseqr` uses 30 per eigenvalue); when it is reached, the
+/// transpose is tried, then both with a deflation threshold of
+/// `64 eps` (an eigenvalue perturbation of order 1e-14 relative), then an
+/// orthogonal similarity `P M P` (a fixed Householder reflection).
+pub(crate) fn eigenvalues(m: &DMatrix<f64>) -> Option<DVector<Complex<f64>>> {
+    use nalgebra::Schur;
+    let n = m.nrows();
+    if n == 0 {
+        return Some(DVector::zeros(0));
+    }
+    if !m.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let limit = 30 * n + 30;
+    let attempt =
+        |x: DMatrix<f64>, eps: f64| Schur::try_new(x, eps, limit).map(|s| s.complex_eigenvalues());
+    for eps in [f64::EPSILON, 64.0 * f64::EPSILON] {
+        if let Some(e) = attempt(m.clone(), eps) {
+            return Some(e);
+        }
+        if let Some(e) = attempt(m.transpose(), eps) {
+            return Some(e);
+        }
+    }
+    let v = DVector::from_fn(n, |i, _| 1.0 / (i as f64 + 1.0).sqrt());
+    let p = DMatrix::identity(n, n) - &v * v.transpose() * (2.0 / v.norm_squared());
+    attempt(&p * m * &p, 64.0 * f64::EPSILON)
+}
+
 pub(crate) fn symmetrize(m: &mut DMatrix<f64>) {
     let n = m.nrows();
     for j in 0..n {
@@ -602,7 +645,11 @@ fn pbh(
 ) -> Option<KalmanError> {
     let n = a.nrows();
     let an = a.norm().max(f64::MIN_POSITIVE);
-    let eig = a.complex_eigenvalues();
+    let Some(eig) = eigenvalues(a) else {
+        return Some(KalmanError::NoStabilizingSolution {
+            reason: "the eigenvalues of A could not be computed for the PBH tests (Schur iteration limit)".into(),
+        });
+    };
     let mut seen: Vec<Complex<f64>> = Vec::new();
     for &lambda in eig.iter() {
         if lambda.norm() < 1.0 - 1e-9 || lambda.im < 0.0 {

@@ -352,3 +352,73 @@ proptest! {
         prop_assert!(sol.closed_loop_eigenvalues.iter().all(|z| z.norm() < 1.0));
     }
 }
+
+/// A Kalman design that made nalgebra's unbounded Schur iteration cycle for
+/// ever (the 11-state tricopter rate model with actuator and gust states of
+/// `tests/tests/kalman_flight.rs`: three identical motor modes, three
+/// identical gust modes, a rate process noise of 1e-8). The eigenvalues
+/// now come from `dare::eigenvalues` (iteration limit, fallbacks).
+#[test]
+fn repeated_decoupled_modes_do_not_hang() {
+    #[rustfmt::skip]
+    let a = DMatrix::from_row_slice(11, 11, &[
+        1.0, 0.0, 0.0, 0.0, 0.002622542971220504, -0.002622542971220504, 0.0, 0.0, 0.5, 0.0, 0.0,
+        0.0, 1.0, 0.0, -0.0026885640103174943, 0.0013458896803515722, 0.0013458896803515722, 0.06089812349437849, 0.0004791315708005133, 0.0, 0.4444444444444444, 0.0,
+        0.0, 0.0, 1.0, -0.00012098538046428721, 6.056503561582075e-05, 6.056503561582075e-05, -0.42818993081984874, -0.00336889385719111, 0.0, 0.0, 0.25,
+        0.0, 0.0, 0.0, 0.6703200460356393, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+        0.0, 0.0, 0.0, 0.0, 0.6703200460356393, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+        0.0, 0.0, 0.0, 0.0, 0.0, 0.6703200460356393, 0.0, 0.0, 0.0, 0.0, 0.0,
+        0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.8652396208065133, 0.01274249904114953, 0.0, 0.0, 0.0,
+        0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -11.468249137034572, 0.3300546610782333, 0.0, 0.0, 0.0,
+        0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.9607894391523232, 0.0, 0.0,
+        0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.9607894391523232, 0.0,
+        0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.9607894391523232,
+    ]);
+    let c = DMatrix::from_fn(3, 11, |i, j| if i == j { 1.0 } else { 0.0 });
+    let q = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![
+        1e-08,
+        1e-08,
+        1e-08,
+        1e-12,
+        1e-12,
+        1e-12,
+        1e-12,
+        1e-12,
+        7.688365361336425e-06,
+        7.688365361336425e-06,
+        1.9220913403341063e-06,
+    ]));
+    #[rustfmt::skip]
+    let r = DMatrix::from_row_slice(3, 3, &[1.4550915480115305e-06, 3.030743966437537e-08, -1.7541537489057348e-07, 3.030743966437537e-08, 7.0759204411877874e-06, -4.2857483667691045e-07, -1.7541537489057348e-07, -4.2857483667691045e-07, 1.203199686131234e-05]);
+    let g = DMatrix::identity(11, 11);
+    let sol = dlqe(&a, &g, &c, &q, &r, None).expect("a detectable, stabilisable filter problem");
+    assert!(sol.residual < 1e-12, "residual {:.2e}", sol.residual);
+    assert_eq!(sol.closed_loop_eigenvalues.len(), 11);
+    assert!(sol.closed_loop_eigenvalues.iter().all(|z| z.norm() < 1.0));
+    // The same eigenvalues as the closed loop A - L C's characteristic
+    // polynomial predicts: det(A - L C - z I) = 0 at each of them (scaled).
+    let ac = &a - &sol.l * &c;
+    for z in sol.closed_loop_eigenvalues.iter() {
+        let shifted = ac.map(|v| nalgebra::Complex::new(v, 0.0))
+            - DMatrix::<nalgebra::Complex<f64>>::identity(11, 11) * *z;
+        let smin = shifted.singular_values().min();
+        assert!(
+            smin < 1e-8 * ac.norm(),
+            "{z}: smallest singular value {smin:.2e}"
+        );
+    }
+    // Against the independent solver (dual problem: A', C').
+    let p = crate::testutil::Problem {
+        a: a.transpose(),
+        b: c.transpose(),
+        q: q.clone(),
+        r: r.clone(),
+        s: None,
+    };
+    let x_ref = reference_dare(&p);
+    let err = (&sol.p - &x_ref).norm() / x_ref.norm();
+    assert!(
+        err < 1e-8,
+        "relative difference {err:.2e} from the reference"
+    );
+}

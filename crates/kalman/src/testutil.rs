@@ -102,8 +102,11 @@ pub fn random_problem(n: usize, seed: u64, kind: Kind) -> Problem {
     Problem { a, b, q, r, s }
 }
 
+/// Spectral radius (through the iteration-limited eigenvalue routine:
+/// nalgebra's own `complex_eigenvalues` can cycle for ever).
 fn spectral_radius(m: &DMatrix<f64>) -> f64 {
-    m.complex_eigenvalues()
+    crate::dare::eigenvalues(m)
+        .expect("eigenvalues converge")
         .iter()
         .map(|z| z.norm())
         .fold(0.0, f64::max)
