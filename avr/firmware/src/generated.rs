@@ -80,9 +80,9 @@ pub const KF16: kestrel_avr_rt::kalman16::Kalman16Tables<5, 4, 3> = kestrel_avr_
 /// The fast gradient's `M` rows with 16-bit coefficients.
 #[rustfmt::skip]
 pub const FGM16_M: [kestrel_avr_rt::kalman16::Row16<4>; 4] = [
-        kestrel_avr_rt::kalman16::Row16::new([18185, 17402, 18141, -1684], 16, 0),
-        kestrel_avr_rt::kalman16::Row16::new([17402, 16878, 17445, 1280], 16, 0),
-        kestrel_avr_rt::kalman16::Row16::new([18141, 17445, 18129, -592], 16, 0),
+        kestrel_avr_rt::kalman16::Row16::new([9093, 8701, 9071, -842], 15, 0),
+        kestrel_avr_rt::kalman16::Row16::new([8701, 8439, 8722, 640], 15, 0),
+        kestrel_avr_rt::kalman16::Row16::new([9071, 8722, 9065, -296], 15, 0),
         kestrel_avr_rt::kalman16::Row16::new([-842, 640, -296, 18658], 15, 0),
     ];
 /// The momentum table in Q1.15.

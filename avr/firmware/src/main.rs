@@ -491,6 +491,39 @@ fn fgm_bench(clock: &Timer1Clock) {
         send(Kind::Bench, 101, &b.to_payload());
     }
 
+    // Micro-benchmarks of the 16-bit kernels, 64 calls each (ids 102-105):
+    // round_shift by a run-time shift, mul_q15, a 4-term Row16 dot, and
+    // one Fgm16-sized row step (dot + round_shift).
+    {
+        use kestrel_avr_rt::kalman16::{Row16, mul_q15, round_shift};
+        let row = core::hint::black_box(Row16::new([12345i16, -23456, 7890, -321], 15, 0));
+        let v = core::hint::black_box([98_304i32, -40_000, 1_234_567, -7]);
+        let shift = core::hint::black_box(19u8);
+        let mut acc = 0i32;
+        let mut time = |id: u8, f: &mut dyn FnMut(i32) -> i32| {
+            let t0 = clock.now();
+            for k in 0..64i32 {
+                acc = acc.wrapping_add(f(core::hint::black_box(k)));
+            }
+            let cycles = clock.now().wrapping_sub(t0);
+            let b = Bench { id, ok: 1, iterations: 64, n: 4, p: 1, cycles };
+            send(Kind::Bench, id, &b.to_payload());
+        };
+        time(102, &mut |k| round_shift(core::hint::black_box(0x1234_5678_9abc + k as i64), shift));
+        time(103, &mut |k| mul_q15(core::hint::black_box(0x0123_4567 + k), -23456));
+        time(104, &mut |k| {
+            let mut w = v;
+            w[0] += k;
+            core::hint::black_box(row.dot(&w)) as i32
+        });
+        time(105, &mut |k| {
+            let mut w = v;
+            w[0] += k;
+            row.apply(&w)
+        });
+        core::hint::black_box(acc);
+    }
+
     let mut ws = FgmWorkspace::<S, N>::new();
     for (id, k) in [1u16, 12, 56, 91].into_iter().enumerate() {
         let t0 = clock.now();

@@ -414,20 +414,30 @@ pub struct Kalman16Design {
 }
 
 impl FirmwareDesign {
-    /// The rows of the fast gradient's `M` quantised for
-    /// [`crate::fgm16::Fgm16Law`].
+    /// The rows of the fast gradient's `M` in Q1.15 for
+    /// [`crate::fgm16::Fgm16Law`] (entries of 1 saturate to `1 - 2^-15`).
     ///
     /// # Errors
-    /// [`DesignError::Unsupported`] if an entry is 2^15 or larger.
+    /// [`DesignError::Unsupported`] if an entry is outside `[-1, 1]`.
     pub fn fgm16_m(&self) -> Result<Vec<QuantRow>, DesignError> {
         let n = self.data_f64.n;
+        let shift = crate::fgm16::M_SHIFT;
+        let scale = 2f64.powi(shift as i32);
         self.data_f64
             .m
             .chunks(n.max(1))
             .map(|r| {
-                quantize_row(r).ok_or_else(|| {
-                    DesignError::Unsupported("a fast-gradient M entry does not fit Q15.16".into())
-                })
+                if r.iter().any(|v| !v.is_finite() || v.abs() > 1.0 + 1e-9) {
+                    return Err(DesignError::Unsupported(
+                        "a fast-gradient M entry is outside [-1, 1]".into(),
+                    ));
+                }
+                let c: Vec<i16> = r
+                    .iter()
+                    .map(|v| (v * scale).round().clamp(-32768.0, 32767.0) as i16)
+                    .collect();
+                let start = c.iter().position(|v| *v != 0).unwrap_or(c.len());
+                Ok(QuantRow { c, shift, start })
             })
             .collect()
     }

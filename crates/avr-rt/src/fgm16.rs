@@ -50,6 +50,9 @@ use kestrel_fgm::FgmTables;
 #[derive(Clone, Debug)]
 pub struct Fgm16Law<S, const N: usize, const P: usize, const T: usize, const NU: usize> {
     setup: FgmTables<S, N, P, T>,
+    /// First non-zero column of each row of `lo_theta`, `hi_theta`,
+    /// `k_theta` (the tricopter's box depends on the throttle alone).
+    starts: [[u8; N]; 3],
     m: [Row16<N>; N],
     betas: [i16; T],
     nx: usize,
@@ -58,6 +61,11 @@ pub struct Fgm16Law<S, const N: usize, const P: usize, const T: usize, const NU:
     /// Last solution in scaled units (Q15.16), for warm starts.
     last: Option<[i32; N]>,
 }
+
+/// Fraction bits of every row of `M` (`|M_ij| <= 1` for `M = I - D H D / L`
+/// with `L >= lambda_max`, so Q1.15 holds it; a constant shift costs a few
+/// register moves on the AVR where a per-row one costs hundreds of cycles).
+pub const M_SHIFT: u8 = 15;
 
 /// The box and linear term of one solve in Q15.16.
 struct Box16<const N: usize> {
@@ -70,9 +78,40 @@ struct Box16<const N: usize> {
 #[allow(clippy::needless_range_loop)] // several arrays indexed together
 fn step<const N: usize>(m: &[Row16<N>; N], y: &[i32; N], b: &Box16<N>, w: &mut [i32; N]) {
     for i in 0..N {
-        let v = round_shift(m[i].dot(y), m[i].shift).saturating_add(b.c[i]);
+        let v = round_shift(m[i].dot(y), M_SHIFT).saturating_add(b.c[i]);
         w[i] = v.clamp(b.lo[i], b.hi[i]);
     }
+}
+
+/// The initial projected gradient step from `y` and `iterations`
+/// iterations, all in Q15.16; returns `z`. Not inlined: a small function
+/// of its own keeps its state in registers and a short stack frame on the
+/// AVR (inlined into the firmware's large `main`, every access to a local
+/// costs several instructions).
+#[inline(never)]
+#[allow(clippy::needless_range_loop)] // several arrays indexed together
+fn iterate<const N: usize>(
+    m: &[Row16<N>; N],
+    betas: &[i16],
+    b: &Box16<N>,
+    mut y: [i32; N],
+    iterations: u16,
+) -> [i32; N] {
+    let mut w = [0i32; N];
+    step(m, &y, b, &mut w);
+    let mut z = w;
+    y = w;
+    let last_beta = betas.last().copied().unwrap_or(0);
+    for k in 0..iterations as usize {
+        let beta = betas.get(k).copied().unwrap_or(last_beta);
+        step(m, &y, b, &mut w);
+        for i in 0..N {
+            let dz = w[i].saturating_sub(z[i]);
+            y[i] = w[i].saturating_add(mul_q15(dz, beta));
+            z[i] = w[i];
+        }
+    }
+    z
 }
 
 impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usize>
@@ -86,8 +125,8 @@ impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usiz
     /// # Errors
     /// [`Error::DimensionMismatch`] if `nx > P` or `NU > N`;
     /// [`Error::InvalidArgument`] without iterations, with an empty
-    /// momentum table or a row shift above 40; [`Error::NonFinite`] with
-    /// non-finite tables.
+    /// momentum table or a row of `M` not in Q1.15; [`Error::NonFinite`]
+    /// with non-finite tables.
     pub fn new(
         setup: FgmTables<S, N, P, T>,
         m: [Row16<N>; N],
@@ -113,8 +152,10 @@ impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usiz
                 "fast gradient with zero iterations or no momentum",
             ));
         }
-        if m.iter().any(|r| r.shift > 40) {
-            return Err(Error::InvalidArgument("M row shift above 40"));
+        if m.iter().any(|r| r.shift != M_SHIFT) {
+            return Err(Error::InvalidArgument(
+                "M rows must have 15 fraction bits (M_SHIFT)",
+            ));
         }
         let finite = setup.k_theta.is_finite()
             && setup.lo_theta.is_finite()
@@ -126,8 +167,21 @@ impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usiz
         if !finite {
             return Err(Error::NonFinite);
         }
+        let first = |rows: &[[S; P]; N]| -> [u8; N] {
+            core::array::from_fn(|i| {
+                rows.get(i)
+                    .and_then(|r| r.iter().position(|v| *v != S::ZERO))
+                    .unwrap_or(P) as u8
+            })
+        };
+        let starts = [
+            first(&setup.lo_theta.data),
+            first(&setup.hi_theta.data),
+            first(&setup.k_theta.data),
+        ];
         Ok(Fgm16Law {
             setup,
+            starts,
             m,
             betas,
             nx,
@@ -144,6 +198,7 @@ impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usiz
     /// [`Error::NonFinite`] for a non-finite theta (or a set-up that
     /// overflows), [`Error::Infeasible`] if the box is empty.
     #[allow(clippy::needless_range_loop)] // several arrays indexed together
+    #[inline(never)]
     pub fn solve(&mut self, theta: &[S; P]) -> Result<[S; N], Error> {
         if !all_finite(theta) {
             return Err(Error::NonFinite);
@@ -154,10 +209,18 @@ impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usiz
             hi: [0; N],
             c: [0; N],
         };
+        // Affine maps from theta, skipping each row's leading zeros.
+        let dot = |row: &[S; P], s: u8| -> S {
+            let s = (s as usize).min(P);
+            match (row.get(s..), theta.get(s..)) {
+                (Some(r), Some(t)) if !r.is_empty() => S::dot(r, t),
+                _ => S::ZERO,
+            }
+        };
         for i in 0..N {
-            let lo = S::dot(&t.lo_theta.data[i], theta) + t.lo0[i];
-            let hi = S::dot(&t.hi_theta.data[i], theta) + t.hi0[i];
-            let c = S::dot(&t.k_theta.data[i], theta) + t.k0[i];
+            let lo = dot(&t.lo_theta.data[i], self.starts[0][i]) + t.lo0[i];
+            let hi = dot(&t.hi_theta.data[i], self.starts[1][i]) + t.hi0[i];
+            let c = dot(&t.k_theta.data[i], self.starts[2][i]) + t.k0[i];
             b.lo[i] = lo.to_q16().ok_or(Error::NonFinite)?;
             b.hi[i] = hi.to_q16().ok_or(Error::NonFinite)?;
             b.c[i] = c.to_q16().ok_or(Error::NonFinite)?;
@@ -177,20 +240,7 @@ impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usiz
         for i in 0..N {
             y[i] = y[i].clamp(b.lo[i], b.hi[i]);
         }
-        let mut w = [0i32; N];
-        step(&self.m, &y, &b, &mut w);
-        let mut z = w;
-        y = w;
-        let last_beta = self.betas.last().copied().unwrap_or(0);
-        for k in 0..self.iterations as usize {
-            let beta = self.betas.get(k).copied().unwrap_or(last_beta);
-            step(&self.m, &y, &b, &mut w);
-            for i in 0..N {
-                let dz = w[i].saturating_sub(z[i]);
-                y[i] = w[i].saturating_add(mul_q15(dz, beta));
-                z[i] = w[i];
-            }
-        }
+        let z = iterate(&self.m, &self.betas, &b, y, self.iterations);
         self.last = Some(z);
         let mut out = [S::ZERO; N];
         for i in 0..N {

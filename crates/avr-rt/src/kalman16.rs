@@ -85,8 +85,9 @@ impl<const N: usize> Row16<N> {
 ///
 /// Written with constant shifts only (whole bytes, then 0-7 bits, picked
 /// by `match`): on the AVR a variable 64-bit shift is a library call of
-/// hundreds of cycles, a constant one a few register moves.
-#[inline]
+/// hundreds of cycles, a constant one a few register moves. Always
+/// inlined, so a constant `shift` folds the dispatch away.
+#[inline(always)]
 pub fn round_shift(acc: i64, shift: u8) -> i32 {
     if shift == 0 {
         return sat_i32(acc);
@@ -225,6 +226,36 @@ impl<S: RtScalar, const NX: usize, const NU: usize, const NY: usize> Kalman16<S,
     }
 }
 
+/// `e = y - y0 - C x`, `x <- x + M e` in Q15.16. Not inlined, so that it
+/// runs in a short stack frame of its own on the AVR.
+#[inline(never)]
+fn measure<const NX: usize, const NU: usize, const NY: usize>(
+    t: &Kalman16Tables<NX, NU, NY>,
+    x: &mut [i32; NX],
+    y: &[i32; NY],
+) {
+    let mut e = [0i32; NY];
+    for ((ei, yi), (row, y0)) in e.iter_mut().zip(y.iter()).zip(t.c.iter().zip(t.y0.iter())) {
+        *ei = yi.saturating_sub(*y0).saturating_sub(row.apply(x));
+    }
+    for (xi, row) in x.iter_mut().zip(t.m.iter()) {
+        *xi = add_sat(*xi, row.apply(&e));
+    }
+}
+
+/// `x <- x + (A - I) x + B u` in Q15.16 (not inlined, as [`measure`]).
+#[inline(never)]
+fn predict<const NX: usize, const NU: usize, const NY: usize>(
+    t: &Kalman16Tables<NX, NU, NY>,
+    x: &mut [i32; NX],
+    u: &[i32; NU],
+) {
+    let x0 = *x;
+    for ((xi, a), b) in x.iter_mut().zip(t.a.iter()).zip(t.b.iter()) {
+        *xi = add_sat(add_sat(*xi, a.apply(&x0)), b.apply(u));
+    }
+}
+
 fn to_q16<S: RtScalar, const N: usize>(v: &[S]) -> Result<[i32; N], Error> {
     check_len(v, N)?;
     let mut out = [0i32; N];
@@ -249,31 +280,13 @@ impl<S: RtScalar, const NX: usize, const NU: usize, const NY: usize> StateEstima
     }
     fn measurement_update(&mut self, y: &[S]) -> Result<(), Error> {
         let y: [i32; NY] = to_q16(y)?;
-        let mut e = [0i32; NY];
-        for ((ei, yi), (row, y0)) in e
-            .iter_mut()
-            .zip(y.iter())
-            .zip(self.tables.c.iter().zip(self.tables.y0.iter()))
-        {
-            *ei = yi.saturating_sub(*y0).saturating_sub(row.apply(&self.x));
-        }
-        for (xi, row) in self.x.iter_mut().zip(self.tables.m.iter()) {
-            *xi = add_sat(*xi, row.apply(&e));
-        }
+        measure(&self.tables, &mut self.x, &y);
         self.publish();
         Ok(())
     }
     fn time_update(&mut self, u: &[S]) -> Result<(), Error> {
         let u: [i32; NU] = to_q16(u)?;
-        let x = self.x;
-        for ((xi, a), b) in self
-            .x
-            .iter_mut()
-            .zip(self.tables.a.iter())
-            .zip(self.tables.b.iter())
-        {
-            *xi = add_sat(add_sat(*xi, a.apply(&x)), b.apply(&u));
-        }
+        predict(&self.tables, &mut self.x, &u);
         self.publish();
         Ok(())
     }

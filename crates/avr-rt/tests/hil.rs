@@ -579,16 +579,27 @@ fn fgm_bench(scalar_features: &[&str], scalar: &str) {
                 .iter()
                 .filter_map(|f| Bench::from_frame(f).ok()),
         );
-        if benches.len() == 6 {
+        if benches.len() == 10 {
             break;
         }
     }
-    assert_eq!(benches.len(), 6, "{scalar}: bench frames");
+    assert_eq!(benches.len(), 10, "{scalar}: bench frames");
     // First the Kalman-sized step (id 100), then the fast-gradient solves.
     let kalman = benches.remove(0);
     assert_eq!((kalman.id, kalman.n, kalman.p), (100, 5, 3));
     let narrow = benches.remove(0);
     assert_eq!((narrow.id, narrow.n, narrow.p), (101, 5, 3));
+    for (b, what) in benches.drain(..4).zip([
+        "round_shift",
+        "mul_q15",
+        "Row16::dot (4 terms)",
+        "Row16::apply (4 terms)",
+    ]) {
+        println!(
+            "{scalar} micro: {what}: {:.0} cycles per call (64 calls, loop included)",
+            b.cycles as f64 / 64.0
+        );
+    }
     println!(
         "kalman-sized step, Q16 states x 16-bit coefficients (narrow MAC): {} cycles ({:.3} ms)",
         narrow.cycles,
