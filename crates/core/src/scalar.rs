@@ -142,12 +142,14 @@ fn float_tr_mat_vec<S: Scalar, const R: usize, const C: usize>(
     x: &[S; R],
     out: &mut [S; C],
 ) {
-    *out = [S::ZERO; C];
+    // A local accumulator (kept in registers), stored once.
+    let mut acc = [S::ZERO; C];
     for (row, xj) in a.iter().zip(x.iter()) {
-        for (o, aji) in out.iter_mut().zip(row.iter()) {
+        for (o, aji) in acc.iter_mut().zip(row.iter()) {
             *o = o.mul_add(*aji, *xj);
         }
     }
+    *out = acc;
 }
 
 impl Scalar for f64 {
