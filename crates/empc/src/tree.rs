@@ -164,6 +164,12 @@ pub struct ExplicitController {
     pub stats: TreeStats,
 }
 
+/// A polytope `a x <= b` (rows of `p`) with an interior point.
+type Piece = (Vec<f64>, Vec<f64>, Vec<f64>);
+
+/// Candidates per node scored exactly (with LPs in the cell), after a cheap ranking.
+const EXACT_CANDIDATES: usize = 12;
+
 struct Builder<'a> {
     p: usize,
     scale: f64,
@@ -262,6 +268,22 @@ impl Builder<'_> {
         if let Some(&v) = self.serve_cache.get(&(l, r)) {
             return v;
         }
+        let (a, b, x0) = (
+            std::mem::take(&mut self.reg_a[r]),
+            std::mem::take(&mut self.reg_b[r]),
+            std::mem::take(&mut self.reg_center[r]),
+        );
+        let ok = self.serves_on(l, lr, &a, &b, &x0);
+        self.reg_a[r] = a;
+        self.reg_b[r] = b;
+        self.reg_center[r] = x0;
+        self.serve_cache.insert((l, r), ok);
+        ok
+    }
+
+    /// Whether law `l` clamped equals law `lr` on the polytope `a x <= b`
+    /// (with the interior point `x0`).
+    fn serves_on(&mut self, l: u16, lr: u16, a: &[f64], b: &[f64], x0: &[f64]) -> bool {
         let p = self.p;
         let w = p + 1;
         let mut ok = true;
@@ -283,20 +305,46 @@ impl Builder<'_> {
                 .map(|j| sign * (self.rows[rr * w + j] - self.rows[rl * w + j]))
                 .collect();
             let c0 = sign * (self.rows[rr * w + p] - self.rows[rl * w + p]);
-            let (st, v) =
-                self.lp
-                    .maximize_from(&c, &self.reg_a[r], &self.reg_b[r], &self.reg_center[r]);
+            let (st, v) = self.lp.maximize_from(&c, a, b, x0);
             if st != LpStatus::Optimal || v + c0 > self.clip_tol {
                 ok = false;
                 break;
             }
         }
-        self.serve_cache.insert((l, r), ok);
         ok
     }
 
-    /// A law that serves every region of the set (clipping), if any.
-    fn serving_law(&mut self, set: &[usize]) -> Option<u16> {
+    /// Region `r` intersected with the cell (rows, offsets) and an interior
+    /// point of it, if it is full-dimensional.
+    fn in_cell(&mut self, r: usize, cell: &[(Vec<f64>, f64)]) -> Option<Piece> {
+        let p = self.p;
+        let mut a = self.reg_a[r].clone();
+        let mut b = self.reg_b[r].clone();
+        for (ca, cb) in cell {
+            a.extend_from_slice(ca);
+            b.push(*cb);
+        }
+        let rows = b.len();
+        let mut la = Vec::with_capacity((rows + 1) * (p + 1));
+        for i in 0..rows {
+            la.extend_from_slice(&a[i * p..(i + 1) * p]);
+            la.push(1.0);
+        }
+        la.extend(std::iter::repeat_n(0.0, p));
+        la.push(1.0);
+        let mut lb = b.clone();
+        lb.push(self.scale);
+        let mut c = vec![0.0; p + 1];
+        c[p] = 1.0;
+        let mut x0: Vec<f64> = self.reg_center[r].iter().copied().chain([0.0]).collect();
+        slack_start(&la, &lb, &mut x0, p);
+        let (st, rad) = self.lp.maximize_from(&c, &la, &lb, &x0);
+        (st == LpStatus::Optimal && rad > 1e-9 * self.scale)
+            .then(|| (a, b, self.lp.x[..p].to_vec()))
+    }
+
+    /// A law that serves every region of the set within the cell (clipping), if any.
+    fn serving_law(&mut self, set: &[usize], cell: &[(Vec<f64>, f64)]) -> Option<u16> {
         let mut laws: Vec<(usize, u16)> = Vec::new();
         for &r in set {
             let l = self.law[r];
@@ -306,9 +354,80 @@ impl Builder<'_> {
             }
         }
         laws.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
-        laws.into_iter()
-            .map(|x| x.1)
-            .find(|&l| set.iter().all(|&r| self.serves(l, r)))
+        let mut pieces: Vec<Option<Option<Piece>>> = vec![None; set.len()];
+        'law: for (_, l) in laws {
+            for (i, &r) in set.iter().enumerate() {
+                if self.serves(l, r) {
+                    continue;
+                }
+                if cell.is_empty() {
+                    continue 'law;
+                }
+                if pieces[i].is_none() {
+                    pieces[i] = Some(self.in_cell(r, cell));
+                }
+                let Some(Some((a, b, x0))) = &pieces[i] else {
+                    continue 'law;
+                };
+                let (a, b, x0) = (a.clone(), b.clone(), x0.clone());
+                if !self.serves_on(l, self.law[r], &a, &b, &x0) {
+                    continue 'law;
+                }
+            }
+            return Some(l);
+        }
+        None
+    }
+
+    /// The split key of hyperplane `h` (distinct laws on the larger side,
+    /// then on both), `None` if it makes no progress. With `exact`, a
+    /// straddling region counts on a side only if it meets that side of the
+    /// cell in a full-dimensional set.
+    fn score(
+        &mut self,
+        h: usize,
+        set: &[usize],
+        cell: &mut Vec<(Vec<f64>, f64)>,
+        exact: bool,
+        n_laws: usize,
+    ) -> Option<(usize, usize)> {
+        let mut seen_l: Vec<u16> = Vec::new();
+        let mut seen_r: Vec<u16> = Vec::new();
+        let (mut nl, mut nr) = (0, 0);
+        for &r in set {
+            let (inl, inr) = match self.side(r, h) {
+                -1 => (true, false),
+                1 => (false, true),
+                _ if exact => {
+                    let (a, b) = self.hp[h].clone();
+                    cell.push((a.clone(), b));
+                    let l = self.meets(r, cell);
+                    cell.pop();
+                    cell.push((a.iter().map(|v| -v).collect(), -b));
+                    let rr = self.meets(r, cell);
+                    cell.pop();
+                    (l, rr)
+                }
+                _ => (true, true),
+            };
+            let law = self.law[r];
+            nl += usize::from(inl);
+            nr += usize::from(inr);
+            if inl && !seen_l.contains(&law) {
+                seen_l.push(law);
+            }
+            if inr && !seen_r.contains(&law) {
+                seen_r.push(law);
+            }
+        }
+        if nl == set.len() && nr == set.len() {
+            return None;
+        }
+        let (ll, lr) = (seen_l.len(), seen_r.len());
+        if exact && (ll >= n_laws || lr >= n_laws) {
+            return None; // no progress on one side
+        }
+        Some((ll.max(lr), ll + lr))
     }
 
     fn build(&mut self, set: Vec<usize>, cell: &mut Vec<(Vec<f64>, f64)>, depth: usize) -> u16 {
@@ -321,7 +440,7 @@ impl Builder<'_> {
             return LEAF | first_law;
         }
         if self.clipping
-            && let Some(l) = self.serving_law(&set)
+            && let Some(l) = self.serving_law(&set, cell)
         {
             return LEAF | l;
         }
@@ -340,58 +459,42 @@ impl Builder<'_> {
         if !exact {
             cands.truncate(self.max_candidates);
         }
-        let mut best: Option<(usize, usize, usize)> = None; // (h, max, sum)
         let n_laws = {
             let mut v: Vec<u16> = set.iter().map(|&r| self.law[r]).collect();
             v.sort_unstable();
             v.dedup();
             v.len()
         };
-        let mut seen_l: Vec<u16> = Vec::new();
-        let mut seen_r: Vec<u16> = Vec::new();
-        for &(h, _) in &cands {
-            // Score by the number of distinct laws left on each side.
-            seen_l.clear();
-            seen_r.clear();
-            let (mut nl, mut nr) = (0, 0);
-            for &r in &set {
-                let (inl, inr) = match self.side(r, h) {
-                    -1 => (true, false),
-                    1 => (false, true),
-                    _ if exact => {
-                        let (a, b) = self.hp[h].clone();
-                        cell.push((a.clone(), b));
-                        let l = self.meets(r, cell);
-                        cell.pop();
-                        cell.push((a.iter().map(|v| -v).collect(), -b));
-                        let rr = self.meets(r, cell);
-                        cell.pop();
-                        (l, rr)
-                    }
-                    _ => (true, true),
+        // Cheap scores (cell-free sides, straddlers on both sides) for all
+        // candidates; the best few are then scored exactly within the cell.
+        let mut scored: Vec<((usize, usize), usize)> = cands
+            .iter()
+            .filter_map(|&(h, _)| self.score(h, &set, cell, false, n_laws).map(|k| (k, h)))
+            .collect();
+        scored.sort_unstable();
+        let mut best: Option<((usize, usize), usize)> = None;
+        if exact {
+            for round in 0..2 {
+                let range = if round == 0 {
+                    0..scored.len().min(EXACT_CANDIDATES)
+                } else if best.is_none() {
+                    scored.len().min(EXACT_CANDIDATES)..scored.len()
+                } else {
+                    break;
                 };
-                let law = self.law[r];
-                nl += usize::from(inl);
-                nr += usize::from(inr);
-                if inl && !seen_l.contains(&law) {
-                    seen_l.push(law);
+                for i in range {
+                    let h = scored[i].1;
+                    if let Some(key) = self.score(h, &set, cell, true, n_laws)
+                        && best.is_none_or(|(k, _)| key < k)
+                    {
+                        best = Some((key, h));
+                    }
                 }
-                if inr && !seen_r.contains(&law) {
-                    seen_r.push(law);
-                }
             }
-            if nl == set.len() && nr == set.len() {
-                continue;
-            }
-            if seen_l.len() >= n_laws || seen_r.len() >= n_laws {
-                continue; // no progress on one side
-            }
-            let (ll, lr) = (seen_l.len(), seen_r.len());
-            let key = (ll.max(lr), ll + lr);
-            if best.is_none_or(|(_, m, s)| key < (m, s)) {
-                best = Some((h, key.0, key.1));
-            }
+        } else {
+            best = scored.first().copied();
         }
+        let best = best.map(|(k, h)| (h, k.0, k.1));
         let Some((h, _, _)) = best else {
             // No facet separates the laws: majority law.
             self.ambiguous += 1;
