@@ -46,7 +46,9 @@ use nalgebra::{Complex, DMatrix, DVector};
 pub struct DareSettings {
     /// Maximum number of doubling steps (each squares the convergence factor). Default 64.
     pub max_iterations: usize,
-    /// The doubling stops when `||H_{k+1} - H_k||_F <= tolerance ||H_{k+1}||_F`. Default 1e-15.
+    /// The doubling stops when `||H_{k+1} - H_k||_F <= tolerance ||H_{k+1}||_F`,
+    /// or when the quadratic convergence predicts that the next relative
+    /// increment (`delta_k^3 / delta_{k-1}^2`) is below it. Default 1e-15.
     pub tolerance: f64,
     /// Newton refinement runs when the relative residual exceeds this. Default 1e-13.
     pub refine_above: f64,
@@ -400,6 +402,7 @@ fn sda(
     let mut d = DMatrix::zeros(n, n);
     let mut piv = vec![0usize; n];
     let mut tmp = vec![0.0; n];
+    let mut previous_delta = 0.0f64;
     for it in 1..=settings.max_iterations {
         a.transpose_to(&mut at);
         // W = I + G H
@@ -432,7 +435,20 @@ fn sda(
         if !(dn.is_finite() && hn.is_finite()) {
             return None;
         }
-        if dn <= settings.tolerance * hn {
+        // Stop when the increment is below the tolerance, or when the
+        // quadratic convergence of the doubling predicts that the next one
+        // would be: increments behave like `delta_{k+1} = c delta_k^2`, with
+        // `c` estimated from the last two as `delta_k / delta_{k-1}^2`. This
+        // saves the last doubling step (the residual is checked afterwards
+        // and refined by Newton steps if it is not small enough).
+        let delta = dn / hn.max(f64::MIN_POSITIVE);
+        let predicted = if previous_delta > 0.0 && delta < 1e-3 {
+            delta * delta * (delta / (previous_delta * previous_delta))
+        } else {
+            f64::INFINITY
+        };
+        previous_delta = delta;
+        if dn <= settings.tolerance * hn || predicted <= settings.tolerance {
             let g0 = g0.norm();
             let growth = if g0 > 0.0 { g.norm() / g0 } else { 0.0 };
             return Some((h, it, growth));
@@ -512,7 +528,10 @@ fn invert_in_place(w: &mut DMatrix<f64>, piv: &mut [usize], tmp: &mut [f64]) -> 
 /// with several identical, decoupled actuator and disturbance modes a
 /// subdiagonal entry can stall just above that, and the iteration cycles
 /// for ever (see `dare_tests::repeated_decoupled_modes_do_not_hang`).
-/// Here the Schur decomposition gets a limit of `30 n + 30` sweeps
+/// The first attempt is [`crate::eig::hqr_eigenvalues`] (balancing,
+/// Hessenberg, Francis double shift with exceptional shifts, no Schur
+/// vectors: the fast path). Should it fail, nalgebra's
+/// Schur decomposition gets a limit of `30 n + 30` sweeps
 /// (LAPACK's `dhseqr` uses 30 per eigenvalue); when it is reached, the
 /// transpose is tried, then both with a deflation threshold of
 /// `64 eps` (an eigenvalue perturbation of order 1e-14 relative), then an
@@ -525,6 +544,9 @@ pub(crate) fn eigenvalues(m: &DMatrix<f64>) -> Option<DVector<Complex<f64>>> {
     }
     if !m.iter().all(|v| v.is_finite()) {
         return None;
+    }
+    if let Some(e) = crate::eig::hqr_eigenvalues(m) {
+        return Some(e);
     }
     let limit = 30 * n + 30;
     let attempt =

@@ -1,0 +1,442 @@
+//! Eigenvalues of a real square matrix without eigenvectors (feature `std`):
+//! balancing, reduction to Hessenberg form by stabilised elimination, and
+//! the Francis double-shift QR iteration with exceptional shifts and a
+//! limit of 30 iterations per eigenvalue (EISPACK `balanc`/`elmhes`/`hqr`,
+//! as in Numerical Recipes, 2nd ed., section 11.5-11.6).
+//!
+//! Why not nalgebra: its `complex_eigenvalues` has no iteration limit and
+//! cycled for ever on a Kalman closed loop with repeated decoupled modes,
+//! and its `Schur::try_new` (which has a limit) always accumulates the
+//! Schur vectors, which made the eigenvalues a third of `dare`'s time at
+//! n = 20. This routine needs no eigenvectors and has exceptional shifts.
+//! [`crate::dare::eigenvalues`] falls back to nalgebra's `Schur::try_new`
+//! should it ever fail.
+
+use nalgebra::{Complex, DMatrix, DVector};
+
+/// A 1-indexed dense square matrix (row-major), so the classical
+/// algorithms read as published.
+struct Mat1 {
+    n: usize,
+    data: Vec<f64>,
+}
+
+impl Mat1 {
+    #[inline(always)]
+    fn at(&self, i: usize, j: usize) -> f64 {
+        self.data[i * (self.n + 1) + j]
+    }
+    #[inline(always)]
+    fn set(&mut self, i: usize, j: usize, v: f64) {
+        let n = self.n;
+        self.data[i * (n + 1) + j] = v;
+    }
+    #[inline(always)]
+    fn sub(&mut self, i: usize, j: usize, v: f64) {
+        let n = self.n;
+        self.data[i * (n + 1) + j] -= v;
+    }
+}
+
+/// Eigenvalues of `m` (any order), or `None` when the QR iteration needs
+/// more than 30 iterations for one eigenvalue or the matrix is not finite.
+pub(crate) fn hqr_eigenvalues(m: &DMatrix<f64>) -> Option<DVector<Complex<f64>>> {
+    let n = m.nrows();
+    if m.ncols() != n || !m.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let mut a = Mat1 {
+        n,
+        data: vec![0.0; (n + 1) * (n + 1)],
+    };
+    for i in 1..=n {
+        for j in 1..=n {
+            a.set(i, j, m[(i - 1, j - 1)]);
+        }
+    }
+    balance(&mut a);
+    hessenberg(&mut a);
+    let (wr, wi) = hqr(&mut a)?;
+    Some(DVector::from_fn(n, |i, _| {
+        Complex::new(wr[i + 1], wi[i + 1])
+    }))
+}
+
+/// Diagonal similarity by powers of 2 so that rows and columns have
+/// comparable norms (`balanc`).
+fn balance(a: &mut Mat1) {
+    const RADIX: f64 = 2.0;
+    let n = a.n;
+    let sqrdx = RADIX * RADIX;
+    let mut done = false;
+    let mut sweeps = 0;
+    while !done && sweeps < 100 {
+        done = true;
+        sweeps += 1;
+        for i in 1..=n {
+            let (mut r, mut c) = (0.0, 0.0);
+            for j in 1..=n {
+                if j != i {
+                    c += a.at(j, i).abs();
+                    r += a.at(i, j).abs();
+                }
+            }
+            if c != 0.0 && r != 0.0 {
+                let mut g = r / RADIX;
+                let mut f = 1.0;
+                let s = c + r;
+                while c < g {
+                    f *= RADIX;
+                    c *= sqrdx;
+                }
+                g = r * RADIX;
+                while c > g {
+                    f /= RADIX;
+                    c /= sqrdx;
+                }
+                if (c + r) / f < 0.95 * s {
+                    done = false;
+                    let g = 1.0 / f;
+                    for j in 1..=n {
+                        let v = a.at(i, j) * g;
+                        a.set(i, j, v);
+                    }
+                    for j in 1..=n {
+                        let v = a.at(j, i) * f;
+                        a.set(j, i, v);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Reduction to upper Hessenberg form by elimination with pivoting
+/// (`elmhes`); the entries below the subdiagonal are zeroed.
+fn hessenberg(a: &mut Mat1) {
+    let n = a.n;
+    for m in 2..n {
+        let mut x = 0.0f64;
+        let mut i = m;
+        for j in m..=n {
+            if a.at(j, m - 1).abs() > x.abs() {
+                x = a.at(j, m - 1);
+                i = j;
+            }
+        }
+        if i != m {
+            for j in (m - 1)..=n {
+                let (u, v) = (a.at(i, j), a.at(m, j));
+                a.set(i, j, v);
+                a.set(m, j, u);
+            }
+            for j in 1..=n {
+                let (u, v) = (a.at(j, i), a.at(j, m));
+                a.set(j, i, v);
+                a.set(j, m, u);
+            }
+        }
+        if x != 0.0 {
+            for i in (m + 1)..=n {
+                let mut y = a.at(i, m - 1);
+                if y != 0.0 {
+                    y /= x;
+                    a.set(i, m - 1, y);
+                    for j in m..=n {
+                        let v = y * a.at(m, j);
+                        a.sub(i, j, v);
+                    }
+                    for j in 1..=n {
+                        let v = y * a.at(j, i);
+                        a.sub(j, m, -v);
+                    }
+                }
+            }
+        }
+    }
+    for i in 3..=n {
+        for j in 1..=(i - 2) {
+            a.set(i, j, 0.0);
+        }
+    }
+}
+
+#[inline(always)]
+fn sign(a: f64, b: f64) -> f64 {
+    if b >= 0.0 { a.abs() } else { -a.abs() }
+}
+
+/// Francis double-shift QR on an upper Hessenberg matrix (`hqr`); returns
+/// the real and imaginary parts (1-indexed), `None` after 30 iterations on
+/// one eigenvalue.
+#[allow(clippy::many_single_char_names)]
+fn hqr(a: &mut Mat1) -> Option<(Vec<f64>, Vec<f64>)> {
+    let n = a.n;
+    let mut wr = vec![0.0; n + 1];
+    let mut wi = vec![0.0; n + 1];
+    let mut anorm = 0.0;
+    for i in 1..=n {
+        for j in i.saturating_sub(1).max(1)..=n {
+            anorm += a.at(i, j).abs();
+        }
+    }
+    let mut nn = n;
+    let mut t = 0.0;
+    let (mut p, mut q, mut r): (f64, f64, f64);
+    let (mut x, mut y, mut z, mut w): (f64, f64, f64, f64);
+    while nn >= 1 {
+        let mut its = 0;
+        loop {
+            let mut l = nn;
+            while l >= 2 {
+                let mut s = a.at(l - 1, l - 1).abs() + a.at(l, l).abs();
+                if s == 0.0 {
+                    s = anorm;
+                }
+                if a.at(l, l - 1).abs() + s == s {
+                    a.set(l, l - 1, 0.0);
+                    break;
+                }
+                l -= 1;
+            }
+            x = a.at(nn, nn);
+            if l == nn {
+                wr[nn] = x + t;
+                wi[nn] = 0.0;
+                nn -= 1;
+            } else {
+                y = a.at(nn - 1, nn - 1);
+                w = a.at(nn, nn - 1) * a.at(nn - 1, nn);
+                if l == nn - 1 {
+                    p = 0.5 * (y - x);
+                    q = p * p + w;
+                    z = q.abs().sqrt();
+                    x += t;
+                    if q >= 0.0 {
+                        z = p + sign(z, p);
+                        wr[nn - 1] = x + z;
+                        wr[nn] = x + z;
+                        if z != 0.0 {
+                            wr[nn] = x - w / z;
+                        }
+                        wi[nn - 1] = 0.0;
+                        wi[nn] = 0.0;
+                    } else {
+                        wr[nn - 1] = x + p;
+                        wr[nn] = x + p;
+                        wi[nn - 1] = -z;
+                        wi[nn] = z;
+                    }
+                    nn -= 2;
+                } else {
+                    if its == 30 {
+                        return None;
+                    }
+                    if its == 10 || its == 20 {
+                        // Exceptional shift.
+                        t += x;
+                        for i in 1..=nn {
+                            a.sub(i, i, x);
+                        }
+                        let s = a.at(nn, nn - 1).abs() + a.at(nn - 1, nn - 2).abs();
+                        x = 0.75 * s;
+                        y = x;
+                        w = -0.4375 * s * s;
+                    }
+                    its += 1;
+                    let mut m = nn - 2;
+                    loop {
+                        z = a.at(m, m);
+                        r = x - z;
+                        let s0 = y - z;
+                        p = (r * s0 - w) / a.at(m + 1, m) + a.at(m, m + 1);
+                        q = a.at(m + 1, m + 1) - z - r - s0;
+                        r = a.at(m + 2, m + 1);
+                        let s = p.abs() + q.abs() + r.abs();
+                        p /= s;
+                        q /= s;
+                        r /= s;
+                        if m == l {
+                            break;
+                        }
+                        let u = a.at(m, m - 1).abs() * (q.abs() + r.abs());
+                        let v = p.abs()
+                            * (a.at(m - 1, m - 1).abs() + z.abs() + a.at(m + 1, m + 1).abs());
+                        if u + v == v {
+                            break;
+                        }
+                        m -= 1;
+                    }
+                    for i in (m + 2)..=nn {
+                        a.set(i, i - 2, 0.0);
+                        if i != m + 2 {
+                            a.set(i, i - 3, 0.0);
+                        }
+                    }
+                    let mut k = m;
+                    while k < nn {
+                        if k != m {
+                            p = a.at(k, k - 1);
+                            q = a.at(k + 1, k - 1);
+                            r = 0.0;
+                            if k != nn - 1 {
+                                r = a.at(k + 2, k - 1);
+                            }
+                            x = p.abs() + q.abs() + r.abs();
+                            if x != 0.0 {
+                                p /= x;
+                                q /= x;
+                                r /= x;
+                            }
+                        }
+                        let s = sign((p * p + q * q + r * r).sqrt(), p);
+                        if s != 0.0 {
+                            if k == m {
+                                if l != m {
+                                    let v = -a.at(k, k - 1);
+                                    a.set(k, k - 1, v);
+                                }
+                            } else {
+                                a.set(k, k - 1, -s * x);
+                            }
+                            p += s;
+                            x = p / s;
+                            y = q / s;
+                            z = r / s;
+                            q /= p;
+                            r /= p;
+                            for j in k..=nn {
+                                p = a.at(k, j) + q * a.at(k + 1, j);
+                                if k != nn - 1 {
+                                    p += r * a.at(k + 2, j);
+                                    a.sub(k + 2, j, p * z);
+                                }
+                                a.sub(k + 1, j, p * y);
+                                a.sub(k, j, p * x);
+                            }
+                            let mmin = if nn < k + 3 { nn } else { k + 3 };
+                            for i in l..=mmin {
+                                p = x * a.at(i, k) + y * a.at(i, k + 1);
+                                if k != nn - 1 {
+                                    p += z * a.at(i, k + 2);
+                                    a.sub(i, k + 2, p * r);
+                                }
+                                a.sub(i, k + 1, p * q);
+                                a.sub(i, k, p);
+                            }
+                        }
+                        k += 1;
+                    }
+                }
+            }
+            if nn < 2 || l + 1 >= nn {
+                break;
+            }
+        }
+    }
+    if !(wr.iter().all(|v| v.is_finite()) && wi.iter().all(|v| v.is_finite())) {
+        return None;
+    }
+    Some((wr, wi))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::Rng;
+
+    /// Sorted (by real, then imaginary part) copy.
+    fn sorted(v: &DVector<Complex<f64>>) -> Vec<Complex<f64>> {
+        let mut s: Vec<_> = v.iter().copied().collect();
+        s.sort_by(|a, b| a.re.total_cmp(&b.re).then(a.im.total_cmp(&b.im)));
+        s
+    }
+
+    /// Every eigenvalue of `e` is an eigenvalue of `m`: the smallest
+    /// singular value of `m - z I` is tiny. Independent of any QR code.
+    fn check_is_spectrum(m: &DMatrix<f64>, e: &DVector<Complex<f64>>, tol: f64) {
+        let n = m.nrows();
+        assert_eq!(e.len(), n);
+        let norm = m.norm().max(1e-300);
+        for z in e.iter() {
+            let shifted =
+                m.map(|v| Complex::new(v, 0.0)) - DMatrix::<Complex<f64>>::identity(n, n) * *z;
+            let smin = shifted.singular_values().min();
+            assert!(
+                smin <= tol * norm,
+                "{z}: smallest singular value {smin:.2e}"
+            );
+        }
+        // Trace and (for small n) determinant agree.
+        let tr: Complex<f64> = e.iter().sum();
+        assert!((tr.re - m.trace()).abs() <= 1e-10 * norm * n as f64);
+        assert!(tr.im.abs() <= 1e-10 * norm * n as f64);
+    }
+
+    #[test]
+    fn random_matrices_match_nalgebra() {
+        let mut rng = Rng::new(3);
+        for n in [1usize, 2, 3, 4, 5, 8, 13, 20, 33, 60] {
+            for _ in 0..3 {
+                let m = rng.matrix(n, n);
+                let e = hqr_eigenvalues(&m).expect("converges");
+                check_is_spectrum(&m, &e, 1e-10);
+                let reference = m.complex_eigenvalues();
+                for (a, b) in sorted(&e).iter().zip(sorted(&reference).iter()) {
+                    assert!(
+                        (a - b).norm() < 1e-9 * (1.0 + b.norm()),
+                        "n={n}: {a} vs {b}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn known_spectra() {
+        // Rotation by 0.3 rad scaled by 0.9: 0.9 e^{+-0.3 i}.
+        let (c, s) = (0.9 * 0.3f64.cos(), 0.9 * 0.3f64.sin());
+        let m = DMatrix::from_row_slice(2, 2, &[c, -s, s, c]);
+        let e = sorted(&hqr_eigenvalues(&m).unwrap());
+        assert!((e[0] - Complex::new(c, -s)).norm() < 1e-15);
+        assert!((e[1] - Complex::new(c, s)).norm() < 1e-15);
+        // Companion matrix of (z - 1)(z - 2)(z - 3)(z + 0.5) = z^4 - 5.5 z^3 + 8 z^2 - 0.5 z - 3.
+        let m = DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                5.5, -8.0, 0.5, 3.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+            ],
+        );
+        let e = sorted(&hqr_eigenvalues(&m).unwrap());
+        for (z, want) in e.iter().zip([-0.5, 1.0, 2.0, 3.0]) {
+            assert!(
+                (z - Complex::new(want, 0.0)).norm() < 1e-12,
+                "{z} vs {want}"
+            );
+        }
+        // Zero, identity, Jordan block, badly scaled (balancing), empty.
+        assert!(
+            hqr_eigenvalues(&DMatrix::zeros(3, 3))
+                .unwrap()
+                .iter()
+                .all(|z| z.norm() == 0.0)
+        );
+        let e = hqr_eigenvalues(&DMatrix::identity(5, 5)).unwrap();
+        assert!(
+            e.iter()
+                .all(|z| (z - Complex::new(1.0, 0.0)).norm() < 1e-15)
+        );
+        let j = DMatrix::from_row_slice(3, 3, &[0.5, 1.0, 0.0, 0.0, 0.5, 1.0, 0.0, 0.0, 0.5]);
+        let e = hqr_eigenvalues(&j).unwrap();
+        assert!(e.iter().all(|z| (z - Complex::new(0.5, 0.0)).norm() < 1e-5));
+        let d = DMatrix::from_diagonal(&DVector::from_vec(vec![1e-8, 1.0, 1e8]));
+        let mut rng = Rng::new(9);
+        let p = rng.matrix(3, 3) + DMatrix::identity(3, 3) * 3.0;
+        let m = &p * &d * p.clone().try_inverse().unwrap();
+        let e = sorted(&hqr_eigenvalues(&m).unwrap());
+        assert!((e[2].re / 1e8 - 1.0).abs() < 1e-9 && (e[1].re - 1.0).abs() < 1e-6);
+        assert_eq!(hqr_eigenvalues(&DMatrix::zeros(0, 0)).unwrap().len(), 0);
+        assert!(hqr_eigenvalues(&DMatrix::from_element(2, 2, f64::NAN)).is_none());
+    }
+}
