@@ -25,6 +25,22 @@ pub enum Method {
     Pem,
 }
 
+/// What the PEM step fits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum PemFocus {
+    /// One-step prediction errors over `A, B, C, (D), K` (MATLAB's default).
+    #[default]
+    Prediction,
+    /// Simulation errors with `K = 0` (output-error model).
+    Simulation,
+    /// Simulation errors for `A, B, C, (D)`, then the noise model `K` by
+    /// one-step prediction with the dynamics fixed: the simulation fit of
+    /// an output-error model and the k-step predictions of a Kalman
+    /// predictor on top of it. Suits near-integrating plants flown in
+    /// closed loop, where the one-step optimum drifts in simulation.
+    SimulationThenNoise,
+}
+
 /// A linear map of the inputs before identification, `u_new = M u`
 /// (e.g. the tricopter mixer's virtual inputs).
 #[derive(Clone, Debug, PartialEq)]
@@ -56,6 +72,93 @@ impl InputMap {
     }
 }
 
+/// A time interval, optionally restricted to one experiment (flight) of
+/// the data: `"2@181.66:219.60"` is the interval in the second experiment
+/// (1-based, in the order the experiments were loaded or merged), a plain
+/// `"181.66:219.60"` takes the interval from every experiment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Segment {
+    /// The experiment (0-based index); `None`: every experiment.
+    pub experiment: Option<usize>,
+    /// The interval in the units of the time column.
+    pub interval: TimeInterval,
+}
+
+impl Segment {
+    /// An interval taken from every experiment.
+    pub fn all(interval: TimeInterval) -> Self {
+        Segment {
+            experiment: None,
+            interval,
+        }
+    }
+
+    /// Parses a comma-separated list of `[N@]start:end` (N 1-based).
+    pub fn parse_list(text: &str) -> Result<Vec<Segment>> {
+        text.split(',')
+            .filter(|s| !s.trim().is_empty())
+            .map(|part| {
+                let (exp, iv) = match part.split_once('@') {
+                    Some((n, iv)) => {
+                        let n: usize = n.trim().parse().map_err(|_| {
+                            SysidError::invalid(format!(
+                                "segment \"{part}\": \"{n}\" is not an experiment number (1, 2, ...)"
+                            ))
+                        })?;
+                        if n == 0 {
+                            return Err(SysidError::invalid(format!(
+                                "segment \"{part}\": experiments are numbered from 1"
+                            )));
+                        }
+                        (Some(n - 1), iv)
+                    }
+                    None => (None, part),
+                };
+                let ivs = TimeInterval::parse_list(iv)?;
+                match ivs.as_slice() {
+                    [one] => Ok(Segment {
+                        experiment: exp,
+                        interval: *one,
+                    }),
+                    _ => Err(SysidError::invalid(format!(
+                        "segment \"{part}\" is not [N@]start:end"
+                    ))),
+                }
+            })
+            .collect()
+    }
+}
+
+/// The samples of `data` in the segments, every piece its own experiment.
+pub fn select_segments(data: &IoData, segments: &[Segment]) -> Result<IoData> {
+    let mut parts = Vec::with_capacity(segments.len());
+    for s in segments {
+        let part = match s.experiment {
+            None => data.select(&[s.interval])?,
+            Some(i) => {
+                let e = data.experiments().get(i).ok_or_else(|| {
+                    SysidError::invalid(format!(
+                        "segment {}@{}:{}: the data have {} experiment(s)",
+                        i + 1,
+                        s.interval.start,
+                        s.interval.end,
+                        data.experiments().len()
+                    ))
+                })?;
+                IoData::from_experiments(
+                    data.ts(),
+                    data.input_names().to_vec(),
+                    data.output_names().to_vec(),
+                    vec![e.clone()],
+                )?
+                .select(&[s.interval])?
+            }
+        };
+        parts.push(part);
+    }
+    IoData::merge(&parts)
+}
+
 /// Zero-phase Butterworth low-pass applied to inputs and outputs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Lowpass {
@@ -68,10 +171,10 @@ pub struct Lowpass {
 /// What to identify and how: the library form of `kestrel identify`'s flags.
 #[derive(Clone, Debug, PartialEq)]
 pub struct IdentifySpec {
-    /// Estimation intervals (time units of the data); empty: all data.
-    pub estimate: Vec<TimeInterval>,
-    /// Validation intervals; empty: validate on the estimation data.
-    pub validate: Vec<TimeInterval>,
+    /// Estimation segments (time units of the data); empty: all data.
+    pub estimate: Vec<Segment>,
+    /// Validation segments; empty: validate on the estimation data.
+    pub validate: Vec<Segment>,
     /// Model order; `None`: suggested from the singular values.
     pub order: Option<usize>,
     /// Reduce to this order by balanced truncation.
@@ -85,7 +188,7 @@ pub struct IdentifySpec {
     /// N4SID horizon (block rows); `None`: chosen from the order.
     pub horizon: Option<usize>,
     /// PEM focus.
-    pub focus: Focus,
+    pub focus: PemFocus,
     /// Estimate a feed-through `D`.
     pub feedthrough: bool,
     /// Largest number of PEM iterations.
@@ -114,7 +217,7 @@ impl Default for IdentifySpec {
             method: Method::Pem,
             weighting: Weighting::Moesp,
             horizon: None,
-            focus: Focus::Prediction,
+            focus: PemFocus::Prediction,
             feedthrough: false,
             max_iterations: 30,
             input_map: None,
@@ -184,6 +287,8 @@ pub struct IdentifyReport {
     pub n4sid: N4sidSummary,
     /// The PEM step (`None` for [`Method::N4sid`]).
     pub pem: Option<PemSummary>,
+    /// The noise-model stage of [`PemFocus::SimulationThenNoise`].
+    pub pem_noise: Option<PemSummary>,
     /// The model of the identified order (before reduction).
     pub full_model: InnovationModel,
     /// The reduction step, when asked for.
@@ -229,6 +334,13 @@ impl fmt::Display for IdentifyReport {
             writeln!(
                 f,
                 "PEM: {} iterations, {} free parameters, cost {:.6} -> {:.6}, stopped: {:?}",
+                p.iterations, p.free_parameters, p.initial_cost, p.cost, p.stop
+            )?;
+        }
+        if let Some(p) = &self.pem_noise {
+            writeln!(
+                f,
+                "PEM noise model (K, dynamics fixed): {} iterations, {} free parameters, one-step cost {:.6} -> {:.6}, stopped: {:?}",
                 p.iterations, p.free_parameters, p.initial_cost, p.cost, p.stop
             )?;
         }
@@ -284,12 +396,12 @@ fn offset_vec(
 /// low-pass, N4SID, PEM, `balred`, zeros and the validation table.
 ///
 /// ```
-/// use kestrel_sysid::{synthetic, workflow::{identify, IdentifySpec}, TimeInterval};
+/// use kestrel_sysid::{synthetic, workflow::{identify, IdentifySpec, Segment}};
 /// let truth = synthetic::random_model(2, 2, 1, 9, 0.9);
 /// let data = synthetic::simulate(&truth, 1200, 0.05, 3).unwrap();
 /// let spec = IdentifySpec {
-///     estimate: vec![TimeInterval::new(0.0, 799.0).unwrap()],
-///     validate: vec![TimeInterval::new(800.0, 1199.0).unwrap()],
+///     estimate: Segment::parse_list("0:799").unwrap(),
+///     validate: Segment::parse_list("1@800:1199").unwrap(),
 ///     order: Some(2),
 ///     ..Default::default()
 /// };
@@ -306,12 +418,12 @@ pub fn identify(data: &IoData, spec: &IdentifySpec) -> Result<IdentifyReport> {
     let est = if spec.estimate.is_empty() {
         data.clone()
     } else {
-        data.select(&spec.estimate)?
+        select_segments(&data, &spec.estimate)?
     };
     let val = if spec.validate.is_empty() {
         None
     } else {
-        Some(data.select(&spec.validate)?)
+        Some(select_segments(&data, &spec.validate)?)
     };
     let means = est.means();
     let u0 = match (&spec.input_map, &spec.u0) {
@@ -341,24 +453,37 @@ pub fn identify(data: &IoData, spec: &IdentifySpec) -> Result<IdentifyReport> {
         suggested_order: start.suggested_order,
         horizon: start.horizon,
     };
-    let (full_model, pem_summary) = match spec.method {
-        Method::N4sid => (start.model, None),
+    let summary = |r: &crate::pem::PemResult| PemSummary {
+        iterations: r.iterations,
+        free_parameters: r.free_parameters,
+        initial_cost: r.initial_cost,
+        cost: r.cost,
+        stop: r.stop,
+    };
+    let (full_model, pem_summary, pem_noise) = match spec.method {
+        Method::N4sid => (start.model, None, None),
         Method::Pem => {
             let settings = PemSettings {
-                focus: spec.focus,
+                focus: match spec.focus {
+                    PemFocus::Prediction => Focus::Prediction,
+                    _ => Focus::Simulation,
+                },
                 feedthrough: spec.feedthrough,
                 max_iterations: spec.max_iterations,
                 ..Default::default()
             };
             let r = pem(&est, &start.model, &settings)?;
-            let s = PemSummary {
-                iterations: r.iterations,
-                free_parameters: r.free_parameters,
-                initial_cost: r.initial_cost,
-                cost: r.cost,
-                stop: r.stop,
-            };
-            (r.model, Some(s))
+            if spec.focus == PemFocus::SimulationThenNoise {
+                let noise = PemSettings {
+                    focus: Focus::Prediction,
+                    fixed_dynamics: true,
+                    ..settings
+                };
+                let r2 = pem(&est, &r.model, &noise)?;
+                (r2.model.clone(), Some(summary(&r)), Some(summary(&r2)))
+            } else {
+                (r.model.clone(), Some(summary(&r)), None)
+            }
         }
     };
     let (model, reduction) = match spec.reduce {
@@ -402,6 +527,7 @@ pub fn identify(data: &IoData, spec: &IdentifySpec) -> Result<IdentifyReport> {
         output_names: est.output_names().to_vec(),
         n4sid: n4sid_summary,
         pem: pem_summary,
+        pem_noise,
         full_model,
         reduction,
         model,
@@ -426,17 +552,21 @@ mod tests {
     fn identify_matches_the_separate_steps() {
         let d = data();
         let spec = IdentifySpec {
-            estimate: vec![TimeInterval::new(0.0, 799.0).unwrap()],
-            validate: vec![TimeInterval::new(800.0, 1199.0).unwrap()],
+            estimate: vec![Segment::all(TimeInterval::new(0.0, 799.0).unwrap())],
+            validate: vec![Segment::all(TimeInterval::new(800.0, 1199.0).unwrap())],
             order: Some(3),
             reduce: Some(2),
             ..Default::default()
         };
         let r = identify(&d, &spec).unwrap();
         // The same steps by hand.
-        let est = d.select(&spec.estimate).unwrap();
+        let est = d.select(&[spec.estimate[0].interval]).unwrap();
         let (est, off) = est.remove_means().unwrap();
-        let val = d.select(&spec.validate).unwrap().subtract(&off).unwrap();
+        let val = d
+            .select(&[spec.validate[0].interval])
+            .unwrap()
+            .subtract(&off)
+            .unwrap();
         let start = n4sid(
             &est,
             &N4sidSettings {
@@ -504,6 +634,34 @@ mod tests {
         assert_eq!(r.offsets.u0.as_slice(), &[3.0]);
         assert_eq!(r.input_names, vec!["s".to_string()]);
         assert!(r.pem.is_none() && !r.on_validation_data);
+    }
+
+    #[test]
+    fn segments_pick_intervals_of_one_experiment() {
+        let a =
+            synthetic::simulate(&synthetic::random_model(2, 1, 1, 1, 0.9), 100, 0.1, 1).unwrap();
+        let b =
+            synthetic::simulate(&synthetic::random_model(2, 1, 1, 2, 0.9), 100, 0.1, 2).unwrap();
+        let d = IoData::merge(&[a.clone(), b.clone()]).unwrap();
+        let segs = Segment::parse_list("2@10:19, 1@0:4,50:59").unwrap();
+        assert_eq!(segs[0].experiment, Some(1));
+        assert_eq!(segs[2].experiment, None);
+        let s = select_segments(&d, &segs).unwrap();
+        let lens: Vec<usize> = s.experiments().iter().map(|e| e.len()).collect();
+        assert_eq!(lens, vec![10, 5, 10, 10]);
+        assert_eq!(
+            s.experiments()[0].y,
+            b.experiments()[0].y.rows(10, 10).into_owned()
+        );
+        assert_eq!(
+            s.experiments()[1].u,
+            a.experiments()[0].u.rows(0, 5).into_owned()
+        );
+        for bad in ["0@1:2", "x@1:2", "1@2:1", "1@1:2:3"] {
+            assert!(Segment::parse_list(bad).is_err(), "{bad}");
+        }
+        let e = select_segments(&d, &Segment::parse_list("3@1:2").unwrap()).unwrap_err();
+        assert!(e.to_string().contains("2 experiment(s)"), "{e}");
     }
 
     #[test]

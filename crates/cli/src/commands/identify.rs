@@ -2,8 +2,8 @@
 
 use crate::io;
 use anyhow::{Context, bail};
-use kestrel_sysid::workflow::{self, IdentifySpec, InputMap, Lowpass};
-use kestrel_sysid::{CsvColumns, Focus, IoData, TimeInterval, Weighting};
+use kestrel_sysid::workflow::{self, IdentifySpec, InputMap, Lowpass, PemFocus, Segment};
+use kestrel_sysid::{CsvColumns, IoData, Weighting};
 use std::path::PathBuf;
 
 /// Identification method.
@@ -31,6 +31,9 @@ pub enum FocusArg {
     Prediction,
     /// Simulation errors (K = 0).
     Simulation,
+    /// Simulation errors for A, B, C (D), then K by one-step prediction
+    /// with the dynamics fixed (output-error model plus Kalman predictor).
+    SimulationThenNoise,
 }
 
 /// Identifies a discrete-time innovation-form model `x+ = Ax + B(u-u0) + Ke`,
@@ -39,9 +42,12 @@ pub enum FocusArg {
 /// table (simulation fit, k-step fits, persistence baseline, residual tests).
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// CSV log with a header row.
-    #[arg(long)]
-    pub data: PathBuf,
+    /// CSV log(s) with a header row, comma separated or repeated; several
+    /// files are merged as separate experiments (flights), numbered 1, 2,
+    /// ... in the order given (a file with an `experiment` column adds one
+    /// experiment per value).
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub data: Vec<PathBuf>,
     /// Input columns, comma separated (e.g. pwm1,pwm2,pwm3,servo).
     #[arg(long, value_delimiter = ',', required = true)]
     pub inputs: Vec<String>,
@@ -49,10 +55,11 @@ pub struct Args {
     #[arg(long, value_delimiter = ',', required = true)]
     pub outputs: Vec<String>,
     /// Estimation intervals `start:end,...` in seconds of the `t` column
-    /// (row indices when there is none); default: all data.
+    /// (row indices when there is none), each optionally prefixed `N@` to
+    /// take it from experiment N only (e.g. `2@108.9:165.8`); default: all data.
     #[arg(long)]
     pub estimate: Option<String>,
-    /// Validation intervals; default: the estimation data.
+    /// Validation intervals (same syntax); default: the estimation data.
     #[arg(long)]
     pub validate: Option<String>,
     /// Model order; default: suggested from the singular values.
@@ -116,34 +123,38 @@ pub struct Args {
 /// Runs the command: the library's [`kestrel_sysid::workflow::identify`]
 /// with the flags as its [`IdentifySpec`].
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let src = args.data.display().to_string();
     let mut cols = CsvColumns::new(&[], &[]);
     cols.inputs = args.inputs.clone();
     cols.outputs = args.outputs.clone();
     cols.ts = args.ts;
-    let data = IoData::read_csv(&args.data, &cols).with_context(|| format!("reading {src}"))?;
+    let files = args
+        .data
+        .iter()
+        .map(|p| IoData::read_csv(p, &cols).with_context(|| format!("reading {}", p.display())))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let data = if files.len() == 1 {
+        files.into_iter().next().context("no --data")?
+    } else {
+        IoData::merge(&files).context("merging the --data files")?
+    };
     if args.virtual_inputs && data.nu() != 4 {
         bail!(
             "--virtual needs four inputs (motor 1, motor 2, motor 3, servo), found {}",
             data.nu()
         );
     }
-    let parse = |s: &Option<String>, what: &str| -> anyhow::Result<Vec<TimeInterval>> {
+    let parse = |s: &Option<String>, what: &str| -> anyhow::Result<Vec<Segment>> {
         Ok(s.as_deref()
-            .map(|t| TimeInterval::parse_list(t).with_context(|| format!("--{what}")))
+            .map(|t| Segment::parse_list(t).with_context(|| format!("--{what}")))
             .transpose()?
             .unwrap_or_default())
     };
     let raw_nu = data.nu();
-    if let Some(u0) = &args.u0 {
-        if u0.len() != raw_nu {
-            bail!("--u0 needs {raw_nu} values, found {}", u0.len());
-        }
+    if let Some(u0) = args.u0.as_ref().filter(|v| v.len() != raw_nu) {
+        bail!("--u0 needs {raw_nu} values, found {}", u0.len());
     }
-    if let Some(y0) = &args.y0 {
-        if y0.len() != data.ny() {
-            bail!("--y0 needs {} values, found {}", data.ny(), y0.len());
-        }
+    if let Some(y0) = args.y0.as_ref().filter(|v| v.len() != data.ny()) {
+        bail!("--y0 needs {} values, found {}", data.ny(), y0.len());
     }
     let spec = IdentifySpec {
         estimate: parse(&args.estimate, "estimate")?,
@@ -161,8 +172,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         horizon: args.horizon,
         focus: match args.focus {
-            FocusArg::Prediction => Focus::Prediction,
-            FocusArg::Simulation => Focus::Simulation,
+            FocusArg::Prediction => PemFocus::Prediction,
+            FocusArg::Simulation => PemFocus::Simulation,
+            FocusArg::SimulationThenNoise => PemFocus::SimulationThenNoise,
         },
         feedthrough: args.feedthrough,
         max_iterations: args.max_iterations,
