@@ -113,10 +113,10 @@ pub trait Scalar:
     /// accumulate column `i` with `x`.
     ///
     /// The default gathers each column and calls [`Scalar::dot`] (so a
-    /// type's own dot, e.g. fixed point's wide accumulator, is kept);
-    /// `f32` and `f64` override it with row-wise multiply-adds in the same
-    /// order, bit-identical to the default and free of the serial
-    /// dependency of a dot product (the compiler vectorises it).
+    /// type's own dot is kept); `f32` and `f64` override it with row-wise
+    /// multiply-adds and [`Fixed`] with row-wise wide accumulators, in the
+    /// same order, bit-identical to the default and free of the serial
+    /// dependency of a dot product (the compiler vectorises the floats).
     #[inline]
     fn tr_mat_vec<const R: usize, const C: usize>(
         a: &[[Self; C]; R],
@@ -360,6 +360,24 @@ impl<const FRAC: u32> Scalar for Fixed<FRAC> {
             acc = acc.saturating_add(x.0 as i64 * y.0 as i64);
         }
         Self::round_wide(acc)
+    }
+    /// Row-wise wide accumulators, each summed in the order of
+    /// [`Scalar::dot`] over its column and rounded once: bit-identical.
+    #[inline]
+    fn tr_mat_vec<const R: usize, const C: usize>(
+        a: &[[Self; C]; R],
+        x: &[Self; R],
+        out: &mut [Self; C],
+    ) {
+        let mut acc = [0i64; C];
+        for (row, xj) in a.iter().zip(x.iter()) {
+            for (o, aji) in acc.iter_mut().zip(row.iter()) {
+                *o = o.saturating_add(aji.0 as i64 * xj.0 as i64);
+            }
+        }
+        for (o, v) in out.iter_mut().zip(acc.iter()) {
+            *o = Self::round_wide(*v);
+        }
     }
 }
 
