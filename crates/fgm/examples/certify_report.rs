@@ -69,7 +69,11 @@ fn report(name: &str, prob: &MpqpProblem, samples: usize) {
     }
     let d = designs.pop().expect("optimal design");
     let mu_h = d.preconditioning.before.mu;
-    let eps_pwm = kestrel_fgm::eps_for_input_error(mu_h, 1.0);
+    // 1 us on every input (these problems have no designated first move).
+    let eps_pwm = d
+        .pwm_tolerance(1.0, kestrel_fgm::AppliedInputs::All)
+        .expect("pwm tolerance")
+        .eps;
     print!("eps table:");
     for e in [1e5, 1e4, 1e3, 1e2, eps_pwm] {
         print!(" {e:.3e} -> {}", d.certify(e).expect("cert").iterations);
