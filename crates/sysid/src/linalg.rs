@@ -77,6 +77,89 @@ pub fn dlyap(a: &DMatrix<f64>, q: &DMatrix<f64>) -> Result<DMatrix<f64>> {
     ))
 }
 
+/// A block-diagonalising change of coordinates that separates the modes
+/// of `A` inside the disc `|z| < radius` from those on or outside it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StableSplit {
+    /// `x = T [x_s; x_u]`.
+    pub t: DMatrix<f64>,
+    /// `T^-1`.
+    pub ti: DMatrix<f64>,
+    /// Number of modes inside the disc (the first `n_stable` new coordinates).
+    pub n_stable: usize,
+}
+
+/// Separates the modes of `a` with `|z| < radius` from the others (like
+/// MATLAB's `stabsep`): the matrix sign function (Newton with determinant
+/// scaling) of the Cayley transform `(A/radius + I)^-1 (A/radius - I)`,
+/// whose eigenvalues have negative real part exactly for the modes inside
+/// the disc, gives the spectral projector onto the stable invariant
+/// subspace; its range and the range of its complement are the new
+/// coordinates. `T^-1 A T` is block diagonal up to rounding.
+pub fn stable_split(a: &DMatrix<f64>, radius: f64) -> Result<StableSplit> {
+    let n = a.nrows();
+    if a.ncols() != n {
+        return Err(SysidError::dim("A columns (stable_split)", n, a.ncols()));
+    }
+    if !(radius.is_finite() && radius > 0.0) || a.iter().any(|v| !v.is_finite()) {
+        return Err(SysidError::invalid(
+            "stable_split needs a finite A and a radius > 0",
+        ));
+    }
+    let eye = DMatrix::<f64>::identity(n, n);
+    let sa = a / radius;
+    let den = (&sa + &eye).try_inverse().ok_or_else(|| {
+        SysidError::Numerical(format!("A has a pole at z = -{radius}; cannot split it"))
+    })?;
+    let mut s = den * (&sa - &eye);
+    let mut converged = false;
+    for _ in 0..100 {
+        let Some(si) = s.clone().try_inverse() else {
+            return Err(SysidError::Numerical(
+                "a pole lies on the splitting circle".into(),
+            ));
+        };
+        let det = s.determinant().abs();
+        let c = if det.is_finite() && det > 0.0 {
+            det.powf(-1.0 / n as f64)
+        } else {
+            1.0
+        };
+        let next = (&s * c + si / c) * 0.5;
+        let diff = (&next - &s).norm();
+        s = next;
+        if diff <= 1e-13 * s.norm() {
+            converged = true;
+            break;
+        }
+    }
+    if !converged {
+        return Err(SysidError::Numerical(
+            "sign iteration did not converge (a pole lies on the splitting circle)".into(),
+        ));
+    }
+    let p_stable = (&eye - &s) * 0.5;
+    let n_stable = p_stable.trace().round().clamp(0.0, n as f64) as usize;
+    let basis = |p: DMatrix<f64>, k: usize| -> Result<DMatrix<f64>> {
+        let svd = p.svd(true, false);
+        let u = svd
+            .u
+            .ok_or_else(|| SysidError::Numerical("SVD of the spectral projector failed".into()))?;
+        let mut idx: Vec<usize> = (0..svd.singular_values.len()).collect();
+        idx.sort_by(|x, y| svd.singular_values[*y].total_cmp(&svd.singular_values[*x]));
+        Ok(DMatrix::from_fn(n, k, |r, c| u[(r, idx[c])]))
+    };
+    let mut t = DMatrix::zeros(n, n);
+    t.columns_mut(0, n_stable)
+        .copy_from(&basis(p_stable.clone(), n_stable)?);
+    t.columns_mut(n_stable, n - n_stable)
+        .copy_from(&basis(&eye - &p_stable, n - n_stable)?);
+    let ti = t.clone().try_inverse().ok_or_else(|| {
+        SysidError::Numerical("the stable and unstable subspaces are not complementary".into())
+    })?;
+    Ok(StableSplit { t, ti, n_stable })
+}
+
 /// Symmetric positive semi-definite square-root factor `R` with `P = R R'`
 /// (from the symmetric eigendecomposition, negative eigenvalues clipped).
 pub fn psd_factor(p: &DMatrix<f64>) -> DMatrix<f64> {
@@ -164,6 +247,39 @@ pub fn kalman_gain(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn stable_split_block_diagonalises_and_counts_modes() {
+        // Modes 1 (integrator), 1.02, 0.5, 0.9 +- 0.3i, mixed by a random basis.
+        let d = DMatrix::from_row_slice(
+            5,
+            5,
+            &[
+                1.0, 0.0, 0.0, 0.0, 0.0, //
+                0.0, 1.02, 0.0, 0.0, 0.0, //
+                0.0, 0.0, 0.5, 0.0, 0.0, //
+                0.0, 0.0, 0.0, 0.9, 0.3, //
+                0.0, 0.0, 0.0, -0.3, 0.9,
+            ],
+        );
+        let v = DMatrix::from_fn(5, 5, |r, c| {
+            ((r * 7 + c * 3) % 5) as f64 + if r == c { 3.0 } else { 0.0 }
+        });
+        let a = &v * d * v.clone().try_inverse().unwrap();
+        let sp = stable_split(&a, 1.0 - 1e-6).unwrap();
+        assert_eq!(sp.n_stable, 3);
+        let ab = &sp.ti * &a * &sp.t;
+        let ns = sp.n_stable;
+        assert!(ab.view((0, ns), (ns, 5 - ns)).amax() < 1e-9 * a.norm());
+        assert!(ab.view((ns, 0), (5 - ns, ns)).amax() < 1e-9 * a.norm());
+        let mut stable: Vec<f64> = eigenvalues(&ab.view((0, 0), (ns, ns)).into_owned())
+            .iter()
+            .map(|z| z.norm())
+            .collect();
+        stable.sort_by(f64::total_cmp);
+        assert!((stable[0] - 0.5).abs() < 1e-9 && (stable[2] - 0.9f64.hypot(0.3)).abs() < 1e-9);
+        assert!(stable_split(&DMatrix::from_element(1, 1, -0.5), 0.5).is_err());
+    }
 
     #[test]
     fn dlyap_matches_kronecker_solution() {

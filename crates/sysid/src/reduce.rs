@@ -1,7 +1,7 @@
 //! Balanced reduction (`balred`) of discrete-time models and transmission zeros.
 
 use crate::error::{Result, SysidError};
-use crate::linalg::{dlyap, eigenvalues, psd_factor};
+use crate::linalg::{dlyap, eigenvalues, psd_factor, spectral_radius, stable_split};
 use crate::model::InnovationModel;
 use crate::synthetic::Rng;
 use nalgebra::{Complex, DMatrix};
@@ -76,30 +76,37 @@ fn balance(a: &DMatrix<f64>, b: &DMatrix<f64>, c: &DMatrix<f64>) -> Result<Balan
 }
 
 /// Hankel singular values of the deterministic part (`A`, `B`, `C`), descending.
+/// Modes on or outside `|z| = MARGINAL` are kept whole by [`balred`].
+const MARGINAL: f64 = 1.0 - 1e-6;
+
+/// Hankel singular values of the deterministic part (`A`, `B`, `C`),
+/// descending; modes on or outside the unit circle (see [`balred`]) count
+/// as infinite, as in MATLAB.
 pub fn hankel_singular_values(model: &InnovationModel) -> Result<Vec<f64>> {
-    Ok(balance(&model.a, &model.b, &model.c)?.hsv)
+    model.validate()?;
+    if spectral_radius(&model.a) < MARGINAL {
+        return Ok(balance(&model.a, &model.b, &model.c)?.hsv);
+    }
+    let sp = stable_split(&model.a, MARGINAL)?;
+    let ns = sp.n_stable;
+    let mut hsv = vec![f64::INFINITY; model.nx() - ns];
+    if ns > 0 {
+        let a = (&sp.ti * &model.a * &sp.t)
+            .view((0, 0), (ns, ns))
+            .into_owned();
+        let b = (&sp.ti * &model.b).rows(0, ns).into_owned();
+        let c = (&model.c * &sp.t).columns(0, ns).into_owned();
+        hsv.extend(balance(&a, &b, &c)?.hsv);
+    }
+    Ok(hsv)
 }
 
-/// Balanced reduction of a stable discrete-time model to `order` states
-/// (MATLAB's `balred`, e.g. order 8 to 5 as in section 7.4 of the thesis).
-///
-/// The Gramians solve the *discrete* Lyapunov equations
-/// `A P A' - P + B B' = 0` and `A' Q A - Q + C' C = 0` (python-control
-/// uses the continuous ones for discrete models, which is wrong); the
-/// square-root method balances `P` and `Q` to `diag(sigma)`. With
-/// [`ReductionMethod::MatchDc`] the discrete singular perturbation
-/// `A_r = A11 + A12 (I - A22)^-1 A21` (and likewise `B`, `C`, `D`, `K`)
-/// keeps the DC gain.
-///
-/// ```
-/// use kestrel_sysid::{balred, synthetic, BalredSettings, ReductionMethod};
-/// let m = synthetic::random_model(6, 2, 2, 3, 0.9);
-/// let r = balred(&m, 3, &BalredSettings { method: ReductionMethod::MatchDc, ..Default::default() }).unwrap();
-/// assert_eq!(r.model.nx(), 3);
-/// let (g, gr) = (m.dc_gain().unwrap(), r.model.dc_gain().unwrap());
-/// assert!((&g - &gr).norm() < 1e-8 * g.norm());
-/// ```
-pub fn balred(model: &InnovationModel, order: usize, settings: &BalredSettings) -> Result<Reduced> {
+/// Balanced reduction of a model whose modes are all inside the unit disc.
+fn balred_stable(
+    model: &InnovationModel,
+    order: usize,
+    settings: &BalredSettings,
+) -> Result<Reduced> {
     model.validate()?;
     let n = model.nx();
     if order == 0 || order > n {
@@ -166,6 +173,115 @@ pub fn balred(model: &InnovationModel, order: usize, settings: &BalredSettings) 
         model: reduced,
         error_bound: 2.0 * bal.hsv[r..].iter().sum::<f64>(),
         hankel_singular_values: bal.hsv,
+    })
+}
+
+/// Balanced reduction of a discrete-time model to `order` states
+/// (MATLAB's `balred`, e.g. order 8 to 5 as in section 7.4 of the thesis).
+///
+/// Modes on or outside the circle `|z| = 1 - 1e-6` (integrators, unstable
+/// poles) have no finite Gramians; as MATLAB does, they are separated
+/// first ([`crate::linalg::stable_split`]) and kept unchanged, their Hankel
+/// singular values are reported as infinite, and only the stable part is
+/// balanced and reduced to `order - (number of such modes)` states.
+///
+/// The Gramians solve the *discrete* Lyapunov equations
+/// `A P A' - P + B B' = 0` and `A' Q A - Q + C' C = 0` (python-control
+/// uses the continuous ones for discrete models, which is wrong); the
+/// square-root method balances `P` and `Q` to `diag(sigma)`. With
+/// [`ReductionMethod::MatchDc`] the discrete singular perturbation
+/// `A_r = A11 + A12 (I - A22)^-1 A21` (and likewise `B`, `C`, `D`, `K`)
+/// keeps the DC gain.
+///
+/// ```
+/// use kestrel_sysid::{balred, synthetic, BalredSettings, ReductionMethod};
+/// let m = synthetic::random_model(6, 2, 2, 3, 0.9);
+/// let r = balred(&m, 3, &BalredSettings { method: ReductionMethod::MatchDc, ..Default::default() }).unwrap();
+/// assert_eq!(r.model.nx(), 3);
+/// let (g, gr) = (m.dc_gain().unwrap(), r.model.dc_gain().unwrap());
+/// assert!((&g - &gr).norm() < 1e-8 * g.norm());
+/// ```
+pub fn balred(model: &InnovationModel, order: usize, settings: &BalredSettings) -> Result<Reduced> {
+    model.validate()?;
+    let n = model.nx();
+    if order == 0 || order > n {
+        return Err(SysidError::invalid(format!(
+            "reduced order must be in 1..={n}, found {order}"
+        )));
+    }
+    if spectral_radius(&model.a) < MARGINAL {
+        return balred_stable(model, order, settings);
+    }
+    let sp = stable_split(&model.a, MARGINAL)?;
+    let (ns, nun) = (sp.n_stable, n - sp.n_stable);
+    if order < nun {
+        return Err(SysidError::invalid(format!(
+            "the model has {nun} marginal or unstable modes (|z| >= {MARGINAL}), which balred keeps; reduce to at least {nun} states, not {order}"
+        )));
+    }
+    let ab = &sp.ti * &model.a * &sp.t;
+    let bb = &sp.ti * &model.b;
+    let kb = &sp.ti * &model.k;
+    let cb = &model.c * &sp.t;
+    let ass = ab.view((0, 0), (ns, ns)).into_owned();
+    let auu = ab.view((ns, ns), (nun, nun)).into_owned();
+    let stable = InnovationModel {
+        ts: model.ts,
+        a: ass.clone(),
+        b: bb.rows(0, ns).into_owned(),
+        c: cb.columns(0, ns).into_owned(),
+        d: model.d.clone(),
+        k: kb.rows(0, ns).into_owned(),
+    };
+    let rs = order - nun;
+    let (red_s, hsv, bound) = if ns == 0 {
+        (stable, Vec::new(), 0.0)
+    } else if rs == 0 {
+        // The whole stable part goes: its DC contribution moves to D when
+        // matching DC gains.
+        let all = balred_stable(&stable, ns, settings)?;
+        let mut d = model.d.clone();
+        if settings.method == ReductionMethod::MatchDc {
+            let m = (DMatrix::<f64>::identity(ns, ns) - &stable.a)
+                .try_inverse()
+                .ok_or_else(|| {
+                    SysidError::Numerical("I - A of the stable part is singular".into())
+                })?;
+            d += &stable.c * m * &stable.b;
+        }
+        let empty = InnovationModel {
+            ts: model.ts,
+            a: DMatrix::zeros(0, 0),
+            b: DMatrix::zeros(0, model.nu()),
+            c: DMatrix::zeros(model.ny(), 0),
+            d,
+            k: DMatrix::zeros(0, model.ny()),
+        };
+        let bound = 2.0 * all.hankel_singular_values.iter().sum::<f64>();
+        (empty, all.hankel_singular_values, bound)
+    } else {
+        let r = balred_stable(&stable, rs, settings)?;
+        (r.model, r.hankel_singular_values, r.error_bound)
+    };
+    let nr = red_s.nx();
+    let mut a = DMatrix::zeros(order, order);
+    a.view_mut((0, 0), (nr, nr)).copy_from(&red_s.a);
+    a.view_mut((nr, nr), (nun, nun)).copy_from(&auu);
+    let mut b = DMatrix::zeros(order, model.nu());
+    b.rows_mut(0, nr).copy_from(&red_s.b);
+    b.rows_mut(nr, nun).copy_from(&bb.rows(ns, nun));
+    let mut k = DMatrix::zeros(order, model.ny());
+    k.rows_mut(0, nr).copy_from(&red_s.k);
+    k.rows_mut(nr, nun).copy_from(&kb.rows(ns, nun));
+    let mut c = DMatrix::zeros(model.ny(), order);
+    c.columns_mut(0, nr).copy_from(&red_s.c);
+    c.columns_mut(nr, nun).copy_from(&cb.columns(ns, nun));
+    let mut all_hsv = vec![f64::INFINITY; nun];
+    all_hsv.extend(hsv);
+    Ok(Reduced {
+        model: InnovationModel::new(model.ts, a, b, c, red_s.d, k)?,
+        hankel_singular_values: all_hsv,
+        error_bound: bound,
     })
 }
 
@@ -354,9 +470,83 @@ mod tests {
         }
         assert!(balred(&m, 0, &BalredSettings::default()).is_err());
         assert!(balred(&m, 9, &BalredSettings::default()).is_err());
-        let mut unstable = m.clone();
-        unstable.a *= 1.2;
-        assert!(balred(&unstable, 4, &BalredSettings::default()).is_err());
+    }
+
+    /// A model with an integrator and an unstable pole mixed into a stable
+    /// 6th-order one: `balred` keeps both exactly (infinite Hankel singular
+    /// values first) and the error of the stable part stays within its bound.
+    #[test]
+    fn marginal_and_unstable_modes_are_kept() {
+        let s = synthetic::random_model(6, 2, 2, 5, 0.9);
+        let n = 8;
+        let mut a = DMatrix::zeros(n, n);
+        a.view_mut((0, 0), (6, 6)).copy_from(&s.a);
+        a[(6, 6)] = 1.0;
+        a[(7, 7)] = 1.05;
+        let mut b = DMatrix::zeros(n, 2);
+        b.rows_mut(0, 6).copy_from(&s.b);
+        b.rows_mut(6, 2)
+            .copy_from(&DMatrix::from_row_slice(2, 2, &[0.3, -0.2, 0.1, 0.4]));
+        let mut c = DMatrix::zeros(2, n);
+        c.columns_mut(0, 6).copy_from(&s.c);
+        c.columns_mut(6, 2)
+            .copy_from(&DMatrix::from_row_slice(2, 2, &[1.0, 0.5, -0.7, 0.2]));
+        // Mix the coordinates so the modes are not already separated.
+        let t = DMatrix::from_fn(n, n, |r, c| {
+            ((r * 5 + c * 3) % 7) as f64 * 0.1 + if r == c { 1.0 } else { 0.0 }
+        });
+        let ti = t.clone().try_inverse().unwrap();
+        let m = InnovationModel::new(
+            1.0,
+            &ti * a * &t,
+            &ti * b,
+            c * &t,
+            DMatrix::zeros(2, 2),
+            DMatrix::zeros(n, 2),
+        )
+        .unwrap();
+        let hsv = hankel_singular_values(&m).unwrap();
+        assert!(hsv[0].is_infinite() && hsv[1].is_infinite() && hsv[2].is_finite());
+        let stable_hsv = hankel_singular_values(&s).unwrap();
+        for (h, e) in hsv[2..].iter().zip(&stable_hsv) {
+            assert!(
+                (h - e).abs() < 1e-8 * stable_hsv[0],
+                "{hsv:?} vs {stable_hsv:?}"
+            );
+        }
+        for method in [ReductionMethod::Truncate, ReductionMethod::MatchDc] {
+            let settings = BalredSettings {
+                method,
+                include_noise: false,
+            };
+            let r = balred(&m, 5, &settings).unwrap();
+            assert_eq!(r.model.nx(), 5);
+            let mut poles: Vec<f64> = r.model.poles().iter().map(|z| z.norm()).collect();
+            poles.sort_by(f64::total_cmp);
+            assert!(
+                (poles[4] - 1.05).abs() < 1e-9 && (poles[3] - 1.0).abs() < 1e-9,
+                "{poles:?}"
+            );
+            assert!(poles[2] < 0.95);
+            // G - G_r is the stable part's error: within 2 * tail (away from z = 1).
+            let mut worst: f64 = 0.0;
+            for i in 1..=300 {
+                let w = std::f64::consts::PI * i as f64 / 300.0;
+                let e = m.frequency_response(w).unwrap() - r.model.frequency_response(w).unwrap();
+                worst = worst.max(sigma_max(&e));
+            }
+            assert!(
+                worst <= r.error_bound * (1.0 + 1e-6),
+                "{method:?}: {worst} > {}",
+                r.error_bound
+            );
+            // Down to the kept modes alone, and no further.
+            assert_eq!(balred(&m, 2, &settings).unwrap().model.nx(), 2);
+            assert!(matches!(
+                balred(&m, 1, &settings),
+                Err(SysidError::InvalidArgument(_))
+            ));
+        }
     }
 
     #[test]
