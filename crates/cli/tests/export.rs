@@ -54,6 +54,27 @@ fn values_f32(src: &str) -> Vec<f64> {
         .collect()
 }
 
+/// The rows `Row16::new([c...], shift, start)` of block `name` of `KF16`,
+/// dequantised (`c / 2^shift`).
+fn kf16_rows(src: &str, name: &str) -> Vec<Vec<f64>> {
+    let kf = &src[src.find("pub const KF16").unwrap()..];
+    let block = &kf[kf.find(&format!("    {name}: [")).unwrap()..];
+    let block = &block[..block.find("    ],").unwrap()];
+    block
+        .lines()
+        .filter(|l| l.contains("Row16::new(["))
+        .map(|l| {
+            let inner = &l[l.find("([").unwrap() + 2..];
+            let (coefs, rest) = inner.split_once("],").unwrap();
+            let shift: i32 = rest.split(',').next().unwrap().trim().parse().unwrap();
+            coefs
+                .split(',')
+                .map(|c| c.trim().parse::<f64>().unwrap() / 2f64.powi(shift))
+                .collect()
+        })
+        .collect()
+}
+
 #[test]
 fn tables_hold_the_model_filter_and_certified_solver() {
     let out = dir().join("generated.rs");
@@ -61,6 +82,8 @@ fn tables_hold_the_model_filter_and_certified_solver() {
         "export",
         "--model",
         &fixture(),
+        "--realization",
+        "as-given",
         "--out",
         out.to_str().unwrap(),
     ]);
@@ -71,21 +94,30 @@ fn tables_hold_the_model_filter_and_certified_solver() {
     assert_eq!(v.len(), usize_const(&src, "N_VALUES"));
     let nx = usize_const(&src, "NX");
     assert_eq!(nx, model.nx());
-    // The filter's A and C are the model's (the file's numbers, in f32).
-    let a = usize_const(&src, "KF_A");
-    let c = usize_const(&src, "KF_C");
-    for i in 0..nx {
-        for j in 0..nx {
-            let x = model.a[(i, j)];
-            assert!((v[a + i * nx + j] - x).abs() <= 1e-6 * x.abs().max(1e-30));
+    // The filter's A - I and C are the model's (the file's numbers, to the
+    // 16-bit rows' resolution: half a step of a row whose largest entry
+    // uses at least 15 bits).
+    let a = kf16_rows(&src, "a");
+    let c = kf16_rows(&src, "c");
+    assert_eq!((a.len(), c.len()), (nx, 3));
+    let check = |got: &[Vec<f64>], want: &dyn Fn(usize, usize) -> f64, what: &str| {
+        for (i, row) in got.iter().enumerate() {
+            let max = (0..nx).map(|j| want(i, j).abs()).fold(0.0, f64::max);
+            for (j, g) in row.iter().enumerate() {
+                let err = (g - want(i, j)).abs();
+                assert!(
+                    err <= 1.01 * max / 32768.0 + 1e-15,
+                    "{what}[{i}][{j}]: {err}"
+                );
+            }
         }
-    }
-    for i in 0..3 {
-        for j in 0..nx {
-            let x = model.c[(i, j)];
-            assert!((v[c + i * nx + j] - x).abs() <= 1e-6 * x.abs().max(1e-30));
-        }
-    }
+    };
+    check(
+        &a,
+        &|i, j| model.a[(i, j)] - if i == j { 1.0 } else { 0.0 },
+        "A - I",
+    );
+    check(&c, &|i, j| model.c[(i, j)], "C");
     // The mixer trim is the model's u0 around the mean motor pulse (the
     // hover throttle), the servo absolute.
     let u0 = model.u0.clone().unwrap();
@@ -140,7 +172,8 @@ fn design_files_give_the_same_tables_as_the_defaults() {
         &pr,
     ]);
     assert!(ok, "{err}");
-    let (ok, defaults, err) = kestrel(&["export", "--model", &fixture()]);
+    let (ok, defaults, err) =
+        kestrel(&["export", "--model", &fixture(), "--realization", "as-given"]);
     assert!(ok, "{err}");
     // JSON round trips are exact (float_roundtrip), so the tables agree to
     // the last digit except where the SDP preconditioner is re-solved.
@@ -190,7 +223,8 @@ fn malformed_design_files_are_refused_with_a_reason() {
     let (ok, _, err) = kestrel(&["export", "--model", "/nonexistent/model.json"]);
     assert!(!ok && err.contains("nonexistent"), "{err}");
     for bad in ["0", "-1", "NaN"] {
-        let (ok, _, err) = kestrel(&["export", "--model", &fixture(), "--max-input-error", bad]);
+        let flag = format!("--max-input-error={bad}");
+        let (ok, _, err) = kestrel(&["export", "--model", &fixture(), &flag]);
         assert!(!ok);
         assert!(err.contains("max_input_error"), "{bad}: {err}");
     }
@@ -206,7 +240,7 @@ fn help_says_what_goes_in_and_out() {
         "kestrel.ss.v1",
         "kestrel.kalman.v1",
         "kestrel.mpqp.v1",
-        "Out:",
+        "Rust source",
         "--out",
     ] {
         assert!(out.contains(word), "--help lacks {word}");

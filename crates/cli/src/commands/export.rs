@@ -2,7 +2,9 @@
 
 use crate::io;
 use anyhow::{Context, bail};
-use kestrel_avr_rt::design::{DesignSettings, FirmwareDesign, IterationBudget, generate_tables};
+use kestrel_avr_rt::design::{
+    DesignSettings, FirmwareDesign, IterationBudget, Realization, generate_tables,
+};
 use kestrel_core::formats::{MpqpProblem, SsModel};
 use kestrel_fgm::Preconditioner;
 use kestrel_kalman::KalmanDesign;
@@ -56,7 +58,8 @@ pub struct Args {
     /// Kalman step skips the zeros of the quasi-triangular A) or `as-given`.
     #[arg(long, value_enum, default_value_t = Coordinates::Schur)]
     pub realization: Coordinates,
-    /// Output file (default: standard output).
+    /// Output file: the Rust source of the firmware tables (default:
+    /// standard output).
     #[arg(long)]
     pub out: Option<PathBuf>,
 }
