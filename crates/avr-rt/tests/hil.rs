@@ -7,12 +7,15 @@
 //! The plant is kestrel-tricopter-model's nonlinear aircraft (RK4 at 1 kHz,
 //! light gusts, the gyro model with the thesis's bias (7.5) and covariance
 //! (7.6)) through kestrel-mpc's `NonlinearPlant`. The controller is the
-//! stationary Kalman filter of kestrel-kalman and the fast gradient method
-//! of kestrel-fgm on the thesis-sized MPC problem of kestrel-mpc, with the
-//! tables of `avr/firmware/src/generated.rs` (written by `cargo run -p
+//! stationary Kalman filter of kestrel-kalman (`Kalman16`) and the fast
+//! gradient method of kestrel-fgm (`Fgm16Law`, certified iteration count)
+//! on the thesis-sized MPC problem of kestrel-mpc, designed from the
+//! identified model `models/tricopter-blackbox-5.json`, with the tables of
+//! `avr/firmware/src/generated.rs` (written by `cargo run -p
 //! kestrel-avr-rt --example avr_tables`; this test checks the committed
 //! file is what that design produces). The firmware's PWMs are compared
-//! with the same composition run on the host in f64 from the f64 design.
+//! with the same composition run on the host in f64 from the f64 design
+//! (kestrel-kalman's `StationaryFilter`, kestrel-fgm's `FgmLaw`).
 //!
 //! Loop timing: the host sends the command for sample k, runs the simulator
 //! for one 20 ms window in which the firmware's timer tick falls, reads the
@@ -519,10 +522,10 @@ fn hil_step_scenario_f32() {
     check_flight(&[], false, "f32", 1);
 }
 
-// The plain `fixed` build (Q16 products through libgcc's __muldi3) is not
-// flown: its period takes about 316,000 of the 320,000 cycles at 20
-// fast-gradient iterations, leaving no room for the reply; the `fixed-mac`
-// build is the fixed-point configuration. Its kernels are timed by
+// The plain `fixed` build (Q16 products of the solver set-up and mixer
+// through libgcc's __muldi3) is not flown, to keep CI time; the `fixed-mac`
+// build is the fixed-point configuration (the same numbers, faster
+// products). The plain build's kernels are timed by
 // `fgm_kernel_cycles_fixed_q16`.
 
 #[test]
