@@ -43,6 +43,10 @@ pub(crate) struct LpWorkspace {
     qc: Vec<f64>,
     lam: Vec<f64>,
     anorm: Vec<f64>,
+    slack: Vec<f64>,
+    ad: Vec<f64>,
+    v: Vec<f64>,
+    coef: Vec<f64>,
     /// The maximiser of the last optimal solve.
     pub x: Vec<f64>,
     /// Iterations of the last solve.
@@ -59,8 +63,12 @@ impl LpWorkspace {
     fn push_row(&mut self, a: &[f64], i: usize, d: usize) -> bool {
         let k = self.work.len();
         let row = &a[i * d..(i + 1) * d];
-        let mut v: Vec<f64> = row.to_vec();
-        let mut coef = vec![0.0; k];
+        let mut v = std::mem::take(&mut self.v);
+        let mut coef = std::mem::take(&mut self.coef);
+        v.clear();
+        v.extend_from_slice(row);
+        coef.clear();
+        coef.resize(k, 0.0);
         // Modified Gram-Schmidt, twice for orthogonality to working precision.
         for _ in 0..2 {
             for j in 0..k {
@@ -74,6 +82,8 @@ impl LpWorkspace {
         }
         let nv = dot(&v, &v).sqrt();
         if nv <= 1e-12 * self.anorm[i] {
+            self.v = v;
+            self.coef = coef;
             return false;
         }
         for t in 0..d {
@@ -88,6 +98,8 @@ impl LpWorkspace {
         for j in k + 1..d {
             self.r[j * d + k] = 0.0;
         }
+        self.v = v;
+        self.coef = coef;
         self.work.push(i);
         self.in_work[i] = true;
         true
@@ -115,6 +127,20 @@ impl LpWorkspace {
         b: &[f64],
         x0: &[f64],
     ) -> (LpStatus, f64) {
+        self.maximize_warm(c, a, b, x0, &[])
+    }
+
+    /// [`Self::maximize_from`] with a warm working set: the rows of `warm`
+    /// that are active at `x0` (and independent) start in the working set,
+    /// so a start at the optimal vertex of a similar LP needs few steps.
+    pub fn maximize_warm(
+        &mut self,
+        c: &[f64],
+        a: &[f64],
+        b: &[f64],
+        x0: &[f64],
+        warm: &[usize],
+    ) -> (LpStatus, f64) {
         let d = c.len();
         let m = b.len();
         debug_assert_eq!(a.len(), m * d);
@@ -136,9 +162,23 @@ impl LpWorkspace {
             .extend((0..m).map(|i| dot(&a[i * d..(i + 1) * d], &a[i * d..(i + 1) * d]).sqrt()));
         self.dir.clear();
         self.dir.resize(d, 0.0);
+        self.slack.clear();
+        self.slack
+            .extend((0..m).map(|i| b[i] - dot(&a[i * d..(i + 1) * d], x0)));
+        self.ad.clear();
+        self.ad.resize(m, 0.0);
         let cn = dot(c, c).sqrt();
         if cn == 0.0 {
             return (LpStatus::Optimal, 0.0);
+        }
+        for &i in warm {
+            if i < m
+                && !self.in_work[i]
+                && self.work.len() < d
+                && self.slack[i].abs() <= 1e-10 * (1.0 + b[i].abs())
+            {
+                let _ = self.push_row(a, i, d);
+            }
         }
         let max_iter = 10 * (m + d) + 100;
         let mut degenerate_run = 0usize;
@@ -172,15 +212,13 @@ impl LpWorkspace {
                 let mut tmin = f64::INFINITY;
                 let mut best_ad = 0.0;
                 for i in 0..m {
-                    if self.in_work[i] {
-                        continue;
-                    }
                     let row = &a[i * d..(i + 1) * d];
                     let ad = dot(row, &self.dir);
-                    if ad <= 1e-11 * dn * self.anorm[i] {
+                    self.ad[i] = ad;
+                    if self.in_work[i] || ad <= 1e-11 * dn * self.anorm[i] {
                         continue;
                     }
-                    let slack = (b[i] - dot(row, &self.x)).max(0.0);
+                    let slack = self.slack[i].max(0.0);
                     let t = slack / ad;
                     let better = match best {
                         None => true,
@@ -203,6 +241,10 @@ impl LpWorkspace {
                 for t in 0..d {
                     self.x[t] += tmin * self.dir[t];
                 }
+                for (s, ad) in self.slack.iter_mut().zip(&self.ad) {
+                    *s -= tmin * ad;
+                }
+                self.slack[i] = 0.0;
                 if tmin * dn <= 1e-14 * (1.0 + dot(&self.x, &self.x).sqrt()) {
                     degenerate_run += 1;
                 } else {

@@ -666,6 +666,20 @@ impl Prepared {
                 add(j, pt, mg, &mut state, &mut facets);
             }
         }
+        // Rows that the parameter box alone keeps from binding are redundant.
+        for k in 0..nh {
+            if state[k] == 0 {
+                let hi: f64 = (0..p)
+                    .map(|j| {
+                        let v = row(k)[j];
+                        (v * self.theta_lb[j]).max(v * self.theta_ub[j])
+                    })
+                    .sum();
+                if hi <= b[k] - 1e-9 * self.scale {
+                    state[k] = 2;
+                }
+            }
+        }
         let mut la: Vec<f64> = Vec::new();
         let mut lb: Vec<f64> = Vec::new();
         for k in 0..nh {
