@@ -165,10 +165,7 @@ impl KalmanDesign {
     pub fn gains<S: Scalar, const NX: usize, const NU: usize, const NY: usize>(
         &self,
     ) -> Result<StationaryGains<S, NX, NU, NY>, KalmanError> {
-        let cross = &self.filter.l - &self.a * &self.filter.m;
-        let scale = self.filter.l.norm().max(f64::MIN_POSITIVE);
-        let use_cross = cross.norm() > 1e-14 * scale;
-        let use_d = self.d.iter().any(|v| *v != 0.0);
+        let (cross, use_d, use_cross) = self.folded();
         let offset = &self.y0 + &self.bias;
         Ok(StationaryGains {
             a: Matrix::try_from_dmatrix(&self.a)?,
@@ -187,6 +184,31 @@ impl KalmanDesign {
             use_d,
             use_cross,
         })
+    }
+
+    /// The innovation correction `L - A M` of the time update and whether
+    /// the run-time step uses `D` and that correction.
+    fn folded(&self) -> (DMatrix<f64>, bool, bool) {
+        let cross = &self.filter.l - &self.a * &self.filter.m;
+        let scale = self.filter.l.norm().max(f64::MIN_POSITIVE);
+        let use_cross = cross.norm() > 1e-14 * scale;
+        let use_d = self.d.iter().any(|v| *v != 0.0);
+        (cross, use_d, use_cross)
+    }
+
+    /// Multiply-adds of one run-time step (measurement plus time update) of
+    /// the folded stationary filter: `2 nx ny + nx^2 + nx nu`, plus `ny nu`
+    /// with a non-zero `D` and `nx ny` with cross-covariance; the same
+    /// count as [`StationaryGains::multiply_adds`], without the const
+    /// dimensions. 75 for 5 states, 4 inputs, 3 outputs.
+    pub fn multiply_adds(&self) -> usize {
+        let (nx, nu, ny) = (self.nx(), self.nu(), self.ny());
+        let (_, use_d, use_cross) = self.folded();
+        2 * nx * ny
+            + nx * nx
+            + nx * nu
+            + if use_d { ny * nu } else { 0 }
+            + if use_cross { nx * ny } else { 0 }
     }
 
     /// A run-time filter in scalar `S`, starting from the operating point (`x = 0`).
@@ -237,6 +259,7 @@ impl KalmanDesign {
             ),
         );
         o.insert("residual".into(), Value::from(self.filter.residual));
+        o.insert("multiply_adds".into(), Value::from(self.multiply_adds()));
         o
     }
 

@@ -107,6 +107,9 @@ fn thesis_size_costs_75_multiply_adds() {
     assert!(!g.use_cross && !g.use_d);
     assert_eq!(g.multiply_adds(), 3 * 5 + 5 * 3 + 5 * 5 + 5 * 4);
     assert_eq!(g.multiply_adds(), 75);
+    // The design-time count (no const dimensions) and the file agree.
+    assert_eq!(d.multiply_adds(), 75);
+    assert_eq!(d.to_object()["multiply_adds"], serde_json::json!(75));
     // Wrong const dimensions are an error, not a panic.
     assert!(d.gains::<f64, 4, 4, 3>().is_err());
     assert!(d.gains::<f64, 5, 3, 3>().is_err());
@@ -358,6 +361,7 @@ fn cross_covariance_uses_the_predictor_gain() {
     let g = d.gains::<f64, 5, 4, 3>().unwrap();
     assert!(g.use_cross);
     assert_eq!(g.multiply_adds(), 75 + 15);
+    assert_eq!(d.multiply_adds(), 75 + 15);
     let mut f = StationaryFilter::new(g, [0.0; 5]);
     let log = simulate(&model, 200, 14);
     let mut xp = DVector::<f64>::zeros(5);
