@@ -410,26 +410,16 @@ fn sda(
         for i in 0..n {
             w[(i, i)] += 1.0;
         }
-        // W^-1 explicitly: the products below then run in the blocked matmul.
+        // W^-1 explicitly: the products below are then plain matrix products.
         if !invert_in_place(&mut w, &mut piv, &mut tmp) {
             return None;
         }
-        // Y1 = W^-1 A, Y3 = W^-1 G A'
+        // Y1 = W^-1 A;  H += A' H W^-1 A
         w.mul_to(&a, &mut y1);
-        g.mul_to(&at, &mut t);
-        w.mul_to(&t, &mut y3);
-        // H += A' H W^-1 A
         h.mul_to(&y1, &mut t);
         at.mul_to(&t, &mut d);
         h += &d;
         symmetrize(&mut h);
-        // G += A W^-1 G A'
-        a.mul_to(&y3, &mut t);
-        g += &t;
-        symmetrize(&mut g);
-        // A = A W^-1 A
-        a.mul_to(&y1, &mut t);
-        std::mem::swap(&mut a, &mut t);
         let dn = d.norm();
         let hn = h.norm();
         if !(dn.is_finite() && hn.is_finite()) {
@@ -449,10 +439,23 @@ fn sda(
         };
         previous_delta = delta;
         if dn <= settings.tolerance * hn || predicted <= settings.tolerance {
+            // (G and A of the last step are not needed: stop before them.)
             let g0 = g0.norm();
             let growth = if g0 > 0.0 { g.norm() / g0 } else { 0.0 };
             return Some((h, it, growth));
         }
+        // Y3 = W^-1 G A';  G += A W^-1 G A'
+        g.mul_to(&at, &mut t);
+        w.mul_to(&t, &mut y3);
+        a.mul_to(&y3, &mut t);
+        g += &t;
+        symmetrize(&mut g);
+        if !g.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        // A = A W^-1 A
+        a.mul_to(&y1, &mut t);
+        std::mem::swap(&mut a, &mut t);
     }
     None
 }
