@@ -24,6 +24,8 @@ pub mod synthetic;
 #[cfg(feature = "std")]
 mod validate;
 #[cfg(feature = "std")]
+pub mod tricopter;
+#[cfg(feature = "std")]
 pub mod workflow;
 
 #[cfg(feature = "std")]
