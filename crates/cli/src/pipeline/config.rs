@@ -106,8 +106,10 @@ pub struct Identification {
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Kalman {
-    /// Process noise q * I.
-    pub q: f64,
+    /// Pulse noise standard deviation (us).
+    pub input_noise: f64,
+    /// Rate noise standard deviation (rad/s per sample).
+    pub rate_noise: f64,
     /// Flight filtered for the plot.
     pub flight: u8,
     /// Plot start (s).
@@ -375,7 +377,8 @@ impl Config {
             }
         }
         let k = &self.kalman;
-        pos(k.q, "kalman.q")?;
+        pos(k.input_noise, "kalman.input_noise")?;
+        pos(k.rate_noise, "kalman.rate_noise")?;
         if !(1..=4).contains(&k.flight) {
             bail!("kalman.flight = {}: expected 1..=4", k.flight);
         }
