@@ -47,19 +47,34 @@ fn solve_box(name: &str, extra: &[&str]) -> PathBuf {
 
 #[test]
 fn solve_eval_export() {
-    let sol = solve_box("box", &[]);
+    // Without clipping the tree separates the 9 laws; with clipping (the
+    // default) one leaf holds z = -theta, clamped to the box: same answers.
+    for (name, extra) in [("box", &["--no-clipping"][..]), ("clipped", &[][..])] {
+        solve_eval_export_one(name, extra);
+    }
+}
+
+fn solve_eval_export_one(name: &str, extra: &[&str]) {
+    let sol = solve_box(name, extra);
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&sol).unwrap()).unwrap();
     assert_eq!(v["format"], "kestrel.empc.v1");
     assert_eq!(v["regions"], 9);
     assert_eq!(v["distinct_laws"], 9);
     assert!(v["solve_seconds"].as_f64().unwrap() > 0.0);
-    assert!(v["tree"]["depth"].as_u64().unwrap() >= 2);
-    assert!(v["tree"]["nodes"].as_u64().unwrap() >= 4);
+    if extra.is_empty() {
+        assert_eq!(v["tree"]["nodes"].as_u64().unwrap(), 0);
+    } else {
+        assert!(v["tree"]["depth"].as_u64().unwrap() >= 2);
+        assert!(v["tree"]["nodes"].as_u64().unwrap() >= 4);
+    }
     assert!(v["tree"]["bytes"].as_u64().unwrap() > 0);
     assert_eq!(v["region_list"].as_array().unwrap().len(), 9);
 
-    let thetas = file("thetas.csv", "0.5, -0.25\n2, -3\n-1.5,0.75\n10,0\n");
+    let thetas = file(
+        &format!("{name}-thetas.csv"),
+        "0.5, -0.25\n2, -3\n-1.5,0.75\n10,0\n",
+    );
     let o = kestrel()
         .args(["empc", "eval", "--solution"])
         .arg(&sol)
@@ -84,7 +99,7 @@ fn solve_eval_export() {
     assert!(stderr(&o).contains("1 of 4 parameters lie outside"));
 
     for scalar in ["f32", "q16"] {
-        let out = dir().join(format!("tables-{scalar}.rs"));
+        let out = dir().join(format!("{name}-tables-{scalar}.rs"));
         let o = kestrel()
             .args(["empc", "export", "--solution"])
             .arg(&sol)
@@ -117,6 +132,28 @@ fn first_move_only() {
         .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(String::from_utf8(o.stdout).unwrap().trim(), "-0.5");
+}
+
+#[test]
+fn help_names_inputs_and_outputs() {
+    for (sub, words) in [
+        (
+            "solve",
+            ["kestrel.mpqp.v1", "kestrel.empc.v1", "--no-clipping"],
+        ),
+        ("eval", ["CSV", "one row per theta", "--thetas"]),
+        ("export", ["SliceTables", "static", "--scalar"]),
+    ] {
+        let o = kestrel().args(["empc", sub, "--help"]).output().unwrap();
+        assert!(o.status.success());
+        let text = String::from_utf8_lossy(&o.stdout);
+        for w in words {
+            assert!(
+                text.contains(w),
+                "`kestrel empc {sub} --help` lacks {w:?}:\n{text}"
+            );
+        }
+    }
 }
 
 #[test]
@@ -153,7 +190,19 @@ fn bad_inputs_give_clear_errors() {
         stderr(&o)
     );
 
-    let sol = solve_box("bad", &[]);
+    let unbounded = file(
+        "unbounded.json",
+        &BOX2.replace("\"theta_ub\": [3, 3]", "\"theta_ub\": [3, 1e13]"),
+    );
+    let o = run(&["empc", "solve", "--problem"], &[&unbounded]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("parameter set is unbounded"),
+        "{}",
+        stderr(&o)
+    );
+
+    let sol = solve_box("bad", &["--no-clipping"]);
     let thetas = file("short.csv", "1\n");
     let o = run(&["empc", "eval", "--solution"], &[&sol]);
     assert!(!o.status.success()); // --thetas missing

@@ -19,10 +19,36 @@ pub struct Args {
 #[derive(clap::Subcommand, Debug)]
 enum Sub {
     /// Solve the mpQP; write the solution (summary, regions, tree tables).
+    ///
+    /// Input: a `kestrel.mpqp.v1` problem `min 1/2 z'Hz + (F'theta + f)'z
+    /// subject to G z <= W + E theta`, theta in the box [theta_lb, theta_ub]
+    /// (keys H, F, f, G, W, E, theta_lb, theta_ub; H positive definite, the
+    /// box finite). Output (--out, default standard output): a
+    /// `kestrel.empc.v1` solution file with the summary (regions,
+    /// distinct_laws, solve_seconds, tree {depth, nodes, bytes}), the region
+    /// list (active set, half-spaces A theta <= b, law z = Fz theta + gz;
+    /// leave out with --no-regions) and the evaluation tables that `eval`
+    /// and `export` read. A one-line summary goes to standard error.
+    /// Unbounded parameter sets, an indefinite H and an empty feasible set
+    /// are errors.
     Solve(SolveArgs),
     /// Evaluate a solution at parameters (CSV, one theta per row, no header).
+    ///
+    /// Input: a solution file from `kestrel empc solve` and a CSV file with
+    /// one parameter vector theta per row (p numbers, no header). Output
+    /// (--out, default standard output): CSV, one row per theta, with the
+    /// optimal z (or its first K entries when solved with --first-move K),
+    /// from the search tree. Parameters outside the explored set get the
+    /// nearest region's law clamped to the bounds, with a warning on
+    /// standard error.
     Eval(EvalArgs),
     /// Export a solution's tables as Rust source with `static` arrays.
+    ///
+    /// Input: a solution file from `kestrel empc solve`. Output (--out,
+    /// default standard output): Rust source defining `NODES`, `LAWS`,
+    /// `ROWS`, `HULL`, `THETA_LB`, `THETA_UB`, `BOUNDS` (u16 indices, numbers
+    /// in the chosen --scalar) and `TABLES: kestrel_empc::SliceTables`, to
+    /// evaluate with `kestrel_empc::evaluate` in no_std firmware.
     Export(ExportArgs),
 }
 
@@ -48,6 +74,10 @@ struct SolveArgs {
     /// Show a progress bar on standard error.
     #[arg(long)]
     progress: bool,
+    /// Keep one leaf per law: no clipping (by default a leaf may serve
+    /// regions whose differing outputs saturate, with the same clamped z).
+    #[arg(long)]
+    no_clipping: bool,
 }
 
 /// `kestrel empc eval`.
@@ -112,6 +142,7 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
     };
     let tree = TreeSettings {
         outputs,
+        clipping: !a.no_clipping,
         ..TreeSettings::default()
     };
     let ctl = build_controller(&problem, &sol, &tree).with_context(|| name.clone())?;
