@@ -305,14 +305,30 @@ fn hqr(a: &mut Mat1) -> Option<(Vec<f64>, Vec<f64>)> {
                             z = r / s;
                             q /= p;
                             r /= p;
-                            for j in k..=nn {
-                                p = a.at(k, j) + q * a.at(k + 1, j);
-                                if k != nn - 1 {
-                                    p += r * a.at(k + 2, j);
-                                    a.sub(k + 2, j, p * z);
+                            // Rows k, k+1 (and k+2) from column k on, as
+                            // slices (contiguous, no per-entry index checks).
+                            let w1 = n + 1;
+                            let (row_k, rest) = a.data[k * w1..].split_at_mut(w1);
+                            let (row_k1, rest) = rest.split_at_mut(w1);
+                            let (row_k, row_k1) = (&mut row_k[k..=nn], &mut row_k1[k..=nn]);
+                            if k != nn - 1 {
+                                let row_k2 = &mut rest[k..=nn];
+                                for ((u, v), w) in row_k
+                                    .iter_mut()
+                                    .zip(row_k1.iter_mut())
+                                    .zip(row_k2.iter_mut())
+                                {
+                                    let pj = *u + q * *v + r * *w;
+                                    *w -= pj * z;
+                                    *v -= pj * y;
+                                    *u -= pj * x;
                                 }
-                                a.sub(k + 1, j, p * y);
-                                a.sub(k, j, p * x);
+                            } else {
+                                for (u, v) in row_k.iter_mut().zip(row_k1.iter_mut()) {
+                                    let pj = *u + q * *v;
+                                    *v -= pj * y;
+                                    *u -= pj * x;
+                                }
                             }
                             let mmin = if nn < k + 3 { nn } else { k + 3 };
                             for i in l..=mmin {
