@@ -55,6 +55,13 @@ fn numbers_mean_multiples_of_the_identity() {
     let text = std::fs::read_to_string(&out_path).unwrap();
     let v: serde_json::Value = serde_json::from_str(&text).unwrap();
     assert_eq!(v["format"], "kestrel.kalman.v1");
+    // The folded step's cost: 2 nx ny + nx^2 + nx nu = 4 + 4 + 2 (D = 0).
+    assert_eq!(v["multiply_adds"], 2 * 2 + 2 * 2 + 2);
+    assert!(
+        stderr(&out).contains("10 multiply-adds"),
+        "{}",
+        stderr(&out)
+    );
     let d = KalmanDesign::from_json_str(&text).unwrap();
     // Independent: the library's dlqe on the same matrices.
     let a = dmatrix![1.0, 0.02; 0.0, 1.0];
@@ -217,4 +224,22 @@ fn rejects_bad_input() {
     let out = run(&["--q", "1", "--r", "1"], &blind);
     assert!(!out.status.success());
     assert!(stderr(&out).contains("not detectable"), "{}", stderr(&out));
+}
+
+#[test]
+fn help_says_what_goes_in_and_comes_out() {
+    let out = kestrel().args(["kalman", "--help"]).output().unwrap();
+    assert!(out.status.success());
+    let help = String::from_utf8_lossy(&out.stdout);
+    for needle in [
+        "--model",
+        "kestrel.ss.v1",
+        "kestrel.kalman.v1",
+        "measurement-update gain",
+        "predictor gain",
+        "one-step prediction",
+        "multiply_adds",
+    ] {
+        assert!(help.contains(needle), "--help lacks {needle:?}:\n{help}");
+    }
 }

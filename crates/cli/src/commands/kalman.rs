@@ -15,6 +15,7 @@ use std::path::{Path, PathBuf};
 /// steady-state one-step prediction covariance `P`, and the model, noise
 /// model and operating point the run-time filter needs.
 #[derive(clap::Args, Debug)]
+#[command(after_long_help = HELP)]
 pub struct Args {
     /// Discrete model file (`kestrel.ss.v1`, `ts > 0`).
     #[arg(long)]
@@ -42,6 +43,30 @@ pub struct Args {
     #[arg(long)]
     pub out: Option<PathBuf>,
 }
+
+/// The inputs and outputs, shown after the flags by `kestrel kalman --help`.
+const HELP: &str = "\
+Inputs:
+  --model    a discrete kestrel.ss.v1 model (A, B, C, D, ts > 0; optional u0, y0):
+             x+ = A x + B (u - u0) + G w,  y = C x + D (u - u0) + y0 + bias + v
+  --q, --r   Cov(w) and Cov(v): a number v (meaning v I) or a JSON matrix file
+  --g        how w enters the state (default: the identity); --cross: E[w v']
+  --bias     the constant sensor bias (e.g. the gyro bias from a ground segment)
+
+Output (--out, or standard output): a kestrel.kalman.v1 file with the model,
+the noise model, u0, y0, bias, and
+  M   nx x ny  measurement-update gain (MATLAB dlqe's M): x_k|k = x_k|k-1 + M e_k
+  L   nx x ny  predictor gain (python-control dlqe's L; = A M without --cross)
+  P   nx x nx  steady-state covariance of the one-step prediction (dlqe's P)
+  Z   nx x nx  covariance after the measurement update
+  eigenvalues  of A - L C;  residual  relative residual of the Riccati equation
+  multiply_adds  cost of one run-time step of the folded stationary filter
+                 (2 nx ny + nx^2 + nx nu, + ny nu with D, + nx ny with --cross;
+                 75 for 5 states, 4 inputs, 3 outputs)
+A summary (states, spectral radius, residual, multiply-adds) goes to stderr.
+Bad input (shapes, NaN, asymmetric or indefinite covariances, undetectable
+or unstabilisable pairs) stops the command with a message naming the file
+and the problem.";
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -101,8 +126,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .map(|z| z.norm())
             .fold(0.0, f64::max);
         eprintln!(
-            "kalman: {nx} states, {ny} outputs; predictor spectral radius {rho:.4}, Riccati residual {:.1e}",
-            design.filter.residual
+            "kalman: {nx} states, {ny} outputs; predictor spectral radius {rho:.4}, Riccati residual {:.1e}; stationary step {} multiply-adds",
+            design.filter.residual,
+            design.multiply_adds()
         );
     }
     io::write_output(args.out.as_deref(), &design.to_json_string())
