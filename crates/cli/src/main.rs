@@ -7,6 +7,8 @@ use std::process::ExitCode;
 
 mod commands;
 mod io;
+mod pipeline;
+mod report;
 
 /// Model predictive control for small rotorcraft on tiny processors.
 #[derive(Parser, Debug)]
@@ -36,6 +38,10 @@ enum Command {
     Fgm(commands::fgm::Args),
     /// Stationary Kalman filter design (dlqe); write `kestrel.kalman.v1`.
     Kalman(commands::kalman::Args),
+    /// The main job: the thesis workflow end to end, written as a report directory.
+    Pipeline(commands::pipeline::Args),
+    /// Firmware tables from design files: model (+ Kalman filter, MPC problem) to `generated.rs`.
+    Export(commands::export::Args),
 }
 
 fn main() -> ExitCode {
@@ -49,6 +55,8 @@ fn main() -> ExitCode {
         Command::Identify(args) => commands::identify::run(args),
         Command::Fgm(args) => commands::fgm::run(args),
         Command::Kalman(args) => commands::kalman::run(args),
+        Command::Pipeline(args) => commands::pipeline::run(args),
+        Command::Export(args) => commands::export::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

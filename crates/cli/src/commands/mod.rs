@@ -3,8 +3,10 @@
 pub mod c2d;
 pub mod closed_loop;
 pub mod empc;
+pub mod export;
 pub mod fgm;
 pub mod identify;
 pub mod kalman;
 pub mod mpc;
+pub mod pipeline;
 pub mod simulate;
