@@ -12,8 +12,8 @@
 //! fgm_mpc -- --nocapture` (clarabel references solved once per theta and
 //! reused for the cold and the warm check).
 
-use kestrel_fgm::reference::ReferenceSolver;
 use kestrel_core::formats::SsModel;
+use kestrel_fgm::reference::ReferenceSolver;
 use kestrel_fgm::{
     AppliedInputs, BoxQp, FgmDesign, FgmSettings, Preconditioner, Start, WarmStartAssumption,
 };
@@ -32,7 +32,10 @@ fn model() -> SsModel {
         env!("CARGO_MANIFEST_DIR"),
         "/../models/tricopter-blackbox-5.json"
     );
-    SsModel::read(std::path::Path::new(path)).unwrap()
+    // KESTREL_FGM_MODEL overrides the fixture (e.g. a committed version
+    // while the shared file is being re-identified).
+    let path = std::env::var("KESTREL_FGM_MODEL").unwrap_or_else(|_| path.to_string());
+    SsModel::read(std::path::Path::new(&path)).unwrap()
 }
 
 fn box_qp(size: ProblemSize) -> BoxQp {
@@ -181,7 +184,13 @@ fn preconditioning_on_the_thesis_sized_problem() {
     let n = qp.n();
     let mut delta_low: f64 = 0.0;
     for mask in 0u32..(1 << n) {
-        let u = |i: usize| if mask >> i & 1 == 1 { 0.5 * w[i] } else { -0.5 * w[i] };
+        let u = |i: usize| {
+            if mask >> i & 1 == 1 {
+                0.5 * w[i]
+            } else {
+                -0.5 * w[i]
+            }
+        };
         let mut v = 0.0;
         for i in 0..n {
             for j in 0..n {
