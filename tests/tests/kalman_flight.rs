@@ -246,8 +246,8 @@ fn ground_statistics() -> SensorStatistics {
     let stats = estimate_sensor_statistics(&gyro, &NoiseSettings::default()).unwrap();
     // The estimated bias is within 5 standard errors of the simulator's (7.5).
     let truth = test_gyro_bias();
-    for i in 0..3 {
-        assert!((stats.bias[i] - truth[i]).abs() < 5.0 * stats.bias_standard_error[i]);
+    for (i, b) in truth.iter().enumerate() {
+        assert!((stats.bias[i] - b).abs() < 5.0 * stats.bias_standard_error[i]);
     }
     stats
 }
