@@ -49,7 +49,15 @@ fn certify_prints_iterations_l_mu_and_preconditioner() {
     assert!(v["L"].as_f64().unwrap() > 0.0);
     assert!(v["mu"].as_f64().unwrap() > 0.0);
     assert_eq!(v["preconditioner"], "optimal-diagonal");
-    assert_eq!(v["eps_table"].as_array().unwrap().len(), 4);
+    // eps 1e5 .. 1e2 and the PWM eps (computed from diag(H^-1)).
+    let table = v["eps_table"].as_array().unwrap();
+    assert_eq!(table.len(), 5);
+    assert_eq!(table[4]["eps"], v["pwm_1us"]["eps"]);
+    assert_eq!(table[4]["iterations"], v["pwm_1us"]["iterations"]);
+    assert!(
+        v["pwm_1us"]["eps"].as_f64().unwrap() >= v["pwm_1us"]["eps_eigenvalue"].as_f64().unwrap()
+    );
+    assert!(v["delta"].as_f64().unwrap() <= 0.25 * v["delta_richter"].as_f64().unwrap() * 1.000001);
     // A looser tolerance never needs more iterations.
     let (_, out2, _) = run(&[
         "fgm",
@@ -61,6 +69,34 @@ fn certify_prints_iterations_l_mu_and_preconditioner() {
     ]);
     let v2: serde_json::Value = serde_json::from_str(&out2).unwrap();
     assert!(v2["iterations"].as_u64() <= v["iterations"].as_u64());
+}
+
+#[test]
+fn help_says_what_goes_in_and_comes_out() {
+    let (ok, out, err) = run(&["fgm", "certify", "--help"]);
+    assert!(ok, "{err}");
+    for needle in [
+        "kestrel.mpqp.v1",
+        "iterations",
+        "eps_table",
+        "pwm_1us",
+        "--applied-inputs",
+    ] {
+        assert!(
+            out.contains(needle),
+            "certify --help lacks {needle}:\n{out}"
+        );
+    }
+    let (ok, out, err) = run(&["fgm", "solve", "--help"]);
+    assert!(ok, "{err}");
+    for needle in [
+        "one theta per row",
+        "one row per theta",
+        "--iterations",
+        "box centre",
+    ] {
+        assert!(out.contains(needle), "solve --help lacks {needle}:\n{out}");
+    }
 }
 
 #[test]

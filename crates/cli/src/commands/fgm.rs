@@ -4,7 +4,7 @@ use crate::io;
 use anyhow::{Context, bail};
 use kestrel_core::formats::MpqpProblem;
 use kestrel_fgm::{
-    BoxQp, ExportScalar, FgmDesign, FgmSettings, Momentum, Preconditioner, Start,
+    AppliedInputs, BoxQp, ExportScalar, FgmDesign, FgmSettings, Momentum, Preconditioner, Start,
     WarmStartAssumption,
 };
 use nalgebra::DVector;
@@ -22,12 +22,33 @@ pub struct Args {
 /// The `fgm` subcommands.
 #[derive(clap::Subcommand, Debug)]
 pub enum FgmCommand {
-    /// Certify the iteration count for `J - J* <= eps` over the parameter box
-    /// and print it as JSON (with L, mu, the preconditioner, a table of
-    /// eps 1e5 .. 1e2 and the eps that keeps every input within 1 us).
+    /// Certify the iteration count for `J - J* <= eps` over the parameter box.
+    ///
+    /// Input: a `kestrel.mpqp.v1` problem (`--problem`) whose constraint rows
+    /// each bound one variable (any order and scaling; bounds affine in
+    /// theta), and the tolerance `--eps` on `J(z) - J*`.
+    ///
+    /// Output (JSON, `kestrel.fgm.certificate.v1`, to stdout or `--out`):
+    /// `iterations` (certified, after the initial projected gradient step,
+    /// for a cold start at the box centre), `L`, `mu`, `condition` of the
+    /// scaled Hessian, `preconditioner` with `before`/`after` spectra,
+    /// `delta` (and Richter's `delta_richter`), `eps_table` (eps 1e5, 1e4,
+    /// 1e3, 1e2 and the PWM eps, each with its certified iterations),
+    /// `pwm_1us` (the eps that keeps the applied inputs within 1 us of the
+    /// optimum, computed from diag(H^-1), and its iterations), `rounding`
+    /// (f32 and Q16 error bounds) and, with `--theta-step`, `warm` (the
+    /// warm-start certificate). `--export` also writes the firmware tables.
     Certify(CertifyArgs),
-    /// Solve for each theta of a CSV file (cold start, fixed iterations);
-    /// prints one CSV row of z per theta.
+    /// Solve for each theta of a CSV file with a fixed iteration count.
+    ///
+    /// Input: the problem (`--problem`, as for `certify`), a CSV file of
+    /// parameters (`--thetas`: one theta per row, p numbers, no header) and
+    /// `--iterations` (after the initial projected gradient step; take
+    /// `iterations` from `certify` for a certified accuracy). Every solve is
+    /// a cold start from the box centre, in f64.
+    ///
+    /// Output (CSV, to stdout or `--out`): one row per theta, the n entries
+    /// of z in the problem's units, no header.
     Solve(SolveArgs),
 }
 
@@ -93,6 +114,10 @@ pub struct CertifyArgs {
     /// comma separated (p numbers); adds a warm-start certificate.
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     pub theta_step: Option<Vec<f64>>,
+    /// How many leading variables are the applied inputs (the first move)
+    /// for the PWM tolerance (`pwm_1us`); default: all variables.
+    #[arg(long)]
+    pub applied_inputs: Option<usize>,
     /// Write the firmware tables as a Rust `static` to this file.
     #[arg(long)]
     pub export: Option<PathBuf>,
@@ -156,18 +181,25 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
     let d = load(&a.problem, a.preconditioner, momentum)?;
     let cert = d.certify(a.eps)?;
     let pc = &d.preconditioning;
-    let table: Vec<Value> = d
+    let applied = match a.applied_inputs {
+        Some(k) => AppliedInputs::FirstMove(k),
+        None => AppliedInputs::All,
+    };
+    let mut table: Vec<Value> = d
         .certify_table(&[1e5, 1e4, 1e3, 1e2])?
         .iter()
         .map(|c| json!({"eps": c.eps, "iterations": c.iterations}))
         .collect();
-    let eps_pwm = kestrel_fgm::eps_for_input_error(pc.before.mu, 1.0);
-    let pwm = if eps_pwm > 0.0 {
-        let c = d.certify(eps_pwm)?;
-        json!({"max_input_error": 1.0, "eps": eps_pwm, "iterations": c.iterations})
-    } else {
-        json!({"max_input_error": 1.0, "eps": null,
-               "note": "H is singular: no eps bounds the input error"})
+    let pwm = match d.pwm_tolerance(1.0, applied) {
+        Ok(t) => {
+            let c = d.certify(t.eps)?;
+            table.push(json!({"eps": t.eps, "iterations": c.iterations, "pwm_error": 1.0}));
+            json!({"max_input_error": 1.0, "eps": t.eps, "iterations": c.iterations,
+                   "applied_inputs": a.applied_inputs.unwrap_or(d.n()),
+                   "worst_variable": t.worst_variable, "h_inv_diag": t.h_inv_diag,
+                   "eps_eigenvalue": t.eps_eigenvalue})
+        }
+        Err(e) => json!({"max_input_error": 1.0, "eps": null, "note": e.to_string()}),
     };
     let rounding = |b: Option<kestrel_fgm::RoundingBound>| match b {
         Some(b) => json!({"cost_bound": b.cost_bound, "distance_bound": b.distance_bound,
@@ -185,6 +217,8 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
         "mu": cert.mu,
         "condition": cert.condition,
         "delta": cert.delta,
+        "delta_richter": cert.delta_richter,
+        "cold_start": "box centre",
         "diameter_sq": cert.diameter_sq,
         "linear_bound": cert.linear_bound,
         "sublinear_bound": cert.sublinear_bound,
