@@ -1,6 +1,6 @@
-//! End-to-end tests of `kestrel mpc` and `kestrel closed-loop`.
+//! End-to-end tests of `kestrel mpc` (`kestrel closed-loop`: tests/closed_loop.rs).
 
-use kestrel_core::formats::{MpqpProblem, SsModel};
+use kestrel_core::formats::MpqpProblem;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -182,43 +182,14 @@ fn generic_model_needs_bounds_and_reads_weight_files() {
 }
 
 #[test]
-fn closed_loop_runs_qp_and_pid_and_refuses_missing_laws() {
-    let d = dir("cl");
-    for (ctl, plant) in [("qp", "linear"), ("pid", "nonlinear")] {
-        let out = d.join(format!("{ctl}.csv")).display().to_string();
-        let (ok, _, err) = kestrel(&[
-            "closed-loop",
-            "--controller",
-            ctl,
-            "--plant",
-            plant,
-            "--noise",
-            "--out",
-            &out,
-        ]);
-        assert!(ok, "{err}");
-        assert!(err.contains("rise time"), "{err}");
-        let text = std::fs::read_to_string(&out).unwrap();
-        let mut lines = text.lines();
-        assert!(
-            lines
-                .next()
-                .unwrap()
-                .starts_with("t,r_p,r_q,r_r,throttle,p,q,r")
-        );
-        let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-        assert_eq!(rows.len(), 200); // 4 s at 50 Hz
-        // J is there for the MPC and empty for the PI.
-        let j = rows[10][19];
-        assert_eq!(j.is_empty(), ctl == "pid");
-        // Ends near the step reference [1, -1, 0.5].
-        let last = &rows[199];
-        for (k, want) in [(5, 1.0), (6, -1.0), (7, 0.5)] {
-            let v: f64 = last[k].parse().unwrap();
-            assert!((v - want).abs() < 0.2, "{ctl}: column {k} = {v}");
-        }
+fn help_names_inputs_and_outputs() {
+    let (ok, out, _) = kestrel(&["mpc", "--help"]);
+    assert!(ok);
+    for want in [
+        "kestrel.ss.v1",
+        "kestrel.mpqp.v1",
+        "theta = [x; r_1..r_ny; throttle]",
+    ] {
+        assert!(out.contains(want), "missing {want}: {out}");
     }
-    let (ok, _, err) = kestrel(&["closed-loop", "--controller", "fgm"]);
-    assert!(!ok && err.contains("not available yet"), "{err}");
-    let _ = SsModel::from_json_str(DOUBLE_INTEGRATOR).unwrap();
 }

@@ -46,6 +46,6 @@ pub use solvers::ExplicitSolver;
 pub use solvers::{FastGradientSolver, FgmOptions, FgmStart};
 #[cfg(feature = "std")]
 pub use tricopter::{
-    Actuation, IDENTIFIED_MODEL_JSON, ProblemSize, TricopterTrim, default_weights, design_model,
-    identified_model, tricopter_problem, tricopter_trim,
+    Actuation, IDENTIFIED_MODEL_JSON, ProblemSize, TricopterTrim, default_weights,
+    delay_feedthrough, design_model, identified_model, tricopter_problem, tricopter_trim,
 };

@@ -5,13 +5,13 @@ use crate::io;
 use anyhow::{Context, bail};
 use kestrel_core::formats::SsModel;
 use kestrel_mpc::sim::{
-    LinearPlant, NonlinearPlant, RatePlant, Scenario, Trace, kalman_design, run_mpc, run_pid,
+    PlantKind as SimPlant, RunResult, RunSettings, fly_mpc, fly_offset_free, fly_pi,
 };
 use kestrel_mpc::{
-    Blocking, MpcLaw, MpcProblem, MpcSettings, ProblemSize, QpSettings, Terminal, default_weights,
-    design_model, tricopter_trim,
+    Blocking, DisturbanceModel, FgmOptions, FgmStart, MpcLaw, MpcProblem, MpcSettings,
+    ParametricQpSolver, ProblemSize, QpSettings, Terminal, default_weights, identified_model,
+    tricopter_trim,
 };
-use kestrel_tricopter_model::{GustConfig, GyroConfig, Mixer, PlantConfig, RatePid, RatePidGains};
 use std::path::PathBuf;
 
 /// The controller flown.
@@ -19,11 +19,11 @@ use std::path::PathBuf;
 pub enum Controller {
     /// MPC with the clarabel reference QP solve at every step.
     Qp,
-    /// Explicit MPC (kestrel-empc).
+    /// Explicit MPC (kestrel-empc): the mpQP solved once, point location per step.
     Empc,
-    /// Fast-gradient MPC (kestrel-fgm).
+    /// Fast-gradient MPC (kestrel-fgm) with a fixed iteration count (`--iterations`).
     Fgm,
-    /// The baseline PI rate controller (ArduCopter ACRO-like).
+    /// The baseline PI rate controller (ArduCopter ACRO-like) on the raw gyro.
     Pid,
 }
 
@@ -36,42 +36,91 @@ pub enum PlantKind {
     Linear,
 }
 
-/// Flies the scenario of thesis 7.7.1 (released at rates [2, 2, 2] rad/s,
-/// then a step to [1, -1, 0.5] rad/s) and writes the trace: `t`, the
-/// references, throttle, true/measured/estimated rates, the four pulses,
-/// a clipping flag and the MPC's cost `J` of each step. A summary (rise
-/// time, overshoot, RMS tracking error, actuator effort per axis) goes to
-/// standard error.
+/// Problem size presets.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Size {
+    /// N = 2, one block of two steps (the thesis's Ns = 1).
+    Thesis,
+    /// N = 10, blocks 1,1,2,6.
+    Larger,
+}
+
+/// Where each fast-gradient solve starts.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Start {
+    /// From the centre of the input box (the certified start).
+    Cold,
+    /// From the previous step's solution.
+    Warm,
+    /// From the previous solution shifted by one move.
+    Shifted,
+}
+
+const AFTER_HELP: &str = "\
+Inputs: a design model (kestrel.ss.v1 with 4 pulse inputs pwm1,pwm2,pwm3,servo in us and 3 rate
+outputs p,q,r in rad/s, operating point u0/y0; default: the built-in identified 5-state model,
+models/tricopter-blackbox-5.json, embedded at build time; a feed-through D is moved one sample
+later, as it acts in the loop) and the MPC settings below. The MPC
+controllers run the stationary Kalman filter designed from the model (kestrel-kalman dlqe) and
+the condensed QP with the tricopter's PWM bounds around u0 (motors 1000-2000 us, servo +-300 us).
+
+Scenario (thesis 7.7.1): released at body rates [2, 2, 2] rad/s with zero reference, a step to
+[1, -1, 0.5] rad/s at t = 2 s, 4 s in all, 50 Hz, hover throttle.
+
+Output: the CSV trace (--out, or standard output), one row per sample with columns
+t, r_p, r_q, r_r, throttle, p, q, r (true rates), p_meas, q_meas, r_meas (gyro),
+p_est, q_est, r_est (Kalman estimate), pwm1, pwm2, pwm3, servo (pulses sent, us),
+saturated (1 if any pulse was clipped), J (the MPC cost (6.3a) of the law's move sequence,
+empty for pid). A summary goes to standard error: rise time, overshoot, RMS tracking error,
+actuator effort (RMS pulse from trim) per axis, the largest bound violation.
+
+Examples:
+  kestrel closed-loop --controller qp --out qp.csv
+  kestrel closed-loop --controller fgm --iterations 5 --start warm --noise --out fgm5.csv
+  kestrel closed-loop --controller empc --model my-model.json --size thesis --out empc.csv";
+
+/// Flies the scenario of thesis 7.7.1 with the chosen controller and
+/// writes the trace (see `kestrel closed-loop --help`).
 #[derive(clap::Args, Debug)]
+#[command(after_help = AFTER_HELP)]
 pub struct Args {
     /// The controller.
     #[arg(long, value_enum)]
     pub controller: Controller,
     /// Design model (`kestrel.ss.v1`, 4 pulse inputs, 3 rate outputs);
-    /// default: the rates-plus-actuators linearisation of the default
-    /// aircraft at 50 Hz.
+    /// default: the built-in identified 5-state model
+    /// (models/tricopter-blackbox-5.json).
     #[arg(long)]
     pub model: Option<PathBuf>,
-    /// Problem size: `thesis` (N = 2, one block) or `larger` (N = 10,
-    /// blocks 1,1,2,6); `--horizon`/`--blocks` override it.
-    #[arg(long, default_value = "thesis")]
-    pub size: String,
-    /// Prediction horizon N (overrides `--size`).
+    /// Problem size; `--horizon`/`--blocks` override it.
+    #[arg(long, value_enum, default_value = "thesis")]
+    pub size: Size,
+    /// Prediction horizon N (overrides `--size`; one block per step unless `--blocks`).
     #[arg(long)]
     pub horizon: Option<usize>,
-    /// Move-blocking lengths, comma separated (overrides `--size`).
+    /// Move-blocking lengths, comma separated, summing to N (overrides `--size`).
     #[arg(long, value_delimiter = ',')]
     pub blocks: Option<Vec<usize>>,
-    /// Output weight Q1: a number (times the identity) or a JSON matrix file.
+    /// Output weight Q1: a number (times the identity) or a JSON matrix file (default 2000).
     #[arg(long)]
     pub q1: Option<String>,
-    /// Input weight Q2: a number (times the identity) or a JSON matrix file.
+    /// Input weight Q2: a number (times the identity) or a JSON matrix file (default 0.01).
     #[arg(long)]
     pub q2: Option<String>,
+    /// Fast-gradient iterations per step (`--controller fgm`).
+    #[arg(long, default_value_t = 12)]
+    pub iterations: usize,
+    /// Where each fast-gradient solve starts (`--controller fgm`).
+    #[arg(long, value_enum, default_value = "cold")]
+    pub start: Start,
+    /// Offset-free MPC: constant torque disturbances on the rate states,
+    /// estimated by the Kalman filter (not with `pid`).
+    #[arg(long)]
+    pub offset_free: bool,
     /// The plant.
     #[arg(long, value_enum, default_value = "nonlinear")]
     pub plant: PlantKind,
-    /// Gyro noise (7.5)-(7.6) and gusts, as in figures 7.18-7.21.
+    /// Gyro noise and bias (7.5)-(7.6) and gusts, as in figures 7.18-7.21.
     #[arg(long)]
     pub noise: bool,
     /// Seed of the noise.
@@ -82,59 +131,10 @@ pub struct Args {
     pub out: Option<PathBuf>,
 }
 
-macro_rules! with_filter {
-    ($nx:expr, $design:expr, |$f:ident| $body:expr) => {
-        match $nx {
-            1 => {
-                let mut $f = $design.filter::<f64, 1, 4, 3>()?;
-                $body
-            }
-            2 => {
-                let mut $f = $design.filter::<f64, 2, 4, 3>()?;
-                $body
-            }
-            3 => {
-                let mut $f = $design.filter::<f64, 3, 4, 3>()?;
-                $body
-            }
-            4 => {
-                let mut $f = $design.filter::<f64, 4, 4, 3>()?;
-                $body
-            }
-            5 => {
-                let mut $f = $design.filter::<f64, 5, 4, 3>()?;
-                $body
-            }
-            6 => {
-                let mut $f = $design.filter::<f64, 6, 4, 3>()?;
-                $body
-            }
-            7 => {
-                let mut $f = $design.filter::<f64, 7, 4, 3>()?;
-                $body
-            }
-            8 => {
-                let mut $f = $design.filter::<f64, 8, 4, 3>()?;
-                $body
-            }
-            9 => {
-                let mut $f = $design.filter::<f64, 9, 4, 3>()?;
-                $body
-            }
-            10 => {
-                let mut $f = $design.filter::<f64, 10, 4, 3>()?;
-                $body
-            }
-            n => bail!("closed-loop supports design models with 1 to 10 states, found {n}"),
-        }
-    };
-}
-
 fn settings(args: &Args) -> anyhow::Result<MpcSettings> {
-    let size = match args.size.as_str() {
-        "thesis" => ProblemSize::Thesis,
-        "larger" => ProblemSize::Larger,
-        other => bail!("--size: expected thesis or larger, found {other}"),
+    let size = match args.size {
+        Size::Thesis => ProblemSize::Thesis,
+        Size::Larger => ProblemSize::Larger,
     };
     let (dq1, dq2) = default_weights();
     let q1 = match &args.q1 {
@@ -157,42 +157,108 @@ fn settings(args: &Args) -> anyhow::Result<MpcSettings> {
     Ok(s)
 }
 
-fn fly<P: RatePlant>(args: &Args, model: &SsModel, plant: &mut P) -> anyhow::Result<Trace> {
-    let scenario = Scenario::thesis_step();
+/// Flies `problem`'s law with `solver` (plain or offset-free).
+fn fly_law<S: ParametricQpSolver>(
+    model: &SsModel,
+    design: &Design,
+    solver: S,
+    run: &RunSettings,
+) -> anyhow::Result<(RunResult, S)> {
+    let mut law = MpcLaw::new(design.problem(), solver)?;
+    let result = match design {
+        Design::Plain(problem) => fly_mpc(model, problem, &mut law, run)?,
+        Design::OffsetFree(d) => fly_offset_free(d, &mut law, run)?,
+    };
+    Ok((result, law.into_solver()))
+}
+
+enum Design {
+    Plain(MpcProblem),
+    OffsetFree(kestrel_mpc::OffsetFreeDesign),
+}
+
+impl Design {
+    fn problem(&self) -> &MpcProblem {
+        match self {
+            Design::Plain(p) => p,
+            Design::OffsetFree(d) => &d.problem,
+        }
+    }
+}
+
+fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunResult> {
+    if args.controller == Controller::Pid {
+        if args.offset_free {
+            bail!("--offset-free applies to the MPC controllers, not to pid");
+        }
+        return Ok(fly_pi(model, run)?);
+    }
     let trim = tricopter_trim(model)?;
-    match args.controller {
-        Controller::Pid => {
-            let o = trim.offsets;
-            let mut pid = RatePid::new(
-                RatePidGains::default(),
-                Mixer::new([o[0], o[1], o[2], 1500.0 + o[3]]),
-            );
-            Ok(run_pid(plant, &mut pid, &trim, &scenario, model.ts)?)
-        }
-        Controller::Empc | Controller::Fgm => bail!(
-            "--controller {:?}: not available yet; the {} law plugs into the simulator through kestrel_mpc::ParametricQpSolver once its crate implements it",
-            args.controller,
-            if args.controller == Controller::Empc {
-                "explicit-MPC"
-            } else {
-                "fast-gradient"
-            }
-        ),
-        Controller::Qp => {
-            let problem = MpcProblem::build(model, &trim.bounds(), &settings(args)?)
-                .context("building the MPC problem")?;
-            let mut law = MpcLaw::clarabel(&problem, QpSettings::default())?;
-            let design = kalman_design(model)?;
-            with_filter!(model.nx(), design, |f| Ok(run_mpc(
-                plant,
-                &mut law,
-                &mut f,
+    let s = settings(args)?;
+    let design = if args.offset_free {
+        Design::OffsetFree(
+            MpcProblem::build_offset_free(
                 model,
-                &problem,
-                &scenario,
-                |l| Some(l.last_z().to_vec())
-            )?))
+                &trim.bounds(),
+                &s,
+                &DisturbanceModel::OutputStates,
+            )
+            .context("building the offset-free MPC problem")?,
+        )
+    } else {
+        Design::Plain(
+            MpcProblem::build(model, &trim.bounds(), &s).context("building the MPC problem")?,
+        )
+    };
+    let mpqp = design.problem().to_mpqp();
+    match args.controller {
+        Controller::Qp => {
+            let solver = kestrel_mpc::ReferenceSolver::new(&mpqp, QpSettings::default())?;
+            Ok(fly_law(model, &design, solver, run)?.0)
         }
+        Controller::Empc => {
+            eprintln!(
+                "solving the mpQP explicitly (n = {}, p = {}, {} constraints) ...",
+                mpqp.n(),
+                mpqp.p(),
+                mpqp.m()
+            );
+            let solver = kestrel_mpc::ExplicitSolver::build(
+                &mpqp,
+                &kestrel_empc::Settings {
+                    parallel: true,
+                    ..kestrel_empc::Settings::default()
+                },
+            )?;
+            eprintln!("explicit MPC: {} critical regions", solver.regions());
+            let (result, solver) = fly_law(model, &design, solver, run)?;
+            if solver.outside() > 0 {
+                eprintln!(
+                    "explicit MPC: {} of {} steps had theta outside the explored set (clamped law of the nearest region)",
+                    solver.outside(),
+                    result.trace.rows.len()
+                );
+            }
+            Ok(result)
+        }
+        Controller::Fgm => {
+            if args.iterations == 0 {
+                bail!("--iterations: expected at least 1");
+            }
+            let opts = FgmOptions {
+                iterations: args.iterations,
+                start: match args.start {
+                    Start::Cold => FgmStart::Cold,
+                    Start::Warm => FgmStart::Warm,
+                    Start::Shifted => FgmStart::WarmShifted,
+                },
+                ..FgmOptions::default()
+            };
+            let solver =
+                kestrel_mpc::FastGradientSolver::new(&mpqp, &opts)?.with_shift(design.problem().nu);
+            Ok(fly_law(model, &design, solver, run)?.0)
+        }
+        Controller::Pid => unreachable!("handled above"),
     }
 }
 
@@ -200,7 +266,18 @@ fn fly<P: RatePlant>(args: &Args, model: &SsModel, plant: &mut P) -> anyhow::Res
 pub fn run(args: Args) -> anyhow::Result<()> {
     let model = match &args.model {
         Some(p) => SsModel::read(p).with_context(|| format!("{}", p.display()))?,
-        None => design_model()?,
+        None => identified_model()?,
+    };
+    // A feed-through D acts one sample later in the loop (kestrel_mpc::delay_feedthrough).
+    let model = if model.d.iter().any(|v| *v != 0.0) {
+        let m = kestrel_mpc::delay_feedthrough(&model)?;
+        eprintln!(
+            "the model has a feed-through D: designing on its strictly proper form with D acting one sample later ({} states)",
+            m.nx()
+        );
+        m
+    } else {
+        model
     };
     if model.nu() != 4 || model.ny() != 3 {
         bail!(
@@ -209,24 +286,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             model.ny()
         );
     }
-    let scenario = Scenario::thesis_step();
-    let mut config = PlantConfig::default();
-    if !args.noise {
-        config.gyro = GyroConfig::ideal();
-        config.gust = GustConfig::calm();
-    }
-    let trace = match args.plant {
-        PlantKind::Nonlinear => {
-            let mut p = NonlinearPlant::hovering(config, scenario.initial_rates, args.seed)?;
-            fly(&args, &model, &mut p)?
-        }
-        PlantKind::Linear => {
-            let mut p = LinearPlant::new(&model, scenario.initial_rates, config.gyro, args.seed)?;
-            fly(&args, &model, &mut p)?
-        }
+    let mut run = if args.noise {
+        RunSettings::noisy()
+    } else {
+        RunSettings::default()
     };
-    let step = &scenario.steps[0];
-    let m = trace.step_metrics(step.time, scenario.initial_reference, step.rates);
+    run.seed = args.seed;
+    run.plant = match args.plant {
+        PlantKind::Nonlinear => SimPlant::Nonlinear,
+        PlantKind::Linear => SimPlant::Linear,
+    };
+    let result = fly(&args, &model, &run)?;
+    let m = &result.metrics;
     let f = |v: &[f64]| {
         v.iter()
             .map(|x| format!("{x:.3}"))
@@ -242,5 +313,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         f(&m.effort),
         m.max_bound_violation
     );
-    io::write_output(args.out.as_deref(), &trace.to_csv())
+    io::write_output(args.out.as_deref(), &result.trace.to_csv())
 }

@@ -22,6 +22,7 @@ use std::path::{Path, PathBuf};
 /// the last parameter. Other models need `--u-min` and `--u-max`
 /// (deviations from `u0`) and have no throttle parameter.
 #[derive(clap::Args, Debug)]
+#[command(after_help = AFTER_HELP)]
 pub struct Args {
     /// Discrete-time model (`kestrel.ss.v1`, `ts > 0`, `D = 0`).
     #[arg(long)]
@@ -67,6 +68,24 @@ pub struct Args {
     #[arg(long)]
     pub out: Option<PathBuf>,
 }
+
+const AFTER_HELP: &str = "\
+Input: a discrete-time model (kestrel.ss.v1 with ts > 0 and D = 0; u0/y0 optional), e.g. the
+identified tricopter model models/tricopter-blackbox-5.json (inputs pwm1,pwm2,pwm3,servo in us,
+outputs p,q,r in rad/s), plus the horizon, move blocking, weights and terminal cost below.
+A model with 4 inputs is taken to be the tricopter: PWM bounds around its u0 (motors
+1000-2000 us minus the throttle, servo +-300 us) and the throttle as the last parameter.
+Other models need --u-min/--u-max (deviations from u0) and have no throttle parameter.
+
+Output: the condensed parametric QP as kestrel.mpqp.v1 (--out, or standard output):
+  min_z 1/2 z'Hz + theta'F z   s.t.   G z <= W + E theta,   theta_lb <= theta <= theta_ub,
+with z = one input move per block (deviations from u0, us for the tricopter) and
+theta = [x; r_1..r_ny; throttle] (tricopter: [x; r_roll; r_pitch; r_yaw; throttle]).
+The explicit (kestrel empc) and fast-gradient (kestrel fgm) solvers read this file.
+
+Examples:
+  kestrel mpc --model models/tricopter-blackbox-5.json --horizon 2 --blocks 2 --q1 2000 --q2 0.01 --out thesis.json
+  kestrel mpc --model models/tricopter-blackbox-5.json --horizon 10 --blocks 1,1,2,6 --q1 2000 --q2 0.01 --out larger.json";
 
 /// A weight given on the command line: a number or a JSON matrix file.
 pub fn parse_weight(text: &str, what: &str) -> anyhow::Result<Weight> {
