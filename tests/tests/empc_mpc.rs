@@ -23,7 +23,9 @@
 
 use kestrel_core::formats::{MpqpProblem, SsModel};
 use kestrel_empc::mpqp::Rng;
-use kestrel_empc::{Outputs, Settings, TreeSettings, build_controller, evaluate_with, solve};
+use kestrel_empc::{
+    Outputs, Settings, TreeSettings, build_compact, build_controller, evaluate_with, solve,
+};
 use kestrel_mpc::{
     ProblemSize, QpSettings, ReferenceSolver, default_weights, design_model, tricopter_problem,
 };
@@ -86,6 +88,7 @@ struct Report {
     regions: usize,
     laws: usize,
     bytes_f32: usize,
+    compact_bytes_f32: usize,
 }
 
 /// Solves, builds the first-move tree and checks `samples` random parameters.
@@ -115,6 +118,43 @@ fn check(name: &str, prob: &MpqpProblem, samples: usize) -> Report {
         ctl.tables.bytes(4)
     );
     assert_eq!(ctl.stats.ambiguous_leaves, 0, "{name}");
+    let compact = build_compact(
+        prob,
+        &sol,
+        &TreeSettings {
+            outputs: Outputs::First(4),
+            ..TreeSettings::default()
+        },
+    )
+    .unwrap();
+    eprintln!(
+        "{name} compact layout (one tree per output): distinct laws per output {:?}, depth per output {:?} (max {}), nodes per output {:?} ({} in all), {} rows, {} bytes (f32) vs {} bytes in the default layout",
+        compact
+            .per_output
+            .iter()
+            .map(|s| s.distinct_laws)
+            .collect::<Vec<_>>(),
+        compact
+            .per_output
+            .iter()
+            .map(|s| s.depth)
+            .collect::<Vec<_>>(),
+        compact.depth,
+        compact
+            .per_output
+            .iter()
+            .map(|s| s.nodes)
+            .collect::<Vec<_>>(),
+        compact.tables.nodes.len(),
+        compact.tables.rows.len() / (prob.p() + 1),
+        compact.tables.bytes(4),
+        ctl.tables.bytes(4)
+    );
+    assert_eq!(compact.ambiguous_leaves, 0, "{name}");
+    let tc = compact.tables.tables();
+    let mut zc = vec![0.0; 4];
+    let mut mismatches_compact = 0usize;
+    let mut worst_compact = 0.0_f64;
     let settings = QpSettings {
         tolerance: 1e-11,
         max_iter: 400,
@@ -153,11 +193,28 @@ fn check(name: &str, prob: &MpqpProblem, samples: usize) -> Report {
         if dev > 1e-8 {
             mismatches += 1;
         }
+        let ec = evaluate_with(&tc, &theta, &mut scratch, &mut zc).unwrap();
+        assert!(
+            !ec.outside,
+            "{name}: theta {theta:?} flagged outside (compact)"
+        );
+        let devc = (0..4).fold(0.0_f64, |s, j| s.max((zc[j] - zp[j]).abs() / scale));
+        worst_compact = worst_compact.max(devc);
+        if devc > 1e-8 {
+            mismatches_compact += 1;
+        }
     }
     eprintln!(
         "{name}: {samples} parameters, worst relative deviation of the tree from the brute-force KKT optimum {worst:.2e}, from clarabel {worst_raw:.2e}, from the region law {worst_tree:.2e}, {mismatches} mismatches"
     );
+    eprintln!(
+        "{name} compact layout: worst relative deviation from the brute-force KKT optimum {worst_compact:.2e}, {mismatches_compact} mismatches"
+    );
     assert_eq!(mismatches, 0, "{name}: worst deviation {worst:e}");
+    assert_eq!(
+        mismatches_compact, 0,
+        "{name}: compact layout, worst deviation {worst_compact:e}"
+    );
     assert!(worst_raw <= 1e-6, "{name}: tree vs clarabel {worst_raw:e}");
 
     assert!(
@@ -168,6 +225,7 @@ fn check(name: &str, prob: &MpqpProblem, samples: usize) -> Report {
         regions: sol.regions.len(),
         laws: ctl.stats.distinct_laws,
         bytes_f32: ctl.tables.bytes(4),
+        compact_bytes_f32: compact.tables.bytes(4),
     }
 }
 

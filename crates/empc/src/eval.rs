@@ -61,6 +61,84 @@ pub trait TreeTables<S: Scalar> {
     fn theta_bounds(&self, j: usize) -> Option<(S, S)>;
     /// Affine rows of the lower and upper bound of output `out` ([`NO_ROW`]: none).
     fn output_bounds(&self, out: usize) -> Option<[u16; 2]>;
+    /// The compact layout (one tree per output): the root child code of
+    /// output `out`'s tree, whose leaves hold a law index of that output
+    /// alone (read through [`TreeTables::law`] with the same `out`).
+    /// `None` (the default): one tree for all outputs, rooted at
+    /// [`TreeTables::root`].
+    fn output_root(&self, out: usize) -> Option<u16> {
+        let _ = out;
+        None
+    }
+}
+
+/// A node index no table reaches (tables have fewer nodes): a missing root.
+const MISSING_NODE: u16 = 0x7FFF;
+
+/// Compact tables (one tree per output, see [`TreeTables::output_root`]):
+/// a leaf's payload is directly the affine row of its output's law, so
+/// there is no law table.
+#[derive(Clone, Copy, Debug)]
+pub struct ForestTables<'a, S> {
+    /// Number of parameters `p`.
+    pub n_params: usize,
+    /// Number of outputs `k`.
+    pub n_outputs: usize,
+    /// The root child code of every output's tree.
+    pub roots: &'a [u16],
+    /// Tree nodes of all trees.
+    pub nodes: &'a [[u16; 4]],
+    /// Affine rows, `p + 1` entries each.
+    pub rows: &'a [S],
+    /// Explored set rows, `p + 1` entries each.
+    pub hull: &'a [S],
+    /// Parameter lower bounds.
+    pub theta_lb: &'a [S],
+    /// Parameter upper bounds.
+    pub theta_ub: &'a [S],
+    /// Per output: rows of the lower and upper bound.
+    pub bounds: &'a [[u16; 2]],
+}
+
+impl<S: Scalar> TreeTables<S> for ForestTables<'_, S> {
+    fn n_params(&self) -> usize {
+        self.n_params
+    }
+    fn n_outputs(&self) -> usize {
+        self.n_outputs
+    }
+    fn n_nodes(&self) -> usize {
+        self.nodes.len()
+    }
+    fn root(&self) -> u16 {
+        self.roots.first().copied().unwrap_or(MISSING_NODE)
+    }
+    fn node(&self, i: usize) -> Option<[u16; 4]> {
+        self.nodes.get(i).copied()
+    }
+    fn law(&self, law: usize, out: usize) -> Option<u16> {
+        // The leaf payload is the row itself.
+        (out < self.n_outputs && law < self.rows.len() / (self.n_params + 1)).then_some(law as u16)
+    }
+    fn row(&self, r: usize, j: usize) -> Option<S> {
+        entry(self.rows, self.n_params + 1, r, j)
+    }
+    fn n_hull(&self) -> usize {
+        self.hull.len() / (self.n_params + 1)
+    }
+    fn hull(&self, i: usize, j: usize) -> Option<S> {
+        entry(self.hull, self.n_params + 1, i, j)
+    }
+    fn theta_bounds(&self, j: usize) -> Option<(S, S)> {
+        Some((*self.theta_lb.get(j)?, *self.theta_ub.get(j)?))
+    }
+    fn output_bounds(&self, out: usize) -> Option<[u16; 2]> {
+        self.bounds.get(out).copied()
+    }
+    fn output_root(&self, out: usize) -> Option<u16> {
+        // Out of range: a corrupted table, reported by the evaluation.
+        Some(self.roots.get(out).copied().unwrap_or(MISSING_NODE))
+    }
 }
 
 /// Tables in slices (RAM or `static` arrays): what the exported source builds.
@@ -252,26 +330,26 @@ pub fn evaluate_with<S: Scalar, T: TreeTables<S> + ?Sized>(
             }
         }
     }
-    let mut code = tables.root();
-    let mut steps: u16 = 0;
-    let limit = tables.n_nodes();
-    while code & LEAF == 0 {
-        if steps as usize > limit {
-            return Err(Error::OutOfRange); // a cycle: corrupted tables
-        }
-        let node = tables.node(code as usize).ok_or(Error::OutOfRange)?;
-        let a = affine(th, |j| tables.row(node[0] as usize, j))?;
-        let b = if node[1] == NO_ROW {
-            S::ZERO
-        } else {
-            affine(th, |j| tables.row(node[1] as usize, j))?
-        };
-        code = if a <= b { node[2] } else { node[3] };
-        steps = steps.saturating_add(1);
-    }
-    let law = code & !LEAF;
+    // One shared tree, or (compact layout) one tree per output.
+    let shared = tables.output_root(0).is_none();
+    let (mut law, mut steps) = if shared {
+        locate(tables, th, tables.root())?
+    } else {
+        (0, 0)
+    };
     for (o, zo) in z.iter_mut().enumerate() {
-        let r = tables.law(law as usize, o).ok_or(Error::OutOfRange)? as usize;
+        let l = if shared {
+            law
+        } else {
+            let root = tables.output_root(o).ok_or(Error::OutOfRange)?;
+            let (l, s) = locate(tables, th, root)?;
+            steps = steps.saturating_add(s);
+            if o == 0 {
+                law = l;
+            }
+            l
+        };
+        let r = tables.law(l as usize, o).ok_or(Error::OutOfRange)? as usize;
         let mut v = affine(th, |j| tables.row(r, j))?;
         let [lo, hi] = tables.output_bounds(o).ok_or(Error::OutOfRange)?;
         if lo != NO_ROW {
@@ -289,6 +367,32 @@ pub fn evaluate_with<S: Scalar, T: TreeTables<S> + ?Sized>(
         outside,
         steps,
     })
+}
+
+/// Walks the tree from the child code `code` to a leaf: its payload and
+/// the nodes visited.
+fn locate<S: Scalar, T: TreeTables<S> + ?Sized>(
+    tables: &T,
+    th: &[S],
+    mut code: u16,
+) -> Result<(u16, u16), Error> {
+    let mut steps: u16 = 0;
+    let limit = tables.n_nodes();
+    while code & LEAF == 0 {
+        if steps as usize > limit {
+            return Err(Error::OutOfRange); // a cycle: corrupted tables
+        }
+        let node = tables.node(code as usize).ok_or(Error::OutOfRange)?;
+        let a = affine(th, |j| tables.row(node[0] as usize, j))?;
+        let b = if node[1] == NO_ROW {
+            S::ZERO
+        } else {
+            affine(th, |j| tables.row(node[1] as usize, j))?
+        };
+        code = if a <= b { node[2] } else { node[3] };
+        steps = steps.saturating_add(1);
+    }
+    Ok((code & !LEAF, steps))
 }
 
 #[cfg(test)]
@@ -362,6 +466,43 @@ mod tests {
         // A law pointing past the row table.
         let t3 = SliceTables { laws: &[0, 9], ..t };
         assert_eq!(evaluate(&t3, &[0.5, 0.0], &mut z), Err(Error::OutOfRange));
+    }
+
+    #[test]
+    fn forest_tables_and_their_errors() {
+        // Two outputs, one parameter: z0 = -theta for theta <= 0 else 0,
+        // z1 = 0.25 everywhere (a lone leaf).
+        let rows = [-1.0, 0.0, 0.0, 0.0, 0.0, 0.25, 1.0, 0.0];
+        let nodes = [[3u16, NO_ROW, LEAF, LEAF | 1]];
+        let t = ForestTables {
+            n_params: 1,
+            n_outputs: 2,
+            roots: &[0, LEAF | 2],
+            nodes: &nodes,
+            rows: &rows,
+            hull: &[],
+            theta_lb: &[-1.0],
+            theta_ub: &[1.0],
+            bounds: &[[NO_ROW, NO_ROW]; 2],
+        };
+        let mut z = [0.0; 2];
+        let e = evaluate(&t, &[-0.5], &mut z).unwrap();
+        assert_eq!((z, e.law, e.steps, e.outside), ([0.5, 0.25], 0, 1, false));
+        let e = evaluate(&t, &[0.5], &mut z).unwrap();
+        assert_eq!((z, e.law), ([0.0, 0.25], 1));
+        // A missing root, a leaf past the rows, a cycle: errors, no panic.
+        let t1 = ForestTables { roots: &[0], ..t };
+        assert_eq!(evaluate(&t1, &[0.5], &mut z), Err(Error::OutOfRange));
+        let t2 = ForestTables { roots: &[], ..t };
+        assert_eq!(evaluate(&t2, &[0.5], &mut z), Err(Error::OutOfRange));
+        let t3 = ForestTables {
+            roots: &[0, LEAF | 9],
+            ..t
+        };
+        assert_eq!(evaluate(&t3, &[0.5], &mut z), Err(Error::OutOfRange));
+        let cyc = [[3u16, NO_ROW, 0, 0]];
+        let t4 = ForestTables { nodes: &cyc, ..t };
+        assert_eq!(evaluate(&t4, &[0.5], &mut z), Err(Error::OutOfRange));
     }
 
     #[test]

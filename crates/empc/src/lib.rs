@@ -18,7 +18,9 @@ pub mod testing;
 #[cfg(feature = "std")]
 pub mod tree;
 
-pub use eval::{Evaluation, LEAF, NO_ROW, SliceTables, TreeTables, evaluate, evaluate_with};
+pub use eval::{
+    Evaluation, ForestTables, LEAF, NO_ROW, SliceTables, TreeTables, evaluate, evaluate_with,
+};
 
 #[cfg(feature = "std")]
 pub use error::EmpcError;
@@ -28,5 +30,6 @@ pub use mpqp::{
 };
 #[cfg(feature = "std")]
 pub use tree::{
-    ExplicitController, Outputs, OwnedTables, TreeSettings, TreeStats, build_controller,
+    CompactController, CompactTables, ExplicitController, Outputs, OwnedTables, TreeSettings,
+    TreeStats, build_compact, build_controller,
 };

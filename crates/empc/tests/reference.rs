@@ -10,8 +10,8 @@ use clarabel::solver::{
 use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::mpqp::Rng;
 use kestrel_empc::{
-    Outputs, Settings, TreeSettings, brute_force_active_sets, build_controller, evaluate, solve,
-    testing,
+    Outputs, Settings, TreeSettings, brute_force_active_sets, build_compact, build_controller,
+    evaluate, solve, testing,
 };
 use nalgebra::{DMatrix, DVector};
 
@@ -65,6 +65,11 @@ fn check_against_clarabel(name: &str, prob: &MpqpProblem, samples: usize) {
     let ctl = build_controller(prob, &sol, &TreeSettings::default()).unwrap();
     assert_eq!(ctl.stats.ambiguous_leaves, 0, "{name}");
     let t = ctl.tables.tables();
+    // The compact layout (one tree per output) must give the same answers.
+    let compact = build_compact(prob, &sol, &TreeSettings::default()).unwrap();
+    assert_eq!(compact.ambiguous_leaves, 0, "{name}");
+    let tc = compact.tables.tables();
+    let mut worst_compact = 0.0_f64;
     let mut rng = Rng::new(42);
     let mut worst = 0.0_f64;
     let mut infeasible = 0;
@@ -84,7 +89,26 @@ fn check_against_clarabel(name: &str, prob: &MpqpProblem, samples: usize) {
         for j in 0..prob.n() {
             worst = worst.max((z[j] - zref[j]).abs() / scale);
         }
+        let mut zc = vec![0.0; prob.n()];
+        let ec = dispatch(&tc, &theta, &mut zc);
+        assert!(
+            !ec.outside,
+            "{name}: theta {theta:?} flagged outside (compact)"
+        );
+        for j in 0..prob.n() {
+            worst_compact = worst_compact.max((zc[j] - zref[j]).abs() / scale);
+        }
     }
+    eprintln!(
+        "{name} compact: depth {}, {} nodes, {} bytes(f32), worst |z - z_clarabel| {worst_compact:.2e}",
+        compact.depth,
+        compact.tables.nodes.len(),
+        compact.tables.bytes(4)
+    );
+    assert!(
+        worst_compact <= 1e-8,
+        "{name}: compact layout, worst deviation {worst_compact:e}"
+    );
     eprintln!(
         "{name}: {} regions, {} laws, tree depth {} nodes {} bytes(f32) {}, worst |z - z_clarabel| {worst:.2e}, {infeasible} infeasible samples",
         sol.regions.len(),
@@ -97,8 +121,8 @@ fn check_against_clarabel(name: &str, prob: &MpqpProblem, samples: usize) {
 }
 
 /// `evaluate` needs the parameter count as a constant.
-fn dispatch(
-    t: &kestrel_empc::SliceTables<'_, f64>,
+fn dispatch<T: kestrel_empc::TreeTables<f64>>(
+    t: &T,
     theta: &[f64],
     z: &mut [f64],
 ) -> kestrel_empc::Evaluation {
