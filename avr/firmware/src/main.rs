@@ -21,12 +21,10 @@ use kestrel_avr_rt::frame::{
     Boot, Command, Frame, FrameDecoder, Kind, MAX_FRAME, Reply, SeqTracker, status,
 };
 use kestrel_avr_rt::kalman16::Kalman16;
-use kestrel_avr_rt::fgm16::Fgm16Law;
 use kestrel_avr_rt::output::{PwmLimits, RtScalar, SafeOutput};
 use kestrel_avr_rt::progmem::{FarTable, TableRead};
 use kestrel_avr_rt::{crc16, far_table};
 use kestrel_core::{Matrix, Scalar};
-use kestrel_fgm::FgmTables;
 
 #[cfg(all(feature = "fixed", not(feature = "fixed-mac")))]
 type S = kestrel_core::Q16;
@@ -36,17 +34,31 @@ type S = kestrel_avr_rt::mac::Q16Mac;
 type S = f32;
 
 /// Boot-frame configuration code: bit 0 fixed point, bit 1 the MAC variant.
-const CONFIG: u8 = if cfg!(feature = "fixed-mac") {
+const CONFIG: u8 = (if cfg!(feature = "fixed-mac") {
     3
 } else if cfg!(feature = "fixed") {
     1
 } else {
     0
-};
+}) | if cfg!(feature = "empc") { 4 } else { 0 };
+
+/// The explicit controller's table (f32 numbers), in flash, read with ELPM.
+#[cfg(all(feature = "empc", not(any(feature = "fixed", feature = "fixed-mac"))))]
+#[unsafe(link_section = ".text.kestrel_tables")]
+#[used]
+static EMPC_TABLE: [u8; generated_empc::EMPC_BYTES] = generated_empc::EMPC_F32;
+/// The explicit controller's table (Q15.16 numbers), in flash, read with ELPM.
+#[cfg(all(feature = "empc", any(feature = "fixed", feature = "fixed-mac")))]
+#[unsafe(link_section = ".text.kestrel_tables")]
+#[used]
+static EMPC_TABLE: [u8; generated_empc::EMPC_BYTES] = generated_empc::EMPC_Q16;
 
 /// Generated controller values (host: `cargo run -p kestrel-avr-rt --example avr_tables`).
 #[allow(dead_code)]
 mod generated;
+#[cfg(feature = "empc")]
+#[allow(dead_code)]
+mod generated_empc;
 /// Controller tables in flash (see tables.rs).
 mod tables;
 use tables::*;
@@ -219,6 +231,7 @@ fn v(t: &FarTable, i: usize) -> S {
 fn va<const N: usize>(t: &FarTable, at: usize) -> [S; N] {
     core::array::from_fn(|i| v(t, at + i))
 }
+#[cfg_attr(feature = "empc", allow(dead_code))]
 fn vm<const R: usize, const C: usize>(t: &FarTable, at: usize) -> Matrix<S, R, C> {
     Matrix::from_fn(|i, j| v(t, at + C * i + j))
 }
@@ -245,31 +258,51 @@ pub extern "C" fn main() -> ! {
         loop {}
     }
     let filter = Kalman16::<S, NX, 4, 3>::new(KF16);
-    let fgm = FgmTables::<S, NZ, NP, FGM_T> {
-        m: vm(&table, FGM_M),
-        k_theta: vm(&table, FGM_K),
-        k0: va(&table, FGM_K0),
-        lo_theta: vm(&table, FGM_LO),
-        lo0: va(&table, FGM_LO0),
-        hi_theta: vm(&table, FGM_HI),
-        hi0: va(&table, FGM_HI0),
-        d: va(&table, FGM_D),
-        d_inv: va(&table, FGM_DINV),
-        betas: va(&table, FGM_BETAS),
-        iterations: FGM_ITERATIONS,
-        warm_iterations: FGM_ITERATIONS,
-        shift: 0,
+    #[cfg(not(feature = "empc"))]
+    let law = {
+        use kestrel_avr_rt::fgm16::Fgm16Law;
+        use kestrel_fgm::FgmTables;
+        let fgm = FgmTables::<S, NZ, NP, FGM_T> {
+            m: vm(&table, FGM_M),
+            k_theta: vm(&table, FGM_K),
+            k0: va(&table, FGM_K0),
+            lo_theta: vm(&table, FGM_LO),
+            lo0: va(&table, FGM_LO0),
+            hi_theta: vm(&table, FGM_HI),
+            hi0: va(&table, FGM_HI0),
+            d: va(&table, FGM_D),
+            d_inv: va(&table, FGM_DINV),
+            betas: va(&table, FGM_BETAS),
+            iterations: FGM_ITERATIONS,
+            warm_iterations: FGM_ITERATIONS,
+            shift: 0,
+        };
+        // Set-up in S, iterations in Q15.16 with 16-bit M rows (kestrel_avr_rt::fgm16).
+        let Ok(law) = Fgm16Law::<S, NZ, NP, FGM_T, 4>::new(
+            fgm,
+            FGM16_M,
+            FGM16_BETAS,
+            NX,
+            FGM_WARM,
+            FGM_LOOP_ITERATIONS as u16,
+        ) else {
+            loop {}
+        };
+        law
     };
-    // Set-up in S, iterations in Q15.16 with 16-bit M rows (kestrel_avr_rt::fgm16).
-    let Ok(law) = Fgm16Law::<S, NZ, NP, FGM_T, 4>::new(
-        fgm,
-        FGM16_M,
-        FGM16_BETAS,
-        NX,
-        FGM_WARM,
-        FGM_LOOP_ITERATIONS as u16,
-    ) else {
-        loop {}
+    // Explicit MPC: kestrel-empc's tree evaluation reading its tables from
+    // flash through ELPM (kestrel_avr_rt::explicit::FlashTree).
+    #[cfg(feature = "empc")]
+    let law = {
+        use kestrel_avr_rt::explicit::{EmpcLaw, FlashTree};
+        let Ok(tree) = FlashTree::<_, S>::new(far_table!(EMPC_TABLE), generated_empc::EMPC_LAYOUT)
+        else {
+            loop {}
+        };
+        let Ok(law) = EmpcLaw::<S, _, NP, 4>::new(tree, NX) else {
+            loop {}
+        };
+        law
     };
     let bias = va(&table, BIAS);
     let one = S::from_f32_fast(1.0);

@@ -7,6 +7,7 @@ pub mod crc;
 pub mod cycles;
 #[cfg(feature = "std")]
 pub mod design;
+pub mod explicit;
 pub mod fgm16;
 pub mod frame;
 pub mod interim;

@@ -68,6 +68,21 @@ pub trait TableRead {
     }
 }
 
+impl<T: TableRead + ?Sized> TableRead for &T {
+    #[inline]
+    fn len_bytes(&self) -> u32 {
+        (**self).len_bytes()
+    }
+    #[inline]
+    fn read_u8_unchecked(&self, offset: u32) -> u8 {
+        (**self).read_u8_unchecked(offset)
+    }
+    #[inline]
+    fn read_array_unchecked<const N: usize>(&self, offset: u32) -> [u8; N] {
+        (**self).read_array_unchecked(offset)
+    }
+}
+
 impl TableRead for [u8] {
     #[inline]
     fn len_bytes(&self) -> u32 {

@@ -28,13 +28,17 @@
 use avr_tester::AvrTester;
 use kestrel_avr_rt::control::{Mixer, RateLoop};
 use kestrel_avr_rt::cycles::{CycleClock, CycleStats};
-use kestrel_avr_rt::design::{FirmwareDesign, generate_tables};
+use kestrel_avr_rt::design::{
+    FirmwareDesign, empc_controller, generate_empc_tables, generate_tables,
+};
+use kestrel_avr_rt::explicit::EmpcLaw;
 use kestrel_avr_rt::frame::{
     Bench, Boot, Command, Frame, FrameDecoder, Kind, MAX_FRAME, Reply, status,
 };
 use kestrel_avr_rt::law::{FgmLaw, FgmStart};
 use kestrel_avr_rt::output::{PwmLimits, SafeOutput};
 use kestrel_core::Matrix;
+use kestrel_empc::{ExplicitController, SliceTables};
 use kestrel_kalman::StationaryFilter;
 use kestrel_mpc::sim::{NonlinearPlant, RatePlant};
 use kestrel_tricopter_model::PlantConfig;
@@ -48,8 +52,22 @@ mod generated {
 }
 
 #[allow(dead_code)]
+mod generated_empc {
+    include!("../../../avr/firmware/src/generated_empc.rs");
+}
+
+#[allow(dead_code)]
 #[path = "../examples/avr_tables.rs"]
 mod avr_tables;
+
+/// The law the firmware runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Solver {
+    /// Fast gradient (`Fgm16Law`), the default build.
+    Fgm,
+    /// Explicit MPC from flash (`EmpcLaw` over `FlashTree`), feature `empc`.
+    Empc,
+}
 
 const TS: f64 = 0.02;
 const CYCLES_PER_PERIOD: u64 = 320_000;
@@ -72,6 +90,9 @@ fn repo_root() -> PathBuf {
 fn build_firmware(features: &[&str], generic_float: bool) -> PathBuf {
     let _guard = BUILD_LOCK.lock().unwrap_or_else(|e| e.into_inner());
     ensure_generated();
+    if features.contains(&"empc") {
+        ensure_generated_empc();
+    }
     let root = repo_root();
     let fw = root.join("avr/firmware");
     let toolchain = std::fs::read_to_string(root.join("avr/rust-toolchain.toml")).unwrap();
@@ -148,6 +169,37 @@ impl CycleClock for NoClock {
     }
 }
 
+type HostEmpcLaw = EmpcLaw<f64, SliceTables<'static, f64>, { generated::NP }, 4>;
+type HostEmpcLoop = RateLoop<f64, StationaryFilter<f64, { generated::NX }, 4, 3>, HostEmpcLaw, 4>;
+
+/// The explicit controller of the design's problem, built here with
+/// kestrel-empc (once per test binary), in f64.
+fn empc() -> &'static ExplicitController {
+    static C: std::sync::OnceLock<ExplicitController> = std::sync::OnceLock::new();
+    C.get_or_init(|| empc_controller(&design().problem).expect("explicit controller"))
+}
+
+/// The host reference of the `empc` build: the same loop in f64 with the
+/// f64 tables of [`empc`] read from RAM.
+fn host_empc_loop() -> HostEmpcLoop {
+    let d = design();
+    let filter = StationaryFilter::new(d.gains().expect("gains"), [0.0; generated::NX]);
+    let law = EmpcLaw::new(empc().tables.tables(), generated::NX).unwrap();
+    RateLoop::new(
+        filter,
+        law,
+        d.bias(),
+        Mixer {
+            m: Matrix::from_fn(|i, j| if i == j { 1.0 } else { 0.0 }),
+            offset: d.mixer_offset(),
+            throttle_gain: [1.0, 1.0, 1.0, 0.0],
+        },
+        PwmLimits::default(),
+        SafeOutput::default(),
+    )
+    .unwrap()
+}
+
 type HostLaw = FgmLaw<f64, { generated::NZ }, { generated::NP }, { generated::FGM_T }, 4>;
 type HostLoop = RateLoop<f64, StationaryFilter<f64, { generated::NX }, 4, 3>, HostLaw, 4>;
 
@@ -203,6 +255,18 @@ fn ensure_generated() -> bool {
         println!(
             "avr/firmware/src/generated.rs was stale (the design model changed): regenerated; commit it"
         );
+    }
+    stale
+}
+
+/// The same for `avr/firmware/src/generated_empc.rs` (the `empc` build).
+fn ensure_generated_empc() -> bool {
+    let path = avr_tables::generated_path().with_file_name("generated_empc.rs");
+    let fresh = generate_empc_tables(empc(), "N = 2, Ns = 1").unwrap();
+    let stale = std::fs::read_to_string(&path).ok().as_deref() != Some(fresh.as_str());
+    if stale {
+        std::fs::write(&path, &fresh).unwrap();
+        println!("avr/firmware/src/generated_empc.rs was stale: regenerated; commit it");
     }
     stale
 }
@@ -292,14 +356,15 @@ fn wait_boot(avr: &mut AvrTester, dec: &mut FrameDecoder) -> Boot {
     panic!("no boot frame within {FIRST_WINDOW_MS} ms of reset");
 }
 
-fn fly(elf: &Path, periods: usize) -> Flight {
+fn fly(elf: &Path, periods: usize, solver: Solver) -> Flight {
     let mut avr = AvrTester::atmega2560().with_clock_of_16_mhz().load(elf);
     let mut dec = FrameDecoder::new();
     let boot = wait_boot(&mut avr, &mut dec);
 
     let mut plant = NonlinearPlant::hovering(PlantConfig::default(), [2.0, 2.0, 2.0], 7).unwrap();
     let throttle = design().trim.hover_throttle as f32;
-    let mut host = host_loop();
+    let mut host_fgm = host_loop();
+    let mut host_empc = (solver == Solver::Empc).then(host_empc_loop);
     let mut replies = Vec::with_capacity(periods);
     let mut rates = Vec::with_capacity(periods);
     let mut pwm = SafeOutput::default().pwm(&PwmLimits::default());
@@ -338,7 +403,10 @@ fn fly(elf: &Path, periods: usize) -> Flight {
             Fault::Drop | Fault::Corrupt => None,
             _ => Some(cmd),
         };
-        let host_out = host.period(host_cmd.as_ref(), &NoClock);
+        let host_out = match host_empc.as_mut() {
+            Some(h) => h.period(host_cmd.as_ref(), &NoClock),
+            None => host_fgm.period(host_cmd.as_ref(), &NoClock),
+        };
         if let Some(rep) = reply {
             pwm = rep.pwm;
             for (a, b) in rep.pwm.iter().zip(host_out.pwm) {
@@ -378,9 +446,14 @@ fn json_stats(s: &CycleStats) -> String {
 
 /// Flies the step scenario and checks everything the issue asks of the HIL run.
 fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u16) {
+    let solver = if features.contains(&"empc") {
+        Solver::Empc
+    } else {
+        Solver::Fgm
+    };
     let elf = build_firmware(features, generic_float);
     let periods = 1000; // 20 simulated seconds
-    let fl = fly(&elf, periods);
+    let fl = fly(&elf, periods, solver);
     // Tracking (section 7.7.1 scenario): from [2, 2, 2] rad/s to zero, then
     // the step [1, -1, 0.5] at t = 8 s. Tolerances: within 0.15 rad/s of
     // the reference 1.5 s after each change (except around the injected
@@ -426,9 +499,13 @@ fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u
     let s = stats(&fl.replies, |r| r.solver_cycles);
     let p = stats(&fl.replies, |r| r.period_cycles);
     let ms = |c: f64| c / 16_000.0;
-    let iters = design().loop_iterations();
+    // The fast gradient's iterations, or the explicit tree's depth.
+    let (solver_name, iters) = match solver {
+        Solver::Fgm => ("fgm", design().loop_iterations()),
+        Solver::Empc => ("empc", empc().stats.depth),
+    };
     println!(
-        "{scalar} fgm ({iters} iterations): kalman {}/{:.0}/{} cycles, solver {}/{:.0}/{} cycles, period {}/{:.0}/{} cycles (max {:.3} ms at 16 MHz); flash {flash} B, RAM {ram} B; table at 0x{:05x}; max |PWM - f64 ref| = {} us; rate error worst {:.4} mean {:.4} rad/s",
+        "{scalar} {solver_name} ({iters} iterations or tree depth): kalman {}/{:.0}/{} cycles, solver {}/{:.0}/{} cycles, period {}/{:.0}/{} cycles (max {:.3} ms at 16 MHz); flash {flash} B, RAM {ram} B; table at 0x{:05x}; max |PWM - f64 ref| = {} us; rate error worst {:.4} mean {:.4} rad/s",
         k.min,
         k.mean().unwrap_or(0.0),
         k.max,
@@ -517,7 +594,7 @@ fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u
     // The firmware's PWMs equal the host f64 reference of the same loop.
     assert!(
         fl.pwm_diff_max <= pwm_tol,
-        "{scalar}: PWM differs from the f64 reference by {} us",
+        "{scalar} {solver_name}: PWM differs from the f64 reference by {} us",
         fl.pwm_diff_max
     );
 
@@ -532,7 +609,7 @@ fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u
 
     if std::env::var_os("KESTREL_HIL_REPORT").is_some() {
         println!(
-            "HIL-REPORT {{\"scalar\": \"{}\", \"arith\": \"{scalar}\", \"solver\": \"fgm\", \"kalman_cycles\": {}, \"solver_cycles\": {}, \"period_cycles\": {}, \"iterations\": {iters}, \"flash_bytes\": {flash}, \"ram_bytes\": {ram}, \"table_address\": {}}}",
+            "HIL-REPORT {{\"scalar\": \"{}\", \"arith\": \"{scalar}\", \"solver\": \"{solver_name}\", \"kalman_cycles\": {}, \"solver_cycles\": {}, \"period_cycles\": {}, \"iterations\": {iters}, \"flash_bytes\": {flash}, \"ram_bytes\": {ram}, \"table_address\": {}}}",
             if scalar.starts_with("fixed") {
                 "fixed"
             } else {
@@ -549,6 +626,16 @@ fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u
 #[test]
 fn hil_step_scenario_f32() {
     check_flight(&[], false, "f32", 1);
+}
+
+#[test]
+fn hil_step_scenario_empc_f32() {
+    check_flight(&["empc"], false, "f32", 2);
+}
+
+#[test]
+fn hil_step_scenario_empc_fixed_q16_mac() {
+    check_flight(&["empc", "fixed-mac"], false, "fixed-mac", 3);
 }
 
 // The plain `fixed` build (Q16 products of the solver set-up and mixer
