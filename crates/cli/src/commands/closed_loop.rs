@@ -173,8 +173,8 @@ fn fly_law<S: ParametricQpSolver>(
 }
 
 enum Design {
-    Plain(MpcProblem),
-    OffsetFree(kestrel_mpc::OffsetFreeDesign),
+    Plain(Box<MpcProblem>),
+    OffsetFree(Box<kestrel_mpc::OffsetFreeDesign>),
 }
 
 impl Design {
@@ -196,7 +196,7 @@ fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunRes
     let trim = tricopter_trim(model)?;
     let s = settings(args)?;
     let design = if args.offset_free {
-        Design::OffsetFree(
+        Design::OffsetFree(Box::new(
             MpcProblem::build_offset_free(
                 model,
                 &trim.bounds(),
@@ -204,11 +204,11 @@ fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunRes
                 &DisturbanceModel::OutputStates,
             )
             .context("building the offset-free MPC problem")?,
-        )
+        ))
     } else {
-        Design::Plain(
+        Design::Plain(Box::new(
             MpcProblem::build(model, &trim.bounds(), &s).context("building the MPC problem")?,
-        )
+        ))
     };
     let mpqp = design.problem().to_mpqp();
     match args.controller {
