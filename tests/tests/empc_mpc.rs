@@ -15,7 +15,10 @@
 //!   black-box model `models/tricopter-blackbox-5.json`, `N = 2`, one block
 //!   (`N_s = 1`), 4 inputs with the tricopter PWM bounds around `u0`:
 //!   theta = 5 states + 3 rate references + throttle = 9 parameters,
-//!   4 variables. Its f32 table size is printed (the 8 kB target is not met yet).
+//!   4 variables. Its f32 table sizes are printed, in the default layout
+//!   and in the compact one (one tree per output), which is checked as
+//!   exactly as the default one (the 8 kB target is reported, not asserted:
+//!   the fixture may be re-identified).
 //! - kestrel-mpc's 8-state rates-plus-actuators design model (12
 //!   parameters), badly scaled (throttle in us next to rates in rad/s):
 //!   it used to expose a tree misrouting of about 1 parameter in 1000
@@ -128,7 +131,7 @@ fn check(name: &str, prob: &MpqpProblem, samples: usize) -> Report {
     )
     .unwrap();
     eprintln!(
-        "{name} compact layout (one tree per output): distinct laws per output {:?}, depth per output {:?} (max {}), nodes per output {:?} ({} in all), {} rows, {} bytes (f32) vs {} bytes in the default layout",
+        "{name} compact layout (one tree per output): distinct laws per output {:?}, depth per output {:?} (max {}), nodes per output {:?} ({} in all), {} distinct hyperplanes, {} rows, {} bytes (f32) vs {} bytes in the default layout",
         compact
             .per_output
             .iter()
@@ -146,6 +149,7 @@ fn check(name: &str, prob: &MpqpProblem, samples: usize) -> Report {
             .map(|s| s.nodes)
             .collect::<Vec<_>>(),
         compact.tables.nodes.len(),
+        compact.hyperplanes,
         compact.tables.rows.len() / (prob.p() + 1),
         compact.tables.bytes(4),
         ctl.tables.bytes(4)
@@ -242,7 +246,10 @@ fn thesis_sized_blackbox_tree_is_exact() {
         r.regions > 1 && r.laws > 1,
         "a trivial law would test nothing"
     );
-    eprintln!("thesis-sized tables: {} bytes in f32", r.bytes_f32);
+    eprintln!(
+        "thesis-sized tables in f32: {} bytes (default layout), {} bytes (compact layout, target < 8192)",
+        r.bytes_f32, r.compact_bytes_f32
+    );
 }
 
 #[test]

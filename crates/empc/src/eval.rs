@@ -72,6 +72,20 @@ pub trait TreeTables<S: Scalar> {
     }
 }
 
+/// "No row" in a [`CompactNode`].
+pub const NO_ROW8: u8 = 0xFF;
+
+/// A node of the compact layout, 6 bytes: rows `a`, `b` as `u8` (at most
+/// 255 affine rows; [`NO_ROW8`] for `b` = 0) and the two child codes
+/// (`a(theta) <= b(theta)` first), as in [`TreeTables::node`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CompactNode {
+    /// Rows `a` and `b`.
+    pub rows: [u8; 2],
+    /// Child codes: if `a(theta) <= b(theta)`, otherwise.
+    pub children: [u16; 2],
+}
+
 /// A node index no table reaches (tables have fewer nodes): a missing root.
 const MISSING_NODE: u16 = 0x7FFF;
 
@@ -87,7 +101,7 @@ pub struct ForestTables<'a, S> {
     /// The root child code of every output's tree.
     pub roots: &'a [u16],
     /// Tree nodes of all trees.
-    pub nodes: &'a [[u16; 4]],
+    pub nodes: &'a [CompactNode],
     /// Affine rows, `p + 1` entries each.
     pub rows: &'a [S],
     /// Explored set rows, `p + 1` entries each.
@@ -114,7 +128,9 @@ impl<S: Scalar> TreeTables<S> for ForestTables<'_, S> {
         self.roots.first().copied().unwrap_or(MISSING_NODE)
     }
     fn node(&self, i: usize) -> Option<[u16; 4]> {
-        self.nodes.get(i).copied()
+        let n = self.nodes.get(i)?;
+        let r = |v: u8| if v == NO_ROW8 { NO_ROW } else { u16::from(v) };
+        Some([r(n.rows[0]), r(n.rows[1]), n.children[0], n.children[1]])
     }
     fn law(&self, law: usize, out: usize) -> Option<u16> {
         // The leaf payload is the row itself.
@@ -473,7 +489,10 @@ mod tests {
         // Two outputs, one parameter: z0 = -theta for theta <= 0 else 0,
         // z1 = 0.25 everywhere (a lone leaf).
         let rows = [-1.0, 0.0, 0.0, 0.0, 0.0, 0.25, 1.0, 0.0];
-        let nodes = [[3u16, NO_ROW, LEAF, LEAF | 1]];
+        let nodes = [CompactNode {
+            rows: [3, NO_ROW8],
+            children: [LEAF, LEAF | 1],
+        }];
         let t = ForestTables {
             n_params: 1,
             n_outputs: 2,
@@ -500,7 +519,10 @@ mod tests {
             ..t
         };
         assert_eq!(evaluate(&t3, &[0.5], &mut z), Err(Error::OutOfRange));
-        let cyc = [[3u16, NO_ROW, 0, 0]];
+        let cyc = [CompactNode {
+            rows: [3, NO_ROW8],
+            children: [0, 0],
+        }];
         let t4 = ForestTables { nodes: &cyc, ..t };
         assert_eq!(evaluate(&t4, &[0.5], &mut z), Err(Error::OutOfRange));
     }

@@ -19,7 +19,8 @@ pub mod testing;
 pub mod tree;
 
 pub use eval::{
-    Evaluation, ForestTables, LEAF, NO_ROW, SliceTables, TreeTables, evaluate, evaluate_with,
+    CompactNode, Evaluation, ForestTables, LEAF, NO_ROW, NO_ROW8, SliceTables, TreeTables,
+    evaluate, evaluate_with,
 };
 
 #[cfg(feature = "std")]

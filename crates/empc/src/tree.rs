@@ -12,7 +12,7 @@
 #![allow(clippy::needless_range_loop)] // dense numerical kernels read best with indices
 
 use crate::error::EmpcError;
-use crate::eval::{ForestTables, LEAF, NO_ROW, SliceTables};
+use crate::eval::{CompactNode, ForestTables, LEAF, NO_ROW, NO_ROW8, SliceTables};
 use crate::lp::{LpStatus, LpWorkspace, slack_start};
 use crate::mpqp::MpqpSolution;
 use kestrel_core::Scalar;
@@ -885,7 +885,7 @@ pub struct CompactTables<S> {
     /// The root child code of every output's tree.
     pub roots: Vec<u16>,
     /// Tree nodes of all trees; a leaf's payload is an affine row.
-    pub nodes: Vec<[u16; 4]>,
+    pub nodes: Vec<CompactNode>,
     /// Affine rows, `p + 1` entries each.
     pub rows: Vec<S>,
     /// Explored set rows, `p + 1` entries each.
@@ -928,12 +928,14 @@ impl<S: Scalar> CompactTables<S> {
             bounds: self.bounds.clone(),
         }
     }
-    /// Storage in bytes with `scalar_bytes` per number and 2 per index
-    /// (counted as [`OwnedTables::bytes`], with the roots instead of the law table).
+    /// Storage in bytes with `scalar_bytes` per number, 6 per node and 2
+    /// per other index (counted as [`OwnedTables::bytes`], with the roots
+    /// instead of the law table).
     pub fn bytes(&self, scalar_bytes: usize) -> usize {
         let numbers = self.rows.len() + self.hull.len() + self.theta_lb.len() + self.theta_ub.len();
         numbers * scalar_bytes
-            + 2 * (4 * self.nodes.len() + self.roots.len() + 2 * self.bounds.len())
+            + 6 * self.nodes.len()
+            + 2 * (self.roots.len() + 2 * self.bounds.len())
     }
 }
 
@@ -949,6 +951,8 @@ pub struct CompactController {
     pub depth: usize,
     /// Leaves where a construction could not separate different laws; 0 in an exact tree.
     pub ambiguous_leaves: usize,
+    /// Distinct hyperplanes (row pairs) of all nodes.
+    pub hyperplanes: usize,
     /// Seconds spent building all trees.
     pub build_seconds: f64,
 }
@@ -1015,13 +1019,28 @@ pub fn build_compact(
         bounds.push(b);
         per_output.push(ctl.stats);
     }
-    if rows.len() / w >= LEAF as usize || nodes.len() >= 0x7FFF {
+    let scale = 1.0
+        + solution
+            .theta_lb
+            .iter()
+            .chain(solution.theta_ub.iter())
+            .fold(0.0_f64, |s, v| s.max(v.abs()));
+    let rows = share_hyperplane_rows(rows, p, scale, &mut nodes, &mut roots, &mut bounds);
+    if rows.len() / w >= usize::from(NO_ROW8) || nodes.len() >= 0x7FFF {
         return Err(too_large(format!(
-            "{} rows, {} nodes (at most 32767 rows and 32766 nodes)",
+            "{} rows, {} nodes (the compact layout holds at most 254 rows and 32766 nodes; use the default layout)",
             rows.len() / w,
             nodes.len()
         )));
     }
+    let r8 = |i: u16| if i == NO_ROW { NO_ROW8 } else { i as u8 };
+    let nodes: Vec<CompactNode> = nodes
+        .iter()
+        .map(|n| CompactNode {
+            rows: [r8(n[0]), r8(n[1])],
+            children: [n[2], n[3]],
+        })
+        .collect();
     let tables = CompactTables {
         n_params: p,
         n_outputs: k,
@@ -1033,11 +1052,165 @@ pub fn build_compact(
         theta_ub: solution.theta_ub.iter().copied().collect(),
         bounds,
     };
+    let hyperplanes = {
+        let mut h: Vec<[u8; 2]> = tables.nodes.iter().map(|n| n.rows).collect();
+        h.sort_unstable();
+        h.dedup();
+        h.len()
+    };
     Ok(CompactController {
         tables,
         depth: per_output.iter().map(|s| s.depth).max().unwrap_or(0),
         ambiguous_leaves: per_output.iter().map(|s| s.ambiguous_leaves).sum(),
         per_output,
+        hyperplanes,
         build_seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+/// Stores the compact trees' hyperplanes without rows of their own where
+/// possible: a node `[h, NO_ROW]` whose hyperplane `h(theta) <= 0` is a
+/// positive multiple of the difference of two law or bound rows (of any
+/// output's tree) becomes `[r1, r2]`, hyperplane rows equal up to a
+/// positive factor are shared, and rows no longer used are dropped (the
+/// indices in nodes, roots and bounds are renumbered).
+fn share_hyperplane_rows(
+    rows: Vec<f64>,
+    p: usize,
+    scale: f64,
+    nodes: &mut [[u16; 4]],
+    roots: &mut [u16],
+    bounds: &mut [[u16; 2]],
+) -> Vec<f64> {
+    let w = p + 1;
+    let nrows = rows.len() / w;
+    let row = |i: usize| &rows[i * w..(i + 1) * w];
+    // Rows holding values: leaves and bounds.
+    let mut value = vec![false; nrows];
+    let mark = |c: u16, value: &mut Vec<bool>| {
+        if c & LEAF != 0
+            && let Some(v) = value.get_mut((c & !LEAF) as usize)
+        {
+            *v = true;
+        }
+    };
+    for nd in nodes.iter() {
+        mark(nd[2], &mut value);
+        mark(nd[3], &mut value);
+        if nd[1] != NO_ROW {
+            for &i in &nd[..2] {
+                if let Some(v) = value.get_mut(i as usize) {
+                    *v = true;
+                }
+            }
+        }
+    }
+    for &r in roots.iter() {
+        mark(r, &mut value);
+    }
+    for b in bounds.iter() {
+        for &i in b {
+            if let Some(v) = value.get_mut(i as usize) {
+                *v = true;
+            }
+        }
+    }
+    // The direction of an affine row (unit gains, constant relative to scale).
+    let key = |d: &[f64]| -> Option<Vec<i64>> {
+        let nrm = d[..p].iter().map(|v| v * v).sum::<f64>().sqrt();
+        (nrm > 1e-9).then(|| {
+            d.iter()
+                .enumerate()
+                .map(|(j, v)| {
+                    let s = if j == p { scale } else { 1.0 };
+                    (v / nrm / s * 1e7).round() as i64
+                })
+                .collect()
+        })
+    };
+    let same_direction = |x: &[f64], y: &[f64]| -> bool {
+        let nx = x[..p].iter().map(|v| v * v).sum::<f64>().sqrt();
+        let ny = y[..p].iter().map(|v| v * v).sum::<f64>().sqrt();
+        (0..w).all(|j| {
+            let s = if j == p { scale } else { 1.0 };
+            (x[j] / nx - y[j] / ny).abs() <= 1e-11 * s
+        })
+    };
+    let mut pairs: HashMap<Vec<i64>, Vec<(usize, usize)>> = HashMap::new();
+    let vals: Vec<usize> = (0..nrows).filter(|&i| value[i]).collect();
+    for &r1 in &vals {
+        for &r2 in &vals {
+            if r1 == r2 {
+                continue;
+            }
+            let d: Vec<f64> = (0..w).map(|j| row(r1)[j] - row(r2)[j]).collect();
+            if let Some(k) = key(&d) {
+                pairs.entry(k).or_default().push((r1, r2));
+            }
+        }
+    }
+    let mut shared_hp: HashMap<Vec<i64>, Vec<usize>> = HashMap::new();
+    for nd in nodes.iter_mut() {
+        if nd[1] != NO_ROW || value.get(nd[0] as usize).is_none_or(|&v| v) {
+            continue;
+        }
+        let h = row(nd[0] as usize);
+        let Some(k) = key(h) else { continue };
+        let found = pairs.get(&k).and_then(|c| {
+            c.iter().copied().find(|&(r1, r2)| {
+                let d: Vec<f64> = (0..w).map(|j| row(r1)[j] - row(r2)[j]).collect();
+                same_direction(&d, h)
+            })
+        });
+        if let Some((r1, r2)) = found {
+            *nd = [r1 as u16, r2 as u16, nd[2], nd[3]];
+            continue;
+        }
+        let list = shared_hp.entry(k).or_default();
+        match list.iter().find(|&&o| same_direction(row(o), h)) {
+            Some(&o) => nd[0] = o as u16,
+            None => list.push(nd[0] as usize),
+        }
+    }
+    // Drop unused rows and renumber.
+    let mut used = value;
+    for nd in nodes.iter() {
+        for &i in &nd[..2] {
+            if let Some(u) = used.get_mut(i as usize) {
+                *u = true;
+            }
+        }
+    }
+    let mut new_index = vec![NO_ROW; nrows];
+    let mut out = Vec::with_capacity(rows.len());
+    for i in 0..nrows {
+        if used[i] {
+            new_index[i] = (out.len() / w) as u16;
+            out.extend_from_slice(row(i));
+        }
+    }
+    let re = |i: u16| {
+        if i == NO_ROW {
+            NO_ROW
+        } else {
+            new_index.get(i as usize).copied().unwrap_or(NO_ROW)
+        }
+    };
+    let re_child = |c: u16| {
+        if c & LEAF != 0 {
+            LEAF | re(c & !LEAF)
+        } else {
+            c
+        }
+    };
+    for nd in nodes.iter_mut() {
+        *nd = [re(nd[0]), re(nd[1]), re_child(nd[2]), re_child(nd[3])];
+    }
+    for r in roots.iter_mut() {
+        *r = re_child(*r);
+    }
+    for b in bounds.iter_mut() {
+        *b = [re(b[0]), re(b[1])];
+    }
+    out
 }
