@@ -22,9 +22,9 @@ mod reduce;
 #[cfg(feature = "std")]
 pub mod synthetic;
 #[cfg(feature = "std")]
-mod validate;
-#[cfg(feature = "std")]
 pub mod tricopter;
+#[cfg(feature = "std")]
+mod validate;
 #[cfg(feature = "std")]
 pub mod workflow;
 
