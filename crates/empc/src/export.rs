@@ -12,7 +12,7 @@
 use crate::error::EmpcError;
 use crate::eval::{LEAF, NO_ROW};
 use crate::mpqp::MpqpSolution;
-use crate::tree::{ExplicitController, OwnedTables};
+use crate::tree::{CompactController, CompactTables, ExplicitController, OwnedTables};
 use kestrel_core::formats::json::{self, Object};
 use kestrel_core::formats::{FormatError, MpqpProblem};
 use kestrel_core::{Q16, Scalar};
@@ -48,6 +48,61 @@ pub fn solution_json(
     controller: &ExplicitController,
     include_regions: bool,
 ) -> String {
+    json::to_pretty_string(&solution_object(solution, controller, include_regions))
+}
+
+/// [`solution_json`] with the compact layout added (one tree per output,
+/// [`crate::build_compact`]): the summary key `tree_compact` = `{depth,
+/// nodes, bytes, hyperplanes, rows, laws_per_output, depth_per_output,
+/// nodes_per_output}` (`bytes` counts the compact tables in f32, as
+/// [`CompactTables::bytes`]) and `compact_tables` = `{roots, nodes:
+/// [[row_a, row_b, le, gt]] (255: no row), rows, hull, theta_lb, theta_ub,
+/// bounds}`. The default layout's keys are unchanged.
+pub fn solution_json_with_compact(
+    solution: &MpqpSolution,
+    controller: &ExplicitController,
+    compact: &CompactController,
+    include_regions: bool,
+) -> String {
+    let mut o = solution_object(solution, controller, include_regions);
+    let t: &CompactTables<f64> = &compact.tables;
+    let w = t.n_params + 1;
+    let per = |f: fn(&crate::tree::TreeStats) -> usize| -> Vec<usize> {
+        compact.per_output.iter().map(f).collect()
+    };
+    o.insert(
+        "tree_compact".into(),
+        json!({"depth": compact.depth, "nodes": t.nodes.len(), "bytes": t.bytes(4),
+               "hyperplanes": compact.hyperplanes, "rows": t.rows.len() / w,
+               "laws_per_output": per(|s| s.distinct_laws),
+               "depth_per_output": per(|s| s.depth),
+               "nodes_per_output": per(|s| s.nodes)}),
+    );
+    let nodes: Vec<Value> = t
+        .nodes
+        .iter()
+        .map(|n| json!([n.rows[0], n.rows[1], n.children[0], n.children[1]]))
+        .collect();
+    o.insert(
+        "compact_tables".into(),
+        json!({
+            "roots": t.roots,
+            "nodes": nodes,
+            "rows": rows_value(&t.rows, w),
+            "hull": rows_value(&t.hull, w),
+            "theta_lb": t.theta_lb,
+            "theta_ub": t.theta_ub,
+            "bounds": t.bounds,
+        }),
+    );
+    json::to_pretty_string(&o)
+}
+
+fn solution_object(
+    solution: &MpqpSolution,
+    controller: &ExplicitController,
+    include_regions: bool,
+) -> Object {
     let t = &controller.tables;
     let w = t.n_params + 1;
     let mut o = Object::new();
@@ -101,7 +156,7 @@ pub fn solution_json(
             "bounds": t.bounds,
         }),
     );
-    json::to_pretty_string(&o)
+    o
 }
 
 fn index_rows(v: &Value, key: &str, width: usize) -> Result<Vec<Vec<u16>>, FormatError> {

@@ -54,3 +54,44 @@ fn exported_tables_are_current_and_evaluate_like_the_solution() {
         }
     }
 }
+
+#[test]
+fn solution_file_with_compact_layout_reports_its_bytes_and_tables() {
+    use kestrel_empc::build_compact;
+    use kestrel_empc::export::{solution_json, solution_json_with_compact};
+    let prob = MpqpProblem::from_json_str(include_str!("generated/box2.json")).unwrap();
+    let sol = solve(&prob, &Settings::default()).unwrap();
+    let ctl = build_controller(&prob, &sol, &TreeSettings::default()).unwrap();
+    let compact = build_compact(&prob, &sol, &TreeSettings::default()).unwrap();
+    let plain: serde_json::Value = serde_json::from_str(&solution_json(&sol, &ctl, false)).unwrap();
+    let with: serde_json::Value =
+        serde_json::from_str(&solution_json_with_compact(&sol, &ctl, &compact, false)).unwrap();
+    // The default layout's keys are unchanged; the compact ones are added.
+    for key in ["tree", "tables", "regions", "distinct_laws"] {
+        assert_eq!(plain[key], with[key], "{key}");
+    }
+    assert!(plain.get("tree_compact").is_none());
+    let t = &with["tree_compact"];
+    assert_eq!(t["bytes"], compact.tables.bytes(4));
+    assert_eq!(t["nodes"], compact.tables.nodes.len());
+    let nodes = with["compact_tables"]["nodes"].as_array().unwrap();
+    assert_eq!(nodes.len(), compact.tables.nodes.len());
+    // Counted bytes: 4 per number, 6 per node, 2 per other index.
+    let c = &compact.tables;
+    let numbers = c.rows.len() + c.hull.len() + c.theta_lb.len() + c.theta_ub.len();
+    assert_eq!(
+        c.bytes(4),
+        4 * numbers + 6 * c.nodes.len() + 2 * (c.roots.len() + 2 * c.bounds.len())
+    );
+    // The compact tables evaluate like the solution.
+    let mut rng = Rng::new(9);
+    for _ in 0..2000 {
+        let th = [3.0 * rng.sym(), 3.0 * rng.sym()];
+        let r = sol.locate(&th, 1e-9).unwrap();
+        let want = sol.regions[r].z(&th);
+        let mut z = [0.0f64; 2];
+        let e = evaluate(&c.tables(), &th, &mut z).unwrap();
+        assert!(!e.outside);
+        assert!((z[0] - want[0]).abs() < 1e-9 && (z[1] - want[1]).abs() < 1e-9);
+    }
+}
