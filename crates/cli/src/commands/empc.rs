@@ -3,7 +3,9 @@
 use crate::io;
 use anyhow::{Context, bail};
 use kestrel_empc::export::{self, ExportScalar};
-use kestrel_empc::{Outputs, Settings, TreeSettings, build_controller, evaluate_with, solve};
+use kestrel_empc::{
+    Outputs, Settings, TreeSettings, build_compact, build_controller, evaluate_with, solve,
+};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -78,6 +80,11 @@ struct SolveArgs {
     /// regions whose differing outputs saturate, with the same clamped z).
     #[arg(long)]
     no_clipping: bool,
+    /// Also build the compact layout (one search tree per output, 6-byte
+    /// nodes): adds `tree_compact` (with its f32 `bytes`) and
+    /// `compact_tables` to the solution file.
+    #[arg(long)]
+    compact: bool,
 }
 
 /// `kestrel empc eval`.
@@ -155,10 +162,19 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
         ctl.stats.nodes,
         ctl.tables.bytes(4)
     );
-    io::write_output(
-        a.out.as_deref(),
-        &export::solution_json(&sol, &ctl, !a.no_regions),
-    )
+    let text = if a.compact {
+        let compact = build_compact(&problem, &sol, &tree).with_context(|| name.clone())?;
+        eprintln!(
+            "compact layout (one tree per output): depth {}, {} nodes, {} bytes (f32)",
+            compact.depth,
+            compact.tables.nodes.len(),
+            compact.tables.bytes(4)
+        );
+        export::solution_json_with_compact(&sol, &ctl, &compact, !a.no_regions)
+    } else {
+        export::solution_json(&sol, &ctl, !a.no_regions)
+    };
+    io::write_output(a.out.as_deref(), &text)
 }
 
 fn read_tables(path: &std::path::Path) -> anyhow::Result<kestrel_empc::OwnedTables<f64>> {
