@@ -254,3 +254,26 @@ fn bad_inputs_give_clear_errors() {
         .unwrap();
     assert!(stderr(&o).contains("kestrel.empc.v1"), "{}", stderr(&o));
 }
+
+#[test]
+fn compact_layout_in_the_solution_file() {
+    let read = |p: &PathBuf| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let plain = read(&solve_box("plain", &["--no-regions"]));
+    let v = read(&solve_box("compact", &["--no-regions", "--compact"]));
+    // The default layout is unchanged; the compact one is added.
+    assert_eq!(plain["tree"], v["tree"]);
+    assert_eq!(plain["tables"], v["tables"]);
+    assert!(plain.get("tree_compact").is_none());
+    // z_i = clamp(-theta_i): three laws per output, one tree each.
+    let t = &v["tree_compact"];
+    assert_eq!(t["laws_per_output"], serde_json::json!([3, 3]));
+    assert_eq!(
+        v["compact_tables"]["roots"].as_array().unwrap().len(),
+        2,
+        "{t}"
+    );
+    let bytes = t["bytes"].as_u64().unwrap();
+    assert!(bytes > 0 && bytes < plain["tree"]["bytes"].as_u64().unwrap());
+}
