@@ -1471,11 +1471,10 @@ pub fn closed_loop(
         }],
         throttle: None,
     };
-    let quiet = {
-        let mut c = PlantConfig::default();
-        c.gyro = GyroConfig::ideal();
-        c.gust = GustConfig::calm();
-        c
+    let quiet = PlantConfig {
+        gyro: GyroConfig::ideal(),
+        gust: GustConfig::calm(),
+        ..PlantConfig::default()
     };
     let noisy = PlantConfig::default();
     let mut t = Table::new([

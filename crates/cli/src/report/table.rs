@@ -120,7 +120,7 @@ mod tests {
 
     #[test]
     fn significant_digits() {
-        assert_eq!(fmt_sig(3.14159, 3), "3.14");
+        assert_eq!(fmt_sig(2.46913, 3), "2.47");
         assert_eq!(fmt_sig(1234.5, 3), "1234");
         assert_eq!(fmt_sig(0.012345, 3), "0.0123");
         assert_eq!(fmt_sig(1.5e-7, 2), "1.5e-7");
