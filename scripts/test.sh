@@ -2,6 +2,9 @@
 # Runs every test of the workspace, the AVR builds and the simavr tests
 # included. Installs what it needs first (scripts/setup.sh).
 set -euo pipefail
+# Nothing below reads the terminal; a stray stdin (a pipe left open by the
+# caller) must not reach the tools (cargo hands it to its rustc probes).
+exec </dev/null
 root="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$root"
 bash scripts/setup.sh
