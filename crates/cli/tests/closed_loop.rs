@@ -1,25 +1,13 @@
 //! End-to-end tests of `kestrel closed-loop`: every controller on the
 //! nonlinear plant, the explicit and fast-gradient laws against the QP law.
 
-use std::path::PathBuf;
-use std::process::Command;
+mod common;
 
-fn kestrel(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_kestrel"))
-        .args(args)
-        .output()
-        .expect("runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+use common::{kestrel, temp_dir};
+use std::path::PathBuf;
 
 fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("kestrel-cl-cli-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    temp_dir(&format!("cl-cli-{name}"))
 }
 
 /// Runs `closed-loop` with `args` and returns the trace's rows.

@@ -1,26 +1,14 @@
 //! End-to-end tests of `kestrel export` (firmware tables from design files).
 
+mod common;
+
+use common::{kestrel, temp_dir};
 use kestrel_core::formats::SsModel;
 use kestrel_fgm::{BoxQp, FgmDesign, FgmSettings, eps_for_input_error};
 use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn kestrel(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_kestrel"))
-        .args(args)
-        .output()
-        .expect("runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 fn dir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("kestrel-export-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    temp_dir("export-cli")
 }
 
 fn write(name: &str, text: &str) -> String {

@@ -1,25 +1,13 @@
 //! End-to-end tests of `kestrel mpc` (`kestrel closed-loop`: tests/closed_loop.rs).
 
+mod common;
+
+use common::{kestrel, temp_dir};
 use kestrel_core::formats::MpqpProblem;
 use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn kestrel(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_kestrel"))
-        .args(args)
-        .output()
-        .expect("runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("kestrel-mpc-cli-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    temp_dir(&format!("mpc-cli-{name}"))
 }
 
 fn write(d: &Path, name: &str, text: &str) -> String {
