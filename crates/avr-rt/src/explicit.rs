@@ -32,6 +32,7 @@
 //! ```
 
 use crate::control::LawInfo;
+use crate::law::pack_theta;
 use crate::progmem::TableRead;
 use kestrel_core::{ControlLaw, Error, Scalar};
 use kestrel_empc::{TreeTables, evaluate};
@@ -277,17 +278,6 @@ impl<S: Scalar, T: TreeTables<S>, const P: usize, const NU: usize> EmpcLaw<S, T,
     }
 }
 
-fn check_len<S>(v: &[S], n: usize) -> Result<(), Error> {
-    if v.len() == n {
-        Ok(())
-    } else {
-        Err(Error::DimensionMismatch {
-            expected: n,
-            found: v.len(),
-        })
-    }
-}
-
 impl<S: Scalar, T: TreeTables<S>, const P: usize, const NU: usize> ControlLaw
     for EmpcLaw<S, T, P, NU>
 {
@@ -302,13 +292,7 @@ impl<S: Scalar, T: TreeTables<S>, const P: usize, const NU: usize> ControlLaw
         NU
     }
     fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
-        check_len(x, self.nx)?;
-        check_len(r, P - self.nx)?;
-        check_len(u, NU)?;
-        let mut theta = [S::ZERO; P];
-        let (tx, tr) = theta.split_at_mut(self.nx);
-        tx.copy_from_slice(x);
-        tr.copy_from_slice(r);
+        let theta: [S; P] = pack_theta(self.nx, NU, x, r, u)?;
         let e = evaluate(&self.tables, &theta, u)?;
         self.steps = e.steps;
         if e.outside {

@@ -40,8 +40,9 @@
 
 use crate::control::LawInfo;
 use crate::kalman16::{Row16, mul_q15, round_shift};
+use crate::law::pack_theta;
 use crate::output::RtScalar;
-use kestrel_core::{ControlLaw, Error, all_finite, check_len};
+use kestrel_core::{ControlLaw, Error, all_finite};
 use kestrel_fgm::FgmTables;
 
 /// The fast gradient law with fixed-point iterations (see the module docs):
@@ -264,13 +265,7 @@ impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usiz
         NU
     }
     fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
-        check_len(x, self.nx)?;
-        check_len(r, P - self.nx)?;
-        check_len(u, NU)?;
-        let mut theta = [S::ZERO; P];
-        let (tx, tr) = theta.split_at_mut(self.nx);
-        tx.copy_from_slice(x);
-        tr.copy_from_slice(r);
+        let theta: [S; P] = pack_theta(self.nx, NU, x, r, u)?;
         let z = self.solve(&theta)?;
         u.copy_from_slice(&z[..NU]);
         Ok(())

@@ -130,13 +130,7 @@ impl<S: Scalar, const N: usize, const P: usize, const T: usize, const NU: usize>
         NU
     }
     fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
-        check_len(x, self.nx)?;
-        check_len(r, P - self.nx)?;
-        check_len(u, NU)?;
-        let mut theta = [S::ZERO; P];
-        let (tx, tr) = theta.split_at_mut(self.nx);
-        tx.copy_from_slice(x);
-        tr.copy_from_slice(r);
+        let theta: [S; P] = pack_theta(self.nx, NU, x, r, u)?;
         let k = self.iterations as usize;
         let z = match (self.start, self.ws.previous().copied()) {
             (FgmStart::Warm, Some(prev)) => {
@@ -162,6 +156,30 @@ impl<S: Scalar, const N: usize, const P: usize, const T: usize, const NU: usize>
     fn restart(&mut self) {
         self.ws.reset();
     }
+}
+
+/// Checks the lengths of a parametric law's state `x`, reference `r` and
+/// output `u` (`r` takes the `P - nx` parameters after the state) and packs
+/// `theta = [x; r]`; shared by the laws of this crate.
+pub(crate) fn pack_theta<S: Scalar, const P: usize>(
+    nx: usize,
+    nu: usize,
+    x: &[S],
+    r: &[S],
+    u: &[S],
+) -> Result<[S; P], Error> {
+    let nr = P.checked_sub(nx).ok_or(Error::DimensionMismatch {
+        expected: P,
+        found: nx,
+    })?;
+    check_len(x, nx)?;
+    check_len(r, nr)?;
+    check_len(u, nu)?;
+    let mut theta = [S::ZERO; P];
+    let (tx, tr) = theta.split_at_mut(nx);
+    tx.copy_from_slice(x);
+    tr.copy_from_slice(r);
+    Ok(theta)
 }
 
 #[cfg(test)]
