@@ -21,7 +21,23 @@ pub fn write_output(path: Option<&Path>, text: &str) -> anyhow::Result<()> {
 }
 
 /// Writes bytes to a file atomically (temporary file, then rename).
+///
+/// Only a regular file (or a new one) is replaced that way: a symbolic link
+/// is followed and its target replaced, and anything else that exists at
+/// `path` (`/dev/null`, a FIFO, a terminal) is written in place, since
+/// renaming over it would replace the device itself.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let target = match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => std::fs::canonicalize(path)
+            .with_context(|| format!("resolving the link {}", path.display()))?,
+        _ => path.to_path_buf(),
+    };
+    let path = target.as_path();
+    if let Ok(m) = std::fs::metadata(path)
+        && !m.is_file()
+    {
+        return std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()));
+    }
     let dir = path
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
@@ -33,4 +49,43 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
     let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
     std::fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
     std::fs::rename(&tmp, path).with_context(|| format!("writing {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn devices_are_written_in_place_not_replaced() {
+        let null = Path::new("/dev/null");
+        if std::fs::metadata(null).is_ok_and(|m| !m.is_file()) {
+            write_atomic(null, b"discarded").unwrap();
+            assert!(
+                !std::fs::metadata(null).unwrap().is_file(),
+                "/dev/null was replaced"
+            );
+        }
+    }
+
+    #[test]
+    fn links_are_followed_and_files_replaced() {
+        let dir = std::env::temp_dir().join(format!("kestrel-io-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("target.txt");
+        let link = dir.join("link.txt");
+        std::fs::write(&file, "old").unwrap();
+        let _ = std::fs::remove_file(&link);
+        std::os::unix::fs::symlink(&file, &link).unwrap();
+        write_atomic(&link, b"new").unwrap();
+        assert!(
+            std::fs::symlink_metadata(&link)
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), "new");
+        write_atomic(&file, b"newer").unwrap();
+        assert_eq!(std::fs::read_to_string(&link).unwrap(), "newer");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }
