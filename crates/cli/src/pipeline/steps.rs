@@ -593,6 +593,44 @@ pub fn identification(r: &mut Report, cfg: &Config, fl: &[Flight]) -> anyhow::Re
     })
 }
 
+/// One panel per rate: the measured output of experiment `e` against a model
+/// output (`model_out`, deviations like `e.y`), both around `y0`; written as
+/// the figure `name` of the report.
+#[allow(clippy::too_many_arguments)]
+fn measured_against(
+    r: &mut Report,
+    e: &kestrel_sysid::Experiment,
+    y0: &DVector<f64>,
+    model_out: &DMatrix<f64>,
+    legend: impl Fn(usize) -> String,
+    name: &str,
+    title: &str,
+    caption: &str,
+) -> anyhow::Result<()> {
+    let names = ["p (roll rate)", "q (pitch rate)", "r (yaw rate)"];
+    let panels: Vec<Panel> = (0..3)
+        .map(|j| Panel {
+            title: names[j].into(),
+            x_label: "time [s]".into(),
+            y_label: "rad/s".into(),
+            series: vec![
+                Series::line(
+                    "measured",
+                    series_t(&e.t, e.y.column(j).iter().map(|v| v + y0[j])),
+                ),
+                Series::dashed(
+                    legend(j),
+                    series_t(&e.t, model_out.column(j).iter().map(|v| v + y0[j])),
+                ),
+            ],
+            hlines: vec![],
+        })
+        .collect();
+    panels_svg(&r.path(name), title, &panels)?;
+    r.figure(name, caption);
+    Ok(())
+}
+
 fn identification_figures(
     r: &mut Report,
     key: &str,
@@ -611,65 +649,28 @@ fn identification_figures(
         .max_by_key(|(_, e)| e.len())
         .context("no validation data")?;
     let sim = &cmp.simulated[ei];
-    let names = ["p (roll rate)", "q (pitch rate)", "r (yaw rate)"];
-    let panels: Vec<Panel> = (0..3)
-        .map(|j| Panel {
-            title: names[j].into(),
-            x_label: "time [s]".into(),
-            y_label: "rad/s".into(),
-            series: vec![
-                Series::line(
-                    "measured",
-                    series_t(&e.t, e.y.column(j).iter().map(|v| v + y0[j])),
-                ),
-                Series::dashed(
-                    format!("simulated (fit {:.1}%)", cmp.fit[j]),
-                    series_t(&e.t, sim.column(j).iter().map(|v| v + y0[j])),
-                ),
-            ],
-            hlines: vec![],
-        })
-        .collect();
-    let name = format!("figures/{key}-simulation.svg");
-    panels_svg(
-        &r.path(&name),
+    measured_against(
+        r,
+        e,
+        y0,
+        sim,
+        |j| format!("simulated (fit {:.1}%)", cmp.fit[j]),
+        &format!("figures/{key}-simulation.svg"),
         &format!("{label} model: simulation on validation data"),
-        &panels,
-    )?;
-    r.figure(
-        &name,
         &format!("Measured and simulated outputs, {label} model (figures 7.8-7.9)"),
-    );
+    )?;
     let x0 = estimate_x0_predictor(model, &e.u, &e.y)?;
     let pred = model.predict_k_step(&e.u, &e.y, &x0, 5)?;
-    let panels: Vec<Panel> = (0..3)
-        .map(|j| Panel {
-            title: names[j].into(),
-            x_label: "time [s]".into(),
-            y_label: "rad/s".into(),
-            series: vec![
-                Series::line(
-                    "measured",
-                    series_t(&e.t, e.y.column(j).iter().map(|v| v + y0[j])),
-                ),
-                Series::dashed(
-                    "5-step prediction",
-                    series_t(&e.t, pred.column(j).iter().map(|v| v + y0[j])),
-                ),
-            ],
-            hlines: vec![],
-        })
-        .collect();
-    let name = format!("figures/{key}-5step.svg");
-    panels_svg(
-        &r.path(&name),
+    measured_against(
+        r,
+        e,
+        y0,
+        &pred,
+        |_| "5-step prediction".to_string(),
+        &format!("figures/{key}-5step.svg"),
         &format!("{label} model: 5-step prediction on validation data"),
-        &panels,
-    )?;
-    r.figure(
-        &name,
         &format!("5-step prediction, {label} model (figures 7.10-7.11)"),
-    );
+    )?;
     // Residuals of the yaw rate: autocorrelation and cross-correlation with
     // the yaw input (servo, or the virtual yaw input).
     let ra = &rep.residuals;
