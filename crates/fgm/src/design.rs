@@ -153,6 +153,13 @@ pub struct WarmStartAssumption {
 /// widths vary with `theta`, or the start is shifted, the warm bound falls
 /// back to a start anywhere in the box: `|s - z*|_j <= w_j`, four times the
 /// cold `Delta` (which is for the box centre).
+///
+/// The warm bound can therefore be *longer* than the cold one (a start
+/// anywhere is worse than the centre). Each certificate covers only its own
+/// start, so the run-time should start warm only when that pays:
+/// [`WarmCertificate::recommended`] says which start to use and
+/// [`WarmCertificate::recommended_iterations`] how many iterations that
+/// start needs; it never exceeds the cold count.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WarmCertificate {
     /// The cold certificate it refines.
@@ -163,8 +170,48 @@ pub struct WarmCertificate {
     pub radius: f64,
     /// `min((L - mu)/2 r^2, 4 Delta_cold)`.
     pub delta: f64,
-    /// Certified iterations after the initial step.
+    /// Certified iterations after the initial step, starting from the
+    /// (shifted) previous solution.
     pub iterations: usize,
+}
+
+/// Which start a fixed-iteration solver should use, given both certificates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RecommendedStart {
+    /// Start from the previous solution: its certificate is shorter.
+    Warm,
+    /// Start at the box centre: the warm certificate is not shorter.
+    Cold,
+}
+
+impl RecommendedStart {
+    /// `"warm"` or `"cold"`, for JSON output.
+    pub fn name(self) -> &'static str {
+        match self {
+            RecommendedStart::Warm => "warm",
+            RecommendedStart::Cold => "cold",
+        }
+    }
+}
+
+impl WarmCertificate {
+    /// The start to use: warm only when its certificate is strictly shorter.
+    pub fn recommended(&self) -> RecommendedStart {
+        if self.iterations < self.cold.iterations {
+            RecommendedStart::Warm
+        } else {
+            RecommendedStart::Cold
+        }
+    }
+
+    /// The certified iterations of the [`recommended`](Self::recommended)
+    /// start: `min(warm, cold)`, each valid for its own start only.
+    pub fn recommended_iterations(&self) -> usize {
+        match self.recommended() {
+            RecommendedStart::Warm => self.iterations,
+            RecommendedStart::Cold => self.cold.iterations,
+        }
+    }
 }
 
 /// A bound on how far a solve in a lower-precision scalar can be from

@@ -25,7 +25,7 @@ pub mod reference;
 #[cfg(feature = "std")]
 pub use design::{
     AppliedInputs, Certificate, FgmData, FgmDesign, FgmSettings, Momentum, MomentumScheme,
-    PwmTolerance, RoundingBound, WarmCertificate, WarmStartAssumption,
+    PwmTolerance, RecommendedStart, RoundingBound, WarmCertificate, WarmStartAssumption,
 };
 #[cfg(feature = "std")]
 pub use error::FgmError;

@@ -244,7 +244,9 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
         let w = d.certify_warm(a.eps, &assume)?;
         warm_iterations = Some(w.iterations);
         out["warm"] = json!({"iterations": w.iterations, "refined": w.refined,
-                             "radius": w.radius, "delta": w.delta});
+                             "radius": w.radius, "delta": w.delta,
+                             "recommended_start": w.recommended().name(),
+                             "recommended_iterations": w.recommended_iterations()});
     }
     if let Some(path) = &a.export {
         let (scalar, text) = match a.scalar {
