@@ -1,7 +1,7 @@
 //! Writes the golden exported tables used by `tests/export.rs`:
 //! `cargo run -p kestrel-empc --example golden`.
-use kestrel_empc::export::{ExportScalar, rust_source};
-use kestrel_empc::{Settings, TreeSettings, build_controller, solve};
+use kestrel_empc::export::{ExportScalar, rust_source, rust_source_compact};
+use kestrel_empc::{Settings, TreeSettings, build_compact, build_controller, solve};
 
 fn main() {
     let prob = kestrel_core::formats::MpqpProblem::from_json_str(include_str!(
@@ -10,15 +10,24 @@ fn main() {
     .unwrap();
     let sol = solve(&prob, &Settings::default()).unwrap();
     let ctl = build_controller(&prob, &sol, &TreeSettings::default()).unwrap();
+    let compact = build_compact(&prob, &sol, &TreeSettings::default()).unwrap();
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/generated");
-    std::fs::write(
-        format!("{dir}/box2_f32.rs"),
-        rust_source(&ctl.tables, ExportScalar::F32).unwrap(),
-    )
-    .unwrap();
-    std::fs::write(
-        format!("{dir}/box2_q16.rs"),
-        rust_source(&ctl.tables, ExportScalar::Q16).unwrap(),
-    )
-    .unwrap();
+    for (name, scalar) in [
+        ("f32", ExportScalar::F32),
+        ("q16", ExportScalar::Q16),
+        ("f64", ExportScalar::F64),
+    ] {
+        if scalar != ExportScalar::F64 {
+            std::fs::write(
+                format!("{dir}/box2_{name}.rs"),
+                rust_source(&ctl.tables, scalar).unwrap(),
+            )
+            .unwrap();
+        }
+        std::fs::write(
+            format!("{dir}/box2_compact_{name}.rs"),
+            rust_source_compact(&compact.tables, scalar).unwrap(),
+        )
+        .unwrap();
+    }
 }

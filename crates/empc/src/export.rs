@@ -10,7 +10,7 @@
 #![allow(clippy::needless_range_loop)] // dense numerical kernels read best with indices
 
 use crate::error::EmpcError;
-use crate::eval::{LEAF, NO_ROW};
+use crate::eval::{CompactNode, LEAF, NO_ROW, NO_ROW8};
 use crate::mpqp::MpqpSolution;
 use crate::tree::{CompactController, CompactTables, ExplicitController, OwnedTables};
 use kestrel_core::formats::json::{self, Object};
@@ -29,13 +29,96 @@ pub enum ExportScalar {
     F32,
     /// `kestrel_core::Q16` (Q15.16 saturating fixed point) tables.
     Q16,
+    /// `f64` tables (host use, or a reference build of the firmware).
+    F64,
 }
 
 impl ExportScalar {
     /// Bytes per number.
     pub fn bytes(self) -> usize {
-        4
+        match self {
+            ExportScalar::F32 | ExportScalar::Q16 => 4,
+            ExportScalar::F64 => 8,
+        }
     }
+
+    /// The Rust type of the numbers.
+    pub fn rust_type(self) -> &'static str {
+        match self {
+            ExportScalar::F32 => "f32",
+            ExportScalar::Q16 => "kestrel_core::Q16",
+            ExportScalar::F64 => "f64",
+        }
+    }
+
+    /// One number as a Rust expression of [`ExportScalar::rust_type`];
+    /// an error for a value `Q16` cannot hold.
+    pub fn literal(self, v: f64) -> Result<String, EmpcError> {
+        let float = |s: String| {
+            if s.contains('.') || s.contains('e') || s.contains("inf") || s.contains("NaN") {
+                s
+            } else {
+                format!("{s}.0")
+            }
+        };
+        match self {
+            ExportScalar::F32 => Ok(float(format!("{:?}", v as f32))),
+            ExportScalar::F64 => Ok(float(format!("{v:?}"))),
+            ExportScalar::Q16 => {
+                if v.abs() >= 32767.0 {
+                    return Err(EmpcError::InvalidArgument(format!(
+                        "the value {v} does not fit Q16 (|x| < 32767); scale the problem or use f32"
+                    )));
+                }
+                Ok(format!(
+                    "kestrel_core::Q16::from_bits({})",
+                    Q16::from_f64(v).to_bits()
+                ))
+            }
+        }
+    }
+}
+
+/// `pub static NAME: [ty; len] = [...];`, 8 numbers a line.
+fn write_numbers(
+    s: &mut String,
+    name: &str,
+    v: &[f64],
+    scalar: ExportScalar,
+) -> Result<(), EmpcError> {
+    let mut body = String::new();
+    for (i, x) in v.iter().enumerate() {
+        if i % 8 == 0 {
+            body.push_str("\n    ");
+        }
+        body.push_str(&scalar.literal(*x)?);
+        body.push_str(", ");
+    }
+    let _ = writeln!(
+        s,
+        "pub static {name}: [{}; {}] = [{body}\n];",
+        scalar.rust_type(),
+        v.len()
+    );
+    Ok(())
+}
+
+/// The output-bound table as Rust source.
+fn write_bounds(s: &mut String, bounds: &[[u16; 2]]) {
+    let b: Vec<String> = bounds
+        .iter()
+        .map(|x| format!("[{}, {}]", x[0], x[1]))
+        .collect();
+    let _ = writeln!(
+        s,
+        "/// Output bounds: rows of the lower and upper bound (65535: none)."
+    );
+    let _ = writeln!(
+        s,
+        "pub static BOUNDS: [[u16; 2]; {}] = [{}];",
+        b.len(),
+        b.join(", ")
+    );
 }
 
 fn rows_value(v: &[f64], width: usize) -> Value {
@@ -179,81 +262,233 @@ fn index_rows(v: &Value, key: &str, width: usize) -> Result<Vec<Vec<u16>>, Forma
     Ok(out)
 }
 
-/// Reads the tables of a solution file and checks every index.
-pub fn tables_from_json(text: &str) -> Result<OwnedTables<f64>, EmpcError> {
-    let obj = json::parse_object(text)?;
-    json::check_format(&obj, FORMAT)?;
-    let p = json::number(&obj, "p")?;
-    let k = json::number(&obj, "outputs")?;
+/// `p` and `outputs` of a solution file.
+fn read_sizes(obj: &Object) -> Result<(usize, usize), EmpcError> {
+    json::check_format(obj, FORMAT)?;
+    let p = json::number(obj, "p")?;
+    let k = json::number(obj, "outputs")?;
     if p < 1.0 || p.fract() != 0.0 || k < 1.0 || k.fract() != 0.0 || p > 1e4 || k > 1e4 {
         return Err(FormatError::invalid("p", "p and outputs must be positive integers").into());
     }
-    let (p, k) = (p as usize, k as usize);
-    let t = obj
-        .get("tables")
+    Ok((p as usize, k as usize))
+}
+
+/// The tables object `key` of a solution file.
+fn tables_object<'a>(obj: &'a Object, key: &str, what: &str) -> Result<&'a Object, EmpcError> {
+    Ok(obj
+        .get(key)
         .and_then(Value::as_object)
         .ok_or_else(|| FormatError::MissingKey {
-            key: "tables".into(),
-            expected: "an object with the evaluation tables (written by `kestrel empc solve`)"
-                .into(),
-        })?;
+            key: key.into(),
+            expected: format!("an object with the evaluation tables ({what})"),
+        })?)
+}
+
+/// What both layouts store alike: rows, explored set, box, output bounds.
+struct CommonTables {
+    rows: Vec<f64>,
+    hull: Vec<f64>,
+    theta_lb: Vec<f64>,
+    theta_ub: Vec<f64>,
+    bounds: Vec<[u16; 2]>,
+}
+
+/// The entry `key` of the tables object `prefix`.
+fn entry_of<'a>(t: &'a Object, prefix: &str, key: &str) -> Result<&'a Value, FormatError> {
+    t.get(key).ok_or_else(|| FormatError::MissingKey {
+        key: format!("{prefix}.{key}"),
+        expected: "an array".into(),
+    })
+}
+
+fn read_common(t: &Object, prefix: &str, p: usize, k: usize) -> Result<CommonTables, EmpcError> {
     let w = p + 1;
-    let root = json::number(t, "root")?;
-    if !(0.0..=65535.0).contains(&root) || root.fract() != 0.0 {
-        return Err(FormatError::invalid("tables.root", "expected an index in 0..=65535").into());
-    }
-    let get = |key: &str| {
-        t.get(key).ok_or_else(|| FormatError::MissingKey {
-            key: format!("tables.{key}"),
-            expected: "an array".into(),
-        })
-    };
-    let flat = |key: &str, width: usize| -> Result<Vec<f64>, FormatError> {
-        let m = json::matrix_value(get(key)?, &format!("tables.{key}"), None, Some(width))?;
+    let flat = |key: &str| -> Result<Vec<f64>, FormatError> {
+        let m = json::matrix_value(
+            entry_of(t, prefix, key)?,
+            &format!("{prefix}.{key}"),
+            None,
+            Some(w),
+        )?;
         Ok((0..m.nrows())
-            .flat_map(|i| (0..width).map(move |j| (i, j)))
+            .flat_map(|i| (0..w).map(move |j| (i, j)))
             .map(|(i, j)| m[(i, j)])
             .collect())
     };
-    let nodes: Vec<[u16; 4]> = index_rows(get("nodes")?, "tables.nodes", 4)?
-        .into_iter()
-        .map(|r| [r[0], r[1], r[2], r[3]])
-        .collect();
-    let laws: Vec<u16> = index_rows(get("laws")?, "tables.laws", k)?
-        .into_iter()
-        .flatten()
-        .collect();
-    let rows = flat("rows", w)?;
-    let hull = flat("hull", w)?;
-    let theta_lb: Vec<f64> = json::vector(t, "theta_lb", Some(p))?
-        .iter()
-        .copied()
-        .collect();
-    let theta_ub: Vec<f64> = json::vector(t, "theta_ub", Some(p))?
-        .iter()
-        .copied()
-        .collect();
-    let bounds: Vec<[u16; 2]> = index_rows(get("bounds")?, "tables.bounds", 2)?
+    let vector = |key: &str| -> Result<Vec<f64>, FormatError> {
+        Ok(json::vector(t, key, Some(p))?.iter().copied().collect())
+    };
+    let key = format!("{prefix}.bounds");
+    let bounds: Vec<[u16; 2]> = index_rows(entry_of(t, prefix, "bounds")?, &key, 2)?
         .into_iter()
         .map(|r| [r[0], r[1]])
         .collect();
     if bounds.len() != k {
-        return Err(FormatError::invalid("tables.bounds", format!("expected {k} rows")).into());
+        return Err(FormatError::invalid(key, format!("expected {k} rows")).into());
     }
+    Ok(CommonTables {
+        rows: flat("rows")?,
+        hull: flat("hull")?,
+        theta_lb: vector("theta_lb")?,
+        theta_ub: vector("theta_ub")?,
+        bounds,
+    })
+}
+
+/// Reads the tables of a solution file and checks every index.
+pub fn tables_from_json(text: &str) -> Result<OwnedTables<f64>, EmpcError> {
+    let obj = json::parse_object(text)?;
+    let (p, k) = read_sizes(&obj)?;
+    let t = tables_object(&obj, "tables", "written by `kestrel empc solve`")?;
+    let root = json::number(t, "root")?;
+    if !(0.0..=65535.0).contains(&root) || root.fract() != 0.0 {
+        return Err(FormatError::invalid("tables.root", "expected an index in 0..=65535").into());
+    }
+    let nodes: Vec<[u16; 4]> = index_rows(entry_of(t, "tables", "nodes")?, "tables.nodes", 4)?
+        .into_iter()
+        .map(|r| [r[0], r[1], r[2], r[3]])
+        .collect();
+    let laws: Vec<u16> = index_rows(entry_of(t, "tables", "laws")?, "tables.laws", k)?
+        .into_iter()
+        .flatten()
+        .collect();
+    let c = read_common(t, "tables", p, k)?;
     let tables = OwnedTables {
         n_params: p,
         n_outputs: k,
         root: root as u16,
         nodes,
         laws,
-        rows,
-        hull,
-        theta_lb,
-        theta_ub,
-        bounds,
+        rows: c.rows,
+        hull: c.hull,
+        theta_lb: c.theta_lb,
+        theta_ub: c.theta_ub,
+        bounds: c.bounds,
     };
     check_tables(&tables)?;
     Ok(tables)
+}
+
+/// Whether a solution file holds the compact layout (`compact_tables`,
+/// written by `kestrel empc solve --compact`).
+pub fn has_compact_tables(text: &str) -> Result<bool, EmpcError> {
+    let obj = json::parse_object(text)?;
+    json::check_format(&obj, FORMAT)?;
+    Ok(obj.contains_key("compact_tables"))
+}
+
+/// Reads the compact layout of a solution file (`compact_tables`, see
+/// [`solution_json_with_compact`]) and checks every index
+/// ([`check_compact_tables`]).
+pub fn compact_tables_from_json(text: &str) -> Result<CompactTables<f64>, EmpcError> {
+    let obj = json::parse_object(text)?;
+    let (p, k) = read_sizes(&obj)?;
+    let pre = "compact_tables";
+    let t = tables_object(
+        &obj,
+        pre,
+        "written by `kestrel empc solve --compact`; solve again with --compact",
+    )?;
+    let mut roots = Vec::with_capacity(k);
+    for (j, x) in json::vector(t, "roots", Some(k))?.iter().enumerate() {
+        if !(0.0..=65535.0).contains(x) || x.fract() != 0.0 {
+            return Err(FormatError::invalid(
+                format!("compact_tables.roots[{j}]"),
+                format!("expected a child code in 0..=65535, found {x}"),
+            )
+            .into());
+        }
+        roots.push(*x as u16);
+    }
+    let mut nodes = Vec::new();
+    for (i, r) in index_rows(entry_of(t, pre, "nodes")?, "compact_tables.nodes", 4)?
+        .into_iter()
+        .enumerate()
+    {
+        let row = |j: usize| {
+            u8::try_from(r[j]).map_err(|_| {
+                FormatError::invalid(
+                    format!("compact_tables.nodes[{i}][{j}]"),
+                    format!("expected a row index in 0..=255, found {}", r[j]),
+                )
+            })
+        };
+        nodes.push(CompactNode {
+            rows: [row(0)?, row(1)?],
+            children: [r[2], r[3]],
+        });
+    }
+    let c = read_common(t, pre, p, k)?;
+    let tables = CompactTables {
+        n_params: p,
+        n_outputs: k,
+        roots,
+        nodes,
+        rows: c.rows,
+        hull: c.hull,
+        theta_lb: c.theta_lb,
+        theta_ub: c.theta_ub,
+        bounds: c.bounds,
+    };
+    check_compact_tables(&tables)?;
+    Ok(tables)
+}
+
+/// Checks that every index of the compact tables points inside its table
+/// (roots, node rows and children, output bounds), that children come
+/// after their parent (no cycles), and the table shapes.
+pub fn check_compact_tables<S: Scalar>(t: &CompactTables<S>) -> Result<(), EmpcError> {
+    let w = t.n_params + 1;
+    let bad = |what: String| Err(FormatError::invalid("compact_tables", what).into());
+    if !t.rows.len().is_multiple_of(w) || !t.hull.len().is_multiple_of(w) {
+        return bad(format!("rows and hull must hold {w} numbers per row"));
+    }
+    if t.theta_lb.len() != t.n_params || t.theta_ub.len() != t.n_params {
+        return bad(format!("expected {} parameter bounds", t.n_params));
+    }
+    if t.roots.len() != t.n_outputs || t.bounds.len() != t.n_outputs {
+        return bad(format!(
+            "expected one root and one bound pair per output ({})",
+            t.n_outputs
+        ));
+    }
+    let nr = t.rows.len() / w;
+    let child_ok = |c: u16| {
+        if c & LEAF != 0 {
+            ((c & !LEAF) as usize) < nr
+        } else {
+            (c as usize) < t.nodes.len()
+        }
+    };
+    if let Some(r) = t.roots.iter().find(|&&r| !child_ok(r)) {
+        return bad(format!("root {r} points outside the tables"));
+    }
+    for (i, n) in t.nodes.iter().enumerate() {
+        let row_ok = |r: u8| r != NO_ROW8 && (r as usize) < nr;
+        if !row_ok(n.rows[0])
+            || !(n.rows[1] == NO_ROW8 || row_ok(n.rows[1]))
+            || !child_ok(n.children[0])
+            || !child_ok(n.children[1])
+        {
+            return bad(format!("node {i} {n:?} points outside the tables"));
+        }
+        for c in n.children {
+            if c & LEAF == 0 && c as usize <= i {
+                return bad(format!("node {i} has a child {c} that is not after it"));
+            }
+        }
+    }
+    for b in &t.bounds {
+        for &r in b {
+            if r != NO_ROW && r as usize >= nr {
+                return bad(format!("an output bound uses row {r} of {nr}"));
+            }
+        }
+    }
+    if t.theta_lb.iter().zip(&t.theta_ub).any(|(l, u)| l > u) {
+        return bad("theta_lb exceeds theta_ub".into());
+    }
+    Ok(())
 }
 
 /// Checks that every index of the tables points inside its table.
@@ -305,37 +540,7 @@ pub fn check_tables<S: Scalar>(t: &OwnedTables<S>) -> Result<(), EmpcError> {
 /// kestrel_empc::SliceTables<'static, S>`.
 pub fn rust_source(t: &OwnedTables<f64>, scalar: ExportScalar) -> Result<String, EmpcError> {
     check_tables(t)?;
-    let ty = match scalar {
-        ExportScalar::F32 => "f32",
-        ExportScalar::Q16 => "kestrel_core::Q16",
-    };
-    let num = |v: f64| -> Result<String, EmpcError> {
-        match scalar {
-            ExportScalar::F32 => {
-                let f = v as f32;
-                let s = format!("{f:?}");
-                Ok(
-                    if s.contains('.') || s.contains('e') || s.contains("inf") || s.contains("NaN")
-                    {
-                        s
-                    } else {
-                        format!("{s}.0")
-                    },
-                )
-            }
-            ExportScalar::Q16 => {
-                if v.abs() >= 32767.0 {
-                    return Err(EmpcError::InvalidArgument(format!(
-                        "the value {v} does not fit Q16 (|x| < 32767); scale the problem or use f32"
-                    )));
-                }
-                Ok(format!(
-                    "kestrel_core::Q16::from_bits({})",
-                    Q16::from_f64(v).to_bits()
-                ))
-            }
-        }
-    };
+    let ty = scalar.rust_type();
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -346,18 +551,6 @@ pub fn rust_source(t: &OwnedTables<f64>, scalar: ExportScalar) -> Result<String,
         t.laws.len() / t.n_outputs.max(1),
         t.bytes(scalar.bytes())
     );
-    let arr = |s: &mut String, name: &str, v: &[f64]| -> Result<(), EmpcError> {
-        let mut body = String::new();
-        for (i, x) in v.iter().enumerate() {
-            if i % 8 == 0 {
-                body.push_str("\n    ");
-            }
-            body.push_str(&num(*x)?);
-            body.push_str(", ");
-        }
-        let _ = writeln!(s, "pub static {name}: [{ty}; {}] = [{body}\n];", v.len());
-        Ok(())
-    };
     let _ = writeln!(
         s,
         "/// Tree nodes `[row a, row b, child if a(theta) <= b(theta), child otherwise]`."
@@ -374,13 +567,7 @@ pub fn rust_source(t: &OwnedTables<f64>, scalar: ExportScalar) -> Result<String,
         "pub static NODES: [[u16; 4]; {}] = [{nb}\n];",
         t.nodes.len()
     );
-    let _ = writeln!(s, "/// Affine rows `gains, constant` shared by the laws.");
-    arr(&mut s, "ROWS", &t.rows)?;
-    let _ = writeln!(s, "/// Explored set `a, b` (a'theta <= b).");
-    arr(&mut s, "HULL", &t.hull)?;
-    let _ = writeln!(s, "/// Parameter box.");
-    arr(&mut s, "THETA_LB", &t.theta_lb)?;
-    arr(&mut s, "THETA_UB", &t.theta_ub)?;
+    write_common(&mut s, &t.rows, &t.hull, &t.theta_lb, &t.theta_ub, scalar)?;
     let laws: Vec<String> = t.laws.iter().map(|v| v.to_string()).collect();
     let _ = writeln!(s, "/// Laws: one row index per output.");
     let _ = writeln!(
@@ -389,26 +576,94 @@ pub fn rust_source(t: &OwnedTables<f64>, scalar: ExportScalar) -> Result<String,
         laws.len(),
         laws.join(", ")
     );
-    let b: Vec<String> = t
-        .bounds
-        .iter()
-        .map(|x| format!("[{}, {}]", x[0], x[1]))
-        .collect();
-    let _ = writeln!(
-        s,
-        "/// Output bounds: rows of the lower and upper bound (65535: none)."
-    );
-    let _ = writeln!(
-        s,
-        "pub static BOUNDS: [[u16; 2]; {}] = [{}];",
-        b.len(),
-        b.join(", ")
-    );
+    write_bounds(&mut s, &t.bounds);
     let _ = writeln!(s, "/// The tables for `kestrel_empc::evaluate`.");
     let _ = writeln!(
         s,
         "pub static TABLES: kestrel_empc::SliceTables<'static, {ty}> = kestrel_empc::SliceTables {{\n    n_params: {},\n    n_outputs: {},\n    root: {},\n    nodes: &NODES,\n    laws: &LAWS,\n    rows: &ROWS,\n    hull: &HULL,\n    theta_lb: &THETA_LB,\n    theta_ub: &THETA_UB,\n    bounds: &BOUNDS,\n}};",
         t.n_params, t.n_outputs, t.root
+    );
+    Ok(s)
+}
+
+/// Rows, explored set and parameter box (shared by both layouts).
+fn write_common(
+    s: &mut String,
+    rows: &[f64],
+    hull: &[f64],
+    lb: &[f64],
+    ub: &[f64],
+    scalar: ExportScalar,
+) -> Result<(), EmpcError> {
+    let _ = writeln!(s, "/// Affine rows `gains, constant` shared by the laws.");
+    write_numbers(s, "ROWS", rows, scalar)?;
+    let _ = writeln!(s, "/// Explored set `a, b` (a'theta <= b).");
+    write_numbers(s, "HULL", hull, scalar)?;
+    let _ = writeln!(s, "/// Parameter box.");
+    write_numbers(s, "THETA_LB", lb, scalar)?;
+    write_numbers(s, "THETA_UB", ub, scalar)?;
+    Ok(())
+}
+
+/// The compact layout ([`crate::build_compact`]) as Rust source: `static`
+/// arrays `ROOTS` (one root child code per output), `NODES`
+/// (`kestrel_empc::CompactNode`: `u8` rows, `u16` child codes), `ROWS`,
+/// `HULL`, `THETA_LB`, `THETA_UB`, `BOUNDS` (`u16` row indices) and
+/// `pub static TABLES: kestrel_empc::ForestTables<'static, S>`, to evaluate
+/// with [`crate::evaluate`] in `no_std` firmware. The tables are checked
+/// first ([`check_compact_tables`]).
+pub fn rust_source_compact(
+    t: &CompactTables<f64>,
+    scalar: ExportScalar,
+) -> Result<String, EmpcError> {
+    check_compact_tables(t)?;
+    let ty = scalar.rust_type();
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "// Explicit MPC tables, compact layout (one tree per output), generated by\n// `kestrel empc export --compact` ({} parameters, {} outputs, {} nodes, {} rows,\n// {} bytes). Do not edit.",
+        t.n_params,
+        t.n_outputs,
+        t.nodes.len(),
+        t.rows.len() / (t.n_params + 1),
+        t.bytes(scalar.bytes())
+    );
+    let roots: Vec<String> = t.roots.iter().map(|v| v.to_string()).collect();
+    let _ = writeln!(
+        s,
+        "/// Root child code of every output's tree (0x8000 | row: a leaf)."
+    );
+    let _ = writeln!(
+        s,
+        "pub static ROOTS: [u16; {}] = [{}];",
+        roots.len(),
+        roots.join(", ")
+    );
+    let _ = writeln!(
+        s,
+        "/// Tree nodes: rows `a`, `b` (255: none) and the children if `a(theta) <= b(theta)`, otherwise."
+    );
+    let mut nb = String::new();
+    for n in &t.nodes {
+        nb.push_str("\n    ");
+        let _ = write!(
+            nb,
+            "kestrel_empc::CompactNode {{ rows: [{}, {}], children: [{}, {}] }},",
+            n.rows[0], n.rows[1], n.children[0], n.children[1]
+        );
+    }
+    let _ = writeln!(
+        s,
+        "pub static NODES: [kestrel_empc::CompactNode; {}] = [{nb}\n];",
+        t.nodes.len()
+    );
+    write_common(&mut s, &t.rows, &t.hull, &t.theta_lb, &t.theta_ub, scalar)?;
+    write_bounds(&mut s, &t.bounds);
+    let _ = writeln!(s, "/// The tables for `kestrel_empc::evaluate`.");
+    let _ = writeln!(
+        s,
+        "pub static TABLES: kestrel_empc::ForestTables<'static, {ty}> = kestrel_empc::ForestTables {{\n    n_params: {},\n    n_outputs: {},\n    roots: &ROOTS,\n    nodes: &NODES,\n    rows: &ROWS,\n    hull: &HULL,\n    theta_lb: &THETA_LB,\n    theta_ub: &THETA_UB,\n    bounds: &BOUNDS,\n}};",
+        t.n_params, t.n_outputs
     );
     Ok(s)
 }

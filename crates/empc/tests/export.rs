@@ -13,6 +13,15 @@ mod f32_tables {
 mod q16_tables {
     include!("generated/box2_q16.rs");
 }
+mod compact_f32 {
+    include!("generated/box2_compact_f32.rs");
+}
+mod compact_f64 {
+    include!("generated/box2_compact_f64.rs");
+}
+mod compact_q16 {
+    include!("generated/box2_compact_q16.rs");
+}
 
 #[test]
 fn exported_tables_are_current_and_evaluate_like_the_solution() {
@@ -94,4 +103,124 @@ fn solution_file_with_compact_layout_reports_its_bytes_and_tables() {
         assert!(!e.outside);
         assert!((z[0] - want[0]).abs() < 1e-9 && (z[1] - want[1]).abs() < 1e-9);
     }
+}
+
+#[test]
+fn exported_compact_tables_are_current_round_trip_and_equal_the_default_tree() {
+    use kestrel_empc::build_compact;
+    use kestrel_empc::export::{
+        compact_tables_from_json, has_compact_tables, rust_source_compact, solution_json,
+        solution_json_with_compact,
+    };
+    let prob = MpqpProblem::from_json_str(include_str!("generated/box2.json")).unwrap();
+    let sol = solve(&prob, &Settings::default()).unwrap();
+    let ctl = build_controller(&prob, &sol, &TreeSettings::default()).unwrap();
+    let compact = build_compact(&prob, &sol, &TreeSettings::default()).unwrap();
+    for (scalar, golden) in [
+        (
+            ExportScalar::F32,
+            include_str!("generated/box2_compact_f32.rs"),
+        ),
+        (
+            ExportScalar::F64,
+            include_str!("generated/box2_compact_f64.rs"),
+        ),
+        (
+            ExportScalar::Q16,
+            include_str!("generated/box2_compact_q16.rs"),
+        ),
+    ] {
+        assert_eq!(
+            rust_source_compact(&compact.tables, scalar).unwrap(),
+            golden,
+            "regenerate with `cargo run -p kestrel-empc --example golden`"
+        );
+    }
+    // Solution file -> compact tables -> source: the same tables, bit for bit.
+    let text = solution_json_with_compact(&sol, &ctl, &compact, false);
+    assert!(has_compact_tables(&text).unwrap());
+    assert!(!has_compact_tables(&solution_json(&sol, &ctl, false)).unwrap());
+    let back = compact_tables_from_json(&text).unwrap();
+    assert_eq!(back, compact.tables);
+    // The `static` tables (f64, f32, Q16) against the default tree (f64)
+    // on 10^4 parameters, some outside the box (flagged alike).
+    let mut rng = Rng::new(11);
+    let mut outside = 0;
+    for _ in 0..10_000 {
+        let th = [3.5 * rng.sym(), 3.5 * rng.sym()];
+        let mut want = [0.0f64; 2];
+        let e_ref = evaluate(&ctl.tables.tables(), &th, &mut want).unwrap();
+        let mut z = [0.0f64; 2];
+        let e = evaluate(&compact_f64::TABLES, &th, &mut z).unwrap();
+        assert_eq!(e.outside, e_ref.outside);
+        outside += usize::from(e.outside);
+        let mut z32 = [0.0f32; 2];
+        let e32 = evaluate(
+            &compact_f32::TABLES,
+            &[th[0] as f32, th[1] as f32],
+            &mut z32,
+        )
+        .unwrap();
+        assert_eq!(e32.outside, e_ref.outside);
+        let mut zq = [Q16::ZERO; 2];
+        evaluate(
+            &compact_q16::TABLES,
+            &[Q16::from_f64(th[0]), Q16::from_f64(th[1])],
+            &mut zq,
+        )
+        .unwrap();
+        for j in 0..2 {
+            assert!((z[j] - want[j]).abs() <= 1e-12, "{th:?}: {z:?} vs {want:?}");
+            assert!((z32[j] as f64 - want[j]).abs() < 1e-5, "{th:?}");
+            assert!((zq[j].to_f64() - want[j]).abs() < 1e-3, "{th:?}");
+        }
+    }
+    assert!(outside > 0, "some samples lie outside the box");
+}
+
+#[test]
+fn corrupted_compact_tables_are_rejected() {
+    use kestrel_empc::build_compact;
+    use kestrel_empc::export::{compact_tables_from_json, solution_json_with_compact};
+    let prob = MpqpProblem::from_json_str(include_str!("generated/box2.json")).unwrap();
+    let sol = solve(&prob, &Settings::default()).unwrap();
+    let ctl = build_controller(&prob, &sol, &TreeSettings::default()).unwrap();
+    let compact = build_compact(&prob, &sol, &TreeSettings::default()).unwrap();
+    let good: serde_json::Value =
+        serde_json::from_str(&solution_json_with_compact(&sol, &ctl, &compact, false)).unwrap();
+    let nn = compact.tables.nodes.len();
+    let cases: Vec<(&str, serde_json::Value, &str)> = vec![
+        (
+            "nodes/0/0",
+            serde_json::json!(300),
+            "compact_tables.nodes[0][0]",
+        ),
+        ("nodes/0/0", serde_json::json!(200), "node 0"),
+        ("nodes/0/2", serde_json::json!(0), "not after it"),
+        ("nodes/0/3", serde_json::json!(nn), "node 0"),
+        ("roots/0", serde_json::json!(0x8000 | 999), "root"),
+        ("roots/0", serde_json::json!(-1), "compact_tables.roots[0]"),
+        ("bounds/0/0", serde_json::json!(999), "output bound"),
+        ("theta_lb/0", serde_json::json!(9), "theta_lb exceeds"),
+    ];
+    for (ptr, value, msg) in cases {
+        let mut v = good.clone();
+        *v["compact_tables"].pointer_mut(&format!("/{ptr}")).unwrap() = value;
+        let err = compact_tables_from_json(&v.to_string())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(msg), "{ptr}: {err}");
+    }
+    let mut v = good.clone();
+    v.as_object_mut().unwrap().remove("compact_tables");
+    let err = compact_tables_from_json(&v.to_string())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("--compact"), "{err}");
+    let mut v = good;
+    v["compact_tables"]["roots"] = serde_json::json!([0]);
+    let err = compact_tables_from_json(&v.to_string())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("roots"), "{err}");
 }
