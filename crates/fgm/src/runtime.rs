@@ -510,61 +510,43 @@ mod tests {
         empty.hi0 = [1.0];
         assert_eq!(empty.solve(&[0.0], &mut ws), Err(Error::Infeasible));
         let v = t.view();
+        // One cold or warm solve of a view with fresh workspace buffers.
+        let run = |view: &FgmView<'_, f64>, theta: &[f64], start: Start<'_, f64>| {
+            let mut buf = [[0.0; 1]; 6];
+            let [lo, hi, c, z, y, w] = &mut buf;
+            let mut out = [0.0];
+            solve_view(
+                view,
+                theta,
+                start,
+                1,
+                WorkspaceMut { lo, hi, c, z, y, w },
+                &mut out,
+            )
+        };
         let bad = FgmView { betas: &[], ..v };
-        let mut buf = [[0.0; 1]; 6];
-        let [lo, hi, c, z, y, w] = &mut buf;
-        let mut out = [0.0];
-        let r = solve_view(
-            &bad,
-            &[0.0],
-            Start::Cold,
-            1,
-            WorkspaceMut { lo, hi, c, z, y, w },
-            &mut out,
-        );
-        assert!(matches!(r, Err(Error::InvalidArgument(_))));
+        assert!(matches!(
+            run(&bad, &[0.0], Start::Cold),
+            Err(Error::InvalidArgument(_))
+        ));
         let short = FgmView { m: &[], ..v };
-        let [lo, hi, c, z, y, w] = &mut buf;
-        let r = solve_view(
-            &short,
-            &[0.0],
-            Start::Cold,
-            1,
-            WorkspaceMut { lo, hi, c, z, y, w },
-            &mut out,
-        );
         assert_eq!(
-            r,
+            run(&short, &[0.0], Start::Cold),
             Err(Error::DimensionMismatch {
                 expected: 1,
                 found: 0
             })
         );
-        let [lo, hi, c, z, y, w] = &mut buf;
-        let r = solve_view(
-            &v,
-            &[0.0, 1.0],
-            Start::Cold,
-            1,
-            WorkspaceMut { lo, hi, c, z, y, w },
-            &mut out,
-        );
         assert_eq!(
-            r,
+            run(&v, &[0.0, 1.0], Start::Cold),
             Err(Error::DimensionMismatch {
                 expected: 1,
                 found: 2
             })
         );
-        let [lo, hi, c, z, y, w] = &mut buf;
-        let r = solve_view(
-            &v,
-            &[0.0],
-            Start::Warm(&[f64::INFINITY]),
-            1,
-            WorkspaceMut { lo, hi, c, z, y, w },
-            &mut out,
+        assert_eq!(
+            run(&v, &[0.0], Start::Warm(&[f64::INFINITY])),
+            Err(Error::NonFinite)
         );
-        assert_eq!(r, Err(Error::NonFinite));
     }
 }
