@@ -1,18 +1,23 @@
 //! End-to-end tests of `kestrel fgm certify|solve` on good and malformed files.
 
-use std::path::PathBuf;
-use std::process::Command;
+mod common;
 
-fn kestrel() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_kestrel"))
-}
+use common::{kestrel as run, temp_dir};
+use std::path::PathBuf;
 
 fn temp_file(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("kestrel-cli-fgm-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
+    let p = temp_dir("cli-fgm").join(name);
     std::fs::write(&p, text).unwrap();
     p
+}
+
+/// Runs `kestrel fgm <args>`, expects it to fail, and checks that standard
+/// error names the problem.
+fn fails_with(args: &[&str], expected: &str) {
+    let mut all = vec!["fgm"];
+    all.extend_from_slice(args);
+    let (ok, _, err) = run(&all);
+    assert!(!ok && err.contains(expected), "{all:?}: {err}");
 }
 
 /// Two inputs, theta = [x, throttle]: rows shuffled and scaled on purpose.
@@ -22,15 +27,6 @@ const BOX: &str = r#"{"format": "kestrel.mpqp.v1",
   "G": [[0, 2], [1, 0], [0, -1], [-3, 0]], "W": [4, 1, 2, 3],
   "E": [[0, 0], [0, 1], [0, 0], [0, -3]],
   "theta_lb": [-2, 0], "theta_ub": [2, 0.5]}"#;
-
-fn run(args: &[&str]) -> (bool, String, String) {
-    let out = kestrel().args(args).output().unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 #[test]
 fn certify_prints_iterations_l_mu_and_preconditioner() {
@@ -140,26 +136,28 @@ fn solve_matches_the_box_optimum() {
 fn bad_inputs_give_clear_errors() {
     let p = temp_file("box3.json", BOX);
     let ps = p.to_str().unwrap();
-    let (ok, _, err) = run(&["fgm", "certify", "--problem", ps, "--eps", "0"]);
-    assert!(!ok && err.contains("eps must be a positive"), "{err}");
-    let (ok, _, err) = run(&["fgm", "certify", "--problem", ps, "--eps", "-1"]);
-    assert!(!ok && err.contains("eps must be a positive"), "{err}");
+    fails_with(
+        &["certify", "--problem", ps, "--eps", "0"],
+        "eps must be a positive",
+    );
+    fails_with(
+        &["certify", "--problem", ps, "--eps", "-1"],
+        "eps must be a positive",
+    );
 
     let coupled = temp_file(
         "coupled.json",
         &BOX.replace("[[0, 2], [1, 0]", "[[1, 2], [1, 0]"),
     );
-    let (ok, _, err) = run(&[
-        "fgm",
-        "certify",
-        "--problem",
-        coupled.to_str().unwrap(),
-        "--eps",
-        "1",
-    ]);
-    assert!(
-        !ok && err.contains("constraint row 0 has 2 non-zero"),
-        "{err}"
+    fails_with(
+        &[
+            "certify",
+            "--problem",
+            coupled.to_str().unwrap(),
+            "--eps",
+            "1",
+        ],
+        "constraint row 0 has 2 non-zero",
     );
 
     let open = temp_file(
@@ -171,63 +169,58 @@ fn bad_inputs_give_clear_errors() {
   "E": [[0, 0], [0, 1], [0, -3]]"#,
         ),
     );
-    let (ok, _, err) = run(&[
-        "fgm",
-        "certify",
-        "--problem",
-        open.to_str().unwrap(),
-        "--eps",
-        "1",
-    ]);
-    assert!(
-        !ok && err.contains("unbounded: variable 1 has no lower bound"),
-        "{err}"
+    fails_with(
+        &["certify", "--problem", open.to_str().unwrap(), "--eps", "1"],
+        "unbounded: variable 1 has no lower bound",
     );
 
     let nonconvex = temp_file(
         "nc.json",
         &BOX.replace("[[4, 1], [1, 2]]", "[[1, 3], [3, 1]]"),
     );
-    let (ok, _, err) = run(&[
-        "fgm",
-        "certify",
-        "--problem",
-        nonconvex.to_str().unwrap(),
-        "--eps",
-        "1",
-    ]);
-    assert!(!ok && err.contains("not convex"), "{err}");
+    fails_with(
+        &[
+            "certify",
+            "--problem",
+            nonconvex.to_str().unwrap(),
+            "--eps",
+            "1",
+        ],
+        "not convex",
+    );
 
     let t = temp_file("bad.csv", "1,2\n1,x\n");
-    let (ok, _, err) = run(&[
-        "fgm",
-        "solve",
-        "--problem",
-        ps,
-        "--thetas",
-        t.to_str().unwrap(),
-        "--iterations",
-        "5",
-    ]);
-    assert!(!ok && err.contains("line 2, column 2"), "{err}");
+    fails_with(
+        &[
+            "solve",
+            "--problem",
+            ps,
+            "--thetas",
+            t.to_str().unwrap(),
+            "--iterations",
+            "5",
+        ],
+        "line 2, column 2",
+    );
     let t = temp_file("short.csv", "1\n");
-    let (ok, _, err) = run(&[
-        "fgm",
-        "solve",
-        "--problem",
-        ps,
-        "--thetas",
-        t.to_str().unwrap(),
-        "--iterations",
-        "5",
-    ]);
-    assert!(!ok && err.contains("expected 2 numbers"), "{err}");
+    fails_with(
+        &[
+            "solve",
+            "--problem",
+            ps,
+            "--thetas",
+            t.to_str().unwrap(),
+            "--iterations",
+            "5",
+        ],
+        "expected 2 numbers",
+    );
 }
 
 #[test]
 fn certify_exports_firmware_tables() {
     let p = temp_file("box4.json", BOX);
-    let rs = std::env::temp_dir().join(format!("kestrel-cli-fgm-{}/tables.rs", std::process::id()));
+    let rs = temp_dir("cli-fgm").join("tables.rs");
     let (ok, out, err) = run(&[
         "fgm",
         "certify",
@@ -244,7 +237,18 @@ fn certify_exports_firmware_tables() {
     ]);
     assert!(ok, "{err}");
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
-    assert!(v["warm"]["iterations"].as_u64().unwrap() <= v["iterations"].as_u64().unwrap());
+    // The recommended start never needs more than the cold certificate, and
+    // it is the warm start exactly when the warm certificate is shorter.
+    let (warm, cold) = (
+        v["warm"]["iterations"].as_u64().unwrap(),
+        v["iterations"].as_u64().unwrap(),
+    );
+    assert_eq!(
+        v["warm"]["recommended_iterations"].as_u64().unwrap(),
+        warm.min(cold)
+    );
+    let start = if warm < cold { "warm" } else { "cold" };
+    assert_eq!(v["warm"]["recommended_start"], start);
     let text = std::fs::read_to_string(&rs).unwrap();
     assert!(text.contains("pub static FGM: kestrel_fgm::FgmTables<kestrel_core::Q16, 2, 2,"));
     assert!(text.contains("Q16::from_bits("));
