@@ -167,6 +167,11 @@ pub struct ExplicitController {
 /// A polytope `a x <= b` (rows of `p`) with an interior point.
 type Piece = (Vec<f64>, Vec<f64>, Vec<f64>);
 
+/// A ball (centre, radius) inside a region intersected with the current
+/// cell: a cheap certificate that the region meets a side of a hyperplane
+/// (the LP is needed only when the ball cannot tell).
+type Ball = (Vec<f64>, f64);
+
 /// Candidates per node scored exactly (with LPs in the cell), after a cheap ranking.
 const EXACT_CANDIDATES: usize = 12;
 
@@ -179,6 +184,8 @@ struct Builder<'a> {
     reg_b: Vec<Vec<f64>>,
     /// An interior point of every region (the LPs' feasible start).
     reg_center: Vec<Vec<f64>>,
+    /// The radius of a ball around `reg_center` inside the region.
+    reg_radius: Vec<f64>,
     law: &'a [u16],
     /// Row indices of every law (`k` each), the affine rows and the output bounds.
     law_rows: Vec<Vec<usize>>,
@@ -213,24 +220,34 @@ impl Builder<'_> {
         let ra = &self.reg_a[r];
         let rb = &self.reg_b[r];
         let x0 = &self.reg_center[r];
-        let (st, hi) = self.lp.maximize_from(&a, ra, rb, x0);
-        let v = if st == LpStatus::Optimal && hi <= b + tol {
-            -1
-        } else {
+        // The ball around the centre (unit `a`): max a'x >= a'c + rho and
+        // min a'x <= a'c - rho, so a side the ball reaches past the
+        // tolerance needs no LP (the LP could only confirm it).
+        let ac: f64 = a.iter().zip(x0).map(|(u, v)| u * v).sum();
+        let rho = self.reg_radius[r];
+        let maybe_left = ac + rho <= b + tol;
+        let maybe_right = ac - rho >= b - tol;
+        let mut v = 0;
+        if maybe_left {
+            let (st, hi) = self.lp.maximize_from(&a, ra, rb, x0);
+            if st == LpStatus::Optimal && hi <= b + tol {
+                v = -1;
+            }
+        }
+        if v == 0 && maybe_right {
             let na: Vec<f64> = a.iter().map(|v| -v).collect();
             let (st, lo) = self.lp.maximize_from(&na, ra, rb, x0);
             if st == LpStatus::Optimal && -lo >= b - tol {
-                1
-            } else {
-                0
+                v = 1;
             }
-        };
+        }
         self.side_cache.insert((r, h), v);
         v
     }
 
-    /// Whether region r meets the cell (rows) in a full-dimensional set.
-    fn meets(&mut self, r: usize, cell: &[(Vec<f64>, f64)]) -> bool {
+    /// Whether region r meets the cell (rows) in a full-dimensional set,
+    /// with the largest ball of the intersection when the LP found it.
+    fn meets(&mut self, r: usize, cell: &[(Vec<f64>, f64)]) -> (bool, Option<Ball>) {
         let p = self.p;
         let mut a = Vec::new();
         let mut b = Vec::new();
@@ -253,10 +270,42 @@ impl Builder<'_> {
         slack_start(&a, &b, &mut x0, p);
         let (st, rad) = self.lp.maximize_from(&c, &a, &b, &x0);
         match st {
-            LpStatus::Optimal => rad > 1e-9 * self.scale,
+            LpStatus::Optimal => (
+                rad > 1e-9 * self.scale,
+                Some((self.lp.x[..p].to_vec(), rad)),
+            ),
             // An LP that did not finish proves nothing: keep the region.
-            _ => true,
+            _ => (true, None),
         }
+    }
+
+    /// Whether region `r` (with the ball `wit` inside it and the cell)
+    /// meets both sides of hyperplane `h` within the cell, and a ball
+    /// inside each side it meets. The ball answers when it reaches a side
+    /// with a radius the LP would accept (a smaller LP optimum is
+    /// impossible), otherwise the LP of [`Builder::meets`] decides.
+    fn split_sides(
+        &mut self,
+        r: usize,
+        h: usize,
+        wit: &Ball,
+        cell: &mut Vec<(Vec<f64>, f64)>,
+    ) -> [(bool, Option<Ball>); 2] {
+        let (a, b) = self.hp[h].clone();
+        let enough = 2e-9 * self.scale;
+        let mut out = [(false, None), (false, None)];
+        for (side, sign) in [(0usize, 1.0f64), (1, -1.0)] {
+            let half = half_ball(wit, &a, b, sign);
+            if half.1 > enough {
+                out[side] = (true, Some(half));
+                continue;
+            }
+            let row: Vec<f64> = a.iter().map(|v| sign * v).collect();
+            cell.push((row, sign * b));
+            out[side] = self.meets(r, cell);
+            cell.pop();
+        }
+        out
     }
 
     /// Whether law `l`, clamped to the output bounds, equals region `r`'s law on all of `r`.
@@ -387,6 +436,7 @@ impl Builder<'_> {
         &mut self,
         h: usize,
         set: &[usize],
+        wits: &[Ball],
         cell: &mut Vec<(Vec<f64>, f64)>,
         exact: bool,
         n_laws: usize,
@@ -394,19 +444,13 @@ impl Builder<'_> {
         let mut seen_l: Vec<u16> = Vec::new();
         let mut seen_r: Vec<u16> = Vec::new();
         let (mut nl, mut nr) = (0, 0);
-        for &r in set {
+        for (i, &r) in set.iter().enumerate() {
             let (inl, inr) = match self.side(r, h) {
                 -1 => (true, false),
                 1 => (false, true),
                 _ if exact => {
-                    let (a, b) = self.hp[h].clone();
-                    cell.push((a.clone(), b));
-                    let l = self.meets(r, cell);
-                    cell.pop();
-                    cell.push((a.iter().map(|v| -v).collect(), -b));
-                    let rr = self.meets(r, cell);
-                    cell.pop();
-                    (l, rr)
+                    let [l, rr] = self.split_sides(r, h, &wits[i], cell);
+                    (l.0, rr.0)
                 }
                 _ => (true, true),
             };
@@ -430,7 +474,13 @@ impl Builder<'_> {
         Some((ll.max(lr), ll + lr))
     }
 
-    fn build(&mut self, set: Vec<usize>, cell: &mut Vec<(Vec<f64>, f64)>, depth: usize) -> u16 {
+    fn build(
+        &mut self,
+        set: Vec<usize>,
+        wits: Vec<Ball>,
+        cell: &mut Vec<(Vec<f64>, f64)>,
+        depth: usize,
+    ) -> u16 {
         self.depth = self.depth.max(depth);
         let first_law = set.first().map_or(0, |&r| self.law[r]);
         if set.iter().all(|&r| self.law[r] == first_law) || depth > 60 {
@@ -469,7 +519,10 @@ impl Builder<'_> {
         // candidates; the best few are then scored exactly within the cell.
         let mut scored: Vec<((usize, usize), usize)> = cands
             .iter()
-            .filter_map(|&(h, _)| self.score(h, &set, cell, false, n_laws).map(|k| (k, h)))
+            .filter_map(|&(h, _)| {
+                self.score(h, &set, &wits, cell, false, n_laws)
+                    .map(|k| (k, h))
+            })
             .collect();
         scored.sort_unstable();
         let mut best: Option<((usize, usize), usize)> = None;
@@ -484,7 +537,7 @@ impl Builder<'_> {
                 };
                 for i in range {
                     let h = scored[i].1;
-                    if let Some(key) = self.score(h, &set, cell, true, n_laws)
+                    if let Some(key) = self.score(h, &set, &wits, cell, true, n_laws)
                         && best.is_none_or(|(k, _)| key < k)
                     {
                         best = Some((key, h));
@@ -502,31 +555,43 @@ impl Builder<'_> {
         };
         let (a, b) = self.hp[h].clone();
         let na: Vec<f64> = a.iter().map(|v| -v).collect();
-        let mut left = Vec::new();
-        let mut right = Vec::new();
-        for &r in &set {
+        let (mut left, mut lw) = (Vec::new(), Vec::new());
+        let (mut right, mut rw) = (Vec::new(), Vec::new());
+        for (i, &r) in set.iter().enumerate() {
             match self.side(r, h) {
-                -1 => left.push(r),
-                1 => right.push(r),
+                // The region lies on one side up to the tolerance: its
+                // ball, cut to that side, stays inside the child's cell.
+                -1 => {
+                    left.push(r);
+                    lw.push(half_ball(&wits[i], &a, b, 1.0));
+                }
+                1 => {
+                    right.push(r);
+                    rw.push(half_ball(&wits[i], &a, b, -1.0));
+                }
                 _ => {
-                    cell.push((a.clone(), b));
-                    if self.meets(r, cell) {
+                    let [l, rr] = self.split_sides(r, h, &wits[i], cell);
+                    // Without a ball (an unfinished LP) the region stays
+                    // with a zero radius: its tests then fall back to LPs.
+                    let keep = |o: Option<Ball>| o.unwrap_or_else(|| (wits[i].0.clone(), 0.0));
+                    if l.0 {
                         left.push(r);
+                        lw.push(keep(l.1));
                     }
-                    cell.pop();
-                    cell.push((na.clone(), -b));
-                    if self.meets(r, cell) {
+                    if rr.0 {
                         right.push(r);
+                        rw.push(keep(rr.1));
                     }
-                    cell.pop();
                 }
             }
         }
         if left.is_empty() {
             left.push(set[0]);
+            lw.push((wits[0].0.clone(), 0.0));
         }
         if right.is_empty() {
             right.push(set[0]);
+            rw.push((wits[0].0.clone(), 0.0));
         }
         let hid = match self.used_hp.get(&h) {
             Some(&i) => i,
@@ -539,15 +604,27 @@ impl Builder<'_> {
         let me = self.nodes.len();
         self.nodes.push([hid, 0, 0, 0]);
         cell.push((a.clone(), b));
-        let l = self.build(left, cell, depth + 1);
+        let l = self.build(left, lw, cell, depth + 1);
         cell.pop();
         cell.push((na, -b));
-        let rgt = self.build(right, cell, depth + 1);
+        let rgt = self.build(right, rw, cell, depth + 1);
         cell.pop();
         self.nodes[me][2] = l;
         self.nodes[me][3] = rgt;
         me as u16
     }
+}
+
+/// The largest ball inside the ball `wit` and the half-space
+/// `sign (a'x - b) <= 0` (unit `a`) that shares its boundary point; radius
+/// zero or less if the half-space misses the ball.
+fn half_ball(wit: &Ball, a: &[f64], b: f64, sign: f64) -> Ball {
+    let (w, rho) = wit;
+    // Signed slack of the centre into the half-space.
+    let into = -sign * (a.iter().zip(w).map(|(u, v)| u * v).sum::<f64>() - b);
+    let t = ((rho - into) / 2.0).max(0.0);
+    let c = w.iter().zip(a).map(|(x, y)| x - sign * t * y).collect();
+    (c, rho - t)
 }
 
 /// Dedupes `row` into `rows` (width p + 1) and returns its index.
@@ -690,8 +767,10 @@ fn build_for(
     let mut reg_a = Vec::new();
     let mut reg_b = Vec::new();
     let mut reg_center = Vec::new();
+    let mut reg_radius = Vec::new();
     for r in &solution.regions {
         reg_center.push(r.center.iter().copied().collect::<Vec<f64>>());
+        reg_radius.push(r.radius);
         let mut fs = Vec::new();
         let mut ra = Vec::new();
         for i in 0..r.a.nrows() {
@@ -724,6 +803,7 @@ fn build_for(
         reg_a,
         reg_b,
         reg_center,
+        reg_radius,
         law: &region_law,
         law_rows: laws
             .chunks(k)
@@ -749,7 +829,11 @@ fn build_for(
     let root = if all.is_empty() {
         LEAF
     } else {
-        builder.build(all, &mut cell, 0)
+        let wits = all
+            .iter()
+            .map(|&r| (builder.reg_center[r].clone(), builder.reg_radius[r]))
+            .collect();
+        builder.build(all, wits, &mut cell, 0)
     };
     if builder.nodes.len() >= LEAF as usize || builder.used_hp.len() >= u16::MAX as usize {
         return Err(EmpcError::TooLarge(format!(
