@@ -277,3 +277,74 @@ fn compact_layout_in_the_solution_file() {
     let bytes = t["bytes"].as_u64().unwrap();
     assert!(bytes > 0 && bytes < plain["tree"]["bytes"].as_u64().unwrap());
 }
+
+#[test]
+fn compact_layout_eval_and_export() {
+    let sol = solve_box("cmp", &["--no-regions", "--compact"]);
+    // 400 parameters on a grid over and beyond the box: the compact layout
+    // answers as the default tree, row for row.
+    let mut csv = String::new();
+    for i in 0..20 {
+        for j in 0..20 {
+            let _ = std::fmt::Write::write_fmt(
+                &mut csv,
+                format_args!("{},{}\n", -3.5 + 0.37 * i as f64, 3.6 - 0.33 * j as f64),
+            );
+        }
+    }
+    let thetas = file("cmp.csv", &csv);
+    let eval = |extra: &[&str]| {
+        let o = kestrel()
+            .args(["empc", "eval", "--solution"])
+            .arg(&sol)
+            .arg("--thetas")
+            .arg(&thetas)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let rows: Vec<Vec<f64>> = String::from_utf8(o.stdout.clone())
+            .unwrap()
+            .lines()
+            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+            .collect();
+        (rows, stderr(&o))
+    };
+    let (default, warn_default) = eval(&[]);
+    let (compact, warn_compact) = eval(&["--compact"]);
+    assert_eq!(default.len(), 400);
+    assert_eq!(warn_default, warn_compact); // the same parameters flagged outside
+    for (a, b) in default.iter().zip(&compact) {
+        for j in 0..2 {
+            assert!((a[j] - b[j]).abs() <= 1e-12, "{a:?} vs {b:?}");
+        }
+    }
+    for scalar in ["f32", "f64", "q16"] {
+        let out = dir().join(format!("cmp-tables-{scalar}.rs"));
+        let o = kestrel()
+            .args(["empc", "export", "--compact", "--solution"])
+            .arg(&sol)
+            .args(["--scalar", scalar, "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let src = std::fs::read_to_string(&out).unwrap();
+        assert!(src.contains("pub static TABLES: kestrel_empc::ForestTables<'static,"));
+        assert!(src.contains("pub static ROOTS: [u16; 2]"));
+        assert!(src.contains("pub static NODES: [kestrel_empc::CompactNode;"));
+    }
+    // Without `solve --compact` the solution has no compact tables: a clear error.
+    let plain = solve_box("cmp-plain", &["--no-regions"]);
+    for sub in [&["export"][..], &["eval", "--thetas", "x.csv"][..]] {
+        let o = kestrel()
+            .arg("empc")
+            .args(sub)
+            .args(["--compact", "--solution"])
+            .arg(&plain)
+            .output()
+            .unwrap();
+        assert!(!o.status.success());
+        assert!(stderr(&o).contains("compact_tables"), "{}", stderr(&o));
+    }
+}

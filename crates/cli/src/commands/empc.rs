@@ -4,7 +4,8 @@ use crate::io;
 use anyhow::{Context, bail};
 use kestrel_empc::export::{self, ExportScalar};
 use kestrel_empc::{
-    Outputs, Settings, TreeSettings, build_compact, build_controller, evaluate_with, solve,
+    Outputs, Settings, TreeSettings, TreeTables, build_compact, build_controller, evaluate_with,
+    solve,
 };
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -42,7 +43,9 @@ enum Sub {
     /// optimal z (or its first K entries when solved with --first-move K),
     /// from the search tree. Parameters outside the explored set get the
     /// nearest region's law clamped to the bounds, with a warning on
-    /// standard error.
+    /// standard error. With --compact the compact layout (one tree per
+    /// output, from `solve --compact`) is evaluated instead of the default
+    /// tree: the same z.
     Eval(EvalArgs),
     /// Export a solution's tables as Rust source with `static` arrays.
     ///
@@ -50,7 +53,12 @@ enum Sub {
     /// default standard output): Rust source defining `NODES`, `LAWS`,
     /// `ROWS`, `HULL`, `THETA_LB`, `THETA_UB`, `BOUNDS` (u16 indices, numbers
     /// in the chosen --scalar) and `TABLES: kestrel_empc::SliceTables`, to
-    /// evaluate with `kestrel_empc::evaluate` in no_std firmware.
+    /// evaluate with `kestrel_empc::evaluate` in no_std firmware. With
+    /// --compact (a solution from `solve --compact`): the compact layout,
+    /// `ROOTS`, `NODES: [kestrel_empc::CompactNode; _]` (u8 rows, u16
+    /// children), `ROWS`, `HULL`, `THETA_LB`, `THETA_UB`, `BOUNDS` and
+    /// `TABLES: kestrel_empc::ForestTables`, evaluated by the same
+    /// `kestrel_empc::evaluate`.
     Export(ExportArgs),
 }
 
@@ -100,6 +108,10 @@ struct EvalArgs {
     /// move, as solved), one row per theta.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Evaluate the compact layout (`compact_tables`, written by `solve
+    /// --compact`) instead of the default tree.
+    #[arg(long)]
+    compact: bool,
 }
 
 /// Number type of the exported tables.
@@ -109,6 +121,8 @@ enum ScalarArg {
     F32,
     /// Q15.16 saturating fixed point (`kestrel_core::Q16`).
     Q16,
+    /// 64-bit float.
+    F64,
 }
 
 /// `kestrel empc export`.
@@ -123,6 +137,10 @@ struct ExportArgs {
     /// Rust source file to write (default: standard output).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Export the compact layout (`compact_tables`, written by `solve
+    /// --compact`): one tree per output, 6-byte nodes.
+    #[arg(long)]
+    compact: bool,
 }
 
 /// Runs the command.
@@ -177,16 +195,30 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
     io::write_output(a.out.as_deref(), &text)
 }
 
+fn read_text(path: &std::path::Path) -> anyhow::Result<String> {
+    std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))
+}
+
 fn read_tables(path: &std::path::Path) -> anyhow::Result<kestrel_empc::OwnedTables<f64>> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    export::tables_from_json(&text).with_context(|| path.display().to_string())
+    export::tables_from_json(&read_text(path)?).with_context(|| path.display().to_string())
+}
+
+fn read_compact(path: &std::path::Path) -> anyhow::Result<kestrel_empc::CompactTables<f64>> {
+    export::compact_tables_from_json(&read_text(path)?).with_context(|| path.display().to_string())
 }
 
 fn run_eval(a: EvalArgs) -> anyhow::Result<()> {
-    let tables = read_tables(&a.solution)?;
-    let t = tables.tables();
-    let p = tables.n_params;
+    if a.compact {
+        let tables = read_compact(&a.solution)?;
+        eval_with(&a, &tables.tables())
+    } else {
+        let tables = read_tables(&a.solution)?;
+        eval_with(&a, &tables.tables())
+    }
+}
+
+fn eval_with<T: TreeTables<f64>>(a: &EvalArgs, t: &T) -> anyhow::Result<()> {
+    let p = t.n_params();
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
         .trim(csv::Trim::All)
@@ -195,7 +227,7 @@ fn run_eval(a: EvalArgs) -> anyhow::Result<()> {
     let mut out = String::new();
     let mut theta = vec![0.0; p];
     let mut scratch = vec![0.0; p];
-    let mut z = vec![0.0; tables.n_outputs];
+    let mut z = vec![0.0; t.n_outputs()];
     let mut outside = 0usize;
     let mut count = 0usize;
     for (line, rec) in reader.records().enumerate() {
@@ -222,7 +254,7 @@ fn run_eval(a: EvalArgs) -> anyhow::Result<()> {
                     )
                 })?;
         }
-        let e = evaluate_with(&t, &theta, &mut scratch, &mut z)
+        let e = evaluate_with(t, &theta, &mut scratch, &mut z)
             .map_err(|e| anyhow::anyhow!("{}: row {}: {e}", a.thetas.display(), line + 1))?;
         outside += usize::from(e.outside);
         count += 1;
@@ -238,12 +270,16 @@ fn run_eval(a: EvalArgs) -> anyhow::Result<()> {
 }
 
 fn run_export(a: ExportArgs) -> anyhow::Result<()> {
-    let tables = read_tables(&a.solution)?;
     let scalar = match a.scalar {
         ScalarArg::F32 => ExportScalar::F32,
         ScalarArg::Q16 => ExportScalar::Q16,
+        ScalarArg::F64 => ExportScalar::F64,
     };
-    let src =
-        export::rust_source(&tables, scalar).with_context(|| a.solution.display().to_string())?;
+    let src = if a.compact {
+        export::rust_source_compact(&read_compact(&a.solution)?, scalar)
+    } else {
+        export::rust_source(&read_tables(&a.solution)?, scalar)
+    }
+    .with_context(|| a.solution.display().to_string())?;
     io::write_output(a.out.as_deref(), &src)
 }
