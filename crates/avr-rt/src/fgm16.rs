@@ -39,7 +39,7 @@
 //! ```
 
 use crate::control::LawInfo;
-use crate::kalman16::{Row16, mul_q15, round_shift};
+use crate::kalman16::{Row16, mul_q15};
 use crate::law::pack_theta;
 use crate::output::RtScalar;
 use kestrel_core::{ControlLaw, Error, all_finite};
@@ -78,9 +78,9 @@ struct Box16<const N: usize> {
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // several arrays indexed together
 fn step<const N: usize>(m: &[Row16<N>; N], y: &[i32; N], b: &Box16<N>, w: &mut [i32; N]) {
+    let my = Row16::apply_all(m, y);
     for i in 0..N {
-        let v = round_shift(m[i].dot(y), M_SHIFT).saturating_add(b.c[i]);
-        w[i] = v.clamp(b.lo[i], b.hi[i]);
+        w[i] = my[i].saturating_add(b.c[i]).clamp(b.lo[i], b.hi[i]);
     }
 }
 

@@ -41,13 +41,15 @@
 //! assert!((kf.estimate()[0] - (0.9 * 0.5 + 0.2)).abs() < 1e-4);
 //! ```
 
-use crate::mac::dot_q16_i16;
+use crate::mac::{dot_q16_i16, row_q16_i16};
 use crate::output::RtScalar;
 use kestrel_core::{Error, StateEstimator, check_len};
 
 /// One coefficient row: `value_j = c[j] / 2^shift` for `j >= start`
-/// (entries before `start` are zero and skipped).
+/// (entries before `start` are zero and skipped). `#[repr(C)]`: the AVR
+/// rows routine walks arrays of rows in memory ([`Row16::apply_all`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(C)]
 pub struct Row16<const N: usize> {
     /// The coefficients.
     pub c: [i16; N],
@@ -63,10 +65,42 @@ impl<const N: usize> Row16<N> {
         Row16 { c, shift, start }
     }
 
-    /// `round(sum_j c_j v_j / 2^shift)` for Q15.16 `v`, saturated to `i32`.
+    /// `round(sum_j c_j v_j / 2^shift)` for Q15.16 `v`, saturated to `i32`
+    /// (`round_shift(self.dot(v), self.shift)`, on the AVR in one assembly
+    /// routine: [`row_q16_i16`]).
     #[inline]
     pub fn apply(&self, v: &[i32; N]) -> i32 {
-        round_shift(self.dot(v), self.shift)
+        let s = (self.start as usize).min(N);
+        match (v.get(s..), self.c.get(s..)) {
+            (Some(v), Some(c)) => row_q16_i16(v, c, self.shift),
+            _ => 0,
+        }
+    }
+
+    /// Every row of `rows` applied to `v` (`out[i] = rows[i].apply(v)`),
+    /// bit for bit; on the AVR all rows in one assembly routine (for
+    /// `1 <= N <= 31` and at most 255 rows).
+    #[inline]
+    pub fn apply_all<const R: usize>(rows: &[Row16<N>; R], v: &[i32; N]) -> [i32; R] {
+        #[cfg(target_arch = "avr")]
+        if (1..=255).contains(&R) && (1..=31).contains(&N) {
+            const {
+                assert!(core::mem::size_of::<Row16<N>>() == 2 * N + 2);
+            }
+            let mut out = [0i32; R];
+            // SAFETY: `R` rows of the `#[repr(C)]` layout (size checked
+            // above), `N` values, `R` outputs; 1 <= N <= 31.
+            unsafe {
+                crate::mac::rows_q16_i16_avr::<N>(
+                    rows.as_ptr() as *const u8,
+                    R as u8,
+                    v.as_ptr(),
+                    out.as_mut_ptr(),
+                )
+            };
+            return out;
+        }
+        core::array::from_fn(|i| rows.get(i).map_or(0, |r| r.apply(v)))
     }
 
     /// The exact sum `sum_{j >= start} c_j v_j` (`16 + shift` fraction bits).
@@ -127,7 +161,8 @@ fn sat_i32(v: i64) -> i32 {
 }
 
 /// `round(v b / 2^15)` for a Q15.16 `v` and a Q1.15 `b`, saturated: two
-/// 16 x 16-bit hardware products instead of a 64-bit multiply.
+/// 16 x 16-bit hardware products instead of a 64-bit multiply (equal to
+/// the one-term row `row_q16_i16(&[v], &[b], 15)`).
 #[inline]
 pub fn mul_q15(v: i32, b: i16) -> i32 {
     let hi = (v >> 16) as i16 as i32;
@@ -234,12 +269,14 @@ fn measure<const NX: usize, const NU: usize, const NY: usize>(
     x: &mut [i32; NX],
     y: &[i32; NY],
 ) {
+    let cx = Row16::apply_all(&t.c, x);
     let mut e = [0i32; NY];
-    for ((ei, yi), (row, y0)) in e.iter_mut().zip(y.iter()).zip(t.c.iter().zip(t.y0.iter())) {
-        *ei = yi.saturating_sub(*y0).saturating_sub(row.apply(x));
+    for ((ei, yi), (cxi, y0)) in e.iter_mut().zip(y.iter()).zip(cx.iter().zip(t.y0.iter())) {
+        *ei = yi.saturating_sub(*y0).saturating_sub(*cxi);
     }
-    for (xi, row) in x.iter_mut().zip(t.m.iter()) {
-        *xi = add_sat(*xi, row.apply(&e));
+    let dx = Row16::apply_all(&t.m, &e);
+    for (xi, d) in x.iter_mut().zip(dx.iter()) {
+        *xi = add_sat(*xi, *d);
     }
 }
 
@@ -250,9 +287,10 @@ fn predict<const NX: usize, const NU: usize, const NY: usize>(
     x: &mut [i32; NX],
     u: &[i32; NU],
 ) {
-    let x0 = *x;
-    for ((xi, a), b) in x.iter_mut().zip(t.a.iter()).zip(t.b.iter()) {
-        *xi = add_sat(add_sat(*xi, a.apply(&x0)), b.apply(u));
+    let ax = Row16::apply_all(&t.a, x);
+    let bu = Row16::apply_all(&t.b, u);
+    for ((xi, a), b) in x.iter_mut().zip(ax.iter()).zip(bu.iter()) {
+        *xi = add_sat(add_sat(*xi, *a), *b);
     }
 }
 
@@ -303,6 +341,7 @@ impl<S: RtScalar, const NX: usize, const NU: usize, const NY: usize> StateEstima
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mac::Q16Mac;
 
     #[test]
     fn round_shift_rounds_and_saturates() {
@@ -340,6 +379,68 @@ mod tests {
                 Row16::new([0, -20972], 22, 1),
             ],
             b: [Row16::new([0], 20, 0), Row16::new([20972], 22, 0)],
+        }
+    }
+
+    /// A row in 128-bit arithmetic: the exact sum over `j >= start`,
+    /// rounded half up by the row's shift, saturated.
+    fn row_ref<const N: usize>(r: &Row16<N>, v: &[i32; N]) -> i32 {
+        let s = r.shift.min(48) as u32;
+        let sum: i128 = (r.start as usize..N)
+            .map(|j| r.c[j] as i128 * v[j] as i128)
+            .sum();
+        let half = if s == 0 { 0 } else { 1i128 << (s - 1) };
+        ((sum + half).div_euclid(1i128 << s)).clamp(i32::MIN as i128, i32::MAX as i128) as i32
+    }
+
+    fn sat(v: i128) -> i32 {
+        v.clamp(i32::MIN as i128, i32::MAX as i128) as i32
+    }
+
+    fn arb_row<const N: usize>() -> impl proptest::strategy::Strategy<Value = Row16<N>> {
+        use proptest::prelude::*;
+        (
+            proptest::array::uniform::<_, N>(any::<i16>()),
+            0u8..=40,
+            0u8..=N as u8,
+        )
+            .prop_map(|(c, shift, start)| Row16::new(c, shift, start))
+    }
+
+    proptest::proptest! {
+        /// One step of `Kalman16` equals the same arithmetic written out in
+        /// 128-bit integers, bit for bit (the sums are exact, each row is
+        /// rounded once), for any tables and any (also saturating) values.
+        #[test]
+        fn step_is_bit_exact_against_a_128_bit_reference(
+            c in proptest::array::uniform3(arb_row::<4>()),
+            m in proptest::array::uniform4(arb_row::<3>()),
+            a in proptest::array::uniform4(arb_row::<4>()),
+            b in proptest::array::uniform4(arb_row::<2>()),
+            y0 in proptest::array::uniform3(-(1i32 << 20)..(1 << 20)),
+            x0 in proptest::array::uniform4(proptest::num::i32::ANY),
+            y in proptest::array::uniform3(proptest::num::i32::ANY),
+            u in proptest::array::uniform2(proptest::num::i32::ANY),
+        ) {
+            let t = Kalman16Tables::<4, 2, 3> { c, y0, m, a, b };
+            let mut kf = Kalman16::<Q16Mac, 4, 2, 3>::new(t);
+            kf.reset(&x0.map(Q16Mac)).unwrap();
+            kf.measurement_update(&y.map(Q16Mac)).unwrap();
+            // Reference measurement update.
+            let e: [i32; 3] = core::array::from_fn(|i| {
+                sat(sat(y[i] as i128 - y0[i] as i128) as i128 - row_ref(&c[i], &x0) as i128)
+            });
+            let xm: [i32; 4] =
+                core::array::from_fn(|i| sat(x0[i] as i128 + row_ref(&m[i], &e) as i128));
+            proptest::prop_assert_eq!(kf.state_q16(), &xm);
+            kf.time_update(&u.map(Q16Mac)).unwrap();
+            let xp: [i32; 4] = core::array::from_fn(|i| {
+                sat(sat(xm[i] as i128 + row_ref(&a[i], &xm) as i128) as i128
+                    + row_ref(&b[i], &u) as i128)
+            });
+            proptest::prop_assert_eq!(kf.state_q16(), &xp);
+            let published: Vec<i32> = kf.estimate().iter().map(|v| v.0).collect();
+            proptest::prop_assert_eq!(published, xp.to_vec());
         }
     }
 

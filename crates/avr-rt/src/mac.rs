@@ -696,9 +696,474 @@ unsafe fn dot_q16_i16_avr(x: *const i32, c: *const i16, n: u8) -> i64 {
     i64::from_le_bytes([0, c0, c1, c2, c3, c4, c5, c6]) >> 8
 }
 
+/// One fixed-point row: `round(sum x[i] c[i] / 2^shift)` of Q15.16 values
+/// `x` and 16-bit coefficients `c` (with `shift` fraction bits), ties
+/// rounded up, saturated to `i32`; shifts above 48 are taken as 48.
+///
+/// The sum is exact and rounded once, so this is
+/// `round_shift(dot_q16_i16(x, c), shift)` bit for bit. On the AVR the
+/// whole row (products, accumulation, rounding shift, saturation) is one
+/// assembly routine: each term is 8 hardware
+/// multiplies (`MUL`, `MULSU`, `MULS` on the signed bytes, so no sign
+/// corrections) into a 48-bit product added to a 56-bit accumulator, about
+/// 68 cycles; the shift moves whole bytes first, then single bits.
+///
+/// ```
+/// use kestrel_avr_rt::mac::row_q16_i16;
+/// // 1.5 * 0.25 + (-2.0) * 0.5 with the coefficients in Q14: -0.625 in Q16.
+/// assert_eq!(row_q16_i16(&[98_304, -131_072], &[4096, 8192], 14), -40_960);
+/// ```
+#[inline]
+pub fn row_q16_i16(x: &[i32], c: &[i16], shift: u8) -> i32 {
+    let n = x.len().min(c.len());
+    #[cfg(target_arch = "avr")]
+    if (1..=255).contains(&n) {
+        // SAFETY: both slices hold at least `n` (1..=255) elements.
+        return unsafe { row_q16_i16_avr(x.as_ptr(), c.as_ptr(), n as u8, shift.min(48)) };
+    }
+    let mut acc: i64 = 0;
+    for (a, b) in x.iter().zip(c.iter()).take(n) {
+        acc += *a as i64 * *b as i64;
+    }
+    round_shift_i64(acc, shift)
+}
+
+/// `round(acc / 2^shift)` (ties up), saturated to `i32`; shifts above 48
+/// are taken as 48 (the portable form of the rounding in [`row_q16_i16`]).
+#[inline]
+fn round_shift_i64(acc: i64, shift: u8) -> i32 {
+    let s = shift.min(48);
+    let v = if s == 0 {
+        acc
+    } else {
+        // floor(acc / 2^(s-1)), then round the last bit away (no overflow).
+        let q = acc >> (s - 1);
+        (q >> 1) + (q & 1)
+    };
+    v.clamp(i32::MIN as i64, i32::MAX as i64) as i32
+}
+
+/// The AVR routine of [`row_q16_i16`].
+///
+/// Registers: accumulator `r10`-`r16`, product `r2`-`r7` (pairs for
+/// `MOVW`), sign byte `r8`, zero `r9`, count `r17`, `x` bytes `r18`-`r21`,
+/// `c` bytes `r22`-`r23` (the signed multiplies need `r16`-`r23`), shift
+/// `r24`. Kernels that run several rows use the rows routine instead
+/// (one call, one register save for all rows).
+///
+/// # Safety
+/// `x` and `c` must point to at least `n >= 1` readable elements; `shift <= 48`.
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+unsafe fn row_q16_i16_avr(x: *const i32, c: *const i16, n: u8, shift: u8) -> i32 {
+    let (b0, b1, b2, b3): (u8, u8, u8, u8);
+    // SAFETY: reads 4 n bytes from `x` and 2 n bytes from `c` (the
+    // caller's contract); r0/r1 receive the MUL results and r1 (the zero
+    // register) is cleared at the end.
+    unsafe {
+        core::arch::asm!(
+            "clr r9",
+            "clr r10",
+            "clr r11",
+            "clr r12",
+            "clr r13",
+            "clr r14",
+            "clr r15",
+            "clr r16",
+            // ---- one term: t = x * c (48-bit signed) in r2..r7
+            "1:",
+            "ld r18, X+",
+            "ld r19, X+",
+            "ld r20, X+",
+            "ld r21, X+",
+            "ld r22, Z+",
+            "ld r23, Z+",
+            "mul r18, r22",  // x0 c0 at byte 0 (unsigned)
+            "movw r2, r0",
+            "mul r20, r22",  // x2 c0 at byte 2 (unsigned)
+            "movw r4, r0",
+            "muls r21, r23", // x3 c1 at byte 4 (signed, the top)
+            "movw r6, r0",
+            "mul r19, r22",  // x1 c0 at byte 1 (unsigned)
+            "add r3, r0",
+            "adc r4, r1",
+            "adc r5, r9",
+            "adc r6, r9",
+            "adc r7, r9",
+            "mulsu r23, r18", // c1 x0 at byte 1 (signed; C = its sign)
+            "sbc r8, r8",
+            "add r3, r0",
+            "adc r4, r1",
+            "adc r5, r8",
+            "adc r6, r8",
+            "adc r7, r8",
+            "mulsu r23, r19", // c1 x1 at byte 2
+            "sbc r8, r8",
+            "add r4, r0",
+            "adc r5, r1",
+            "adc r6, r8",
+            "adc r7, r8",
+            "mulsu r23, r20", // c1 x2 at byte 3
+            "sbc r8, r8",
+            "add r5, r0",
+            "adc r6, r1",
+            "adc r7, r8",
+            "mulsu r21, r22", // x3 c0 at byte 3
+            "sbc r8, r8",
+            "add r5, r0",
+            "adc r6, r1",
+            "adc r7, r8",
+            // ---- acc += t (sign-extended)
+            "mov r8, r7",
+            "lsl r8",
+            "sbc r8, r8",
+            "add r10, r2",
+            "adc r11, r3",
+            "adc r12, r4",
+            "adc r13, r5",
+            "adc r14, r6",
+            "adc r15, r7",
+            "adc r16, r8",
+            "dec r17",
+            "breq 2f",
+            "rjmp 1b",
+            // ---- round(acc / 2^shift): shift by shift - 1, then halve rounding up
+            "2:",
+            "tst r24",
+            "breq 9f",
+            "dec r24",
+            "3:",
+            "cpi r24, 8",
+            "brlo 4f",
+            "mov r10, r11",
+            "mov r11, r12",
+            "mov r12, r13",
+            "mov r13, r14",
+            "mov r14, r15",
+            "mov r15, r16",
+            "lsl r16",
+            "sbc r16, r16",
+            "subi r24, 8",
+            "rjmp 3b",
+            "4:",
+            "tst r24",
+            "breq 6f",
+            "5:",
+            "asr r16",
+            "ror r15",
+            "ror r14",
+            "ror r13",
+            "ror r12",
+            "ror r11",
+            "ror r10",
+            "dec r24",
+            "brne 5b",
+            "6:",
+            "asr r16",
+            "ror r15",
+            "ror r14",
+            "ror r13",
+            "ror r12",
+            "ror r11",
+            "ror r10",
+            "adc r10, r9",
+            "adc r11, r9",
+            "adc r12, r9",
+            "adc r13, r9",
+            "adc r14, r9",
+            "adc r15, r9",
+            "adc r16, r9",
+            // ---- saturate to i32: bytes 4..6 must extend byte 3's sign
+            "9:",
+            "mov r8, r13",
+            "lsl r8",
+            "sbc r8, r8",
+            "cp r14, r8",
+            "cpc r15, r8",
+            "cpc r16, r8",
+            "breq 7f",
+            "mov r10, r16",
+            "lsl r10",
+            "sbc r10, r10",
+            "com r10",
+            "mov r11, r10",
+            "mov r12, r10",
+            "mov r13, r10",
+            "ldi r24, 0x80",
+            "eor r13, r24",
+            "7:",
+            "clr r1",
+            out("r2") _, out("r3") _, out("r4") _, out("r5") _,
+            out("r6") _, out("r7") _, out("r8") _, out("r9") _,
+            out("r10") b0, out("r11") b1, out("r12") b2, out("r13") b3,
+            out("r14") _, out("r15") _, out("r16") _,
+            inout("r17") n => _,
+            out("r18") _, out("r19") _, out("r20") _, out("r21") _,
+            out("r22") _, out("r23") _,
+            inout("r24") shift => _,
+            inout("X") x => _,
+            inout("Z") c => _,
+            options(readonly, nostack),
+        );
+    }
+    i32::from_le_bytes([b0, b1, b2, b3])
+}
+
+/// Several fixed-point rows over one vector: `out[i] = round(sum_{j >=
+/// start_i} c_i[j] v[j] / 2^shift_i)` (each as [`row_q16_i16`]) for rows
+/// stored as `#[repr(C)]` records `{ c: [i16; N], shift: u8, start: u8 }`
+/// (`crate::kalman16::Row16`), a start above `N` taken as `N`, a shift
+/// above 48 as 48.
+///
+/// On the AVR one assembly routine runs all rows (one call, one register
+/// save; per row only the pointer set-up, the rounding and four stores
+/// beyond the multiply-adds).
+///
+/// # Safety
+/// `rows` must point to `count >= 1` such records, `v` to `N` readable
+/// values, `out` to `count` writable values; `1 <= N <= 31`.
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+pub(crate) unsafe fn rows_q16_i16_avr<const N: usize>(
+    rows: *const u8,
+    count: u8,
+    v: *const i32,
+    out: *mut i32,
+) {
+    // SAFETY: reads `count` records and `N` values, writes `count` values
+    // (the caller's contract); Y is saved and restored around its use as
+    // the output pointer; r0/r1 receive the MUL results and r1 (the zero
+    // register) is cleared at the end.
+    unsafe {
+        core::arch::asm!(
+            "push r28",
+            "push r29",
+            "push r20",
+            "movw r28, r18",
+            "clr r9",
+            // ---- row set-up: start (clamped to N), X = v + 4 start, Z += 2 start
+            "20:",
+            "ldd r17, Z+{st}",
+            "cpi r17, {n}",
+            "brlo 21f",
+            "ldi r17, {n}",
+            "21:",
+            "movw r26, r24",
+            "mov r18, r17",
+            "lsl r18",
+            "add r30, r18",
+            "adc r31, r9",
+            "lsl r18",
+            "add r26, r18",
+            "adc r27, r9",
+            "ldi r18, {n}",
+            "sub r18, r17",
+            "mov r17, r18",
+            "clr r10",
+            "clr r11",
+            "clr r12",
+            "clr r13",
+            "clr r14",
+            "clr r15",
+            "clr r16",
+            "tst r17",
+            "brne 22f",
+            "rjmp 23f",
+            // ---- one term: t = x * c (48-bit signed) in r2..r7, acc += t
+            "22:",
+            "ld r18, X+",
+            "ld r19, X+",
+            "ld r20, X+",
+            "ld r21, X+",
+            "ld r22, Z+",
+            "ld r23, Z+",
+            "mul r18, r22",
+            "movw r2, r0",
+            "mul r20, r22",
+            "movw r4, r0",
+            "muls r21, r23",
+            "movw r6, r0",
+            "mul r19, r22",
+            "add r3, r0",
+            "adc r4, r1",
+            "adc r5, r9",
+            "adc r6, r9",
+            "adc r7, r9",
+            "mulsu r23, r18",
+            "sbc r8, r8",
+            "add r3, r0",
+            "adc r4, r1",
+            "adc r5, r8",
+            "adc r6, r8",
+            "adc r7, r8",
+            "mulsu r23, r19",
+            "sbc r8, r8",
+            "add r4, r0",
+            "adc r5, r1",
+            "adc r6, r8",
+            "adc r7, r8",
+            "mulsu r23, r20",
+            "sbc r8, r8",
+            "add r5, r0",
+            "adc r6, r1",
+            "adc r7, r8",
+            "mulsu r21, r22",
+            "sbc r8, r8",
+            "add r5, r0",
+            "adc r6, r1",
+            "adc r7, r8",
+            "mov r8, r7",
+            "lsl r8",
+            "sbc r8, r8",
+            "add r10, r2",
+            "adc r11, r3",
+            "adc r12, r4",
+            "adc r13, r5",
+            "adc r14, r6",
+            "adc r15, r7",
+            "adc r16, r8",
+            "dec r17",
+            "breq 23f",
+            "rjmp 22b",
+            // ---- Z is at the shift byte: read it, skip start (next row)
+            "23:",
+            "ld r17, Z+",
+            "adiw r30, 1",
+            "cpi r17, 49",
+            "brlo 34f",
+            "ldi r17, 48",
+            "34:",
+            "tst r17",
+            "brne 24f",
+            "rjmp 29f",
+            "24:",
+            "dec r17",
+            // whole bytes
+            "25:",
+            "cpi r17, 8",
+            "brlo 26f",
+            "mov r10, r11",
+            "mov r11, r12",
+            "mov r12, r13",
+            "mov r13, r14",
+            "mov r14, r15",
+            "mov r15, r16",
+            "lsl r16",
+            "sbc r16, r16",
+            "subi r17, 8",
+            "rjmp 25b",
+            // 6 or 7 bits: one more byte right (low byte kept in r8), then left
+            "26:",
+            "cpi r17, 6",
+            "brlo 28f",
+            "mov r8, r10",
+            "mov r10, r11",
+            "mov r11, r12",
+            "mov r12, r13",
+            "mov r13, r14",
+            "mov r14, r15",
+            "mov r15, r16",
+            "lsl r16",
+            "sbc r16, r16",
+            "subi r17, 8",
+            "27:",
+            "lsl r8",
+            "rol r10",
+            "rol r11",
+            "rol r12",
+            "rol r13",
+            "rol r14",
+            "rol r15",
+            "rol r16",
+            "inc r17",
+            "brne 27b",
+            "rjmp 30f",
+            // 0 to 5 bits right
+            "28:",
+            "tst r17",
+            "breq 30f",
+            "31:",
+            "asr r16",
+            "ror r15",
+            "ror r14",
+            "ror r13",
+            "ror r12",
+            "ror r11",
+            "ror r10",
+            "dec r17",
+            "brne 31b",
+            // the last bit: halve, rounding up
+            "30:",
+            "asr r16",
+            "ror r15",
+            "ror r14",
+            "ror r13",
+            "ror r12",
+            "ror r11",
+            "ror r10",
+            "adc r10, r9",
+            "adc r11, r9",
+            "adc r12, r9",
+            "adc r13, r9",
+            "adc r14, r9",
+            "adc r15, r9",
+            "adc r16, r9",
+            // ---- saturate to i32 (bytes 4..6 must extend byte 3's sign), store
+            "29:",
+            "mov r8, r13",
+            "lsl r8",
+            "sbc r8, r8",
+            "cp r14, r8",
+            "cpc r15, r8",
+            "cpc r16, r8",
+            "breq 32f",
+            "mov r10, r16",
+            "lsl r10",
+            "sbc r10, r10",
+            "com r10",
+            "mov r11, r10",
+            "mov r12, r10",
+            "mov r13, r10",
+            "ldi r18, 0x80",
+            "eor r13, r18",
+            "32:",
+            "st Y+, r10",
+            "st Y+, r11",
+            "st Y+, r12",
+            "st Y+, r13",
+            "pop r20",
+            "dec r20",
+            "breq 33f",
+            "push r20",
+            "rjmp 20b",
+            "33:",
+            "pop r29",
+            "pop r28",
+            "clr r1",
+            n = const N,
+            st = const 2 * N + 1,
+            out("r2") _, out("r3") _, out("r4") _, out("r5") _,
+            out("r6") _, out("r7") _, out("r8") _, out("r9") _,
+            out("r10") _, out("r11") _, out("r12") _, out("r13") _,
+            out("r14") _, out("r15") _, out("r16") _, out("r17") _,
+            inout("r18") (out as usize) as u8 => _,
+            inout("r19") ((out as usize) >> 8) as u8 => _,
+            inout("r20") count => _,
+            out("r21") _, out("r22") _, out("r23") _,
+            in("r24") (v as usize) as u8,
+            in("r25") ((v as usize) >> 8) as u8,
+            out("X") _,
+            inout("Z") rows => _,
+        );
+    }
+}
+
 /// Compares [`Q16Mac`] with [`Q16`] on `n` pseudo-random products and
-/// 5-element dot products (a linear congruential sequence from `seed`,
-/// mixing small and full-range values); returns the number of mismatches.
+/// 5-element dot products, [`dot_q16_i16`] with 64-bit arithmetic, and
+/// (every fourth round) [`row_q16_i16`] and the rows routine of
+/// `Row16::apply_all` with 64-bit arithmetic (a linear congruential
+/// sequence from `seed`, mixing small and full-range values, every shift,
+/// saturation); returns the number of mismatches.
 /// The firmware runs it at boot, so the AVR assembly is checked on target.
 pub fn self_test(seed: u32, n: u16) -> u16 {
     let mut s = seed;
@@ -712,7 +1177,7 @@ pub fn self_test(seed: u32, n: u16) -> u16 {
         }
     };
     let mut bad = 0u16;
-    for _ in 0..n {
+    for k in 0..n {
         let (a, b) = (next(), next());
         if (Q16Mac(a) * Q16Mac(b)).0 != (Q16::from_bits(a) * Q16::from_bits(b)).to_bits() {
             bad += 1;
@@ -732,6 +1197,47 @@ pub fn self_test(seed: u32, n: u16) -> u16 {
         }
         if dot_q16_i16(&x, &c) != want {
             bad += 1;
+        }
+        // The row kernels against 64-bit arithmetic, every fourth round
+        // (the reference's 64-bit shifts are slow on the AVR, and the
+        // firmware's boot report must come within two periods).
+        if k % 4 != 0 {
+            continue;
+        }
+        // One row (full-range values, every shift, saturation).
+        let xf: [i32; 5] = core::array::from_fn(|_| next());
+        let cf: [i16; 5] = core::array::from_fn(|_| (next() >> 4) as i16);
+        let shift = (next() as u32 % 50) as u8;
+        let len = 1 + (next() as u32 % 5) as usize;
+        let sum: i64 = xf
+            .iter()
+            .zip(cf.iter())
+            .take(len)
+            .map(|(a, b)| *a as i64 * *b as i64)
+            .sum();
+        if row_q16_i16(&xf[..len], &cf[..len], shift) != round_shift_i64(sum, shift) {
+            bad += 1;
+        }
+        // The rows routine (three rows with their own starts and shifts,
+        // starts beyond the row and shifts beyond 48 included).
+        let rows: [crate::kalman16::Row16<5>; 3] = core::array::from_fn(|_| {
+            crate::kalman16::Row16::new(
+                core::array::from_fn(|_| (next() >> 4) as i16),
+                (next() as u32 % 52) as u8,
+                (next() as u32 % 7) as u8,
+            )
+        });
+        let got = crate::kalman16::Row16::apply_all(&rows, &xf);
+        for (r, g) in rows.iter().zip(got.iter()) {
+            let sum: i64 = xf
+                .iter()
+                .zip(r.c.iter())
+                .skip(r.start as usize)
+                .map(|(a, b)| *a as i64 * *b as i64)
+                .sum();
+            if *g != round_shift_i64(sum, r.shift) {
+                bad += 1;
+            }
         }
     }
     bad
@@ -777,7 +1283,46 @@ mod tests {
         }
     }
 
+    /// The rounded, saturated row in 128-bit arithmetic (independent of
+    /// the kernel's shift-then-halve rounding).
+    fn row_reference(x: &[i32], c: &[i16], shift: u8) -> i32 {
+        let s = shift.min(48) as u32;
+        let sum: i128 = x.iter().zip(c).map(|(a, b)| *a as i128 * *b as i128).sum();
+        let half = if s == 0 { 0 } else { 1i128 << (s - 1) };
+        let q = (sum + half).div_euclid(1i128 << s);
+        q.clamp(i32::MIN as i128, i32::MAX as i128) as i32
+    }
+
+    #[test]
+    fn row_corners() {
+        let big = [i32::MAX, i32::MIN, i32::MAX, i32::MIN];
+        let c = [i16::MIN, i16::MIN, i16::MAX, i16::MAX];
+        for shift in 0..=60u8 {
+            for n in 0..=4 {
+                assert_eq!(
+                    row_q16_i16(&big[..n], &c[..n], shift),
+                    row_reference(&big[..n], &c[..n], shift),
+                    "n {n} shift {shift}"
+                );
+            }
+        }
+        // Ties round up (towards +inf), as Q16.
+        assert_eq!(row_q16_i16(&[3], &[1], 1), 2);
+        assert_eq!(row_q16_i16(&[-3], &[1], 1), -1);
+        assert_eq!(row_q16_i16(&[], &[], 3), 0);
+    }
+
     proptest! {
+        #[test]
+        fn row_is_the_rounded_saturated_sum(
+            v in proptest::collection::vec((any::<i32>(), any::<i16>()), 0..12),
+            shift in 0u8..=60,
+        ) {
+            let x: Vec<i32> = v.iter().map(|p| p.0).collect();
+            let c: Vec<i16> = v.iter().map(|p| p.1).collect();
+            prop_assert_eq!(row_q16_i16(&x, &c, shift), row_reference(&x, &c, shift));
+        }
+
         #[test]
         fn product_matches_core_bit_for_bit(a in any::<i32>(), b in any::<i32>()) {
             prop_assert_eq!((Q16Mac(a) * Q16Mac(b)).0, (q(a) * q(b)).to_bits());
