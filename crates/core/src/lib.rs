@@ -10,8 +10,10 @@
 //! - the small `Copy` [`Error`].
 //!
 //! With the default `std` feature it also offers design-time helpers:
-//! nalgebra conversions, zero-order-hold discretisation [`c2d`], and the
-//! JSON interchange [`formats`] (`kestrel.ss.v1`, `kestrel.mpqp.v1`).
+//! nalgebra conversions, zero-order-hold discretisation [`c2d`],
+//! eigenvalues that always return ([`eig`]: iteration limit, error value
+//! on non-convergence), and the JSON interchange [`formats`]
+//! (`kestrel.ss.v1`, `kestrel.mpqp.v1`).
 //!
 //! ```
 //! use kestrel_core::{Matrix, Scalar, StateSpace, Q16};
@@ -35,6 +37,8 @@ mod matrix;
 mod model;
 mod scalar;
 
+#[cfg(feature = "std")]
+pub mod eig;
 #[cfg(feature = "std")]
 pub mod formats;
 #[cfg(feature = "std")]

@@ -522,49 +522,14 @@ fn invert_in_place(w: &mut DMatrix<f64>, piv: &mut [usize], tmp: &mut [f64]) -> 
     true
 }
 
-/// Eigenvalues of a real square matrix, or `None` when the QR iteration does
-/// not converge.
-///
-/// nalgebra's `complex_eigenvalues` runs its Francis iteration without an
-/// iteration limit and deflates only when a subdiagonal entry falls below
-/// machine epsilon times its diagonal neighbours; on a Kalman closed loop
-/// with several identical, decoupled actuator and disturbance modes a
-/// subdiagonal entry can stall just above that, and the iteration cycles
-/// for ever (see `dare_tests::repeated_decoupled_modes_do_not_hang`).
-/// The first attempt is [`crate::eig::hqr_eigenvalues`] (balancing,
-/// Hessenberg, Francis double shift with exceptional shifts, no Schur
-/// vectors: the fast path). Should it fail, nalgebra's
-/// Schur decomposition gets a limit of `30 n + 30` sweeps
-/// (LAPACK's `dhseqr` uses 30 per eigenvalue); when it is reached, the
-/// transpose is tried, then both with a deflation threshold of
-/// `64 eps` (an eigenvalue perturbation of order 1e-14 relative), then an
-/// orthogonal similarity `P M P` (a fixed Householder reflection).
+/// Eigenvalues of a real square matrix, or `None` when they cannot be
+/// computed: [`kestrel_core::eig::eigenvalues`] (balancing, Hessenberg,
+/// Francis double shift with an iteration limit, Schur fallbacks), which
+/// replaced nalgebra's `complex_eigenvalues` after it cycled for ever on a
+/// Kalman closed loop with repeated decoupled modes (see
+/// `dare_tests::repeated_decoupled_modes_do_not_hang`).
 pub(crate) fn eigenvalues(m: &DMatrix<f64>) -> Option<DVector<Complex<f64>>> {
-    use nalgebra::Schur;
-    let n = m.nrows();
-    if n == 0 {
-        return Some(DVector::zeros(0));
-    }
-    if !m.iter().all(|v| v.is_finite()) {
-        return None;
-    }
-    if let Some(e) = crate::eig::hqr_eigenvalues(m) {
-        return Some(e);
-    }
-    let limit = 30 * n + 30;
-    let attempt =
-        |x: DMatrix<f64>, eps: f64| Schur::try_new(x, eps, limit).map(|s| s.complex_eigenvalues());
-    for eps in [f64::EPSILON, 64.0 * f64::EPSILON] {
-        if let Some(e) = attempt(m.clone(), eps) {
-            return Some(e);
-        }
-        if let Some(e) = attempt(m.transpose(), eps) {
-            return Some(e);
-        }
-    }
-    let v = DVector::from_fn(n, |i, _| 1.0 / (i as f64 + 1.0).sqrt());
-    let p = DMatrix::identity(n, n) - &v * v.transpose() * (2.0 / v.norm_squared());
-    attempt(&p * m * &p, 64.0 * f64::EPSILON)
+    kestrel_core::eig::eigenvalues(m).ok()
 }
 
 pub(crate) fn symmetrize(m: &mut DMatrix<f64>) {

@@ -23,11 +23,7 @@ fn thesis_r() -> DMatrix<f64> {
 fn model_5_4_3(seed: u64) -> SsModel {
     let mut rng = Rng::new(seed);
     let mut a = rng.matrix(5, 5) * (0.95 / 5f64.sqrt());
-    let rho = a
-        .complex_eigenvalues()
-        .iter()
-        .map(|z| z.norm())
-        .fold(0.0, f64::max);
+    let rho = kestrel_core::eig::spectral_radius(&a).unwrap();
     a *= 0.97 / rho;
     let b = rng.matrix(5, 4) * 0.05;
     let c = rng.matrix(3, 5) * 0.5;

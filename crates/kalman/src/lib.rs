@@ -8,8 +8,6 @@ mod dare;
 #[cfg(feature = "std")]
 mod design;
 #[cfg(feature = "std")]
-mod eig;
-#[cfg(feature = "std")]
 mod error;
 #[cfg(feature = "std")]
 mod lqr;

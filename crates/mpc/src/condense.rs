@@ -499,12 +499,7 @@ pub(crate) mod tests {
     /// A random discrete model with spectral radius about 0.95.
     pub(crate) fn random_model(rng: &mut Rng, nx: usize, nu: usize, ny: usize) -> SsModel {
         let a0 = rng.mat(nx, nx);
-        let rho = a0
-            .clone()
-            .complex_eigenvalues()
-            .iter()
-            .map(|c| c.norm())
-            .fold(0.0, f64::max);
+        let rho = kestrel_core::eig::spectral_radius(&a0).unwrap();
         let a = a0 * (0.95 / rho.max(1e-3));
         SsModel::new(
             0.02,

@@ -3,17 +3,21 @@
 use crate::error::{Result, SysidError};
 use nalgebra::{Complex, DMatrix, DVector};
 
-/// The eigenvalues of a square matrix (real Schur form via nalgebra).
-pub fn eigenvalues(a: &DMatrix<f64>) -> Vec<Complex<f64>> {
-    if a.nrows() == 0 {
-        return Vec::new();
-    }
-    a.clone().complex_eigenvalues().iter().copied().collect()
+/// The eigenvalues of a square matrix: [`kestrel_core::eig::eigenvalues`]
+/// (balancing, Hessenberg, Francis double shift with an iteration limit;
+/// nalgebra's `complex_eigenvalues` has none and cycled for ever on a
+/// matrix with repeated decoupled modes). A matrix that is not square or
+/// not finite, or an iteration that does not converge, is an error.
+pub fn eigenvalues(a: &DMatrix<f64>) -> Result<Vec<Complex<f64>>> {
+    Ok(kestrel_core::eig::eigenvalues(a)?.iter().copied().collect())
 }
 
 /// The spectral radius `max |lambda_i(A)|` (0 for an empty matrix).
+/// Stability checks use it, so a matrix whose eigenvalues cannot be
+/// computed (non-finite entries, no convergence) counts as unstable:
+/// `f64::INFINITY`.
 pub fn spectral_radius(a: &DMatrix<f64>) -> f64 {
-    eigenvalues(a).iter().map(|l| l.norm()).fold(0.0, f64::max)
+    kestrel_core::eig::spectral_radius(a).unwrap_or(f64::INFINITY)
 }
 
 /// Moore-Penrose pseudo-inverse with a relative singular-value cut-off.
@@ -249,6 +253,24 @@ mod tests {
     use super::*;
 
     #[test]
+    fn eigenvalues_are_core_s_and_failures_are_errors_or_unstable() {
+        // Companion matrix of (z - 0.5)(z + 0.25): trace 0.25, det -0.125.
+        let a = DMatrix::from_row_slice(2, 2, &[0.25, 0.125, 1.0, 0.0]);
+        let mut e: Vec<f64> = eigenvalues(&a).unwrap().iter().map(|z| z.re).collect();
+        e.sort_by(f64::total_cmp);
+        assert!((e[0] + 0.25).abs() < 1e-15 && (e[1] - 0.5).abs() < 1e-15);
+        assert!((spectral_radius(&a) - 0.5).abs() < 1e-15);
+        let bad = DMatrix::from_row_slice(2, 2, &[0.5, f64::NAN, 0.0, 0.1]);
+        assert!(matches!(
+            eigenvalues(&bad),
+            Err(SysidError::Core(kestrel_core::Error::NonFinite))
+        ));
+        // A stability check treats it as unstable.
+        assert_eq!(spectral_radius(&bad), f64::INFINITY);
+        assert!(eigenvalues(&DMatrix::zeros(2, 3)).is_err());
+    }
+
+    #[test]
     fn stable_split_block_diagonalises_and_counts_modes() {
         // Modes 1 (integrator), 1.02, 0.5, 0.9 +- 0.3i, mixed by a random basis.
         let d = DMatrix::from_row_slice(
@@ -273,6 +295,7 @@ mod tests {
         assert!(ab.view((0, ns), (ns, 5 - ns)).amax() < 1e-9 * a.norm());
         assert!(ab.view((ns, 0), (5 - ns, ns)).amax() < 1e-9 * a.norm());
         let mut stable: Vec<f64> = eigenvalues(&ab.view((0, 0), (ns, ns)).into_owned())
+            .unwrap()
             .iter()
             .map(|z| z.norm())
             .collect();

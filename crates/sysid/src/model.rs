@@ -98,8 +98,9 @@ impl InnovationModel {
         self.c.nrows()
     }
 
-    /// The poles (eigenvalues of `A`).
-    pub fn poles(&self) -> Vec<Complex<f64>> {
+    /// The poles (eigenvalues of `A`); an error when they cannot be
+    /// computed (see [`linalg::eigenvalues`]).
+    pub fn poles(&self) -> Result<Vec<Complex<f64>>> {
         linalg::eigenvalues(&self.a)
     }
 

@@ -860,7 +860,7 @@ mod tests {
         );
         assert!(worst_g < 0.03, "relative error of G: {worst_g}");
         assert!(worst_h < 0.1, "relative error of H: {worst_h}");
-        let (pt, pm) = (truth.poles(), m.poles());
+        let (pt, pm) = (truth.poles().unwrap(), m.poles().unwrap());
         for p in &pt {
             let d = pm
                 .iter()

@@ -1,18 +1,89 @@
-//! Eigenvalues of a real square matrix without eigenvectors (feature `std`):
-//! balancing, reduction to Hessenberg form by stabilised elimination, and
-//! the Francis double-shift QR iteration with exceptional shifts and a
-//! limit of 30 iterations per eigenvalue (EISPACK `balanc`/`elmhes`/`hqr`,
-//! as in Numerical Recipes, 2nd ed., section 11.5-11.6).
+//! Eigenvalues of a real square matrix with an iteration limit (feature
+//! `std`): balancing, reduction to Hessenberg form by stabilised
+//! elimination, and the Francis double-shift QR iteration with exceptional
+//! shifts and a limit of 30 iterations per eigenvalue (EISPACK
+//! `balanc`/`elmhes`/`hqr`, as in Numerical Recipes, 2nd ed., sections
+//! 11.5-11.6); should that fail, nalgebra's Schur decomposition with an
+//! iteration limit and a few perturbed retries.
 //!
-//! Why not nalgebra: its `complex_eigenvalues` has no iteration limit and
-//! cycled for ever on a Kalman closed loop with repeated decoupled modes,
-//! and its `Schur::try_new` (which has a limit) always accumulates the
-//! Schur vectors, which made the eigenvalues a third of `dare`'s time at
-//! n = 20. This routine needs no eigenvectors and has exceptional shifts.
-//! [`crate::dare::eigenvalues`] falls back to nalgebra's `Schur::try_new`
-//! should it ever fail.
+//! Why not nalgebra's `complex_eigenvalues`: it runs its Francis
+//! iteration without an iteration limit and deflates only when a
+//! subdiagonal entry falls below machine epsilon times its diagonal
+//! neighbours; while solving the Riccati equation of a Kalman filter with
+//! several identical, decoupled actuator and disturbance modes a
+//! subdiagonal entry stalled just above that and the iteration cycled for
+//! ever (kestrel-kalman's `repeated_decoupled_modes_do_not_hang`). Its `Schur::try_new` has a limit but always
+//! accumulates the Schur vectors (a third of a Riccati solve's time at
+//! n = 20). This routine needs no eigenvectors, always returns, and says
+//! [`Error::NotConverged`] when it cannot deliver.
+//!
+//! ```
+//! use kestrel_core::eig::{eigenvalues, spectral_radius};
+//! use nalgebra::DMatrix;
+//! // Rotation by 0.3 rad scaled by 0.9: eigenvalues 0.9 e^(+-0.3 i).
+//! let (c, s) = (0.9 * 0.3f64.cos(), 0.9 * 0.3f64.sin());
+//! let m = DMatrix::from_row_slice(2, 2, &[c, -s, s, c]);
+//! let e = eigenvalues(&m).unwrap();
+//! assert!(e.iter().all(|z| (z.norm() - 0.9).abs() < 1e-14));
+//! assert!((spectral_radius(&m).unwrap() - 0.9).abs() < 1e-14);
+//! // Bad input is an error value, not a panic or a hang.
+//! assert!(eigenvalues(&DMatrix::from_element(2, 2, f64::NAN)).is_err());
+//! assert!(eigenvalues(&DMatrix::zeros(2, 3)).is_err());
+//! ```
 
-use nalgebra::{Complex, DMatrix, DVector};
+use std::{vec, vec::Vec};
+
+use crate::error::Error;
+use nalgebra::{Complex, DMatrix, DVector, Schur};
+
+/// Eigenvalues of the real square matrix `m`, in no particular order
+/// (complex pairs adjacent).
+///
+/// Errors: [`Error::DimensionMismatch`] when `m` is not square (`expected`
+/// is the number of rows), [`Error::NonFinite`] for NaN or infinite
+/// entries, [`Error::NotConverged`] when neither the QR iteration (30
+/// iterations per eigenvalue) nor the fallbacks (nalgebra's Schur
+/// decomposition with `30 n + 30` sweeps on `m`, on `m'`, with a deflation
+/// threshold of `64 eps`, and on an orthogonal similarity `P m P`)
+/// converge.
+pub fn eigenvalues(m: &DMatrix<f64>) -> Result<DVector<Complex<f64>>, Error> {
+    let n = m.nrows();
+    if m.ncols() != n {
+        return Err(Error::DimensionMismatch {
+            expected: n,
+            found: m.ncols(),
+        });
+    }
+    if n == 0 {
+        return Ok(DVector::zeros(0));
+    }
+    if !m.iter().all(|v| v.is_finite()) {
+        return Err(Error::NonFinite);
+    }
+    if let Some(e) = hqr_eigenvalues(m) {
+        return Ok(e);
+    }
+    let limit = 30 * n + 30;
+    let attempt =
+        |x: DMatrix<f64>, eps: f64| Schur::try_new(x, eps, limit).map(|s| s.complex_eigenvalues());
+    for eps in [f64::EPSILON, 64.0 * f64::EPSILON] {
+        if let Some(e) = attempt(m.clone(), eps) {
+            return Ok(e);
+        }
+        if let Some(e) = attempt(m.transpose(), eps) {
+            return Ok(e);
+        }
+    }
+    let v = DVector::from_fn(n, |i, _| 1.0 / (i as f64 + 1.0).sqrt());
+    let p = DMatrix::identity(n, n) - &v * v.transpose() * (2.0 / v.norm_squared());
+    attempt(&p * m * &p, 64.0 * f64::EPSILON).ok_or(Error::NotConverged)
+}
+
+/// Spectral radius `max |lambda_i|` of the real square matrix `m` (0 for
+/// an empty matrix); the errors of [`eigenvalues`].
+pub fn spectral_radius(m: &DMatrix<f64>) -> Result<f64, Error> {
+    Ok(eigenvalues(m)?.iter().map(|z| z.norm()).fold(0.0, f64::max))
+}
 
 /// A 1-indexed dense square matrix (row-major), so the classical
 /// algorithms read as published.
@@ -40,7 +111,7 @@ impl Mat1 {
 
 /// Eigenvalues of `m` (any order), or `None` when the QR iteration needs
 /// more than 30 iterations for one eigenvalue or the matrix is not finite.
-pub(crate) fn hqr_eigenvalues(m: &DMatrix<f64>) -> Option<DVector<Complex<f64>>> {
+fn hqr_eigenvalues(m: &DMatrix<f64>) -> Option<DVector<Complex<f64>>> {
     let n = m.nrows();
     if m.ncols() != n || !m.iter().all(|v| v.is_finite()) {
         return None;
@@ -359,7 +430,28 @@ fn hqr(a: &mut Mat1) -> Option<(Vec<f64>, Vec<f64>)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::Rng;
+    use std::vec::Vec;
+
+    /// A small xorshift generator (the tests need no rand crate).
+    struct Rng(u64);
+    impl Rng {
+        fn new(seed: u64) -> Self {
+            Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+        }
+        fn uniform(&mut self) -> f64 {
+            self.0 ^= self.0 >> 12;
+            self.0 ^= self.0 << 25;
+            self.0 ^= self.0 >> 27;
+            let v = self.0.wrapping_mul(0x2545_F491_4F6C_DD1D);
+            ((v >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        }
+        fn matrix(&mut self, r: usize, c: usize) -> DMatrix<f64> {
+            DMatrix::from_fn(r, c, |_, _| {
+                let (u1, u2) = (self.uniform(), self.uniform());
+                (-2.0 * u1.ln()).sqrt() * (2.0 * core::f64::consts::PI * u2).cos()
+            })
+        }
+    }
 
     /// Sorted (by real, then imaginary part) copy.
     fn sorted(v: &DVector<Complex<f64>>) -> Vec<Complex<f64>> {
@@ -454,5 +546,80 @@ mod tests {
         assert!((e[2].re / 1e8 - 1.0).abs() < 1e-9 && (e[1].re - 1.0).abs() < 1e-6);
         assert_eq!(hqr_eigenvalues(&DMatrix::zeros(0, 0)).unwrap().len(), 0);
         assert!(hqr_eigenvalues(&DMatrix::from_element(2, 2, f64::NAN)).is_none());
+    }
+
+    /// The Kalman closed loop `A - L C` of the 11-state tricopter rate
+    /// model with three identical motor modes and three identical gust
+    /// modes (kestrel-kalman's `repeated_decoupled_modes_do_not_hang`,
+    /// where nalgebra's `complex_eigenvalues` cycled for ever on a matrix
+    /// met during the Riccati solve).
+    fn repeated_modes_closed_loop() -> DMatrix<f64> {
+        #[rustfmt::skip]
+        let m = DMatrix::from_row_slice(11, 11, &[
+            -2.8633804556317655e-1, 1.6780493515217189e-3, -1.283822008947332e-2, 0e0, 2.622542971220504e-3, -2.622542971220504e-3, 0e0, 0e0, 5e-1, 0e0, 0e0,
+            1.3263154579968841e-3, 1.2186841855893071e-1, -1.7533814111183283e-2, -2.6885640103174943e-3, 1.3458896803515722e-3, 1.3458896803515722e-3, 6.089812349437849e-2, 4.791315708005133e-4, 0e0, 4.444444444444444e-1, 0e0,
+            -8.126655069194997e-4, -1.4005456798416988e-3, 5.917578672913253e-1, -1.2098538046428721e-4, 6.056503561582075e-5, 6.056503561582075e-5, -4.2818993081984874e-1, -3.36889385719111e-3, 0e0, 0e0, 2.5e-1,
+            -3.0256417369372466e-13, 9.693291617642226e-11, 1.0988785910791312e-11, 6.703200460356393e-1, 0e0, 0e0, 0e0, 0e0, 0e0, 0e0, 0e0,
+            -1.7269876113244148e-10, -4.8122736190322155e-11, -7.867328188160575e-12, 0e0, 6.703200460356393e-1, 0e0, 0e0, 0e0, 0e0, 0e0, 0e0,
+            1.7300168715351125e-10, -4.89261055464416e-11, -3.1345996068784238e-12, 0e0, 0e0, 6.703200460356393e-1, 0e0, 0e0, 0e0, 0e0, 0e0,
+            6.851413780463555e-10, -2.621353961555216e-9, 3.137358512068586e-8, 0e0, 0e0, 0e0, 8.652396208065133e-1, 1.274249904114953e-2, 0e0, 0e0, 0e0,
+            -1.3743911577004037e-8, 6.5378182564164e-8, -1.0413828608828006e-6, 0e0, 0e0, 0e0, -1.1468249137034572e1, 3.300546610782333e-1, 0e0, 0e0, 0e0,
+            -9.548105776432777e-1, 1.8333879212180208e-3, -1.203776714684374e-2, 0e0, 0e0, 0e0, 0e0, 0e0, 9.607894391523232e-1, 0e0, 0e0,
+            1.6298250316675437e-3, -5.706963065583737e-1, -1.579831432694928e-2, 0e0, 0e0, 0e0, 0e0, 0e0, 0e0, 9.607894391523232e-1, 0e0,
+            -1.5090999901132894e-3, -2.2267702998726925e-3, -2.607020749229814e-1, 0e0, 0e0, 0e0, 0e0, 0e0, 0e0, 0e0, 9.607894391523232e-1,
+        ]);
+        m
+    }
+
+    #[test]
+    fn repeated_decoupled_modes_converge() {
+        let m = repeated_modes_closed_loop();
+        let e = eigenvalues(&m).expect("converges");
+        check_is_spectrum(&m, &e, 1e-8);
+        let rho = spectral_radius(&m).unwrap();
+        assert!(rho < 1.0 && rho > 0.5, "{rho}");
+        // The repeated modes: a similarity with a random orthogonal matrix
+        // mixes the decoupled blocks and the spectrum stays the same.
+        let mut rng = Rng::new(11);
+        let q = rng.matrix(11, 11).qr().q();
+        let mq = q.transpose() * &m * &q;
+        let eq = eigenvalues(&mq).expect("converges");
+        for (a, b) in sorted(&e).iter().zip(sorted(&eq).iter()) {
+            assert!((a - b).norm() < 1e-6, "{a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn bad_input_is_an_error_value() {
+        assert_eq!(
+            eigenvalues(&DMatrix::zeros(2, 3)),
+            Err(Error::DimensionMismatch {
+                expected: 2,
+                found: 3
+            })
+        );
+        let mut m = DMatrix::identity(3, 3);
+        m[(1, 2)] = f64::INFINITY;
+        assert_eq!(eigenvalues(&m), Err(Error::NonFinite));
+        m[(1, 2)] = f64::NAN;
+        assert_eq!(spectral_radius(&m), Err(Error::NonFinite));
+        assert_eq!(eigenvalues(&DMatrix::zeros(0, 0)).unwrap().len(), 0);
+        assert_eq!(spectral_radius(&DMatrix::zeros(0, 0)), Ok(0.0));
+    }
+
+    #[test]
+    fn fallback_agrees_with_the_qr_iteration() {
+        // The Schur fallback path on its own gives the same spectrum.
+        let mut rng = Rng::new(5);
+        for n in [2usize, 7, 15] {
+            let m = rng.matrix(n, n);
+            let fast = eigenvalues(&m).unwrap();
+            let schur = Schur::try_new(m.clone(), f64::EPSILON, 30 * n + 30)
+                .unwrap()
+                .complex_eigenvalues();
+            for (a, b) in sorted(&fast).iter().zip(sorted(&schur).iter()) {
+                assert!((a - b).norm() < 1e-9 * (1.0 + b.norm()), "{a} vs {b}");
+            }
+        }
     }
 }
