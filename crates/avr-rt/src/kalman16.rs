@@ -87,18 +87,19 @@ impl<const N: usize> Row16<N> {
             const {
                 assert!(core::mem::size_of::<Row16<N>>() == 2 * N + 2);
             }
-            let mut out = [0i32; R];
+            let mut out = core::mem::MaybeUninit::<[i32; R]>::uninit();
             // SAFETY: `R` rows of the `#[repr(C)]` layout (size checked
-            // above), `N` values, `R` outputs; 1 <= N <= 31.
+            // above), `N` values, `R` outputs; 1 <= N <= 31. The routine
+            // writes all `R` outputs, so `out` is initialised after it.
             unsafe {
                 crate::mac::rows_q16_i16_avr::<N>(
                     rows.as_ptr() as *const u8,
                     R as u8,
                     v.as_ptr(),
-                    out.as_mut_ptr(),
-                )
-            };
-            return out;
+                    out.as_mut_ptr() as *mut i32,
+                );
+                return out.assume_init();
+            }
         }
         core::array::from_fn(|i| rows.get(i).map_or(0, |r| r.apply(v)))
     }
@@ -261,9 +262,8 @@ impl<S: RtScalar, const NX: usize, const NU: usize, const NY: usize> Kalman16<S,
     }
 }
 
-/// `e = y - y0 - C x`, `x <- x + M e` in Q15.16. Not inlined, so that it
-/// runs in a short stack frame of its own on the AVR.
-#[inline(never)]
+/// `e = y - y0 - C x`, `x <- x + M e` in Q15.16.
+#[inline(always)]
 fn measure<const NX: usize, const NU: usize, const NY: usize>(
     t: &Kalman16Tables<NX, NU, NY>,
     x: &mut [i32; NX],
@@ -280,8 +280,8 @@ fn measure<const NX: usize, const NU: usize, const NY: usize>(
     }
 }
 
-/// `x <- x + (A - I) x + B u` in Q15.16 (not inlined, as [`measure`]).
-#[inline(never)]
+/// `x <- x + (A - I) x + B u` in Q15.16.
+#[inline(always)]
 fn predict<const NX: usize, const NU: usize, const NY: usize>(
     t: &Kalman16Tables<NX, NU, NY>,
     x: &mut [i32; NX],
@@ -316,12 +316,18 @@ impl<S: RtScalar, const NX: usize, const NU: usize, const NY: usize> StateEstima
     fn ny(&self) -> usize {
         NY
     }
+    // The updates are not inlined, so that their conversions and sums run
+    // in a short stack frame of their own on the AVR (inlined into the
+    // firmware's large loop, every access to a local costs several
+    // instructions).
+    #[inline(never)]
     fn measurement_update(&mut self, y: &[S]) -> Result<(), Error> {
         let y: [i32; NY] = to_q16(y)?;
         measure(&self.tables, &mut self.x, &y);
         self.publish();
         Ok(())
     }
+    #[inline(never)]
     fn time_update(&mut self, u: &[S]) -> Result<(), Error> {
         let u: [i32; NU] = to_q16(u)?;
         predict(&self.tables, &mut self.x, &u);
