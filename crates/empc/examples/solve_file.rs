@@ -8,6 +8,8 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let path = args.next().expect("a problem file");
     let first: Option<usize> = args.next().and_then(|v| v.parse().ok());
+    // "compact": only the compact layout; "default": only the default one.
+    let only = args.next().unwrap_or_default();
     let prob = MpqpProblem::read(std::path::Path::new(&path)).expect("problem");
     let t0 = std::time::Instant::now();
     let sol = solve(&prob, &Settings::default()).expect("solve");
@@ -25,16 +27,21 @@ fn main() {
         ..TreeSettings::default()
     };
     let t1 = std::time::Instant::now();
-    let ctl = build_controller(&prob, &sol, &tree).expect("tree");
-    println!(
-        "default tree: {} laws, depth {}, {} nodes, {} bytes (f32), ambiguous {}, {:.3} s",
-        ctl.stats.distinct_laws,
-        ctl.stats.depth,
-        ctl.stats.nodes,
-        ctl.tables.bytes(4),
-        ctl.stats.ambiguous_leaves,
-        t1.elapsed().as_secs_f64()
-    );
+    if only != "compact" {
+        let ctl = build_controller(&prob, &sol, &tree).expect("tree");
+        println!(
+            "default tree: {} laws, depth {}, {} nodes, {} bytes (f32), ambiguous {}, {:.3} s",
+            ctl.stats.distinct_laws,
+            ctl.stats.depth,
+            ctl.stats.nodes,
+            ctl.tables.bytes(4),
+            ctl.stats.ambiguous_leaves,
+            t1.elapsed().as_secs_f64()
+        );
+    }
+    if only == "default" {
+        return;
+    }
     let t2 = std::time::Instant::now();
     let c = build_compact(&prob, &sol, &tree).expect("compact");
     println!(

@@ -86,6 +86,36 @@ pub struct CompactNode {
     pub children: [u16; 2],
 }
 
+/// The accessors both slice layouts implement alike (same field names).
+macro_rules! shared_accessors {
+    () => {
+        fn n_params(&self) -> usize {
+            self.n_params
+        }
+        fn n_outputs(&self) -> usize {
+            self.n_outputs
+        }
+        fn n_nodes(&self) -> usize {
+            self.nodes.len()
+        }
+        fn row(&self, r: usize, j: usize) -> Option<S> {
+            entry(self.rows, self.n_params + 1, r, j)
+        }
+        fn n_hull(&self) -> usize {
+            self.hull.len() / (self.n_params + 1)
+        }
+        fn hull(&self, i: usize, j: usize) -> Option<S> {
+            entry(self.hull, self.n_params + 1, i, j)
+        }
+        fn theta_bounds(&self, j: usize) -> Option<(S, S)> {
+            Some((*self.theta_lb.get(j)?, *self.theta_ub.get(j)?))
+        }
+        fn output_bounds(&self, out: usize) -> Option<[u16; 2]> {
+            self.bounds.get(out).copied()
+        }
+    };
+}
+
 /// A node index no table reaches (tables have fewer nodes): a missing root.
 const MISSING_NODE: u16 = 0x7FFF;
 
@@ -115,15 +145,6 @@ pub struct ForestTables<'a, S> {
 }
 
 impl<S: Scalar> TreeTables<S> for ForestTables<'_, S> {
-    fn n_params(&self) -> usize {
-        self.n_params
-    }
-    fn n_outputs(&self) -> usize {
-        self.n_outputs
-    }
-    fn n_nodes(&self) -> usize {
-        self.nodes.len()
-    }
     fn root(&self) -> u16 {
         self.roots.first().copied().unwrap_or(MISSING_NODE)
     }
@@ -136,21 +157,7 @@ impl<S: Scalar> TreeTables<S> for ForestTables<'_, S> {
         // The leaf payload is the row itself.
         (out < self.n_outputs && law < self.rows.len() / (self.n_params + 1)).then_some(law as u16)
     }
-    fn row(&self, r: usize, j: usize) -> Option<S> {
-        entry(self.rows, self.n_params + 1, r, j)
-    }
-    fn n_hull(&self) -> usize {
-        self.hull.len() / (self.n_params + 1)
-    }
-    fn hull(&self, i: usize, j: usize) -> Option<S> {
-        entry(self.hull, self.n_params + 1, i, j)
-    }
-    fn theta_bounds(&self, j: usize) -> Option<(S, S)> {
-        Some((*self.theta_lb.get(j)?, *self.theta_ub.get(j)?))
-    }
-    fn output_bounds(&self, out: usize) -> Option<[u16; 2]> {
-        self.bounds.get(out).copied()
-    }
+    shared_accessors!();
     fn output_root(&self, out: usize) -> Option<u16> {
         // Out of range: a corrupted table, reported by the evaluation.
         Some(self.roots.get(out).copied().unwrap_or(MISSING_NODE))
@@ -183,15 +190,6 @@ pub struct SliceTables<'a, S> {
 }
 
 impl<S: Scalar> TreeTables<S> for SliceTables<'_, S> {
-    fn n_params(&self) -> usize {
-        self.n_params
-    }
-    fn n_outputs(&self) -> usize {
-        self.n_outputs
-    }
-    fn n_nodes(&self) -> usize {
-        self.nodes.len()
-    }
     fn root(&self) -> u16 {
         self.root
     }
@@ -206,21 +204,7 @@ impl<S: Scalar> TreeTables<S> for SliceTables<'_, S> {
             .get(law.checked_mul(self.n_outputs)?.checked_add(out)?)
             .copied()
     }
-    fn row(&self, r: usize, j: usize) -> Option<S> {
-        entry(self.rows, self.n_params + 1, r, j)
-    }
-    fn n_hull(&self) -> usize {
-        self.hull.len() / (self.n_params + 1)
-    }
-    fn hull(&self, i: usize, j: usize) -> Option<S> {
-        entry(self.hull, self.n_params + 1, i, j)
-    }
-    fn theta_bounds(&self, j: usize) -> Option<(S, S)> {
-        Some((*self.theta_lb.get(j)?, *self.theta_ub.get(j)?))
-    }
-    fn output_bounds(&self, out: usize) -> Option<[u16; 2]> {
-        self.bounds.get(out).copied()
-    }
+    shared_accessors!();
 }
 
 #[inline]

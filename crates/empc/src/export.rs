@@ -453,61 +453,58 @@ pub fn check_compact_tables<S: Scalar>(t: &CompactTables<S>) -> Result<(), EmpcE
         ));
     }
     let nr = t.rows.len() / w;
+    let row16 = |v: u8| if v == NO_ROW8 { NO_ROW } else { u16::from(v) };
+    let nodes = t.nodes.iter().map(|n| {
+        [
+            row16(n.rows[0]),
+            row16(n.rows[1]),
+            n.children[0],
+            n.children[1],
+        ]
+    });
+    check_tree(TreeShape {
+        what: "compact_tables",
+        roots: &t.roots,
+        nodes,
+        n_nodes: t.nodes.len(),
+        n_leaves: nr,
+        n_rows: nr,
+        bounds: &t.bounds,
+        bounds_ok: t.theta_lb.iter().zip(&t.theta_ub).all(|(l, u)| l <= u),
+    })
+}
+
+/// What [`check_tree`] checks of either layout.
+struct TreeShape<'a, I> {
+    what: &'static str,
+    roots: &'a [u16],
+    /// `[row a, row b (NO_ROW: none), child, child]`.
+    nodes: I,
+    n_nodes: usize,
+    /// Leaf payloads must be below this (laws, or rows in the compact layout).
+    n_leaves: usize,
+    n_rows: usize,
+    bounds: &'a [[u16; 2]],
+    /// `theta_lb <= theta_ub`.
+    bounds_ok: bool,
+}
+
+/// Every root, node row, child and output bound inside its table, children
+/// after their parent (no cycles), the parameter box not empty.
+fn check_tree<I: Iterator<Item = [u16; 4]>>(t: TreeShape<'_, I>) -> Result<(), EmpcError> {
+    let (nr, nn, nl) = (t.n_rows, t.n_nodes, t.n_leaves);
+    let bad = |what: String| Err(FormatError::invalid(t.what, what).into());
     let child_ok = |c: u16| {
         if c & LEAF != 0 {
-            ((c & !LEAF) as usize) < nr
+            ((c & !LEAF) as usize) < nl
         } else {
-            (c as usize) < t.nodes.len()
+            (c as usize) < nn
         }
     };
     if let Some(r) = t.roots.iter().find(|&&r| !child_ok(r)) {
         return bad(format!("root {r} points outside the tables"));
     }
-    for (i, n) in t.nodes.iter().enumerate() {
-        let row_ok = |r: u8| r != NO_ROW8 && (r as usize) < nr;
-        if !row_ok(n.rows[0])
-            || !(n.rows[1] == NO_ROW8 || row_ok(n.rows[1]))
-            || !child_ok(n.children[0])
-            || !child_ok(n.children[1])
-        {
-            return bad(format!("node {i} {n:?} points outside the tables"));
-        }
-        for c in n.children {
-            if c & LEAF == 0 && c as usize <= i {
-                return bad(format!("node {i} has a child {c} that is not after it"));
-            }
-        }
-    }
-    for b in &t.bounds {
-        for &r in b {
-            if r != NO_ROW && r as usize >= nr {
-                return bad(format!("an output bound uses row {r} of {nr}"));
-            }
-        }
-    }
-    if t.theta_lb.iter().zip(&t.theta_ub).any(|(l, u)| l > u) {
-        return bad("theta_lb exceeds theta_ub".into());
-    }
-    Ok(())
-}
-
-/// Checks that every index of the tables points inside its table.
-pub fn check_tables<S: Scalar>(t: &OwnedTables<S>) -> Result<(), EmpcError> {
-    let w = t.n_params + 1;
-    let nr = t.rows.len() / w;
-    let nl = t.laws.len() / t.n_outputs.max(1);
-    let bad = |what: String| Err(FormatError::invalid("tables", what).into());
-    let child_ok = |c: u16| {
-        if c & LEAF != 0 {
-            ((c & !LEAF) as usize) < nl
-        } else {
-            (c as usize) < t.nodes.len()
-        }
-    };
-    if !child_ok(t.root) {
-        return bad(format!("root {} points outside the tables", t.root));
-    }
-    for (i, n) in t.nodes.iter().enumerate() {
+    for (i, n) in t.nodes.enumerate() {
         let row_ok = |r: u16| (r as usize) < nr;
         if !row_ok(n[0]) || !(n[1] == NO_ROW || row_ok(n[1])) || !child_ok(n[2]) || !child_ok(n[3])
         {
@@ -520,20 +517,35 @@ pub fn check_tables<S: Scalar>(t: &OwnedTables<S>) -> Result<(), EmpcError> {
             }
         }
     }
-    if let Some(l) = t.laws.iter().find(|&&r| r as usize >= nr) {
-        return bad(format!("a law uses row {l} of {nr}"));
-    }
-    for b in &t.bounds {
+    for b in t.bounds {
         for &r in b {
             if r != NO_ROW && r as usize >= nr {
                 return bad(format!("an output bound uses row {r} of {nr}"));
             }
         }
     }
-    if t.theta_lb.iter().zip(&t.theta_ub).any(|(l, u)| l > u) {
+    if !t.bounds_ok {
         return bad("theta_lb exceeds theta_ub".into());
     }
     Ok(())
+}
+
+/// Checks that every index of the tables points inside its table.
+pub fn check_tables<S: Scalar>(t: &OwnedTables<S>) -> Result<(), EmpcError> {
+    let nr = t.rows.len() / (t.n_params + 1);
+    if let Some(l) = t.laws.iter().find(|&&r| r as usize >= nr) {
+        return Err(FormatError::invalid("tables", format!("a law uses row {l} of {nr}")).into());
+    }
+    check_tree(TreeShape {
+        what: "tables",
+        roots: &[t.root],
+        nodes: t.nodes.iter().copied(),
+        n_nodes: t.nodes.len(),
+        n_leaves: t.laws.len() / t.n_outputs.max(1),
+        n_rows: nr,
+        bounds: &t.bounds,
+        bounds_ok: t.theta_lb.iter().zip(&t.theta_ub).all(|(l, u)| l <= u),
+    })
 }
 
 /// The tables as Rust source: `static` arrays and a `pub static TABLES:
