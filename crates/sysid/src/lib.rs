@@ -10,6 +10,8 @@ mod error;
 #[cfg(feature = "std")]
 mod filter;
 #[cfg(feature = "std")]
+pub mod greybox;
+#[cfg(feature = "std")]
 pub mod linalg;
 #[cfg(feature = "std")]
 mod model;
