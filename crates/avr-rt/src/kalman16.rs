@@ -41,7 +41,7 @@
 //! assert!((kf.estimate()[0] - (0.9 * 0.5 + 0.2)).abs() < 1e-4);
 //! ```
 
-use crate::mac::{dot_q16_i16, row_q16_i16};
+use crate::mac::{add_sat_i32, dot_q16_i16, row_q16_i16, sub_sat_i32};
 use crate::output::RtScalar;
 use kestrel_core::{Error, StateEstimator, check_len};
 
@@ -174,10 +174,10 @@ pub fn mul_q15(v: i32, b: i16) -> i32 {
     sat_i32(2 * p_hi as i64 + ((p_lo as i64 + (1 << 14)) >> 15))
 }
 
-/// Saturating Q15.16 addition.
-#[inline]
+/// Saturating Q15.16 addition (on the AVR a few instructions of assembly).
+#[inline(always)]
 fn add_sat(a: i32, b: i32) -> i32 {
-    a.saturating_add(b)
+    add_sat_i32(a, b)
 }
 
 /// The filter's tables (`NX` states, `NU` inputs, `NY` outputs).
@@ -272,7 +272,7 @@ fn measure<const NX: usize, const NU: usize, const NY: usize>(
     let cx = Row16::apply_all(&t.c, x);
     let mut e = [0i32; NY];
     for ((ei, yi), (cxi, y0)) in e.iter_mut().zip(y.iter()).zip(cx.iter().zip(t.y0.iter())) {
-        *ei = yi.saturating_sub(*y0).saturating_sub(*cxi);
+        *ei = sub_sat_i32(sub_sat_i32(*yi, *y0), *cxi);
     }
     let dx = Row16::apply_all(&t.m, &e);
     for (xi, d) in x.iter_mut().zip(dx.iter()) {
