@@ -5,12 +5,12 @@
 //!
 //! `cargo run --release -p kestrel-sysid --example greybox [-- seconds seed]`
 
-use kestrel_sysid::ValidationReport;
-use kestrel_sysid::greybox::{GreyBoxSpec, estimate_grey_box};
+use kestrel_sysid::greybox::{GreyBoxSpec, estimate_grey_box, grey_box_model};
 use kestrel_sysid::tricopter::{
     ESTIMATE, ModelKind, VALIDATE, identify_thesis_model, simulated_flights,
 };
 use kestrel_sysid::workflow::{Segment, select_segments};
+use kestrel_sysid::{ValidationReport, validate};
 use kestrel_tricopter_model::{Experiment, GreyBoxParams, SimSettings};
 use std::time::Instant;
 
@@ -72,10 +72,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     table(&report, &truth);
     let grey = report.validate(&val, &[1, 5])?;
     let black = identify_thesis_model(ModelKind::BlackBox, seconds, seed)?;
+    // Reference: the simulator's own linearised model (the truth, K = 0).
+    let true_model = grey_box_model(&truth, &spec, est.ts())?;
+    let true_fit = validate(&true_model, &val, &[1, 5])?;
     println!("\nvalidation fit [%] (p / q / r, mean):");
     let row = |r: &ValidationReport, l: &str| r.row(l).map(|r| (r.fit.clone(), r.mean()));
     for label in ["model simulation", "model 1-step", "model 5-step"] {
-        for (name, rep) in [("grey-box", &grey), ("black-box 8 -> 5", &black.validation)] {
+        let rows = [
+            ("grey-box", &grey),
+            ("black-box 8 -> 5", &black.validation),
+            ("truth, K = 0", &true_fit),
+        ];
+        for (name, rep) in rows {
+            if name.starts_with("truth") && label != "model simulation" {
+                continue;
+            }
             if let Some((f, m)) = row(rep, label) {
                 println!(
                     "{:<18}{:<18}{:>8.2}{:>8.2}{:>8.2}{:>8.2}",
