@@ -4,7 +4,7 @@
 //! the cost, bad input.
 
 use kestrel_sysid::greybox::{
-    GreyBoxFocus, GreyBoxSpec, cost_gradient, estimate_grey_box, grey_box_model,
+    GreyBoxFocus, GreyBoxSpec, Stage, cost_gradient, estimate_grey_box, grey_box_model,
 };
 use kestrel_sysid::tricopter::{ESTIMATE, ModelKind, VALIDATE, identify_thesis_model};
 use kestrel_sysid::workflow::{Segment, select_segments};
@@ -389,4 +389,117 @@ fn thesis_flights_recover_the_simulator_parameters() {
         t.row("model simulation").unwrap().mean(),
     );
     assert!(g > t - 2.0, "simulation: grey-box {g}, true model {t}");
+}
+
+/// White measurement noise on the outputs of the grey-box model: the
+/// simulation focus is maximum likelihood there, so the standard errors
+/// from the Gauss-Newton Hessian should match the spread of the estimates
+/// over independent noise realisations (an independent Monte Carlo check).
+#[test]
+fn standard_errors_match_the_monte_carlo_spread() {
+    let mut spec = GreyBoxSpec::with_free(&["ixx", "izz", "motor_tau"]).unwrap();
+    spec.settings.equation_error_start = false;
+    let truth = truth();
+    let clean = linear_data(&truth, &spec, 300);
+    let runs = 24;
+    let mut est = vec![Vec::new(); 3];
+    let mut se = [0.0; 3];
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let mut gauss = || {
+        // Box-Muller on a xorshift stream.
+        let mut uni = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (a, b) = (uni().max(1e-300), uni());
+        (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
+    };
+    for _ in 0..runs {
+        let exps = clean
+            .experiments()
+            .iter()
+            .map(|e| {
+                let mut e = e.clone();
+                e.y.iter_mut().for_each(|v| *v += 0.02 * gauss());
+                e
+            })
+            .collect();
+        let noisy = IoData::from_experiments(
+            0.02,
+            clean.input_names().to_vec(),
+            clean.output_names().to_vec(),
+            exps,
+        )
+        .unwrap();
+        let r = estimate_grey_box(&noisy, &spec, &truth).unwrap();
+        for (k, i) in [0, 2, 5].into_iter().enumerate() {
+            est[k].push(r.estimate.to_array()[i]);
+            se[k] += r.parameters[i].std_error.unwrap() / runs as f64;
+        }
+    }
+    for k in 0..3 {
+        let n = runs as f64;
+        let mean = est[k].iter().sum::<f64>() / n;
+        let sd = (est[k].iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        // 24 runs: the sample standard deviation is within about +-30 %.
+        assert!(
+            sd > 0.6 * se[k] && sd < 1.5 * se[k],
+            "parameter {k}: Monte Carlo spread {sd:e}, reported standard error {:e}",
+            se[k]
+        );
+    }
+}
+
+/// The two-stage focus: physics on simulation errors, then `K` alone.
+#[test]
+fn simulation_then_noise_estimates_a_stable_predictor() {
+    let spec = GreyBoxSpec {
+        focus: GreyBoxFocus::SimulationThenNoise,
+        disturbance: true,
+        ..Default::default()
+    };
+    let truth = truth();
+    let clean = linear_data(&truth, &spec, 300);
+    // Output noise that is a random walk plus white noise: the
+    // disturbance states and K have something to model.
+    let exps = clean
+        .experiments()
+        .iter()
+        .map(|e| {
+            let mut e = e.clone();
+            let mut walk = [0.0; 3];
+            for t in 0..e.y.nrows() {
+                for (j, wj) in walk.iter_mut().enumerate() {
+                    let w = (((t * 7 + j * 13) % 11) as f64 - 5.0) * 1e-3;
+                    *wj += w;
+                    e.y[(t, j)] += *wj + 0.5 * w;
+                }
+            }
+            e
+        })
+        .collect();
+    let data = IoData::from_experiments(
+        0.02,
+        clean.input_names().to_vec(),
+        clean.output_names().to_vec(),
+        exps,
+    )
+    .unwrap();
+    let start = GreyBoxParams::from_array(&truth.to_array().map(|v| 1.1 * v));
+    let r = estimate_grey_box(&data, &spec, &start).unwrap();
+    let stages: Vec<Stage> = r.stages.iter().map(|s| s.stage).collect();
+    assert_eq!(
+        stages,
+        vec![Stage::EquationError, Stage::Simulation, Stage::Noise]
+    );
+    assert!(r.model.k.amax() > 0.0 && r.model.radius_predictor() < 1.0);
+    let noise = r.stages[2];
+    assert!(noise.cost < noise.initial_cost);
+    // The physical parameters are those of the simulation stage.
+    assert!(r.parameters.iter().all(|p| p.std_error.is_some()));
+    let one = r.fit.row("model 1-step").unwrap().mean();
+    let sim = r.fit.row("model simulation").unwrap().mean();
+    assert!(one >= sim, "{r}");
 }
