@@ -9,13 +9,20 @@
 //! time update         x+ = x^ + (A - I) x^ + B u     (two rounded sums)
 //! ```
 //!
+//! Every row sum is exact and rounded once; the measurement update adds
+//! each rounded row of `M e` to the state before one saturation, the time
+//! update saturates each rounded row and the two additions.
+//!
 //! States, measurements and inputs are Q15.16 (`i32`); every coefficient
 //! row is an `i16` with its own binary point (`value = c / 2^shift`), chosen
 //! offline so the row's largest entry uses the full 16 bits
 //! ([`Row16`]). Storing `A - I` instead of `A` keeps the near-unit poles of
-//! a 50 Hz rate model exact to the row's resolution. The sums are exact
-//! ([`crate::mac::dot_q16_i16`], 8 hardware `MUL`s per term on the AVR) and
-//! rounded once per row. A row may start at a column (`start`): with the
+//! a 50 Hz rate model exact to the row's resolution. The sums are exact and
+//! rounded once per row; on the AVR each table (`C`, `M`, `A - I`, `B`) is
+//! one call of an assembly routine that runs all its rows
+//! ([`Row16::apply_all`], [`Row16::add_all`]: 8 hardware multiplies and
+//! about 67 cycles per term, about 125 per row for the rounding shift,
+//! saturation and stores). A row may start at a column (`start`): with the
 //! model in real Schur form `A - I` is upper quasi-triangular and the
 //! time update skips the zeros.
 //!
@@ -92,7 +99,7 @@ impl<const N: usize> Row16<N> {
             // above), `N` values, `R` outputs; 1 <= N <= 31. The routine
             // writes all `R` outputs, so `out` is initialised after it.
             unsafe {
-                crate::mac::rows_q16_i16_avr::<N>(
+                crate::mac::rows_q16_i16_avr::<N, false>(
                     rows.as_ptr() as *const u8,
                     R as u8,
                     v.as_ptr(),
@@ -102,6 +109,35 @@ impl<const N: usize> Row16<N> {
             }
         }
         core::array::from_fn(|i| rows.get(i).map_or(0, |r| r.apply(v)))
+    }
+
+    /// Adds every row of `rows` applied to `v` to `out`, with one
+    /// saturation: `out[i] = sat(out[i] + round(sum_j c_ij v_j / 2^shift_i))`
+    /// (the rounded row is not saturated on its own); on the AVR all rows
+    /// in one assembly routine (for `1 <= N <= 31` and at most 255 rows).
+    #[inline]
+    pub fn add_all<const R: usize>(rows: &[Row16<N>; R], v: &[i32; N], out: &mut [i32; R]) {
+        #[cfg(target_arch = "avr")]
+        if (1..=255).contains(&R) && (1..=31).contains(&N) {
+            const {
+                assert!(core::mem::size_of::<Row16<N>>() == 2 * N + 2);
+            }
+            // SAFETY: `R` rows of the `#[repr(C)]` layout (size checked
+            // above), `N` values, `R` outputs read and written; 1 <= N <= 31.
+            unsafe {
+                crate::mac::rows_q16_i16_avr::<N, true>(
+                    rows.as_ptr() as *const u8,
+                    R as u8,
+                    v.as_ptr(),
+                    out.as_mut_ptr(),
+                );
+            }
+            return;
+        }
+        for (o, r) in out.iter_mut().zip(rows.iter()) {
+            let v = *o as i64 + round_i64(r.dot(v), r.shift);
+            *o = sat_i32(v);
+        }
     }
 
     /// The exact sum `sum_{j >= start} c_j v_j` (`16 + shift` fraction bits).
@@ -150,6 +186,19 @@ pub fn round_shift(acc: i64, shift: u8) -> i32 {
     sat_i32((v >> 1) + (v & 1))
 }
 
+/// `round(acc / 2^shift)`, ties up, not saturated; shifts above 48 are
+/// taken as 48 (`|acc| < 2^62` in the kernels, so no overflow).
+#[inline]
+fn round_i64(acc: i64, shift: u8) -> i64 {
+    let s = shift.min(48);
+    if s == 0 {
+        acc
+    } else {
+        let q = acc >> (s - 1);
+        (q >> 1) + (q & 1)
+    }
+}
+
 #[inline]
 fn sat_i32(v: i64) -> i32 {
     if v > i32::MAX as i64 {
@@ -172,12 +221,6 @@ pub fn mul_q15(v: i32, b: i16) -> i32 {
     let p_hi = hi * b; // |.| <= 2^30
     let p_lo = lo * b; // |.| < 2^31
     sat_i32(2 * p_hi as i64 + ((p_lo as i64 + (1 << 14)) >> 15))
-}
-
-/// Saturating Q15.16 addition (on the AVR a few instructions of assembly).
-#[inline(always)]
-fn add_sat(a: i32, b: i32) -> i32 {
-    add_sat_i32(a, b)
 }
 
 /// The filter's tables (`NX` states, `NU` inputs, `NY` outputs).
@@ -274,10 +317,7 @@ fn measure<const NX: usize, const NU: usize, const NY: usize>(
     for ((ei, yi), (cxi, y0)) in e.iter_mut().zip(y.iter()).zip(cx.iter().zip(t.y0.iter())) {
         *ei = sub_sat_i32(sub_sat_i32(*yi, *y0), *cxi);
     }
-    let dx = Row16::apply_all(&t.m, &e);
-    for (xi, d) in x.iter_mut().zip(dx.iter()) {
-        *xi = add_sat(*xi, *d);
-    }
+    Row16::add_all(&t.m, &e, x);
 }
 
 /// `x <- x + (A - I) x + B u` in Q15.16.
@@ -287,10 +327,12 @@ fn predict<const NX: usize, const NU: usize, const NY: usize>(
     x: &mut [i32; NX],
     u: &[i32; NU],
 ) {
+    // Both sums from the state before the update (no copy of it), then
+    // added with the assembly saturating sums.
     let ax = Row16::apply_all(&t.a, x);
     let bu = Row16::apply_all(&t.b, u);
     for ((xi, a), b) in x.iter_mut().zip(ax.iter()).zip(bu.iter()) {
-        *xi = add_sat(add_sat(*xi, *a), *b);
+        *xi = add_sat_i32(add_sat_i32(*xi, *a), *b);
     }
 }
 
@@ -399,6 +441,16 @@ mod tests {
         ((sum + half).div_euclid(1i128 << s)).clamp(i32::MIN as i128, i32::MAX as i128) as i32
     }
 
+    /// The rounded row, not saturated.
+    fn row_round<const N: usize>(r: &Row16<N>, v: &[i32; N]) -> i128 {
+        let s = r.shift.min(48) as u32;
+        let sum: i128 = (r.start as usize..N)
+            .map(|j| r.c[j] as i128 * v[j] as i128)
+            .sum();
+        let half = if s == 0 { 0 } else { 1i128 << (s - 1) };
+        (sum + half).div_euclid(1i128 << s)
+    }
+
     fn sat(v: i128) -> i32 {
         v.clamp(i32::MIN as i128, i32::MAX as i128) as i32
     }
@@ -437,7 +489,7 @@ mod tests {
                 sat(sat(y[i] as i128 - y0[i] as i128) as i128 - row_ref(&c[i], &x0) as i128)
             });
             let xm: [i32; 4] =
-                core::array::from_fn(|i| sat(x0[i] as i128 + row_ref(&m[i], &e) as i128));
+                core::array::from_fn(|i| sat(x0[i] as i128 + row_round(&m[i], &e)));
             proptest::prop_assert_eq!(kf.state_q16(), &xm);
             kf.time_update(&u.map(Q16Mac)).unwrap();
             let xp: [i32; 4] = core::array::from_fn(|i| {

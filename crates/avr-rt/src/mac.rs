@@ -909,32 +909,11 @@ unsafe fn row_q16_i16_avr(x: *const i32, c: *const i16, n: u8, shift: u8) -> i32
     i32::from_le_bytes([b0, b1, b2, b3])
 }
 
-/// Several fixed-point rows over one vector: `out[i] = round(sum_{j >=
-/// start_i} c_i[j] v[j] / 2^shift_i)` (each as [`row_q16_i16`]) for rows
-/// stored as `#[repr(C)]` records `{ c: [i16; N], shift: u8, start: u8 }`
-/// (`crate::kalman16::Row16`), a start above `N` taken as `N`, a shift
-/// above 48 as 48.
-///
-/// On the AVR one assembly routine runs all rows (one call, one register
-/// save; per row only the pointer set-up, the rounding and four stores
-/// beyond the multiply-adds).
-///
-/// # Safety
-/// `rows` must point to `count >= 1` such records, `v` to `N` readable
-/// values, `out` to `count` writable values; `1 <= N <= 31`.
+/// The body of [`rows_q16_i16_avr`]; the optional instructions run after
+/// the rounding, before the saturation (the accumulate step).
 #[cfg(target_arch = "avr")]
-#[inline(never)]
-pub(crate) unsafe fn rows_q16_i16_avr<const N: usize>(
-    rows: *const u8,
-    count: u8,
-    v: *const i32,
-    out: *mut i32,
-) {
-    // SAFETY: reads `count` records and `N` values, writes `count` values
-    // (the caller's contract); Y is saved and restored around its use as
-    // the output pointer; r0/r1 receive the MUL results and r1 (the zero
-    // register) is cleared at the end.
-    unsafe {
+macro_rules! rows_asm {
+    ($n:expr, $rows:expr, $count:expr, $v:expr, $out:expr; $($acc:literal),*) => {
         core::arch::asm!(
             "push r28",
             "push r29",
@@ -1118,6 +1097,7 @@ pub(crate) unsafe fn rows_q16_i16_avr<const N: usize>(
             "adc r16, r9",
             // ---- saturate to i32 (bytes 4..6 must extend byte 3's sign), store
             "29:",
+            $($acc,)*
             "mov r8, r13",
             "lsl r8",
             "sbc r8, r8",
@@ -1148,21 +1128,72 @@ pub(crate) unsafe fn rows_q16_i16_avr<const N: usize>(
             "pop r29",
             "pop r28",
             "clr r1",
-            n = const N,
-            st = const 2 * N + 1,
+            n = const $n,
+            st = const 2 * $n + 1,
             out("r2") _, out("r3") _, out("r4") _, out("r5") _,
             out("r6") _, out("r7") _, out("r8") _, out("r9") _,
             out("r10") _, out("r11") _, out("r12") _, out("r13") _,
             out("r14") _, out("r15") _, out("r16") _, out("r17") _,
-            inout("r18") (out as usize) as u8 => _,
-            inout("r19") ((out as usize) >> 8) as u8 => _,
-            inout("r20") count => _,
+            inout("r18") ($out as usize) as u8 => _,
+            inout("r19") (($out as usize) >> 8) as u8 => _,
+            inout("r20") $count => _,
             out("r21") _, out("r22") _, out("r23") _,
-            in("r24") (v as usize) as u8,
-            in("r25") ((v as usize) >> 8) as u8,
+            in("r24") ($v as usize) as u8,
+            in("r25") (($v as usize) >> 8) as u8,
             out("X") _,
-            inout("Z") rows => _,
-        );
+            inout("Z") $rows => _,
+        )
+    };
+}
+
+/// Several fixed-point rows over one vector: `out[i] = round(sum_{j >=
+/// start_i} c_i[j] v[j] / 2^shift_i)` (each as [`row_q16_i16`]), or with
+/// `ACC` `out[i] = sat(out[i] + round(...))` (the rounded row added to the
+/// value in `out` before the one saturation), for rows
+/// stored as `#[repr(C)]` records `{ c: [i16; N], shift: u8, start: u8 }`
+/// (`crate::kalman16::Row16`), a start above `N` taken as `N`, a shift
+/// above 48 as 48.
+///
+/// On the AVR one assembly routine runs all rows (one call, one register
+/// save; per row only the pointer set-up, the rounding and four stores
+/// beyond the multiply-adds).
+///
+/// # Safety
+/// `rows` must point to `count >= 1` such records, `v` to `N` readable
+/// values, `out` to `count` writable values; `1 <= N <= 31`.
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+pub(crate) unsafe fn rows_q16_i16_avr<const N: usize, const ACC: bool>(
+    rows: *const u8,
+    count: u8,
+    v: *const i32,
+    out: *mut i32,
+) {
+    // SAFETY: reads `count` records and `N` values, reads (with `ACC`) and
+    // writes `count` values (the caller's contract); Y is saved and
+    // restored around its use as the output pointer; r0/r1 receive the MUL
+    // results and r1 (the zero register) is cleared at the end.
+    unsafe {
+        if ACC {
+            rows_asm!(N, rows, count, v, out;
+                // acc += out[i] (sign-extended), r18..r21 are free here
+                "ldd r18, Y+0",
+                "ldd r19, Y+1",
+                "ldd r20, Y+2",
+                "ldd r21, Y+3",
+                "mov r8, r21",
+                "lsl r8",
+                "sbc r8, r8",
+                "add r10, r18",
+                "adc r11, r19",
+                "adc r12, r20",
+                "adc r13, r21",
+                "adc r14, r8",
+                "adc r15, r8",
+                "adc r16, r8");
+        } else {
+            rows_asm!(N, rows, count, v, out;);
+        }
     }
 }
 
@@ -1330,7 +1361,10 @@ pub fn self_test(seed: u32, n: u16) -> u16 {
             )
         });
         let got = crate::kalman16::Row16::apply_all(&rows, &xf);
-        for (r, g) in rows.iter().zip(got.iter()) {
+        let mut acc: [i32; 3] = core::array::from_fn(|_| next());
+        let base = acc;
+        crate::kalman16::Row16::add_all(&rows, &xf, &mut acc);
+        for (((r, g), a), b) in rows.iter().zip(got.iter()).zip(acc.iter()).zip(base.iter()) {
             let sum: i64 = xf
                 .iter()
                 .zip(r.c.iter())
@@ -1338,6 +1372,19 @@ pub fn self_test(seed: u32, n: u16) -> u16 {
                 .map(|(a, b)| *a as i64 * *b as i64)
                 .sum();
             if *g != round_shift_i64(sum, r.shift) {
+                bad += 1;
+            }
+            // add_all: one saturation of base + rounded row (the rounded
+            // row fits i64: |sum| < 2^50).
+            let s = r.shift.min(48);
+            let rounded = if s == 0 {
+                sum
+            } else {
+                let q = sum >> (s - 1);
+                (q >> 1) + (q & 1)
+            };
+            let want = (*b as i64 + rounded).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+            if *a != want {
                 bad += 1;
             }
         }
