@@ -860,7 +860,20 @@ fn levenberg_marquardt(prob: &Problem, theta0: DVector<f64>) -> Result<Search> {
             SysidError::Numerical("internal: Jacobian missing in the grey-box search".into())
         })?;
         let h = jac.transpose() * jac;
-        let g = jac.transpose() * &eval.r;
+        let mut h = h;
+        let mut g = jac.transpose() * &eval.r;
+        // Active bounds: a log parameter on its bound whose descent
+        // direction points outward is held (projected Levenberg-Marquardt).
+        for k in 0..nphys {
+            let at_hi = theta[k] >= prob.hi[k] && g[k] < 0.0;
+            let at_lo = theta[k] <= prob.lo[k] && g[k] > 0.0;
+            if at_hi || at_lo {
+                g[k] = 0.0;
+                h.row_mut(k).fill(0.0);
+                h.column_mut(k).fill(0.0);
+                h[(k, k)] = 1.0;
+            }
+        }
         if g.amax() <= set.gradient_tolerance * cost.max(f64::MIN_POSITIVE) {
             stop = StopReason::GradientTolerance;
             break;
@@ -1323,10 +1336,27 @@ fn standard_errors(prob: &Problem, eval: &Eval) -> Option<Vec<f64>> {
         w.row_mut(row).scale_mut(f);
     }
     let info = w.transpose() * w;
-    let cov = info.try_inverse()?;
-    (0..prob.phys.len())
+    // Jacobi scaling before the factorisations: the information of
+    // log parameters, gains and initial states differs by many decades.
+    let d: Vec<f64> = (0..info.nrows())
+        .map(|i| 1.0 / info[(i, i)].max(f64::MIN_POSITIVE).sqrt())
+        .collect();
+    let scaled = DMatrix::from_fn(info.nrows(), info.ncols(), |i, j| {
+        info[(i, j)] * d[i] * d[j]
+    });
+    // Marginal covariance of the physical parameters: the Schur complement
+    // of the nuisance block (gain, initial states; pseudo-inverted, since
+    // an initial state of a mode the data hardly see is nearly free).
+    let p = prob.phys.len();
+    let q = scaled.nrows() - p;
+    let ipp = scaled.view((0, 0), (p, p));
+    let ipn = scaled.view((0, p), (p, q));
+    let inn = scaled.view((p, p), (q, q)).into_owned();
+    let schur = ipp - ipn * crate::linalg::pinv(&inn) * ipn.transpose();
+    let cov = schur.cholesky()?.inverse();
+    (0..p)
         .map(|k| {
-            let v = cov[(k, k)];
+            let v = cov[(k, k)] * d[k] * d[k];
             (v.is_finite() && v >= 0.0).then(|| v.sqrt())
         })
         .collect()

@@ -8,7 +8,7 @@ use kestrel_sysid::greybox::{
 };
 use kestrel_sysid::tricopter::{ESTIMATE, ModelKind, VALIDATE, identify_thesis_model};
 use kestrel_sysid::workflow::{Segment, select_segments};
-use kestrel_sysid::{Experiment, IoData, SysidError};
+use kestrel_sysid::{Experiment, IoData, StopReason, SysidError};
 use kestrel_tricopter_model::{
     Experiment as Flight, GreyBoxParams, Params, RateModelKind, SimSettings, simulate,
 };
@@ -502,4 +502,23 @@ fn simulation_then_noise_estimates_a_stable_predictor() {
     let one = r.fit.row("model 1-step").unwrap().mean();
     let sim = r.fit.row("model simulation").unwrap().mean();
     assert!(one >= sim, "{r}");
+}
+
+/// A bound that excludes the truth is kept: the estimate ends on it.
+#[test]
+fn bounds_are_kept() {
+    let mut spec = GreyBoxSpec::with_free(&["ixx", "iyy", "izz"]).unwrap();
+    spec.upper.ixx = 0.038; // the truth is 0.04
+    spec.lower.iyy = 0.03;
+    let truth = truth();
+    let data = linear_data(&truth, &spec, 300);
+    let mut start = truth;
+    start.ixx = 0.03;
+    start.iyy = 0.05;
+    let r = estimate_grey_box(&data, &spec, &start).unwrap();
+    assert!((r.estimate.ixx / 0.038 - 1.0).abs() < 1e-12, "{r}");
+    // A projected-gradient stop: on the bound, nothing else to improve.
+    assert_eq!(r.stop, StopReason::GradientTolerance, "{r}");
+    assert!(r.estimate.iyy >= 0.03);
+    assert!((r.estimate.iyy / truth.iyy - 1.0).abs() < 0.05, "{r}");
 }
