@@ -72,6 +72,7 @@ fn identifies_and_writes_ss_v1_with_offsets() {
         "residuals",
         "PEM:",
         "balred 3 -> 2",
+        "PEM refit after balred",
     ] {
         assert!(stdout.contains(want), "missing {want:?} in\n{stdout}");
     }
@@ -91,6 +92,38 @@ fn identifies_and_writes_ss_v1_with_offsets() {
         .unwrap();
     let fit: f64 = line.split_whitespace().nth(2).unwrap().parse().unwrap();
     assert!(fit > 80.0, "{line}");
+    // --after-reduction keep: balred's model as is, same dynamics, other K.
+    let kept = d.join("kept.json");
+    let mut args = vec![
+        "--data",
+        log.to_str().unwrap(),
+        "--inputs",
+        "a,b",
+        "--outputs",
+        "p",
+        "--estimate",
+        "0:19.98",
+        "--validate",
+        "20:29.98",
+        "--order",
+        "3",
+        "--reduce",
+        "2",
+        "--after-reduction",
+        "keep",
+        "--out",
+        kept.to_str().unwrap(),
+    ];
+    let o = kestrel(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!String::from_utf8_lossy(&o.stdout).contains("PEM refit after balred"));
+    let k = SsModel::read(&kept).unwrap();
+    assert!((&k.a - &m.a).amax() < 1e-9 * (1.0 + k.a.amax()));
+    assert!((k.k.unwrap() - m.k.unwrap()).amax() > 1e-9);
+    args[15] = "nonsense";
+    let o = kestrel(&args);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--after-reduction"));
 }
 
 /// Two logs as two flights, intervals picked per flight with `N@`, the

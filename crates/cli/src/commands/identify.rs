@@ -2,7 +2,9 @@
 
 use crate::io;
 use anyhow::{Context, bail};
-use kestrel_sysid::workflow::{self, IdentifySpec, InputMap, Lowpass, PemFocus, Segment};
+use kestrel_sysid::workflow::{
+    self, AfterReduction, IdentifySpec, InputMap, Lowpass, PemFocus, Segment,
+};
 use kestrel_sysid::{CsvColumns, IoData, Weighting};
 use std::path::PathBuf;
 
@@ -34,6 +36,17 @@ pub enum FocusArg {
     /// Simulation errors for A, B, C (D), then K by one-step prediction
     /// with the dynamics fixed (output-error model plus Kalman predictor).
     SimulationThenNoise,
+}
+
+/// What PEM re-estimates after `--reduce`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AfterReductionArg {
+    /// Keep balred's model (its K is a truncation, not an estimate).
+    Keep,
+    /// Re-estimate K with the reduced A, B, C, D fixed (simulation fit unchanged).
+    NoiseModel,
+    /// Refine the whole reduced model with the --focus criterion.
+    All,
 }
 
 /// Identifies a discrete-time innovation-form model `x+ = Ax + B(u-u0) + Ke`,
@@ -71,6 +84,10 @@ pub struct Args {
     /// Keep the DC gain when reducing (singular perturbation).
     #[arg(long)]
     pub match_dc: bool,
+    /// What PEM re-estimates on the estimation data after --reduce (with
+    /// --method pem), so the residual tests judge an estimated noise model.
+    #[arg(long, value_enum, default_value_t = AfterReductionArg::NoiseModel)]
+    pub after_reduction: AfterReductionArg,
     /// Identification method.
     #[arg(long, value_enum, default_value_t = Method::Pem)]
     pub method: Method,
@@ -162,6 +179,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         order: args.order,
         reduce: args.reduce,
         match_dc: args.match_dc,
+        after_reduction: match args.after_reduction {
+            AfterReductionArg::Keep => AfterReduction::Keep,
+            AfterReductionArg::NoiseModel => AfterReduction::NoiseModel,
+            AfterReductionArg::All => AfterReduction::All,
+        },
         method: match args.method {
             Method::N4sid => workflow::Method::N4sid,
             Method::Pem => workflow::Method::Pem,
