@@ -32,6 +32,19 @@
 //!   physics fixed (the focus of the black-box models of
 //!   [`crate::tricopter::thesis_spec`]).
 //!
+//! With [`GreyBoxSpec::disturbance`] the model carries `ny` integrating
+//! angular-acceleration states on `p, q, r` (unmeasured torques: gusts,
+//! trim offsets), driven through `K` in the prediction focus and constant
+//! per experiment in the simulation focus.
+//!
+//! Every focus starts (unless [`GreyBoxSettings::equation_error_start`] is
+//! off) with an equation-error stage ([`Stage::EquationError`]): one-step
+//! errors of the predictor with `K = A C'`, whose measured states are
+//! reset to the measurement every step, so the residuals are nearly
+//! linear in the gains and the search converges from starts as far off as
+//! Table 7.1 (`k_t` 1000 times too large); the focus's stage follows from
+//! its estimate. Every stage is reported ([`GreyBoxReport::stages`]).
+//!
 //! The free physical parameters are searched in log scale
 //! (`theta_i = ln g_i`: positivity for free, inertias of 0.04 and thrust
 //! constants of 1.5e-5 equally conditioned), and clamped to
@@ -57,7 +70,10 @@
 //!
 //! Standard errors come from the Gauss-Newton Hessian at the optimum with
 //! every output weighed by its residual variance,
-//! `cov(θ) = (Ψ' Σ^-1 Ψ)^-1`, and the delta method `se(g_i) = g_i se(θ_i)`.
+//! `cov(θ) = (Ψ' Σ^-1 Ψ)^-1` (the physical block: the Schur complement of
+//! the gain and initial states), and the delta method
+//! `se(g_i) = g_i se(θ_i)`. A parameter on an active bound is held
+//! (projected steps); the search then stops on the projected gradient.
 //! They assume white residuals; simulation errors of the integrating rate
 //! dynamics are not white, so read them as a lower bound there.
 //!
