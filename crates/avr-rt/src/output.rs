@@ -40,26 +40,33 @@ impl RtScalar for f32 {
     fn from_f32_fast(v: f32) -> Self {
         v
     }
-    /// Scales by `2^16` through the exponent (no multiply), then one
-    /// rounding addition and avr-libc's conversion.
+    /// Integer arithmetic on the bits, no float routine: the mantissa
+    /// shifted by `exponent - 134`, rounded half away from zero (exact),
+    /// saturated from `|v| >= 2^15`.
     #[inline]
     fn to_q16(self) -> Option<i32> {
-        if !self.is_finite() {
+        let bits = self.to_bits();
+        let exp = ((bits >> 23) & 0xFF) as i16;
+        if exp == 0xFF {
             return None;
         }
-        let a = self.abs();
-        if a < 1.0 / 262_144.0 {
-            return Some(0); // below a quarter of the resolution (and subnormals)
+        // v * 2^16 = m * 2^(exp - 134) with m in [2^23, 2^24).
+        let k = exp - 134;
+        if k <= -25 {
+            return Some(0); // below half the resolution (and subnormals)
         }
-        if a >= 32_768.0 {
-            return Some(if self > 0.0 { i32::MAX } else { i32::MIN });
+        let neg = bits >> 31 != 0;
+        if k >= 8 {
+            return Some(if neg { i32::MIN } else { i32::MAX });
         }
-        let scaled = f32::from_bits(self.to_bits() + EXP16);
-        Some(if scaled >= 0.0 {
-            (scaled + 0.5) as i32
+        let m = (bits & 0x7F_FFFF) | 0x80_0000;
+        let q = if k >= 0 {
+            m << k
         } else {
-            (scaled - 0.5) as i32
-        })
+            let s = (-k) as u32;
+            (m + (1 << (s - 1))) >> s
+        } as i32; // < 2^31
+        Some(if neg { -q } else { q })
     }
     /// avr-libc's conversion, then scales by `2^-16` through the exponent.
     #[inline]
@@ -426,7 +433,47 @@ mod tests {
         assert_eq!(Fixed::<20>(3 << 20).to_q16(), Some(3 << 16));
     }
 
+    /// The f32 conversion is exact: `round(v 2^16)`, ties away from zero,
+    /// saturated (computed in f64, where `v 2^16` is exact).
+    fn f32_q16_reference(f: f32) -> i32 {
+        let s = f as f64 * 65536.0;
+        s.round().clamp(i32::MIN as f64, i32::MAX as f64) as i32
+    }
+
+    #[test]
+    fn f32_to_q16_edges() {
+        for f in [
+            0.0f32,
+            -0.0,
+            0.5 / 65536.0,
+            -0.5 / 65536.0,
+            1.5 / 65536.0,
+            -2.5 / 65536.0,
+            0.49 / 65536.0,
+            f32::MIN_POSITIVE,
+            1.0e-40,
+            1.0,
+            -1.0,
+            32767.998,
+            32768.0,
+            -32768.0,
+            f32::MAX,
+            f32::MIN,
+        ] {
+            assert_eq!(f.to_q16(), Some(f32_q16_reference(f)), "{f:e}");
+        }
+        assert_eq!(f32::INFINITY.to_q16(), None);
+        assert_eq!(f32::NEG_INFINITY.to_q16(), None);
+    }
+
     proptest! {
+        #[test]
+        fn f32_to_q16_is_exact(bits in proptest::num::u32::ANY) {
+            let f = f32::from_bits(bits);
+            prop_assume!(f.is_finite());
+            prop_assert_eq!(f.to_q16(), Some(f32_q16_reference(f)));
+        }
+
         #[test]
         fn q16_conversions_round_to_nearest(v in -32000.0f64..32000.0) {
             let exact = (v * 65536.0).round();
