@@ -1,9 +1,36 @@
 //! Identification of the DaISy steam generator (estimate on the first
-//! half, validate on the second, order 9), N4SID and PEM:
+//! half, validate on the second, order 9): N4SID, PEM with prediction
+//! focus, and PEM with simulation focus followed by the noise model, each
+//! with its validation table (simulation, 1-step and 5-step fits, the
+//! persistence baseline, residual verdicts):
 //! `cargo run --release -p kestrel-sysid --example steam [path]`.
+//!
+//! The offsets are the estimation half's means (subtracted from the
+//! validation half too); the fit figures are the mean over the four
+//! outputs of (4.11)/(4.12), as the comparison with the best
+//! open-source subspace result (simulation 74.4 %, 1-step 94.1 %,
+//! 5-step 88.9 %) states them.
 
-use kestrel_sysid::{CsvColumns, IoData, N4sidSettings, PemSettings, n4sid, pem, validate};
+use kestrel_sysid::{
+    CsvColumns, Focus, InnovationModel, IoData, N4sidSettings, PemSettings, n4sid, pem, validate,
+};
 use std::path::PathBuf;
+
+fn table(
+    title: &str,
+    model: &InnovationModel,
+    val: &IoData,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let r = validate(model, val, &[1, 5])?;
+    let mean = |l: &str| r.row(l).map(|x| x.mean()).unwrap_or(f64::NAN);
+    println!(
+        "== {title}: simulation {:.2} %, 1-step {:.2} %, 5-step {:.2} % (targets 74.4, 94.1, 88.9)\n{r}",
+        mean("model simulation"),
+        mean("model 1-step"),
+        mean("model 5-step")
+    );
+    Ok(())
+}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = std::env::args()
@@ -14,50 +41,62 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let data = IoData::read_csv(&path, &cols)?;
     let (est, val) = data.split(0.5)?;
     let (est, off) = est.remove_means()?;
-    for own_means in [false, true] {
-        let val = if own_means {
-            val.remove_means()?.0
-        } else {
-            val.subtract(&off)?
-        };
-        for feedthrough in [false, true] {
-            println!(
-                "== validation means removed separately: {own_means}, feedthrough: {feedthrough}"
-            );
-            let t = std::time::Instant::now();
-            let start = n4sid(
-                &est,
-                &N4sidSettings {
-                    order: Some(9),
-                    feedthrough,
-                    ..Default::default()
-                },
-            )?;
-            println!(
-                "N4SID (MOESP, i = {}) {:.2} s",
-                start.horizon,
-                t.elapsed().as_secs_f64()
-            );
-            println!("{}", validate(&start.model, &val, &[1, 5])?);
-            let t = std::time::Instant::now();
-            let r = pem(
-                &est,
-                &start.model,
-                &PemSettings {
-                    feedthrough,
-                    ..Default::default()
-                },
-            )?;
-            println!(
-                "PEM: {:.2} s, {} iterations, cost {:.5} -> {:.5}, stop {:?}",
-                t.elapsed().as_secs_f64(),
-                r.iterations,
-                r.initial_cost,
-                r.cost,
-                r.stop
-            );
-            println!("{}", validate(&r.model, &val, &[1, 5])?);
-        }
-    }
+    let val = val.subtract(&off)?;
+    let t = std::time::Instant::now();
+    let start = n4sid(
+        &est,
+        &N4sidSettings {
+            order: Some(9),
+            ..Default::default()
+        },
+    )?;
+    let n4_time = t.elapsed().as_secs_f64();
+    table(
+        &format!("N4SID (MOESP, i = {}, {n4_time:.2} s)", start.horizon),
+        &start.model,
+        &val,
+    )?;
+    let t = std::time::Instant::now();
+    let r = pem(&est, &start.model, &PemSettings::default())?;
+    table(
+        &format!(
+            "PEM, prediction focus ({:.1} s, {} iterations, cost {:.5} -> {:.5}, stop {:?})",
+            t.elapsed().as_secs_f64(),
+            r.iterations,
+            r.initial_cost,
+            r.cost,
+            r.stop
+        ),
+        &r.model,
+        &val,
+    )?;
+    let t = std::time::Instant::now();
+    let oe = pem(
+        &est,
+        &start.model,
+        &PemSettings {
+            focus: Focus::Simulation,
+            ..Default::default()
+        },
+    )?;
+    let noise = pem(
+        &est,
+        &oe.model,
+        &PemSettings {
+            fixed_dynamics: true,
+            ..Default::default()
+        },
+    )?;
+    table(
+        &format!(
+            "PEM, simulation focus then noise model ({:.1} s, {} + {} iterations, stop {:?})",
+            t.elapsed().as_secs_f64(),
+            oe.iterations,
+            noise.iterations,
+            oe.stop
+        ),
+        &noise.model,
+        &val,
+    )?;
     Ok(())
 }
