@@ -186,6 +186,8 @@ struct Builder<'a> {
     reg_center: Vec<Vec<f64>>,
     /// The radius of a ball around `reg_center` inside the region.
     reg_radius: Vec<f64>,
+    /// The bounding box of every region (lower and upper corner).
+    reg_box: Vec<(Vec<f64>, Vec<f64>)>,
     law: &'a [u16],
     /// Row indices of every law (`k` each), the affine rows and the output bounds.
     law_rows: Vec<Vec<usize>>,
@@ -223,11 +225,16 @@ impl Builder<'_> {
         // The ball around the centre (unit `a`): max a'x >= a'c + rho and
         // min a'x <= a'c - rho, so a side the ball reaches past the
         // tolerance needs no LP (the LP could only confirm it).
+        if let Some(v) = self.side_without_lp(r, h) {
+            self.side_cache.insert((r, h), v);
+            return v;
+        }
         let ac: f64 = a.iter().zip(x0).map(|(u, v)| u * v).sum();
         let rho = self.reg_radius[r];
         let maybe_left = ac + rho <= b + tol;
         let maybe_right = ac - rho >= b - tol;
         let mut v = 0;
+
         if maybe_left {
             let (st, hi) = self.lp.maximize_from(&a, ra, rb, x0);
             if st == LpStatus::Optimal && hi <= b + tol {
@@ -243,6 +250,61 @@ impl Builder<'_> {
         }
         self.side_cache.insert((r, h), v);
         v
+    }
+
+    /// The bounding box of region `r` (2p LPs); the parameter box in a
+    /// direction whose LP fails (the region lies inside it).
+    fn bounding_box(&mut self, r: usize, lb: &[f64], ub: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let p = self.p;
+        let (mut lo, mut up) = (lb.to_vec(), ub.to_vec());
+        let mut c = vec![0.0; p];
+        for j in 0..p {
+            for sign in [1.0, -1.0] {
+                c[j] = sign;
+                let (st, v) =
+                    self.lp
+                        .maximize_from(&c, &self.reg_a[r], &self.reg_b[r], &self.reg_center[r]);
+                if st == LpStatus::Optimal {
+                    if sign > 0.0 {
+                        up[j] = up[j].min(v);
+                    } else {
+                        lo[j] = lo[j].max(-v);
+                    }
+                }
+            }
+            c[j] = 0.0;
+        }
+        (lo, up)
+    }
+
+    /// [`Builder::side`] where it needs no LP: a cached answer, the
+    /// bounding box on one side (max a'x <= sum max(a_j lo_j, a_j hi_j)),
+    /// or the region's ball on both sides; `None` otherwise.
+    fn side_without_lp(&self, r: usize, h: usize) -> Option<i8> {
+        if let Some(&(_, s)) = self.reg_facets[r].iter().find(|f| f.0 == h) {
+            return Some(if s { -1 } else { 1 });
+        }
+        if let Some(&v) = self.side_cache.get(&(r, h)) {
+            return Some(v);
+        }
+        let (a, b) = (&self.hp[h].0, self.hp[h].1);
+        let tol = 1e-9 * self.scale;
+        let (lo, up) = &self.reg_box[r];
+        let (mut bmax, mut bmin) = (0.0, 0.0);
+        for j in 0..a.len() {
+            let (u, v) = (a[j] * lo[j], a[j] * up[j]);
+            bmax += u.max(v);
+            bmin += u.min(v);
+        }
+        if bmax <= b + tol {
+            return Some(-1);
+        }
+        if bmin >= b - tol {
+            return Some(1);
+        }
+        let ac: f64 = a.iter().zip(&self.reg_center[r]).map(|(u, v)| u * v).sum();
+        let rho = self.reg_radius[r];
+        (ac + rho > b + tol && ac - rho < b - tol).then_some(0)
     }
 
     /// Whether region r meets the cell (rows) in a full-dimensional set,
@@ -445,7 +507,14 @@ impl Builder<'_> {
         let mut seen_r: Vec<u16> = Vec::new();
         let (mut nl, mut nr) = (0, 0);
         for (i, &r) in set.iter().enumerate() {
-            let (inl, inr) = match self.side(r, h) {
+            // The cheap ranking takes a region it cannot place without an
+            // LP as a straddler (on both sides).
+            let side = if exact {
+                self.side(r, h)
+            } else {
+                self.side_without_lp(r, h).unwrap_or(0)
+            };
+            let (inl, inr) = match side {
                 -1 => (true, false),
                 1 => (false, true),
                 _ if exact => {
@@ -602,6 +671,7 @@ impl Builder<'_> {
             }
         };
         let me = self.nodes.len();
+
         self.nodes.push([hid, 0, 0, 0]);
         cell.push((a.clone(), b));
         let l = self.build(left, lw, cell, depth + 1);
@@ -804,6 +874,7 @@ fn build_for(
         reg_b,
         reg_center,
         reg_radius,
+        reg_box: Vec::new(),
         law: &region_law,
         law_rows: laws
             .chunks(k)
@@ -824,6 +895,13 @@ fn build_for(
         max_candidates: settings.max_candidates.max(1),
         exact_budget: settings.exact_budget,
     };
+    let (lb, ub) = (
+        solution.theta_lb.as_slice().to_vec(),
+        solution.theta_ub.as_slice().to_vec(),
+    );
+    builder.reg_box = (0..solution.regions.len())
+        .map(|r| builder.bounding_box(r, &lb, &ub))
+        .collect();
     let all: Vec<usize> = (0..solution.regions.len()).collect();
     let mut cell = Vec::new();
     let root = if all.is_empty() {
