@@ -1,6 +1,8 @@
 //! Solves a `kestrel.mpqp.v1` problem file and builds the first-move trees,
 //! printing regions, laws, depth, bytes and times:
-//! `cargo run --release -p kestrel-empc --example solve_file -- problem.json [first_move]`.
+//! `cargo run --release -p kestrel-empc --example solve_file -- problem.json
+//! [first_move] [compact|default|both] [solution.json]` (the last writes the
+//! solution file of `kestrel empc solve --compact --no-regions`).
 use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::{Outputs, Settings, TreeSettings, build_compact, build_controller, solve};
 
@@ -10,6 +12,7 @@ fn main() {
     let first: Option<usize> = args.next().and_then(|v| v.parse().ok());
     // "compact": only the compact layout; "default": only the default one.
     let only = args.next().unwrap_or_default();
+    let out = args.next();
     let prob = MpqpProblem::read(std::path::Path::new(&path)).expect("problem");
     let t0 = std::time::Instant::now();
     let sol = solve(&prob, &Settings::default()).expect("solve");
@@ -27,6 +30,7 @@ fn main() {
         ..TreeSettings::default()
     };
     let t1 = std::time::Instant::now();
+    let mut default = None;
     if only != "compact" {
         let ctl = build_controller(&prob, &sol, &tree).expect("tree");
         println!(
@@ -38,6 +42,7 @@ fn main() {
             ctl.stats.ambiguous_leaves,
             t1.elapsed().as_secs_f64()
         );
+        default = Some(ctl);
     }
     if only == "default" {
         return;
@@ -52,4 +57,9 @@ fn main() {
         c.ambiguous_leaves,
         t2.elapsed().as_secs_f64()
     );
+    if let (Some(path), Some(ctl)) = (out, default) {
+        let text = kestrel_empc::export::solution_json_with_compact(&sol, &ctl, &c, false);
+        std::fs::write(&path, text).expect("writing the solution");
+        println!("wrote {path}");
+    }
 }
