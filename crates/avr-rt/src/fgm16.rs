@@ -9,8 +9,10 @@
 //!   `Q16Mac`): `c = K theta + k0`, the box `lo`, `hi` from theta;
 //! - **iterations** in Q15.16 (`i32`) with the rows of `M` as 16-bit
 //!   coefficients with their own binary point ([`Row16`], exact sums of
-//!   8 hardware `MUL`s per term, one rounding per row) and the momentum
-//!   `beta` in Q1.15: about a quarter of the work of a 32 x 32-bit MAC.
+//!   8 hardware multiplies per term, one rounding per row, all rows of an
+//!   iteration in one assembly call: [`Row16::apply_all`]) and the
+//!   momentum `beta` in Q1.15: about a quarter of the work of a 32 x
+//!   32-bit MAC.
 //!
 //! The certificate of kestrel-fgm bounds the iteration count for the exact
 //! arithmetic; the rounding of this kernel is measured against the exact
@@ -64,8 +66,8 @@ pub struct Fgm16Law<S, const N: usize, const P: usize, const T: usize, const NU:
 }
 
 /// Fraction bits of every row of `M` (`|M_ij| <= 1` for `M = I - D H D / L`
-/// with `L >= lambda_max`, so Q1.15 holds it; a constant shift costs a few
-/// register moves on the AVR where a per-row one costs hundreds of cycles).
+/// with `L >= lambda_max`, so Q1.15 holds it). The rows of `M` run in one
+/// call of the assembly rows routine ([`Row16::apply_all`]) per iteration.
 pub const M_SHIFT: u8 = 15;
 
 /// The box and linear term of one solve in Q15.16.

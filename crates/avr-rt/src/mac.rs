@@ -8,6 +8,14 @@
 //! unchanged; the firmware selects it with its `fixed-mac` feature, and
 //! checks it against `Q16` on the target at boot ([`self_test`]).
 //!
+//! The 16-bit-coefficient kernels of [`crate::kalman16`] and
+//! [`crate::fgm16`] are here too: [`dot_q16_i16`], [`row_q16_i16`] (one
+//! rounded, saturated row of Q15.16 values and `i16` coefficients) and the
+//! routine behind `Row16::apply_all`/`Row16::add_all` that runs every row
+//! of a table in one call, all AVR assembly checked at boot against plain
+//! 64-bit arithmetic, plus the saturating sums [`add_sat_i32`] and
+//! [`sub_sat_i32`].
+//!
 //! ```
 //! use kestrel_avr_rt::mac::Q16Mac;
 //! use kestrel_core::{Scalar, Q16};
@@ -297,7 +305,7 @@ impl Scalar for Q16Mac {
         self + a * b
     }
     /// Exact products summed and rounded once, as [`Q16`]'s `dot`. On the
-    /// AVR the whole loop is one assembly kernel ([`dot_wide_avr`]) with a
+    /// AVR the whole loop is one assembly kernel (`dot_wide_avr`) with a
     /// 72-bit accumulator, so it equals `Q16` whenever `Q16`'s 64-bit running
     /// sum does not saturate midway (it would take products near 2^62).
     #[inline]
@@ -559,8 +567,8 @@ impl crate::output::RtScalar for Q16Mac {
 /// 8 hardware `MUL`s per term instead of 16). The caller scales: with `c`
 /// in Q`f` format, the sum has `16 + f` fraction bits.
 ///
-/// Measured by the firmware's `fgm-bench` build as the cost a Kalman step
-/// with 16-bit gains would have; not yet used by the loop.
+/// Timed by the firmware's `fgm-bench` build; the loop's kernels use the
+/// row routines ([`row_q16_i16`], `Row16::apply_all`), which also round.
 ///
 /// ```
 /// use kestrel_avr_rt::mac::dot_q16_i16;
