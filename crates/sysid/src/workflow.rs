@@ -213,6 +213,10 @@ pub struct IdentifySpec {
     pub horizon: Option<usize>,
     /// PEM focus.
     pub focus: PemFocus,
+    /// Prediction horizon of every one-step (prediction-focus) PEM stage:
+    /// `h > 1` fits the `1..=h`-step-ahead predictions together
+    /// ([`PemSettings::horizon`]); 1 is the one-step criterion.
+    pub pem_horizon: usize,
     /// Estimate a feed-through `D`.
     pub feedthrough: bool,
     /// Largest number of PEM iterations.
@@ -243,6 +247,7 @@ impl Default for IdentifySpec {
             weighting: Weighting::Moesp,
             horizon: None,
             focus: PemFocus::Prediction,
+            pem_horizon: 1,
             feedthrough: false,
             max_iterations: 30,
             input_map: None,
@@ -503,12 +508,18 @@ pub fn identify(data: &IoData, spec: &IdentifySpec) -> Result<IdentifyReport> {
         },
         feedthrough: spec.feedthrough,
         max_iterations: spec.max_iterations,
+        horizon: if spec.focus == PemFocus::Prediction {
+            spec.pem_horizon
+        } else {
+            1
+        },
         ..Default::default()
     };
     let noise = PemSettings {
         focus: Focus::Prediction,
         fixed_dynamics: true,
         feedthrough: false,
+        horizon: spec.pem_horizon,
         ..settings.clone()
     };
     let (full_model, pem_summary, pem_noise) = match spec.method {
@@ -744,6 +755,44 @@ mod tests {
         let (ck, cn, ca) = (cost(&kept.model), cost(&noise.model), cost(&all.model));
         assert!(ck >= cn && cn >= ca * (1.0 - 1e-9), "{ck} {cn} {ca}");
         assert!(noise.to_string().contains("PEM refit after balred"));
+    }
+
+    /// `pem_horizon` reaches PEM (the same model as the call by hand) and
+    /// a zero horizon is an error.
+    #[test]
+    fn pem_horizon_is_passed_on_and_checked() {
+        let d = data();
+        let spec = IdentifySpec {
+            order: Some(2),
+            pem_horizon: 3,
+            ..Default::default()
+        };
+        let r = identify(&d, &spec).unwrap();
+        let (est, _) = d.remove_means().unwrap();
+        let start = n4sid(
+            &est,
+            &N4sidSettings {
+                order: Some(2),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let settings = PemSettings {
+            horizon: 3,
+            ..Default::default()
+        };
+        let p = pem(&est, &start.model, &settings).unwrap();
+        assert_eq!(r.full_model, p.model);
+        let one = pem(&est, &start.model, &PemSettings::default()).unwrap();
+        assert!((&p.model.a - &one.model.a).amax() > 1e-9);
+        let bad = IdentifySpec {
+            pem_horizon: 0,
+            ..spec
+        };
+        assert!(matches!(
+            identify(&d, &bad),
+            Err(SysidError::InvalidArgument(_))
+        ));
     }
 
     #[test]

@@ -100,6 +100,11 @@ pub struct Args {
     /// PEM focus.
     #[arg(long, value_enum, default_value_t = FocusArg::Prediction)]
     pub focus: FocusArg,
+    /// Prediction horizon h of the prediction-focus PEM stages: fit the
+    /// 1..h-step-ahead predictions together (multi-step focus); 1 is the
+    /// one-step criterion.
+    #[arg(long, default_value_t = 1)]
+    pub pem_horizon: usize,
     /// Estimate a feed-through matrix D.
     #[arg(long)]
     pub feedthrough: bool,
@@ -198,6 +203,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             FocusArg::Simulation => PemFocus::Simulation,
             FocusArg::SimulationThenNoise => PemFocus::SimulationThenNoise,
         },
+        pem_horizon: args.pem_horizon,
         feedthrough: args.feedthrough,
         max_iterations: args.max_iterations,
         input_map: args.virtual_inputs.then(InputMap::tricopter_virtual),
