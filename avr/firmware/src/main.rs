@@ -42,16 +42,12 @@ const CONFIG: u8 = (if cfg!(feature = "fixed-mac") {
     0
 }) | if cfg!(feature = "empc") { 4 } else { 0 };
 
-/// The explicit controller's table (f32 numbers), in flash, read with ELPM.
-#[cfg(all(feature = "empc", not(any(feature = "fixed", feature = "fixed-mac"))))]
+/// The explicit controller's 16-bit table (kestrel_avr_rt::explicit::tree16),
+/// in flash, read with ELPM; the same bytes for every scalar.
+#[cfg(feature = "empc")]
 #[unsafe(link_section = ".text.kestrel_tables")]
 #[used]
-static EMPC_TABLE: [u8; generated_empc::EMPC_BYTES] = generated_empc::EMPC_F32;
-/// The explicit controller's table (Q15.16 numbers), in flash, read with ELPM.
-#[cfg(all(feature = "empc", any(feature = "fixed", feature = "fixed-mac")))]
-#[unsafe(link_section = ".text.kestrel_tables")]
-#[used]
-static EMPC_TABLE: [u8; generated_empc::EMPC_BYTES] = generated_empc::EMPC_Q16;
+static EMPC_TABLE: [u8; generated_empc::EMPC16_BYTES] = generated_empc::EMPC16;
 
 /// Generated controller values (host: `cargo run -p kestrel-avr-rt --example avr_tables`).
 #[allow(dead_code)]
@@ -290,16 +286,16 @@ pub extern "C" fn main() -> ! {
         };
         law
     };
-    // Explicit MPC: kestrel-empc's tree evaluation reading its tables from
-    // flash through ELPM (kestrel_avr_rt::explicit::FlashTree).
+    // Explicit MPC: kestrel-empc's tree with 16-bit rows, read from flash
+    // through ELPM by an assembly MAC (kestrel_avr_rt::explicit::tree16).
     #[cfg(feature = "empc")]
     let law = {
-        use kestrel_avr_rt::explicit::{EmpcLaw, FlashTree};
-        let Ok(tree) = FlashTree::<_, S>::new(far_table!(EMPC_TABLE), generated_empc::EMPC_LAYOUT)
-        else {
+        use kestrel_avr_rt::explicit::tree16::{Empc16Law, Tree16};
+        let Ok(tree) = Tree16::new(far_table!(EMPC_TABLE), generated_empc::EMPC16_LAYOUT) else {
             loop {}
         };
-        let Ok(law) = EmpcLaw::<S, _, NP, 4>::new(tree, NX) else {
+        let Ok(law) = Empc16Law::<S, _, NP, 4, { generated_empc::EMPC16_ROWS }>::new(tree, NX)
+        else {
             loop {}
         };
         law

@@ -822,10 +822,13 @@ pub fn empc_table_bytes(
 
 /// The Rust source of `avr/firmware/src/generated_empc.rs`: the layout
 /// (`EMPC_LAYOUT`) and the explicit controller's flat table in f32
-/// (`EMPC_F32`) and Q15.16 (`EMPC_Q16`), `EMPC_BYTES` each.
+/// (`EMPC_F32`) and Q15.16 (`EMPC_Q16`), `EMPC_BYTES` each (kestrel-empc's
+/// generic evaluation through [`crate::explicit::FlashTree`]); then the
+/// same tree with 16-bit rows for [`crate::explicit::tree16`] (`EMPC16`,
+/// `EMPC16_LAYOUT`: what the firmware flies).
 ///
 /// # Errors
-/// As [`empc_table_bytes`].
+/// As [`empc_table_bytes`] and [`crate::explicit::quantize::quantize_tree`].
 pub fn generate_empc_tables(
     c: &kestrel_empc::ExplicitController,
     what: &str,
@@ -881,5 +884,8 @@ pub fn generate_empc_tables(
         }
         let _ = writeln!(s, "];");
     }
+    // The firmware's fast path: the same tree with 16-bit rows.
+    let q = crate::explicit::quantize::quantize_tree(&c.tables)?;
+    s.push_str(&crate::explicit::quantize::tree16_source(&q));
     Ok(s)
 }

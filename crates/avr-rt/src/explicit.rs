@@ -31,6 +31,10 @@
 //! assert_eq!(z, [0.5]);
 //! ```
 
+#[cfg(feature = "std")]
+pub mod quantize;
+pub mod tree16;
+
 use crate::control::LawInfo;
 use crate::law::pack_theta;
 use crate::progmem::TableRead;

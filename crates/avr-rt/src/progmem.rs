@@ -30,6 +30,11 @@
 pub trait TableRead {
     /// Length in bytes.
     fn len_bytes(&self) -> u32;
+    /// The table's 24-bit flash address, for assembly kernels that read it
+    /// with `ELPM` themselves (`None`: not in flash, read through the trait).
+    fn flash_address(&self) -> Option<u32> {
+        None
+    }
     /// Reads one byte; the caller has checked `offset < len_bytes()`.
     fn read_u8_unchecked(&self, offset: u32) -> u8;
     /// Reads `N` consecutive bytes; the caller has checked the range.
@@ -72,6 +77,10 @@ impl<T: TableRead + ?Sized> TableRead for &T {
     #[inline]
     fn len_bytes(&self) -> u32 {
         (**self).len_bytes()
+    }
+    #[inline]
+    fn flash_address(&self) -> Option<u32> {
+        (**self).flash_address()
     }
     #[inline]
     fn read_u8_unchecked(&self, offset: u32) -> u8 {
@@ -134,6 +143,10 @@ impl TableRead for FarTable {
     #[inline]
     fn len_bytes(&self) -> u32 {
         self.len
+    }
+    #[inline]
+    fn flash_address(&self) -> Option<u32> {
+        Some(self.addr)
     }
     #[inline]
     fn read_u8_unchecked(&self, offset: u32) -> u8 {

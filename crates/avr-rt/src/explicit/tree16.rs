@@ -1,0 +1,662 @@
+//! The firmware's fast explicit MPC: kestrel-empc's search tree with its
+//! affine rows quantised to 16 bits, evaluated on the AVR's hardware
+//! multiplier with the rows read straight from flash (`ELPM Z+`).
+//!
+//! What makes it fast (against [`super::FlashTree`]'s generic walk):
+//!
+//! - `theta` is quantised once per period to `i16` (parameter `j` with its
+//!   own binary point, so its box fills 16 bits) and projected onto the box;
+//! - every affine row (laws, output bounds; the tree's hyperplanes are
+//!   differences of two of them) holds `i16` gains in one common scale
+//!   `2^K` of the output and an `i32` constant, and is evaluated by one
+//!   assembly kernel (four hardware `MUL`s per term, a 32-bit accumulator;
+//!   the design proves the sum cannot overflow on the box);
+//! - a row is evaluated at most once per period (a value cache in RAM,
+//!   stamped with the period), so a node comparing "output i's law" with
+//!   "its bound" costs two cached reads after the first time, and the
+//!   leaf's law rows usually come for free;
+//! - rows store only their columns from the first non-zero one (the
+//!   tricopter's output bounds depend on the throttle alone: one term).
+//!
+//! Byte layout ([`Tree16Layout`], little-endian), in this order:
+//! - parameters, 5 bytes each: the right shift `s` (`i8`) from Q15.16 to the
+//!   parameter's `i16` units, the box `lb`, `ub` (`i16`, in those units);
+//! - nodes in preorder, 5 bytes each: rows `a`, `b` (`u8`, `b` = [`NONE`]
+//!   for zero), the child if `a <= b` (`u8`: [`NONE`] for the next node,
+//!   otherwise a law index), the other child (`u16`: [`LEAF`] `|` law, or a
+//!   node index);
+//! - laws, `NU` row indices (`u8`) each;
+//! - output bounds, rows of the lower and upper bound (`u8`, [`NONE`]: none);
+//! - rows, [`Tree16Layout::row_bytes`] each: first column `start` (`u8`),
+//!   constant (`i32`), gains (`i16`) of columns `start..P`, then zeros.
+//!
+//! [`crate::explicit::quantize`] (design time) writes the table from
+//! kestrel-empc's tree and checks it against the f64 evaluation.
+//!
+//! ```
+//! use kestrel_avr_rt::explicit::tree16::{Empc16Law, Tree16, Tree16Layout, LEAF, NONE};
+//! use kestrel_core::ControlLaw;
+//! // One parameter theta in [-1, 1] (Q15.16 >> 1: 2^15 units per 1),
+//! // one output: z = -theta for theta <= 0, 0 otherwise, in units of 2^-16.
+//! let layout = Tree16Layout { n_params: 1, n_outputs: 1, n_nodes: 1, n_laws: 2, n_rows: 3, root: 0, scale: 16 };
+//! let mut b = vec![1u8];
+//! b.extend((-32767i16).to_le_bytes());
+//! b.extend(32767i16.to_le_bytes());
+//! b.extend([2, NONE, 0]);                // theta <= 0: law 0
+//! b.extend((LEAF | 1).to_le_bytes());    // otherwise law 1
+//! b.extend([0, 1, NONE, NONE]);          // laws (rows 0, 1), no output bounds
+//! for (c0, g) in [(0i32, -2i16), (0, 0), (0, 2)] { // -theta, 0, theta
+//!     b.push(0);
+//!     b.extend(c0.to_le_bytes());
+//!     b.extend(g.to_le_bytes());
+//! }
+//! let tree = Tree16::new(&b[..], layout).unwrap();
+//! let mut law = Empc16Law::<f32, _, 1, 1, 3>::new(tree, 0).unwrap();
+//! let mut u = [0.0f32];
+//! law.control(&[], &[-0.5], &mut u).unwrap();
+//! assert_eq!(u, [0.5]);
+//! law.control(&[], &[0.25], &mut u).unwrap();
+//! assert_eq!(u, [0.0]);
+//! ```
+
+use crate::control::LawInfo;
+use crate::law::pack_theta;
+use crate::output::RtScalar;
+use crate::progmem::TableRead;
+use kestrel_core::{ControlLaw, Error};
+
+/// Marks a child code as a leaf (the low 15 bits are the law index).
+pub const LEAF: u16 = 0x8000;
+/// "None" in a `u8` field: no row `b` (zero), the next node, no bound.
+pub const NONE: u8 = 0xFF;
+
+/// Counts and scale of a [`Tree16`] table (the generated constants).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Tree16Layout {
+    /// Parameters `P`.
+    pub n_params: usize,
+    /// Outputs `NU`.
+    pub n_outputs: usize,
+    /// Tree nodes.
+    pub n_nodes: usize,
+    /// Laws.
+    pub n_laws: usize,
+    /// Affine rows (at most 255).
+    pub n_rows: usize,
+    /// The root child code (node 0, or a leaf).
+    pub root: u16,
+    /// Fraction bits `K` of every row's value (value = row / 2^K).
+    pub scale: u8,
+}
+
+impl Tree16Layout {
+    /// Bytes per parameter entry.
+    pub const PARAM_BYTES: usize = 5;
+    /// Bytes per node.
+    pub const NODE_BYTES: usize = 5;
+    /// Bytes per row: `start`, the constant, `P` gains.
+    pub const fn row_bytes(&self) -> usize {
+        5 + 2 * self.n_params
+    }
+    /// Byte offset of the nodes.
+    pub const fn nodes_at(&self) -> usize {
+        Self::PARAM_BYTES * self.n_params
+    }
+    /// Byte offset of the laws.
+    pub const fn laws_at(&self) -> usize {
+        self.nodes_at() + Self::NODE_BYTES * self.n_nodes
+    }
+    /// Byte offset of the output bounds.
+    pub const fn bounds_at(&self) -> usize {
+        self.laws_at() + self.n_laws * self.n_outputs
+    }
+    /// Byte offset of the rows.
+    pub const fn rows_at(&self) -> usize {
+        self.bounds_at() + 2 * self.n_outputs
+    }
+    /// Total bytes.
+    pub const fn bytes(&self) -> usize {
+        self.rows_at() + self.n_rows * self.row_bytes()
+    }
+}
+
+/// A [`Tree16Layout`] table read through [`TableRead`] (a
+/// [`crate::progmem::FarTable`] in flash on the AVR, a byte slice on the host).
+#[derive(Clone, Copy, Debug)]
+pub struct Tree16<T> {
+    table: T,
+    layout: Tree16Layout,
+}
+
+impl<T: TableRead> Tree16<T> {
+    /// The accessor; [`Error::DimensionMismatch`] if the table's length is
+    /// not the layout's, [`Error::InvalidArgument`] for more than 255 rows
+    /// or a scale above 30.
+    pub fn new(table: T, layout: Tree16Layout) -> Result<Self, Error> {
+        let len = table.len_bytes() as usize;
+        if len != layout.bytes() {
+            return Err(Error::DimensionMismatch {
+                expected: layout.bytes(),
+                found: len,
+            });
+        }
+        if layout.n_rows > 255 {
+            return Err(Error::InvalidArgument("more than 255 rows"));
+        }
+        if layout.scale > 30 {
+            return Err(Error::InvalidArgument("row scale above 2^30"));
+        }
+        Ok(Tree16 { table, layout })
+    }
+    /// The layout.
+    pub fn layout(&self) -> &Tree16Layout {
+        &self.layout
+    }
+    /// The table.
+    pub fn table(&self) -> &T {
+        &self.table
+    }
+    /// Parameter `j`: shift from Q15.16, box `lb`, `ub`.
+    fn param(&self, j: usize) -> Option<(i8, i16, i16)> {
+        let b: [u8; 5] = self
+            .table
+            .read_array((Tree16Layout::PARAM_BYTES * j) as u32)?;
+        Some((
+            b[0] as i8,
+            i16::from_le_bytes([b[1], b[2]]),
+            i16::from_le_bytes([b[3], b[4]]),
+        ))
+    }
+    /// Node `i`: rows `a`, `b`, the `a <= b` child (`u8`), the other child.
+    fn node(&self, i: u16) -> Option<[u8; 5]> {
+        if i as usize >= self.layout.n_nodes {
+            return None;
+        }
+        self.table
+            .read_array((self.layout.nodes_at() + Tree16Layout::NODE_BYTES * i as usize) as u32)
+    }
+    fn law(&self, law: u16, out: usize) -> Option<u8> {
+        if law as usize >= self.layout.n_laws || out >= self.layout.n_outputs {
+            return None;
+        }
+        self.table
+            .read_u8((self.layout.laws_at() + law as usize * self.layout.n_outputs + out) as u32)
+    }
+    fn bounds(&self, out: usize) -> Option<[u8; 2]> {
+        if out >= self.layout.n_outputs {
+            return None;
+        }
+        self.table
+            .read_array((self.layout.bounds_at() + 2 * out) as u32)
+    }
+}
+
+/// `c0 + sum_{j >= start} c_j theta_j` of row `r` (checked offsets; the
+/// design bounds the sum within `i32` on the box, and it wraps otherwise).
+/// On the AVR, tables in flash go through the assembly kernel.
+fn row_value<T: TableRead>(t: &Tree16<T>, r: u8, theta: &[i16]) -> Option<i32> {
+    let l = &t.layout;
+    if r as usize >= l.n_rows {
+        return None;
+    }
+    let at = (l.rows_at() + r as usize * l.row_bytes()) as u32;
+    let start = t.table.read_u8(at)? as usize;
+    let n = l.n_params.min(theta.len()).saturating_sub(start);
+    #[cfg(target_arch = "avr")]
+    if let Some(base) = t.table.flash_address() {
+        // The row's 4 + 2 P bytes are inside the table (`Tree16::new`
+        // checked the length against the layout).
+        let th = theta.get(start..).unwrap_or(&[]);
+        // SAFETY: reads 4 + 2 n <= 4 + 2 P bytes of the row and n theta entries.
+        return Some(unsafe {
+            row_dot_avr(
+                base.wrapping_add(at + 1),
+                th.as_ptr(),
+                n.min(th.len()) as u8,
+            )
+        });
+    }
+    let head: [u8; 4] = t.table.read_array(at + 1)?;
+    let mut acc = i32::from_le_bytes(head);
+    for (k, th) in theta.iter().skip(start).take(n).enumerate() {
+        let c = i16::from_le_bytes(t.table.read_array(at + 5 + 2 * k as u32)?);
+        acc = acc.wrapping_add(c as i32 * *th as i32);
+    }
+    Some(acc)
+}
+
+/// The AVR kernel: the `i32` at flash address `addr` plus
+/// `sum_{j < n} c_j theta_j`, `c_j` the `i16` following it in flash.
+///
+/// # Safety
+/// `addr .. addr + 4 + 2 n` must be in flash, `theta` must hold `n` entries.
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+unsafe fn row_dot_avr(addr: u32, theta: *const i16, n: u8) -> i32 {
+    let (a0, a1, a2, a3): (u8, u8, u8, u8);
+    // SAFETY: flash reads through ELPM (RAMPZ:Z, which Z+ increments as a
+    // whole), RAM reads through X; r0/r1 take the products and r1 (the
+    // zero register) is cleared at the end.
+    unsafe {
+        core::arch::asm!(
+            "out 0x3B, {hh}",
+            "clr {z}",
+            "elpm {a0}, Z+",
+            "elpm {a1}, Z+",
+            "elpm {a2}, Z+",
+            "elpm {a3}, Z+",
+            "tst {n}",
+            "breq 2f",
+            "1:",
+            "elpm r16, Z+",
+            "elpm r17, Z+",
+            "ld r18, X+",
+            "ld r19, X+",
+            // c_lo * t_lo (unsigned), at byte 0
+            "mul r16, r18",
+            "add {a0}, r0",
+            "adc {a1}, r1",
+            "adc {a2}, {z}",
+            "adc {a3}, {z}",
+            // c_hi (signed) * t_lo (unsigned), at byte 1; C = sign
+            "mulsu r17, r18",
+            "sbc {a3}, {z}",
+            "add {a1}, r0",
+            "adc {a2}, r1",
+            "adc {a3}, {z}",
+            // t_hi (signed) * c_lo (unsigned), at byte 1
+            "mulsu r19, r16",
+            "sbc {a3}, {z}",
+            "add {a1}, r0",
+            "adc {a2}, r1",
+            "adc {a3}, {z}",
+            // c_hi * t_hi (signed), at byte 2
+            "muls r17, r19",
+            "add {a2}, r0",
+            "adc {a3}, r1",
+            "dec {n}",
+            "brne 1b",
+            "2:",
+            "clr r1",
+            hh = in(reg) (addr >> 16) as u8,
+            a0 = out(reg) a0,
+            a1 = out(reg) a1,
+            a2 = out(reg) a2,
+            a3 = out(reg) a3,
+            z = out(reg) _,
+            n = inout(reg) n => _,
+            inout("Z") addr as u16 => _,
+            inout("X") theta => _,
+            out("r16") _, out("r17") _, out("r18") _, out("r19") _,
+            options(readonly, nostack),
+        );
+    }
+    i32::from_le_bytes([a0, a1, a2, a3])
+}
+
+/// Rounds `v / 2^s` to nearest (`s` in `0..32`).
+#[inline]
+fn round_shift32(v: i32, s: u8) -> i32 {
+    if s == 0 {
+        return v;
+    }
+    (v >> s) + ((v >> (s - 1)) & 1)
+}
+
+/// The fast explicit MPC law (see the module docs): `P` parameters
+/// (`theta = [x; r]`, the first `nx` the state), `NU` outputs (the input
+/// moves), a value cache for up to `R` rows. Works in any
+/// [`RtScalar`]: `theta` is taken as Q15.16 and the outputs are given back
+/// from Q15.16.
+#[derive(Clone, Debug)]
+pub struct Empc16Law<S, T, const P: usize, const NU: usize, const R: usize> {
+    tree: Tree16<T>,
+    nx: usize,
+    /// The parameters' shifts and boxes, read from the table once.
+    params: [(i8, i16, i16); P],
+    values: [i32; R],
+    stamps: [u8; R],
+    period: u8,
+    steps: u16,
+    outside: u32,
+    _s: core::marker::PhantomData<S>,
+}
+
+impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
+    Empc16Law<S, T, P, NU, R>
+{
+    /// The law over `tree`; [`Error::DimensionMismatch`] unless the table
+    /// has `P` parameters, `NU` outputs, at most `R` rows, and `nx < P`.
+    pub fn new(tree: Tree16<T>, nx: usize) -> Result<Self, Error> {
+        let l = tree.layout;
+        for (expected, found) in [(P, l.n_params), (NU, l.n_outputs)] {
+            if expected != found {
+                return Err(Error::DimensionMismatch { expected, found });
+            }
+        }
+        if l.n_rows > R {
+            return Err(Error::DimensionMismatch {
+                expected: R,
+                found: l.n_rows,
+            });
+        }
+        if nx >= P {
+            return Err(Error::DimensionMismatch {
+                expected: P - 1,
+                found: nx,
+            });
+        }
+        let mut params = [(0i8, 0i16, 0i16); P];
+        for (j, pj) in params.iter_mut().enumerate() {
+            *pj = tree.param(j).ok_or(Error::OutOfRange)?;
+            if pj.1 > pj.2 {
+                return Err(Error::InvalidArgument("a parameter box with lb > ub"));
+            }
+        }
+        Ok(Empc16Law {
+            tree,
+            nx,
+            params,
+            values: [0; R],
+            stamps: [0; R],
+            period: 0,
+            steps: 0,
+            outside: 0,
+            _s: core::marker::PhantomData,
+        })
+    }
+    /// Periods whose parameter was outside the box (projected onto it).
+    pub fn outside(&self) -> u32 {
+        self.outside
+    }
+    /// The tree.
+    pub fn tree(&self) -> &Tree16<T> {
+        &self.tree
+    }
+
+    /// `theta` in the table's `i16` units, projected onto the box; whether
+    /// it was outside. [`Error::NonFinite`] for a non-finite entry.
+    #[inline(never)]
+    pub fn quantize(&self, theta: &[S; P]) -> Result<([i16; P], bool), Error> {
+        let mut q = [0i16; P];
+        let mut outside = false;
+        for ((qj, t), &(s, lb, ub)) in q.iter_mut().zip(theta).zip(&self.params) {
+            let bits = t.to_q16().ok_or(Error::NonFinite)?;
+            let v = if s >= 0 {
+                round_shift32(bits, s as u8)
+            } else {
+                bits.saturating_mul(1 << (-(s as i32)).min(30))
+            };
+            *qj = if v < lb as i32 {
+                outside = true;
+                lb
+            } else if v > ub as i32 {
+                outside = true;
+                ub
+            } else {
+                v as i16
+            };
+        }
+        Ok((q, outside))
+    }
+
+    /// The value of row `r` at `theta` (cached for the period).
+    #[inline]
+    fn value(&mut self, r: u8, theta: &[i16; P]) -> Result<i32, Error> {
+        let i = r as usize;
+        let stamp = self.stamps.get_mut(i).ok_or(Error::OutOfRange)?;
+        if *stamp == self.period {
+            return self.values.get(i).copied().ok_or(Error::OutOfRange);
+        }
+        let v = row_value(&self.tree, r, theta).ok_or(Error::OutOfRange)?;
+        *stamp = self.period;
+        if let Some(slot) = self.values.get_mut(i) {
+            *slot = v;
+        }
+        Ok(v)
+    }
+
+    /// Evaluates the tree at a quantised `theta`: the outputs in units of
+    /// `2^-K`, the law, and the nodes visited.
+    #[inline(never)]
+    pub fn evaluate_raw(&mut self, theta: &[i16; P]) -> Result<([i32; NU], u16, u16), Error> {
+        // A new period stamp (0 is never used, so a fresh cache is empty).
+        self.period = self.period.wrapping_add(1);
+        if self.period == 0 {
+            self.stamps = [0; R];
+            self.period = 1;
+        }
+        let mut code = self.tree.layout.root;
+        let mut steps: u16 = 0;
+        let limit = self.tree.layout.n_nodes;
+        while code & LEAF == 0 {
+            if steps as usize > limit {
+                return Err(Error::OutOfRange); // a cycle: corrupted table
+            }
+            let n = self.tree.node(code).ok_or(Error::OutOfRange)?;
+            let a = self.value(n[0], theta)?;
+            let b = if n[1] == NONE {
+                0
+            } else {
+                self.value(n[1], theta)?
+            };
+            code = if a <= b {
+                if n[2] == NONE {
+                    code + 1
+                } else {
+                    LEAF | n[2] as u16
+                }
+            } else {
+                u16::from_le_bytes([n[3], n[4]])
+            };
+            steps = steps.saturating_add(1);
+        }
+        let law = code & !LEAF;
+        let mut z = [0i32; NU];
+        for (o, zo) in z.iter_mut().enumerate() {
+            let r = self.tree.law(law, o).ok_or(Error::OutOfRange)?;
+            let mut v = self.value(r, theta)?;
+            let [lo, hi] = self.tree.bounds(o).ok_or(Error::OutOfRange)?;
+            if lo != NONE {
+                v = v.max(self.value(lo, theta)?);
+            }
+            if hi != NONE {
+                v = v.min(self.value(hi, theta)?);
+            }
+            *zo = v;
+        }
+        Ok((z, law, steps))
+    }
+}
+
+impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize> ControlLaw
+    for Empc16Law<S, T, P, NU, R>
+{
+    type Scalar = S;
+    fn nx(&self) -> usize {
+        self.nx
+    }
+    fn nr(&self) -> usize {
+        P - self.nx
+    }
+    fn nu(&self) -> usize {
+        NU
+    }
+    fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
+        let theta: [S; P] = pack_theta(self.nx, NU, x, r, u)?;
+        let (q, outside) = self.quantize(&theta)?;
+        let (z, _, steps) = self.evaluate_raw(&q)?;
+        self.steps = steps;
+        if outside {
+            self.outside = self.outside.saturating_add(1);
+        }
+        let k = self.tree.layout.scale;
+        for (ui, zi) in u.iter_mut().zip(z) {
+            let q16 = if k >= 16 {
+                round_shift32(zi, k - 16)
+            } else {
+                zi.saturating_mul(1 << (16 - k))
+            };
+            *ui = S::from_q16(q16);
+        }
+        Ok(())
+    }
+}
+
+impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize> LawInfo
+    for Empc16Law<S, T, P, NU, R>
+{
+    /// The tree nodes visited in the last period.
+    fn iterations(&self) -> u16 {
+        self.steps
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One parameter theta in [-1, 1] (2^15 units per 1), one output:
+    /// z = -theta for theta <= 0, 0 otherwise; output bounds [-0.25, 0.75]
+    /// (rows 3, 4), scale 2^16.
+    fn table() -> (Vec<u8>, Tree16Layout) {
+        let layout = Tree16Layout {
+            n_params: 1,
+            n_outputs: 1,
+            n_nodes: 1,
+            n_laws: 2,
+            n_rows: 5,
+            root: 0,
+            scale: 16,
+        };
+        let mut b = vec![1u8];
+        b.extend((-32767i16).to_le_bytes());
+        b.extend(32767i16.to_le_bytes());
+        b.extend([2, NONE, 0]);
+        b.extend((LEAF | 1).to_le_bytes());
+        b.extend([0, 1, 3, 4]);
+        for (start, c0, g) in [
+            (0u8, 0i32, -2i16),
+            (1, 0, 0),
+            (0, 0, 2),
+            (1, -16384, 0),
+            (1, 49152, 0),
+        ] {
+            b.push(start);
+            b.extend(c0.to_le_bytes());
+            b.extend(g.to_le_bytes());
+        }
+        assert_eq!(b.len(), layout.bytes());
+        (b, layout)
+    }
+
+    fn law(b: &[u8], l: Tree16Layout) -> Empc16Law<f64, &[u8], 1, 1, 8> {
+        Empc16Law::new(Tree16::new(b, l).unwrap(), 0).unwrap()
+    }
+
+    #[test]
+    fn evaluates_the_tree_with_output_bounds_and_box() {
+        let (b, l) = table();
+        let mut law = law(&b, l);
+        let mut u = [0.0];
+        for (th, want, outside) in [
+            (-0.5, 0.5, 0),
+            (-0.9, 0.75, 0), // clamped by the upper bound row
+            (0.3, 0.0, 0),
+            (-3.0, 0.75, 1), // projected onto the box
+        ] {
+            law.control(&[], &[th], &mut u).unwrap();
+            assert!((u[0] - want).abs() < 1e-4, "theta {th}: {} != {want}", u[0]);
+            assert_eq!(law.outside(), outside);
+        }
+        assert_eq!(law.iterations(), 1);
+    }
+
+    #[test]
+    fn the_value_cache_is_per_period() {
+        // Many periods (the u8 stamp wraps) give the same answers as fresh laws.
+        let (b, l) = table();
+        let mut law = law(&b, l);
+        let mut u = [0.0];
+        for k in 0..600 {
+            let th = ((k * 37) % 200) as f64 / 100.0 - 1.0;
+            law.control(&[], &[th], &mut u).unwrap();
+            let mut fresh = self::law(&b, l);
+            let mut v = [0.0];
+            fresh.control(&[], &[th], &mut v).unwrap();
+            assert_eq!(u, v, "period {k}");
+        }
+    }
+
+    #[test]
+    fn bad_tables_and_inputs_are_errors_not_panics() {
+        let (b, l) = table();
+        assert!(matches!(
+            Tree16::new(&b[..b.len() - 1], l),
+            Err(Error::DimensionMismatch { .. })
+        ));
+        let big = Tree16Layout { scale: 31, ..l };
+        let mut bb = b.clone();
+        bb.truncate(big.bytes());
+        assert!(Tree16::new(&bb[..], big).is_err());
+        let tree = Tree16::new(&b[..], l).unwrap();
+        // Wrong dimensions, too small a cache, no reference.
+        assert!(Empc16Law::<f64, _, 2, 1, 8>::new(tree, 0).is_err());
+        assert!(Empc16Law::<f64, _, 1, 2, 8>::new(tree, 0).is_err());
+        assert!(Empc16Law::<f64, _, 1, 1, 4>::new(tree, 0).is_err());
+        assert!(Empc16Law::<f64, _, 1, 1, 8>::new(tree, 1).is_err());
+        let mut law = law(&b, l);
+        let mut u = [0.0];
+        assert_eq!(law.control(&[], &[f64::NAN], &mut u), Err(Error::NonFinite));
+        assert_eq!(
+            law.control(&[], &[f64::INFINITY], &mut u),
+            Err(Error::NonFinite)
+        );
+        assert!(law.control(&[], &[0.0, 1.0], &mut u).is_err());
+        // A node pointing at a row past the table, a child past the nodes,
+        // a law past the laws, a cycle.
+        let node = l.nodes_at();
+        for (at, v) in [(node, 9u8), (node + 3, 5), (node + 2, 7)] {
+            let mut bad = b.clone();
+            bad[at] = v;
+            if at == node + 3 {
+                bad[at + 1] = 0; // child node 5 of a 1-node tree
+            }
+            let mut law = self::law(&bad, l);
+            assert_eq!(
+                law.control(&[], &[-0.5], &mut u)
+                    .and(law.control(&[], &[0.5], &mut u)),
+                Err(Error::OutOfRange),
+                "corrupted byte {at}"
+            );
+        }
+        let mut cyc = b.clone();
+        cyc[node + 3] = 0;
+        cyc[node + 4] = 0; // theta > 0 loops back to node 0
+        let mut law = self::law(&cyc, l);
+        assert_eq!(law.control(&[], &[0.5], &mut u), Err(Error::OutOfRange));
+    }
+
+    #[test]
+    fn round_shift_rounds_to_nearest() {
+        for v in [
+            -1000i32,
+            -3,
+            -2,
+            -1,
+            0,
+            1,
+            2,
+            3,
+            5,
+            1000,
+            i32::MAX,
+            i32::MIN,
+        ] {
+            for s in 1..20u8 {
+                let want = (v as f64 / 2f64.powi(s as i32) + 0.5).floor() as i32;
+                assert_eq!(round_shift32(v, s), want, "{v} >> {s}");
+            }
+        }
+    }
+}
