@@ -956,7 +956,7 @@ macro_rules! rows_asm {
             "tst r17",
             "brne 22f",
             "rjmp 23f",
-            // ---- one term: t = x * c (48-bit signed) in r2..r7, acc += t
+            // ---- one term: x (r18..r21) times c (r22, r23)
             "22:",
             "ld r18, X+",
             "ld r19, X+",
@@ -964,6 +964,57 @@ macro_rules! rows_asm {
             "ld r21, X+",
             "ld r22, Z+",
             "ld r23, Z+",
+            // x fits 24 bits (byte 3 extends byte 2's sign: r21 xor sign
+            // is zero): the short term, otherwise the full one
+            "sbrc r20, 7",
+            "com r21",
+            "cpse r21, r9",
+            "rjmp 36f",
+            // short term: t = x * c (40-bit signed, six products) in
+            // r2, r3, r6, r4, r5 (bytes 0..4), acc += t
+            "mul r18, r22",
+            "movw r2, r0",
+            "muls r20, r23",
+            "movw r4, r0",
+            "mulsu r20, r22",
+            "sbc r8, r8",
+            "mov r6, r0",
+            "add r4, r1",
+            "adc r5, r8",
+            "mul r19, r22",
+            "add r3, r0",
+            "adc r6, r1",
+            "adc r4, r9",
+            "adc r5, r9",
+            "mulsu r23, r18",
+            "sbc r8, r8",
+            "add r3, r0",
+            "adc r6, r1",
+            "adc r4, r8",
+            "adc r5, r8",
+            "mulsu r23, r19",
+            "sbc r8, r8",
+            "add r6, r0",
+            "adc r4, r1",
+            "adc r5, r8",
+            "mov r8, r5",
+            "lsl r8",
+            "sbc r8, r8",
+            "add r10, r2",
+            "adc r11, r3",
+            "adc r12, r6",
+            "adc r13, r4",
+            "adc r14, r5",
+            "adc r15, r8",
+            "adc r16, r8",
+            "dec r17",
+            "brne 22b",
+            "rjmp 23f",
+            // full term: restore byte 3, t = x * c (48-bit signed) in
+            // r2..r7, acc += t
+            "36:",
+            "sbrc r20, 7",
+            "com r21",
             "mul r18, r22",
             "movw r2, r0",
             "mul r20, r22",
@@ -1009,7 +1060,8 @@ macro_rules! rows_asm {
             "sbrc r7, 7", // t < 0: its sign extension 0xFF into the top byte
             "dec r16",
             "dec r17",
-            "brne 22b",
+            "breq 23f",
+            "rjmp 22b",
             // ---- Z is at the shift byte: read it, skip start (next row)
             "23:",
             "ld r17, Z+",
@@ -1047,11 +1099,34 @@ macro_rules! rows_asm {
             "lsl r16",
             "sbc r16, r16",
             "subi r17, 8",
-            // 6 or 7 bits: one more byte right (low byte kept in r8), then left
+            // 4 to 7 bits (b) and the rounding bit: round(V / 2^(b+1)) =
+            // floor((V 2^(7-b) + 2^7) / 2^8): left by 7 - b bits (no
+            // overflow: after a byte move the top byte is the sign, without
+            // one |V| < 2^52), then one byte right, adding the dropped
+            // byte's top bit
             "26:",
-            "cpi r17, 6",
+            "cpi r17, 4",
             "brlo 28f",
-            "mov r8, r10",
+            "subi r17, 7",
+            "breq 38f",
+            "37:",
+            "lsl r10",
+            "rol r11",
+            "rol r12",
+            "rol r13",
+            "rol r14",
+            "rol r15",
+            "rol r16",
+            "inc r17",
+            "brne 37b",
+            "38:",
+            "lsl r10",
+            "adc r11, r9",
+            "adc r12, r9",
+            "adc r13, r9",
+            "adc r14, r9",
+            "adc r15, r9",
+            "adc r16, r9",
             "mov r10, r11",
             "mov r11, r12",
             "mov r12, r13",
@@ -1060,20 +1135,8 @@ macro_rules! rows_asm {
             "mov r15, r16",
             "lsl r16",
             "sbc r16, r16",
-            "subi r17, 8",
-            "27:",
-            "lsl r8",
-            "rol r10",
-            "rol r11",
-            "rol r12",
-            "rol r13",
-            "rol r14",
-            "rol r15",
-            "rol r16",
-            "inc r17",
-            "brne 27b",
-            "rjmp 30f",
-            // 0 to 5 bits right
+            "rjmp 29f",
+            // 0 to 3 bits right
             "28:",
             "tst r17",
             "breq 30f",
@@ -1298,18 +1361,22 @@ pub fn sub_sat_i32(a: i32, b: i32) -> i32 {
 /// 5-element dot products, [`dot_q16_i16`] with 64-bit arithmetic, and
 /// (every fourth round) [`row_q16_i16`] and the rows routine of
 /// `Row16::apply_all` with 64-bit arithmetic (a linear congruential
-/// sequence from `seed`, mixing small and full-range values, every shift,
-/// saturation); returns the number of mismatches.
+/// sequence from `seed`, mixing small, full-range and 24-bit boundary
+/// values, every shift, saturation); returns the number of mismatches.
 /// The firmware runs it at boot, so the AVR assembly is checked on target.
 pub fn self_test(seed: u32, n: u16) -> u16 {
     let mut s = seed;
     let mut next = move || {
         s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-        // Alternate full-range values with values of a few units.
+        // Mix full-range values, values of a few units and values at the
+        // 24-bit boundary of the rows routine's short term (2^23 - 2 to
+        // 2^23 + 1 and their negatives).
         if s & 0x100 != 0 {
             s as i32
-        } else {
+        } else if s & 0x200 != 0 {
             (s as i32) >> 12
+        } else {
+            (((s as i32) >> 31) ^ 0x7F_FFFF) + ((s >> 12) & 3) as i32 - 1
         }
     };
     let mut bad = 0u16;
