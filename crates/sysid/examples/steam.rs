@@ -1,6 +1,7 @@
 //! Identification of the DaISy steam generator (estimate on the first
 //! half, validate on the second, order 9): N4SID, PEM with prediction
-//! focus, and PEM with simulation focus followed by the noise model, each
+//! focus, PEM with a multi-step focus (1..5 steps), and PEM with
+//! simulation focus followed by the noise model, each
 //! with its validation table (simulation, 1-step and 5-step fits, the
 //! persistence baseline, residual verdicts):
 //! `cargo run --release -p kestrel-sysid --example steam [path]`.
@@ -68,6 +69,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.stop
         ),
         &r.model,
+        &val,
+    )?;
+    let t = std::time::Instant::now();
+    let ms = pem(
+        &est,
+        &start.model,
+        &PemSettings {
+            horizon: 5,
+            ..Default::default()
+        },
+    )?;
+    table(
+        &format!(
+            "PEM, multi-step focus 1..5 ({:.1} s, {} iterations, stop {:?})",
+            t.elapsed().as_secs_f64(),
+            ms.iterations,
+            ms.stop
+        ),
+        &ms.model,
         &val,
     )?;
     let t = std::time::Instant::now();
