@@ -167,86 +167,93 @@ impl<T: TableRead> Tree16<T> {
             i16::from_le_bytes([b[3], b[4]]),
         ))
     }
-    /// Node `i`: rows `a`, `b`, the `a <= b` child (`u8`), the other child.
-    fn node(&self, i: u16) -> Option<[u8; 5]> {
-        if i as usize >= self.layout.n_nodes {
-            return None;
-        }
-        self.table
-            .read_array((self.layout.nodes_at() + Tree16Layout::NODE_BYTES * i as usize) as u32)
-    }
-    fn law(&self, law: u16, out: usize) -> Option<u8> {
-        if law as usize >= self.layout.n_laws || out >= self.layout.n_outputs {
-            return None;
-        }
-        self.table
-            .read_u8((self.layout.laws_at() + law as usize * self.layout.n_outputs + out) as u32)
-    }
-    fn bounds(&self, out: usize) -> Option<[u8; 2]> {
-        if out >= self.layout.n_outputs {
-            return None;
-        }
-        self.table
-            .read_array((self.layout.bounds_at() + 2 * out) as u32)
-    }
 }
 
-/// `c0 + sum_{j >= start} c_j theta_j` of row `r` (checked offsets; the
-/// design bounds the sum within `i32` on the box, and it wraps otherwise).
-/// On the AVR, tables in flash go through the assembly kernel.
-fn row_value<T: TableRead>(t: &Tree16<T>, r: u8, theta: &[i16]) -> Option<i32> {
-    let l = &t.layout;
-    if r as usize >= l.n_rows {
-        return None;
-    }
-    let at = (l.rows_at() + r as usize * l.row_bytes()) as u32;
-    let start = t.table.read_u8(at)? as usize;
-    let n = l.n_params.min(theta.len()).saturating_sub(start);
+/// `c0 + sum_{j >= start} c_j theta_j` of the row at table offset `at`
+/// (the caller has checked the row index, so the row is inside the table;
+/// the design bounds the sum within `i32` on the box, and it wraps
+/// otherwise). On the AVR, tables in flash go through the assembly kernel.
+#[inline]
+fn row_value<T: TableRead, const P: usize>(table: &T, at: u32, theta: &[i16; P]) -> Option<i32> {
     #[cfg(target_arch = "avr")]
-    if let Some(base) = t.table.flash_address() {
-        // The row's 4 + 2 P bytes are inside the table (`Tree16::new`
-        // checked the length against the layout).
-        let th = theta.get(start..).unwrap_or(&[]);
-        // SAFETY: reads 4 + 2 n <= 4 + 2 P bytes of the row and n theta entries.
-        return Some(unsafe {
-            row_dot_avr(
-                base.wrapping_add(at + 1),
-                th.as_ptr(),
-                n.min(th.len()) as u8,
-            )
-        });
+    if let Some(base) = table.flash_address() {
+        // SAFETY: the row's 5 + 2 P bytes are inside the table (`Tree16::new`
+        // checked its length against the layout, the caller the index);
+        // the kernel reads at most P theta entries.
+        return Some(unsafe { row_dot_avr(base.wrapping_add(at), theta.as_ptr(), P as u8) });
     }
-    let head: [u8; 4] = t.table.read_array(at + 1)?;
-    let mut acc = i32::from_le_bytes(head);
-    for (k, th) in theta.iter().skip(start).take(n).enumerate() {
-        let c = i16::from_le_bytes(t.table.read_array(at + 5 + 2 * k as u32)?);
+    let head: [u8; 5] = table.read_array(at)?;
+    let start = head[0] as usize;
+    let mut acc = i32::from_le_bytes([head[1], head[2], head[3], head[4]]);
+    for (k, th) in theta.iter().skip(start).enumerate() {
+        let c = i16::from_le_bytes(table.read_array(at + 5 + 2 * k as u32)?);
         acc = acc.wrapping_add(c as i32 * *th as i32);
     }
     Some(acc)
 }
 
-/// The AVR kernel: the `i32` at flash address `addr` plus
-/// `sum_{j < n} c_j theta_j`, `c_j` the `i16` following it in flash.
+/// `N` bytes at table offset `at` (the caller has checked the range): one
+/// `ELPM Z+` each on the AVR for tables in flash.
+#[inline(always)]
+fn read_bytes<T: TableRead, const N: usize>(table: &T, at: u32) -> Option<[u8; N]> {
+    #[cfg(target_arch = "avr")]
+    if let Some(base) = table.flash_address() {
+        let addr = base.wrapping_add(at);
+        let mut out = [0u8; N];
+        let mut z = addr as u16;
+        // SAFETY: sets RAMPZ (read only by ELPM); the bytes are constant
+        // flash inside the table; `ELPM Z+` carries into RAMPZ itself.
+        unsafe {
+            core::arch::asm!("out 0x3B, {hh}", hh = in(reg) (addr >> 16) as u8, options(nostack, preserves_flags));
+        }
+        for b in out.iter_mut() {
+            // SAFETY: as above.
+            unsafe {
+                core::arch::asm!(
+                    "elpm {b}, Z+",
+                    b = out(reg) *b,
+                    inout("Z") z,
+                    options(nostack, preserves_flags, readonly),
+                );
+            }
+        }
+        return Some(out);
+    }
+    table.read_array(at)
+}
+
+/// The AVR kernel: the row at flash address `addr` (`start`, the `i32`
+/// constant, then the `i16` gains of columns `start..p`), evaluated at
+/// `theta`: constant `+ sum_k c_k theta_(start + k)`.
 ///
 /// # Safety
-/// `addr .. addr + 4 + 2 n` must be in flash, `theta` must hold `n` entries.
+/// `addr .. addr + 5 + 2 p` must be in flash, `theta` must hold `p` entries.
 #[cfg(target_arch = "avr")]
 #[inline(never)]
-unsafe fn row_dot_avr(addr: u32, theta: *const i16, n: u8) -> i32 {
+unsafe fn row_dot_avr(addr: u32, theta: *const i16, p: u8) -> i32 {
     let (a0, a1, a2, a3): (u8, u8, u8, u8);
     // SAFETY: flash reads through ELPM (RAMPZ:Z, which Z+ increments as a
     // whole), RAM reads through X; r0/r1 take the products and r1 (the
-    // zero register) is cleared at the end.
+    // zero register) is cleared at the end. A start at or past p (a
+    // corrupted row) leaves the constant alone.
     unsafe {
         core::arch::asm!(
             "out 0x3B, {hh}",
             "clr {z}",
+            "elpm {n}, Z+",
             "elpm {a0}, Z+",
             "elpm {a1}, Z+",
             "elpm {a2}, Z+",
             "elpm {a3}, Z+",
-            "tst {n}",
-            "breq 2f",
+            "cp {n}, {p}",
+            "brsh 2f",
+            // X += 2 start; n = p - start
+            "add r26, {n}",
+            "adc r27, {z}",
+            "add r26, {n}",
+            "adc r27, {z}",
+            "neg {n}",
+            "add {n}, {p}",
             "1:",
             "elpm r16, Z+",
             "elpm r17, Z+",
@@ -279,12 +286,13 @@ unsafe fn row_dot_avr(addr: u32, theta: *const i16, n: u8) -> i32 {
             "2:",
             "clr r1",
             hh = in(reg) (addr >> 16) as u8,
+            p = in(reg) p,
             a0 = out(reg) a0,
             a1 = out(reg) a1,
             a2 = out(reg) a2,
             a3 = out(reg) a3,
             z = out(reg) _,
-            n = inout(reg) n => _,
+            n = out(reg) _,
             inout("Z") addr as u16 => _,
             inout("X") theta => _,
             out("r16") _, out("r17") _, out("r18") _, out("r19") _,
@@ -314,6 +322,9 @@ pub struct Empc16Law<S, T, const P: usize, const NU: usize, const R: usize> {
     nx: usize,
     /// The parameters' shifts and boxes, read from the table once.
     params: [(i8, i16, i16); P],
+    /// Table offsets of the nodes, laws, bounds and rows (from the layout).
+    at: [u32; 4],
+    row_bytes: u16,
     values: [i32; R],
     stamps: [u8; R],
     period: u8,
@@ -353,10 +364,13 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
                 return Err(Error::InvalidArgument("a parameter box with lb > ub"));
             }
         }
+        let at = [l.nodes_at(), l.laws_at(), l.bounds_at(), l.rows_at()].map(|v| v as u32);
         Ok(Empc16Law {
             tree,
             nx,
             params,
+            at,
+            row_bytes: l.row_bytes() as u16,
             values: [0; R],
             stamps: [0; R],
             period: 0,
@@ -404,15 +418,19 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     #[inline]
     fn value(&mut self, r: u8, theta: &[i16; P]) -> Result<i32, Error> {
         let i = r as usize;
-        let stamp = self.stamps.get_mut(i).ok_or(Error::OutOfRange)?;
+        if i >= self.tree.layout.n_rows {
+            return Err(Error::OutOfRange);
+        }
+        let (Some(stamp), Some(slot)) = (self.stamps.get_mut(i), self.values.get_mut(i)) else {
+            return Err(Error::OutOfRange);
+        };
         if *stamp == self.period {
-            return self.values.get(i).copied().ok_or(Error::OutOfRange);
+            return Ok(*slot);
         }
-        let v = row_value(&self.tree, r, theta).ok_or(Error::OutOfRange)?;
+        let at = self.at[3] + u32::from(r) * u32::from(self.row_bytes);
+        let v = row_value(&self.tree.table, at, theta).ok_or(Error::OutOfRange)?;
         *stamp = self.period;
-        if let Some(slot) = self.values.get_mut(i) {
-            *slot = v;
-        }
+        *slot = v;
         Ok(v)
     }
 
@@ -433,7 +451,11 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
             if steps as usize > limit {
                 return Err(Error::OutOfRange); // a cycle: corrupted table
             }
-            let n = self.tree.node(code).ok_or(Error::OutOfRange)?;
+            if code as usize >= limit {
+                return Err(Error::OutOfRange);
+            }
+            let n: [u8; 5] = read_bytes(&self.tree.table, self.at[0] + 5 * u32::from(code))
+                .ok_or(Error::OutOfRange)?;
             let a = self.value(n[0], theta)?;
             let b = if n[1] == NONE {
                 0
@@ -452,11 +474,23 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
             steps = steps.saturating_add(1);
         }
         let law = code & !LEAF;
+        if law as usize >= self.tree.layout.n_laws {
+            return Err(Error::OutOfRange);
+        }
+        let rows: [u8; NU] =
+            read_bytes(&self.tree.table, self.at[1] + (NU as u32) * u32::from(law))
+                .ok_or(Error::OutOfRange)?;
+        let bounds: [[u8; 2]; NU] = {
+            let mut b = [[NONE; 2]; NU];
+            for (o, bo) in b.iter_mut().enumerate() {
+                *bo = read_bytes(&self.tree.table, self.at[2] + 2 * o as u32)
+                    .ok_or(Error::OutOfRange)?;
+            }
+            b
+        };
         let mut z = [0i32; NU];
-        for (o, zo) in z.iter_mut().enumerate() {
-            let r = self.tree.law(law, o).ok_or(Error::OutOfRange)?;
+        for ((zo, &r), &[lo, hi]) in z.iter_mut().zip(&rows).zip(&bounds) {
             let mut v = self.value(r, theta)?;
-            let [lo, hi] = self.tree.bounds(o).ok_or(Error::OutOfRange)?;
             if lo != NONE {
                 v = v.max(self.value(lo, theta)?);
             }
