@@ -298,7 +298,13 @@ impl<S: RtScalar, const NX: usize, const NU: usize, const NY: usize> Kalman16<S,
         &self.x
     }
 
+    /// Converts the state for [`StateEstimator::estimate`]; nothing to do
+    /// for scalars stored as Q15.16 bits (the estimate is the state itself).
+    #[inline(always)]
     fn publish(&mut self) {
+        if S::from_q16_bits(&self.x).is_some() {
+            return;
+        }
         for (s, x) in self.xs.iter_mut().zip(self.x.iter()) {
             *s = S::from_q16(*x);
         }
@@ -336,6 +342,23 @@ fn predict<const NX: usize, const NU: usize, const NY: usize>(
     }
 }
 
+/// Runs `f` on `v` as Q15.16 bits: in place for scalars stored as those
+/// bits, otherwise converted (a copy).
+#[inline(always)]
+fn with_q16<S: RtScalar, const N: usize>(v: &[S], f: impl FnOnce(&[i32; N])) -> Result<(), Error> {
+    if let Some(bits) = S::as_q16_bits(v) {
+        let bits: &[i32; N] = bits.try_into().map_err(|_| Error::DimensionMismatch {
+            expected: N,
+            found: v.len(),
+        })?;
+        f(bits);
+        return Ok(());
+    }
+    let bits: [i32; N] = to_q16(v)?;
+    f(&bits);
+    Ok(())
+}
+
 fn to_q16<S: RtScalar, const N: usize>(v: &[S]) -> Result<[i32; N], Error> {
     check_len(v, N)?;
     let mut out = [0i32; N];
@@ -364,21 +387,22 @@ impl<S: RtScalar, const NX: usize, const NU: usize, const NY: usize> StateEstima
     // instructions).
     #[inline(never)]
     fn measurement_update(&mut self, y: &[S]) -> Result<(), Error> {
-        let y: [i32; NY] = to_q16(y)?;
-        measure(&self.tables, &mut self.x, &y);
+        let (t, x) = (&self.tables, &mut self.x);
+        with_q16(y, |y: &[i32; NY]| measure(t, x, y))?;
         self.publish();
         Ok(())
     }
     #[inline(never)]
     fn time_update(&mut self, u: &[S]) -> Result<(), Error> {
-        let u: [i32; NU] = to_q16(u)?;
-        predict(&self.tables, &mut self.x, &u);
+        let (t, x) = (&self.tables, &mut self.x);
+        with_q16(u, |u: &[i32; NU]| predict(t, x, u))?;
         self.publish();
         Ok(())
     }
     fn estimate(&self) -> &[S] {
-        &self.xs
+        S::from_q16_bits(&self.x).unwrap_or(&self.xs)
     }
+    #[inline(never)]
     fn reset(&mut self, x0: &[S]) -> Result<(), Error> {
         self.x = to_q16(x0)?;
         self.publish();
@@ -514,5 +538,42 @@ mod tests {
         bad.b[0].shift = 41;
         assert!(bad.check().is_err());
         assert_eq!(tables().multiply_adds(), 2 + 2 + 2 + 1 + 1 + 1);
+        // Scalars read in place (Q15.16 bits) check the lengths too.
+        let mut kq = Kalman16::<Q16Mac, 2, 1, 1>::new(tables());
+        assert!(kq.measurement_update(&[Q16Mac(1), Q16Mac(2)]).is_err());
+        assert!(kq.time_update(&[]).is_err());
+        assert!(kq.reset(&[Q16Mac(0)]).is_err());
+    }
+
+    /// The in-place path (`Q16Mac`, `Q16`) and the converting path (`f64`)
+    /// give the same state and estimate.
+    #[test]
+    fn in_place_and_converted_scalars_agree() {
+        use kestrel_core::Q16;
+        let mut kq = Kalman16::<Q16Mac, 2, 1, 1>::new(tables());
+        let mut kc = Kalman16::<Q16, 2, 1, 1>::new(tables());
+        let mut kf = Kalman16::<f64, 2, 1, 1>::new(tables());
+        for k in 0..20 {
+            let y = (k as f64 * 0.7).sin() * 3.0;
+            let u = (k as f64 * 0.3).cos() * 40.0;
+            let yq = Q16Mac(f64::to_q16(y).unwrap());
+            let uq = Q16Mac(f64::to_q16(u).unwrap());
+            kq.measurement_update(&[yq]).unwrap();
+            kc.measurement_update(&[Q16::from_bits(yq.0)]).unwrap();
+            kf.measurement_update(&[y]).unwrap();
+            kq.time_update(&[uq]).unwrap();
+            kc.time_update(&[Q16::from_bits(uq.0)]).unwrap();
+            kf.time_update(&[u]).unwrap();
+            assert_eq!(kq.state_q16(), kf.state_q16());
+            assert_eq!(kc.state_q16(), kf.state_q16());
+            let est: Vec<i32> = kq.estimate().iter().map(|v| v.0).collect();
+            assert_eq!(est, kf.state_q16().to_vec());
+            let est: Vec<i32> = kc.estimate().iter().map(|v| v.to_bits()).collect();
+            assert_eq!(est, kf.state_q16().to_vec());
+            for (e, x) in kf.estimate().iter().zip(kf.state_q16()) {
+                assert_eq!(*e, *x as f64 / 65536.0);
+            }
+        }
+        assert!(kf.state_q16().iter().any(|&x| x != 0));
     }
 }

@@ -560,6 +560,17 @@ impl crate::output::RtScalar for Q16Mac {
     fn from_q16(bits: i32) -> Self {
         Q16Mac(bits)
     }
+    #[inline]
+    fn as_q16_bits(v: &[Self]) -> Option<&[i32]> {
+        // SAFETY: `Q16Mac` is `#[repr(transparent)]` over its Q15.16 bits,
+        // so a slice of it has the layout of an `i32` slice of the same length.
+        Some(unsafe { core::slice::from_raw_parts(v.as_ptr() as *const i32, v.len()) })
+    }
+    #[inline]
+    fn from_q16_bits(bits: &[i32]) -> Option<&[Self]> {
+        // SAFETY: as in `as_q16_bits`, the other way round.
+        Some(unsafe { core::slice::from_raw_parts(bits.as_ptr() as *const Self, bits.len()) })
+    }
 }
 
 /// The narrower MAC: `sum x[i] c[i]` of Q15.16 values `x` (i32) and

@@ -30,6 +30,23 @@ pub trait RtScalar: Scalar {
     fn to_q16(self) -> Option<i32>;
     /// From Q15.16 raw bits.
     fn from_q16(bits: i32) -> Self;
+    /// The values as their Q15.16 raw bits without a copy, for scalars
+    /// stored as exactly those bits (`Q16Mac`, `Q16`); `None` (the
+    /// default) for every other scalar, which converts with
+    /// [`RtScalar::to_q16`].
+    #[inline]
+    fn as_q16_bits(v: &[Self]) -> Option<&[i32]> {
+        let _ = v;
+        None
+    }
+    /// Q15.16 raw bits seen as values without a copy (the inverse of
+    /// [`RtScalar::as_q16_bits`]); `None` (the default) where `Self` is
+    /// not stored as those bits.
+    #[inline]
+    fn from_q16_bits(bits: &[i32]) -> Option<&[Self]> {
+        let _ = bits;
+        None
+    }
 }
 
 /// `2^16` as f32 bits' exponent step.
@@ -142,6 +159,24 @@ impl<const FRAC: u32> RtScalar for Fixed<FRAC> {
             v << (16 - FRAC)
         };
         Some(q.clamp(i32::MIN as i64, i32::MAX as i64) as i32)
+    }
+    #[inline]
+    fn as_q16_bits(v: &[Self]) -> Option<&[i32]> {
+        if FRAC != 16 {
+            return None;
+        }
+        // SAFETY: `Fixed` is `#[repr(transparent)]` over `i32`, so a slice
+        // of it has the layout of an `i32` slice of the same length; with
+        // 16 fraction bits the raw value is the Q15.16 value.
+        Some(unsafe { core::slice::from_raw_parts(v.as_ptr() as *const i32, v.len()) })
+    }
+    #[inline]
+    fn from_q16_bits(bits: &[i32]) -> Option<&[Self]> {
+        if FRAC != 16 {
+            return None;
+        }
+        // SAFETY: as in `as_q16_bits`, the other way round.
+        Some(unsafe { core::slice::from_raw_parts(bits.as_ptr() as *const Self, bits.len()) })
     }
     #[inline]
     fn from_q16(bits: i32) -> Self {
