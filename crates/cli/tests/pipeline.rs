@@ -85,9 +85,10 @@ fn quick_pipeline_report_is_complete_and_consistent() {
     }
     let bb = kestrel_core::formats::SsModel::read(&out.join("models/blackbox-5.json")).unwrap();
     assert_eq!((bb.nx(), bb.nu()), (5, 4));
+    // theta = [x (5); d (3, offset-free); r (3); throttle].
     for p in ["problems/thesis.json", "problems/larger.json"] {
         let prob = kestrel_core::formats::MpqpProblem::read(&out.join(p)).unwrap();
-        assert_eq!(prob.p(), 5 + 4, "{p}");
+        assert_eq!(prob.p(), 5 + 3 + 3 + 1, "{p}");
     }
     let thesis =
         kestrel_core::formats::MpqpProblem::read(&out.join("problems/thesis.json")).unwrap();
@@ -192,6 +193,17 @@ fn quick_pipeline_report_is_complete_and_consistent() {
     }
     // PI, QP, explicit and two FGM counts, step and noisy.
     assert_eq!(traces, 2 * 5);
+    // The MPC laws track the step scenario: 90 % of each step reached
+    // (a finite 10-90 % rise time) on every axis, in calm air and noisy.
+    let (h, rows) = read_table(&out.join("tables/closed_loop.csv"));
+    for r in rows.iter().filter(|r| r[1] == "QP" || r[1] == "explicit") {
+        let rise: Vec<f64> = r[col(&h, "rise time p/q/r [s]")]
+            .split(" / ")
+            .map(num)
+            .collect();
+        assert_eq!(rise.len(), 3, "{r:?}");
+        assert!(rise.iter().all(|t| t.is_finite() && *t > 0.0), "{r:?}");
+    }
     assert_eq!(summary["closed_loop_max_bound_violation"], 0.0);
     // The report replaced the staging directory: nothing else left beside it.
     let left: Vec<_> = std::fs::read_dir(&base)

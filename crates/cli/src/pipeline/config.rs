@@ -89,6 +89,8 @@ pub struct Identification {
     pub order: usize,
     /// Order after balred.
     pub reduced_order: usize,
+    /// Keep the DC gain when reducing (leaves a feed-through D).
+    pub match_dc: bool,
     /// PEM iteration limit.
     pub pem_max_iterations: usize,
     /// k of the k-step fits.
@@ -132,18 +134,59 @@ pub struct Horizon {
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Mpc {
-    /// Output weight scale.
-    pub q1: f64,
-    /// Input weight scale.
-    pub q2: f64,
+    /// Output weight: `q1 * I`, or the diagonal per output.
+    pub q1: WeightSpec,
+    /// Input weight: `q2 * I`, or the diagonal per input.
+    pub q2: WeightSpec,
     /// Bound on |x| in the parameter set.
     pub state_bound: f64,
     /// Bound on the references.
     pub reference_bound: f64,
+    /// Offset-free MPC: constant torque disturbances on the rate states
+    /// (`DisturbanceModel::OutputStates`), estimated by the Kalman filter;
+    /// `theta = [x; d; r; throttle]`.
+    pub offset_free: bool,
     /// The thesis-sized problem.
     pub thesis: Horizon,
     /// The larger problem.
     pub larger: Horizon,
+}
+
+/// A weight: one number (times the identity) or one entry per diagonal element.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum WeightSpec {
+    /// `s * I`.
+    Scalar(f64),
+    /// A diagonal.
+    Diagonal(Vec<f64>),
+}
+
+impl WeightSpec {
+    /// The entries (one for a scalar).
+    pub fn values(&self) -> &[f64] {
+        match self {
+            WeightSpec::Scalar(v) => std::slice::from_ref(v),
+            WeightSpec::Diagonal(v) => v,
+        }
+    }
+
+    /// As kestrel-mpc's weight.
+    pub fn weight(&self) -> kestrel_mpc::Weight {
+        match self {
+            WeightSpec::Scalar(v) => kestrel_mpc::Weight::Scalar(*v),
+            WeightSpec::Diagonal(v) => kestrel_mpc::Weight::Diagonal(v.clone()),
+        }
+    }
+}
+
+impl std::fmt::Display for WeightSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            WeightSpec::Scalar(v) => write!(f, "{v} I"),
+            WeightSpec::Diagonal(v) => write!(f, "diag{v:?}"),
+        }
+    }
 }
 
 /// `[empc]`.
@@ -395,8 +438,18 @@ impl Config {
             );
         }
         let m = &self.mpc;
-        pos(m.q1, "mpc.q1")?;
-        pos(m.q2, "mpc.q2")?;
+        for (w, key, n) in [(&m.q1, "mpc.q1", 3), (&m.q2, "mpc.q2", 4)] {
+            let v = w.values();
+            if v.len() != 1 && v.len() != n {
+                bail!(
+                    "{key}: expected a number or a list of {n} numbers, found {} numbers",
+                    v.len()
+                );
+            }
+            for x in v {
+                pos(*x, key)?;
+            }
+        }
         pos(m.state_bound, "mpc.state_bound")?;
         pos(m.reference_bound, "mpc.reference_bound")?;
         for (name, h) in [("thesis", &m.thesis), ("larger", &m.larger)] {
@@ -504,9 +557,22 @@ mod tests {
 
     #[test]
     fn wrong_types_and_values_name_the_key() {
-        let text = DEFAULT_TOML.replace("q2 = 0.01", "q2 = \"small\"");
+        let q2 = "q2 = [0.01, 0.01, 0.01, 0.1]";
+        assert!(DEFAULT_TOML.contains(q2));
+        let text = DEFAULT_TOML.replace(q2, "q2 = \"small\"");
         let e = format!("{:#}", Config::parse(&text, "x.toml").unwrap_err());
         assert!(e.contains("x.toml") && e.contains("q2"), "{e}");
+        // A diagonal weight of the wrong length, or with a negative entry.
+        let text = DEFAULT_TOML.replace(q2, "q2 = [0.01, 0.01, 0.1]");
+        let e = format!("{:#}", Config::parse(&text, "x.toml").unwrap_err());
+        assert!(e.contains("mpc.q2") && e.contains("4 numbers"), "{e}");
+        let text = DEFAULT_TOML.replace(q2, "q2 = [0.01, -0.01, 0.01, 0.1]");
+        let e = format!("{:#}", Config::parse(&text, "x.toml").unwrap_err());
+        assert!(e.contains("mpc.q2"), "{e}");
+        // A scalar still works.
+        let text = DEFAULT_TOML.replace(q2, "q2 = 0.01");
+        let c = Config::parse(&text, "x.toml").unwrap();
+        assert_eq!(c.mpc.q2, WeightSpec::Scalar(0.01));
         let text = DEFAULT_TOML.replace("reduced_order = 5", "reduced_order = 9");
         let e = format!("{:#}", Config::parse(&text, "x.toml").unwrap_err());
         assert!(e.contains("identification.reduced_order"), "{e}");

@@ -177,7 +177,7 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
     );
     timed!(
         "10. firmware tables",
-        steps::firmware(&mut r, &cfg, &ident, &explicit, &fgm)?
+        steps::firmware(&mut r, &cfg, &problems, &explicit, &fgm)?
     );
     timed!("11. differences", steps::differences(&mut r, &cfg)?);
 
