@@ -414,30 +414,35 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         Ok((q, outside))
     }
 
-    /// The value of row `r` at `theta` (cached for the period).
+    /// The value of row `r` at `theta` (cached for the period); `None` for
+    /// a row outside the table.
     #[inline]
-    fn value(&mut self, r: u8, theta: &[i16; P]) -> Result<i32, Error> {
+    fn value(&mut self, r: u8, theta: &[i16; P]) -> Option<i32> {
         let i = r as usize;
         if i >= self.tree.layout.n_rows {
-            return Err(Error::OutOfRange);
+            return None;
         }
-        let (Some(stamp), Some(slot)) = (self.stamps.get_mut(i), self.values.get_mut(i)) else {
-            return Err(Error::OutOfRange);
-        };
+        let (stamp, slot) = (self.stamps.get_mut(i)?, self.values.get_mut(i)?);
         if *stamp == self.period {
-            return Ok(*slot);
+            return Some(*slot);
         }
         let at = self.at[3] + u32::from(r) * u32::from(self.row_bytes);
-        let v = row_value(&self.tree.table, at, theta).ok_or(Error::OutOfRange)?;
+        let v = row_value(&self.tree.table, at, theta)?;
         *stamp = self.period;
         *slot = v;
-        Ok(v)
+        Some(v)
     }
 
     /// Evaluates the tree at a quantised `theta`: the outputs in units of
     /// `2^-K`, the law, and the nodes visited.
     #[inline(never)]
     pub fn evaluate_raw(&mut self, theta: &[i16; P]) -> Result<([i32; NU], u16, u16), Error> {
+        self.walk(theta).ok_or(Error::OutOfRange)
+    }
+
+    /// [`Empc16Law::evaluate_raw`]; `None` for a corrupted table.
+    #[inline(always)]
+    fn walk(&mut self, theta: &[i16; P]) -> Option<([i32; NU], u16, u16)> {
         // A new period stamp (0 is never used, so a fresh cache is empty).
         self.period = self.period.wrapping_add(1);
         if self.period == 0 {
@@ -449,13 +454,12 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         let limit = self.tree.layout.n_nodes;
         while code & LEAF == 0 {
             if steps as usize > limit {
-                return Err(Error::OutOfRange); // a cycle: corrupted table
+                return None; // a cycle: corrupted table
             }
             if code as usize >= limit {
-                return Err(Error::OutOfRange);
+                return None;
             }
-            let n: [u8; 5] = read_bytes(&self.tree.table, self.at[0] + 5 * u32::from(code))
-                .ok_or(Error::OutOfRange)?;
+            let n: [u8; 5] = read_bytes(&self.tree.table, self.at[0] + 5 * u32::from(code))?;
             let a = self.value(n[0], theta)?;
             let b = if n[1] == NONE {
                 0
@@ -475,16 +479,14 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         }
         let law = code & !LEAF;
         if law as usize >= self.tree.layout.n_laws {
-            return Err(Error::OutOfRange);
+            return None;
         }
         let rows: [u8; NU] =
-            read_bytes(&self.tree.table, self.at[1] + (NU as u32) * u32::from(law))
-                .ok_or(Error::OutOfRange)?;
+            read_bytes(&self.tree.table, self.at[1] + (NU as u32) * u32::from(law))?;
         let bounds: [[u8; 2]; NU] = {
             let mut b = [[NONE; 2]; NU];
             for (o, bo) in b.iter_mut().enumerate() {
-                *bo = read_bytes(&self.tree.table, self.at[2] + 2 * o as u32)
-                    .ok_or(Error::OutOfRange)?;
+                *bo = read_bytes(&self.tree.table, self.at[2] + 2 * o as u32)?;
             }
             b
         };
@@ -499,7 +501,7 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
             }
             *zo = v;
         }
-        Ok((z, law, steps))
+        Some((z, law, steps))
     }
 }
 
