@@ -402,7 +402,6 @@ impl<S: RtScalar, const NX: usize, const NU: usize, const NY: usize> StateEstima
     fn estimate(&self) -> &[S] {
         S::from_q16_bits(&self.x).unwrap_or(&self.xs)
     }
-    #[inline(never)]
     fn reset(&mut self, x0: &[S]) -> Result<(), Error> {
         self.x = to_q16(x0)?;
         self.publish();
