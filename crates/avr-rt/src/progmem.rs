@@ -10,7 +10,7 @@
 //! - a table is a `static [u8; N]` (N < 32 kB) in flash; bigger data is split
 //!   into several such chunks;
 //! - its full 24-bit flash address is taken by the linker, not by Rust:
-//!   [`far_table!`] emits `ldi r, lo8(sym)` / `hi8(sym)` / `hh8(sym)`, whose
+//!   [`far_table!`](crate::far_table) emits `ldi r, lo8(sym)` / `hi8(sym)` / `hh8(sym)`, whose
 //!   relocations carry all 24 bits;
 //! - bytes are read with `ELPM` after loading `RAMPZ` with the address's
 //!   high byte ([`FarTable`]), so a table may sit anywhere in the 256 kB;
@@ -106,7 +106,7 @@ impl TableRead for [u8] {
 /// A table in program memory, addressed with 24 bits and read with `ELPM`
 /// on the AVR; on other targets it wraps the static's bytes.
 ///
-/// Build it with [`far_table!`].
+/// Build it with [`far_table!`](crate::far_table).
 #[derive(Clone, Copy, Debug)]
 pub struct FarTable {
     #[cfg(target_arch = "avr")]
