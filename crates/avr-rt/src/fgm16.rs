@@ -9,7 +9,7 @@
 //!   `Q16Mac`): `c = K theta + k0`, the box `lo`, `hi` from theta;
 //! - **iterations** in Q15.16 (`i32`) with the rows of `M` as 16-bit
 //!   coefficients with their own binary point ([`Row16`], exact sums of
-//!   8 hardware multiplies per term, one rounding per row, all rows of an
+//!   6 or 8 hardware multiplies per term, one rounding per row, all rows of an
 //!   iteration in one assembly call: [`Row16::apply_all`]) and the
 //!   momentum `beta` in Q1.15: about a quarter of the work of a 32 x
 //!   32-bit MAC.

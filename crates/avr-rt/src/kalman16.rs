@@ -20,9 +20,9 @@
 //! a 50 Hz rate model exact to the row's resolution. The sums are exact and
 //! rounded once per row; on the AVR each table (`C`, `M`, `A - I`, `B`) is
 //! one call of an assembly routine that runs all its rows
-//! ([`Row16::apply_all`], [`Row16::add_all`]: 8 hardware multiplies and
-//! about 67 cycles per term, about 125 per row for the rounding shift,
-//! saturation and stores). A row may start at a column (`start`): with the
+//! ([`Row16::apply_all`], [`Row16::add_all`]: 6 hardware multiplies and
+//! 60 cycles per term for a value within 24 bits, 8 and 76 cycles for any
+//! other, then the rounding shift, saturation and stores). A row may start at a column (`start`): with the
 //! model in real Schur form `A - I` is upper quasi-triangular and the
 //! time update skips the zeros.
 //!
