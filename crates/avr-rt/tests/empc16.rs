@@ -18,19 +18,25 @@ use std::path::Path;
 const P: usize = 9;
 const NU: usize = 4;
 
-fn controller() -> (ExplicitController, MpqpSolution) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/tricopter-blackbox-5.json");
-    let model = SsModel::read(&path).unwrap();
-    let d = FirmwareDesign::from_model(&model, &DesignSettings::default()).unwrap();
-    let solution = kestrel_empc::solve(&d.problem, &Settings::default()).unwrap();
-    let tree = TreeSettings {
-        outputs: Outputs::First(NU),
-        ..Default::default()
-    };
-    (
-        build_controller(&d.problem, &solution, &tree).unwrap(),
-        solution,
-    )
+/// The explicit controller of the firmware design and its mpQP solution,
+/// solved once per test binary.
+fn controller() -> &'static (ExplicitController, MpqpSolution) {
+    static C: std::sync::OnceLock<(ExplicitController, MpqpSolution)> = std::sync::OnceLock::new();
+    C.get_or_init(|| {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/tricopter-blackbox-5.json");
+        let model = SsModel::read(&path).unwrap();
+        let d = FirmwareDesign::from_model(&model, &DesignSettings::default()).unwrap();
+        let solution = kestrel_empc::solve(&d.problem, &Settings::default()).unwrap();
+        let tree = TreeSettings {
+            outputs: Outputs::First(NU),
+            ..Default::default()
+        };
+        (
+            build_controller(&d.problem, &solution, &tree).unwrap(),
+            solution,
+        )
+    })
 }
 
 fn uniform(lb: &[f64], ub: &[f64], n: usize) -> Vec<[f64; P]> {
