@@ -1,12 +1,13 @@
 //! Explicit MPC: the mpQP solve of a 9-parameter, 8-variable problem with
 //! about a thousand regions, and the tree evaluation of the thesis-sized
-//! controller (9 parameters, 4 outputs) in f64, f32 and Q16.
+//! controller (9 parameters, 4 outputs) in f64, f32 and Q16, in the default and
+//! the compact layout.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use kestrel_core::{Q16, Scalar};
 use kestrel_empc::mpqp::Rng;
 use kestrel_empc::{
-    Settings, SliceTables, TreeSettings, build_controller, evaluate, solve, testing,
+    Settings, TreeSettings, TreeTables, build_compact, build_controller, evaluate, solve, testing,
 };
 use std::hint::black_box;
 
@@ -35,7 +36,7 @@ fn solve_bench(c: &mut Criterion) {
     g.finish();
 }
 
-fn eval_one<S: Scalar>(c: &mut Criterion, name: &str, t: &SliceTables<'_, S>, thetas: &[[S; 9]]) {
+fn eval_one<S: Scalar, T: TreeTables<S>>(c: &mut Criterion, name: &str, t: &T, thetas: &[[S; 9]]) {
     let mut z = [S::ZERO; 4];
     let mut i = 0;
     c.bench_function(&format!("empc eval thesis-sized {name}"), |b| {
@@ -76,6 +77,17 @@ fn eval_bench(c: &mut Criterion) {
     let tq = ctl.tables.cast::<Q16>();
     let thq: Vec<[Q16; 9]> = thetas.iter().map(|t| t.map(Q16::from_f64)).collect();
     eval_one(c, "q16", &tq.tables(), &thq);
+    // The compact layout (one tree per output) of the same controller.
+    let compact = build_compact(&prob, &sol, &TreeSettings::default()).unwrap();
+    eprintln!(
+        "thesis-sized compact: depth {}, {} nodes, {} bytes (f32)",
+        compact.depth,
+        compact.tables.nodes.len(),
+        compact.tables.bytes(4)
+    );
+    eval_one(c, "compact f64", &compact.tables.tables(), &thetas);
+    let c32 = compact.tables.cast::<f32>();
+    eval_one(c, "compact f32", &c32.tables(), &cast(&thetas));
 }
 
 criterion_group!(benches, solve_bench, eval_bench);
