@@ -110,8 +110,12 @@ pub struct Identification {
 pub struct Kalman {
     /// Pulse noise standard deviation (us).
     pub input_noise: f64,
-    /// Rate noise standard deviation (rad/s per sample).
-    pub rate_noise: f64,
+    /// Candidate rate noise standard deviations (rad/s per sample).
+    pub rate_noise: Vec<f64>,
+    /// Candidate gust-state noise standard deviations (rad/s per sample).
+    pub gust_noise: Vec<f64>,
+    /// Flight on which the noise levels are chosen.
+    pub training_flight: u8,
     /// Flight filtered for the plot.
     pub flight: u8,
     /// Plot start (s).
@@ -421,7 +425,23 @@ impl Config {
         }
         let k = &self.kalman;
         pos(k.input_noise, "kalman.input_noise")?;
-        pos(k.rate_noise, "kalman.rate_noise")?;
+        for (v, key) in [
+            (&k.rate_noise, "kalman.rate_noise"),
+            (&k.gust_noise, "kalman.gust_noise"),
+        ] {
+            if v.is_empty() {
+                bail!("{key}: expected at least one value");
+            }
+            for x in v {
+                pos(*x, key)?;
+            }
+        }
+        if !(1..=4).contains(&k.training_flight) {
+            bail!(
+                "kalman.training_flight = {}: expected 1..=4",
+                k.training_flight
+            );
+        }
         if !(1..=4).contains(&k.flight) {
             bail!("kalman.flight = {}: expected 1..=4", k.flight);
         }

@@ -757,20 +757,89 @@ fn identification_figures(
 
 // ---------------------------------------------------------------- step 4
 
+/// Runs the filter over the flight: the output estimates and the mean
+/// normalised innovation squared `e' S^-1 e / ny` over the airborne samples.
 fn filter_flight<const NX: usize>(
     design: &KalmanDesign,
     f: &Flight,
-) -> anyhow::Result<Vec<[f64; 3]>> {
+) -> anyhow::Result<(Vec<[f64; 3]>, f64)> {
     let mut filt = design.filter::<f64, NX, 4, 3>()?;
+    let s_inv = design
+        .filter
+        .innovation_covariance
+        .clone()
+        .try_inverse()
+        .context("the innovation covariance is singular")?;
     let mut out = Vec::with_capacity(f.t.len());
+    let (mut nis, mut n) = (0.0, 0usize);
     for k in 0..f.t.len() {
         filt.update(&f.gyro[k])
             .map_err(|e| anyhow::anyhow!("Kalman update at t = {}: {e}", f.t[k]))?;
+        if f.airborne[k] {
+            let e = DVector::from_column_slice(filt.innovation());
+            nis += (e.transpose() * &s_inv * &e)[(0, 0)] / 3.0;
+            n += 1;
+        }
         out.push(filt.output_estimate());
         filt.predict(&f.pwm[k])
             .map_err(|e| anyhow::anyhow!("Kalman time update at t = {}: {e}", f.t[k]))?;
     }
-    Ok(out)
+    Ok((out, nis / n.max(1) as f64))
+}
+
+/// The filter design on the model augmented with three gust states: a
+/// random walk `d` added to the rates every sample (`x+ = A x + B u +
+/// pinv(C) d`, `d+ = d + w`), process noise through `[B, C', 0; 0, 0, I]`.
+fn gust_design(
+    model: &SsModel,
+    noise: (f64, f64, f64),
+    r: &DMatrix<f64>,
+    bias: &DVector<f64>,
+) -> anyhow::Result<KalmanDesign> {
+    let (nx, nu, ny) = (model.nx(), model.nu(), model.ny());
+    let na = nx + ny;
+    let bd = model
+        .c
+        .clone()
+        .pseudo_inverse(1e-12)
+        .map_err(|e| anyhow::anyhow!("pseudo-inverse of C: {e}"))?;
+    let mut a = DMatrix::identity(na, na);
+    a.view_mut((0, 0), (nx, nx)).copy_from(&model.a);
+    a.view_mut((0, nx), (nx, ny)).copy_from(&bd);
+    let mut b = DMatrix::zeros(na, nu);
+    b.view_mut((0, 0), (nx, nu)).copy_from(&model.b);
+    let mut c = DMatrix::zeros(ny, na);
+    c.view_mut((0, 0), (ny, nx)).copy_from(&model.c);
+    let mut aug = SsModel::new(model.ts, a, b, c, DMatrix::zeros(ny, nu))?;
+    aug.u0 = model.u0.clone();
+    aug.y0 = model.y0.clone();
+    aug.inputs = model.inputs.clone();
+    aug.outputs = model.outputs.clone();
+    let nw = nu + 2 * ny;
+    let mut g = DMatrix::zeros(na, nw);
+    g.view_mut((0, 0), (nx, nu)).copy_from(&model.b);
+    g.view_mut((0, nu), (nx, ny))
+        .copy_from(&model.c.transpose());
+    g.view_mut((nx, nu + ny), (ny, ny))
+        .copy_from(&DMatrix::identity(ny, ny));
+    let (input, rate, gust) = noise;
+    let q = DMatrix::from_diagonal(&DVector::from_fn(nw, |i, _| {
+        if i < nu {
+            input * input
+        } else if i < nu + ny {
+            rate * rate
+        } else {
+            gust * gust
+        }
+    }));
+    let noise = NoiseModel {
+        g: Some(g),
+        q,
+        r: r.clone(),
+        cross: None,
+        bias: Some(bias.clone()),
+    };
+    KalmanDesign::new(&aug, &noise).context("dlqe on the black-box model with gust states")
 }
 
 /// Step 4: the stationary Kalman filter of the black-box model.
@@ -787,38 +856,59 @@ pub fn kalman(
     // The bias is removed by the filter; y0 keeps the rest of the offset.
     let bias = DVector::from_column_slice(&s.bias);
     model.y0 = Some(&id.blackbox.y0 - &bias);
-    let (nu, ny) = (model.nu(), model.ny());
-    let mut g = DMatrix::zeros(nx, nu + ny);
-    g.view_mut((0, 0), (nx, nu)).copy_from(&model.b);
-    g.view_mut((0, nu), (nx, ny))
-        .copy_from(&model.c.transpose());
-    let q = DMatrix::from_diagonal(&DVector::from_fn(nu + ny, |i, _| {
-        if i < nu {
-            cfg.kalman.input_noise.powi(2)
-        } else {
-            cfg.kalman.rate_noise.powi(2)
+    let k = &cfg.kalman;
+    let train = fl
+        .iter()
+        .find(|f| f.experiment.number() == k.training_flight)
+        .context("kalman.training_flight")?;
+    // Rate and gust noise chosen by innovation consistency on the training
+    // flight: the mean NIS closest to 1 (nothing tuned on the true rates).
+    let mut choice = Table::new(["rate noise [rad/s]", "gust noise [rad/s]", "mean NIS"]);
+    let mut best: Option<(f64, f64, f64)> = None;
+    let na = nx + model.ny();
+    for &rate in &k.rate_noise {
+        for &gust in &k.gust_noise {
+            let d = gust_design(&model, (k.input_noise, rate, gust), &s.cov, &bias)?;
+            let (_, nis) = with_nx!(na, filter_flight(&d, train))?;
+            choice.row([fmt_sig(rate, 2), fmt_sig(gust, 2), fmt_sig(nis, 3)]);
+            if best.is_none_or(|b| (nis - 1.0).abs() < (b.2 - 1.0).abs()) {
+                best = Some((rate, gust, nis));
+            }
         }
-    }));
-    let noise = NoiseModel {
-        g: Some(g),
-        q,
-        r: s.cov.clone(),
-        cross: None,
-        bias: Some(bias),
-    };
-    let design = KalmanDesign::new(&model, &noise).context("dlqe on the black-box model")?;
+    }
+    let (rate, gust, nis) = best.context("kalman.rate_noise / kalman.gust_noise: empty grid")?;
+    let design = gust_design(&model, (k.input_noise, rate, gust), &s.cov, &bias)?;
     r.write("kalman.json", design.to_json_string())?;
     let f = fl
         .iter()
-        .find(|f| f.experiment.number() == cfg.kalman.flight)
+        .find(|f| f.experiment.number() == k.flight)
         .context("kalman.flight")?;
-    let est = with_nx!(nx, filter_flight(&design, f))?;
+    let (est, nis_test) = with_nx!(na, filter_flight(&design, f))?;
     r.text(format!(
-        "dlqe with process noise through G = [B, C'] ({} us per pulse, {} rad/s per sample on the rates), \
-         R = the gyro covariance of step 2, bias removed by the filter; the design is `kalman.json` \
-         (`kestrel.kalman.v1`). The filter runs over flight no. {} with the logged pulses.",
-        cfg.kalman.input_noise, cfg.kalman.rate_noise, cfg.kalman.flight
+        "dlqe on the black-box model augmented with three gust states (a random walk added to the rates \
+         every sample, as in kestrel-kalman's flight-test design), process noise through \
+         [B, C', 0; 0, 0, I] ({} us per pulse, rate and gust noise per sample), R = the gyro covariance \
+         of step 2, bias removed by the filter. Rate and gust noise are chosen on flight no. {} by \
+         innovation consistency (mean normalised innovation squared closest to 1): {} and {} rad/s \
+         (NIS {}; {} on flight no. {}). The design is `kalman.json` (`kestrel.kalman.v1`); the filter runs \
+         over flight no. {} with the logged pulses.",
+        k.input_noise,
+        k.training_flight,
+        fmt_sig(rate, 2),
+        fmt_sig(gust, 2),
+        fmt_sig(nis, 3),
+        fmt_sig(nis_test, 3),
+        k.flight,
+        k.flight
     ));
+    r.table(
+        "kalman_noise",
+        "Innovation consistency on the training flight (a mean NIS well below 1: the filter \
+         over-states its innovation covariance, the pulse noise covering the model error; with less \
+         pulse noise the NIS reaches 1 but the estimate of r falls behind the gyro, the model's error \
+         being far from white)",
+        &choice,
+    )?;
     let mut t = Table::new(["signal", "RMS error p", "RMS error q", "RMS error r"]);
     if let Some(truth) = &f.truth {
         let idx: Vec<usize> = (0..f.t.len()).filter(|&k| f.airborne[k]).collect();
@@ -844,9 +934,10 @@ pub fn kalman(
             &t,
         )?;
         r.text(
-            "The filter is only as good as the model: with the identified model's simulation error \
-             (step 3) the stationary gain leans on the gyro, as the thesis found for its roll rate \
-             (section 7.5); its value in the loop is the state estimate the MPC needs.",
+            "The filter is only as good as the model: the gust states carry the slowly varying \
+             part the identified model misses (gusts, model error), so the filter can average the \
+             gyro noise where the model predicts well; the thesis found the gain leaning on the gyro \
+             for its roll rate (section 7.5).",
         );
         r.summary(
             "kalman_rms",
