@@ -21,12 +21,26 @@ pub fn spectral_radius(a: &DMatrix<f64>) -> f64 {
 }
 
 /// Moore-Penrose pseudo-inverse with a relative singular-value cut-off.
+///
+/// A matrix with a NaN or infinite entry, or one whose SVD does not converge
+/// within a generous iteration limit, gives a matrix of NaN (which the
+/// callers' finiteness checks turn into an error) instead of looping: the
+/// plain SVD never returns on such input.
 pub fn pinv(a: &DMatrix<f64>) -> DMatrix<f64> {
     let (r, c) = a.shape();
     if r == 0 || c == 0 {
         return DMatrix::zeros(c, r);
     }
-    let svd = a.clone().svd(true, true);
+    let failed = || DMatrix::from_element(c, r, f64::NAN);
+    if a.iter().any(|v| !v.is_finite()) {
+        return failed();
+    }
+    let Some(svd) = a
+        .clone()
+        .try_svd(true, true, f64::EPSILON, 200 * (r.max(c) + 10))
+    else {
+        return failed();
+    };
     let smax = svd.singular_values.max();
     let tol = smax * f64::EPSILON * (r.max(c) as f64);
     let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
@@ -330,6 +344,17 @@ mod tests {
             dlyap(&a, &DMatrix::identity(1, 1)),
             Err(SysidError::Unstable { .. })
         ));
+    }
+
+    #[test]
+    fn pinv_of_non_finite_input_is_nan_not_a_hang() {
+        let mut a = DMatrix::from_row_slice(3, 2, &[1.0, 2.0, 2.0, 4.0, 3.0, 6.0]);
+        a[(1, 1)] = f64::INFINITY;
+        assert!(pinv(&a).iter().all(|v| v.is_nan()));
+        a[(1, 1)] = f64::NAN;
+        let p = pinv(&a);
+        assert_eq!(p.shape(), (2, 3));
+        assert!(p.iter().all(|v| v.is_nan()));
     }
 
     #[test]

@@ -78,17 +78,27 @@ pub fn estimate_x0_predictor(
 fn x0_from_free_response(a: &DMatrix<f64>, c: &DMatrix<f64>, r: &DMatrix<f64>) -> DVector<f64> {
     let (n, ny, nt) = (a.nrows(), c.nrows(), r.nrows());
     // Only the first samples matter for a stable free response; cap the work.
-    let nt = nt.min(2000);
+    let mut nt = nt.min(2000);
     let mut phi = DMatrix::zeros(nt * ny, n);
     let mut rhs = DMatrix::zeros(nt * ny, 1);
     let mut ca = c.clone();
     for t in 0..nt {
+        // An unstable model's free response overflows: the samples after
+        // that carry no information about x0 (and would poison the SVD).
+        if ca.iter().any(|v| !v.is_finite() || v.abs() > 1e150) {
+            nt = t.max(1);
+            break;
+        }
         phi.rows_mut(t * ny, ny).copy_from(&ca);
         for o in 0..ny {
             rhs[(t * ny + o, 0)] = r[(t, o)];
         }
         ca = &ca * a;
     }
+    let (phi, rhs) = (
+        phi.rows(0, nt * ny).into_owned(),
+        rhs.rows(0, nt * ny).into_owned(),
+    );
     let x = lstsq(&phi, &rhs);
     DVector::from_column_slice(x.as_slice())
 }
@@ -481,6 +491,25 @@ mod tests {
         let den: f64 = (0..n).map(|t| (t as f64 - mean).powi(2)).sum();
         let want = 100.0 * (1.0 - ((n - 1) as f64 / den).sqrt());
         assert!((f - want).abs() < 1e-12);
+    }
+
+    #[test]
+    fn unstable_model_is_compared_without_hanging() {
+        // A predictor that diverges (A = 1.5 I): the free response overflows
+        // long before 2000 samples. compare used to hang in the SVD of the
+        // overflowed regressor; now it returns (a finite, very poor fit or an
+        // error, never a loop).
+        let m = synthetic::random_model(3, 2, 2, 5, 0.9);
+        let d = synthetic::simulate(&m, 3000, 0.3, 4).unwrap();
+        let mut bad = m.clone();
+        bad.a = DMatrix::identity(3, 3) * 1.5;
+        if let Ok(c) = compare(&bad, &d) {
+            assert!(
+                c.fit.iter().all(|f| !f.is_finite() || *f < 50.0),
+                "{:?}",
+                c.fit
+            );
+        }
     }
 
     #[test]
