@@ -175,6 +175,48 @@ fn several_files_with_per_flight_segments() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("2 experiment(s)"));
 }
 
+/// `--focus multi-step-then-noise --dynamics-horizon 3` runs both stages
+/// and writes a model; a zero dynamics horizon is a clear error.
+#[test]
+fn multi_step_then_noise_focus() {
+    let d = dir("multistep");
+    let log = d.join("log.csv");
+    write_log(&log, 1000, |_, _| {});
+    let args = |h: &'static str| {
+        vec![
+            "--data".to_string(),
+            log.display().to_string(),
+            "--inputs".into(),
+            "a,b".into(),
+            "--outputs".into(),
+            "p".into(),
+            "--order".into(),
+            "2".into(),
+            "--focus".into(),
+            "multi-step-then-noise".into(),
+            "--dynamics-horizon".into(),
+            h.into(),
+        ]
+    };
+    let run = |a: Vec<String>| {
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        kestrel(&a)
+    };
+    let o = run(args("3"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("PEM noise model (K, dynamics fixed)"), "{err}");
+    let m = SsModel::from_json_str(&String::from_utf8_lossy(&o.stdout)).unwrap();
+    assert_eq!((m.nx(), m.nu(), m.ny()), (2, 2, 1));
+    let o = run(args("0"));
+    assert!(!o.status.success());
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("horizon"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
 #[test]
 fn bad_logs_give_clear_errors() {
     let d = dir("bad");

@@ -36,6 +36,11 @@ pub enum FocusArg {
     /// Simulation errors for A, B, C (D), then K by one-step prediction
     /// with the dynamics fixed (output-error model plus Kalman predictor).
     SimulationThenNoise,
+    /// Multi-step prediction errors (1..--dynamics-horizon steps together)
+    /// for A, B, C (D), K, then K alone with the dynamics fixed by the
+    /// 1..--pem-horizon-step criterion (the one steam-generator model
+    /// above all three open-source targets).
+    MultiStepThenNoise,
 }
 
 /// What PEM re-estimates after `--reduce`.
@@ -105,6 +110,10 @@ pub struct Args {
     /// one-step criterion.
     #[arg(long, default_value_t = 1)]
     pub pem_horizon: usize,
+    /// Prediction horizon of the dynamics stage of
+    /// `--focus multi-step-then-noise` (ignored by the other foci).
+    #[arg(long, default_value_t = 10)]
+    pub dynamics_horizon: usize,
     /// Estimate a feed-through matrix D.
     #[arg(long)]
     pub feedthrough: bool,
@@ -202,6 +211,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             FocusArg::Prediction => PemFocus::Prediction,
             FocusArg::Simulation => PemFocus::Simulation,
             FocusArg::SimulationThenNoise => PemFocus::SimulationThenNoise,
+            FocusArg::MultiStepThenNoise => PemFocus::MultiStepThenNoise {
+                horizon: args.dynamics_horizon,
+            },
         },
         pem_horizon: args.pem_horizon,
         feedthrough: args.feedthrough,
