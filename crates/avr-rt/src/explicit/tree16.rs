@@ -308,7 +308,81 @@ fn round_shift32(v: i32, s: u8) -> i32 {
     if s == 0 {
         return v;
     }
-    (v >> s) + ((v >> (s - 1)) & 1)
+    // One variable shift by `s - 1`, then a constant shift by one: the
+    // AVR has no barrel shifter, so a shift by a variable amount is a loop
+    // of one bit per pass; `shr_var` does it in at most five constant steps.
+    let h = shr_var(v, s - 1);
+    (h >> 1) + (h & 1)
+}
+
+/// `v >> s` (arithmetic, `s` in `0..32`). On the AVR (no barrel shifter;
+/// LLVM lowers every multi-bit `i32` shift, constant or not, to a loop of
+/// one-bit passes of about 14 cycles) whole bytes move first, then one
+/// 6-cycle pass per remaining bit.
+#[inline]
+fn shr_var(v: i32, s: u8) -> i32 {
+    #[cfg(target_arch = "avr")]
+    {
+        let [mut a0, mut a1, mut a2, mut a3] = v.to_le_bytes();
+        // SAFETY: register-only arithmetic.
+        unsafe {
+            core::arch::asm!(
+                "1:",
+                "cpi {s}, 8",
+                "brlo 2f",
+                "mov {a0}, {a1}",
+                "mov {a1}, {a2}",
+                "mov {a2}, {a3}",
+                "lsl {a3}",
+                "sbc {a3}, {a3}",
+                "subi {s}, 8",
+                "rjmp 1b",
+                "2:",
+                "tst {s}",
+                "breq 4f",
+                "3:",
+                "asr {a3}",
+                "ror {a2}",
+                "ror {a1}",
+                "ror {a0}",
+                "dec {s}",
+                "brne 3b",
+                "4:",
+                s = inout(reg_upper) s & 31 => _,
+                a0 = inout(reg) a0,
+                a1 = inout(reg) a1,
+                a2 = inout(reg) a2,
+                a3 = inout(reg) a3,
+                options(pure, nomem, nostack),
+            );
+        }
+        i32::from_le_bytes([a0, a1, a2, a3])
+    }
+    #[cfg(not(target_arch = "avr"))]
+    {
+        v >> (s & 31)
+    }
+}
+
+/// The portable form of [`shr_var`] (kept for the host test against it).
+#[cfg(test)]
+fn shr_var_steps(mut v: i32, s: u8) -> i32 {
+    if s & 16 != 0 {
+        v >>= 16;
+    }
+    if s & 8 != 0 {
+        v >>= 8;
+    }
+    if s & 4 != 0 {
+        v >>= 4;
+    }
+    if s & 2 != 0 {
+        v >>= 2;
+    }
+    if s & 1 != 0 {
+        v >>= 1;
+    }
+    v
 }
 
 /// The fast explicit MPC law (see the module docs): `P` parameters
@@ -363,6 +437,14 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
             if pj.1 > pj.2 {
                 return Err(Error::InvalidArgument("a parameter box with lb > ub"));
             }
+            if pj.0 > 31 {
+                return Err(Error::InvalidArgument("a parameter shift above 31"));
+            }
+        }
+        if l.n_rows * l.row_bytes() > usize::from(u16::MAX)
+            || Tree16Layout::NODE_BYTES * l.n_nodes > usize::from(u16::MAX)
+        {
+            return Err(Error::InvalidArgument("rows or nodes above 64 KiB"));
         }
         let at = [l.nodes_at(), l.laws_at(), l.bounds_at(), l.rows_at()].map(|v| v as u32);
         Ok(Empc16Law {
@@ -392,6 +474,12 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     /// it was outside. [`Error::NonFinite`] for a non-finite entry.
     #[inline(never)]
     pub fn quantize(&self, theta: &[S; P]) -> Result<([i16; P], bool), Error> {
+        self.quantize_in(theta)
+    }
+
+    /// [`Empc16Law::quantize`], inlined into the period's one frame.
+    #[inline(always)]
+    fn quantize_in(&self, theta: &[S; P]) -> Result<([i16; P], bool), Error> {
         let mut q = [0i16; P];
         let mut outside = false;
         for ((qj, t), &(s, lb, ub)) in q.iter_mut().zip(theta).zip(&self.params) {
@@ -426,7 +514,9 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         if *stamp == self.period {
             return Some(*slot);
         }
-        let at = self.at[3] + u32::from(r) * u32::from(self.row_bytes);
+        // `new` checked that every row's offset fits in 16 bits: a 16-bit
+        // product (no 32-bit multiply call on the AVR).
+        let at = self.at[3] + u32::from(u16::from(r).wrapping_mul(self.row_bytes));
         let v = row_value(&self.tree.table, at, theta)?;
         *stamp = self.period;
         *slot = v;
@@ -459,7 +549,11 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
             if code as usize >= limit {
                 return None;
             }
-            let n: [u8; 5] = read_bytes(&self.tree.table, self.at[0] + 5 * u32::from(code))?;
+            // `new` checked that the nodes fit in 64 KiB: a 16-bit product.
+            let n: [u8; 5] = read_bytes(
+                &self.tree.table,
+                self.at[0] + u32::from(code.wrapping_mul(5)),
+            )?;
             let a = self.value(n[0], theta)?;
             let b = if n[1] == NONE {
                 0
@@ -520,8 +614,20 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     }
     fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
         let theta: [S; P] = pack_theta(self.nx, NU, x, r, u)?;
-        let (q, outside) = self.quantize(&theta)?;
-        let (z, _, steps) = self.evaluate_raw(&q)?;
+        self.solve(&theta, u)
+    }
+}
+
+impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
+    Empc16Law<S, T, P, NU, R>
+{
+    /// One period in one frame of its own (quantisation, walk, outputs):
+    /// inlined into the caller's large frame, every local cost a long
+    /// stack-pointer adjustment on the AVR.
+    #[inline(never)]
+    fn solve(&mut self, theta: &[S; P], u: &mut [S]) -> Result<(), Error> {
+        let (q, outside) = self.quantize_in(theta)?;
+        let (z, _, steps) = self.walk(&q).ok_or(Error::OutOfRange)?;
         self.steps = steps;
         if outside {
             self.outside = self.outside.saturating_add(1);
@@ -689,9 +795,10 @@ mod tests {
             i32::MAX,
             i32::MIN,
         ] {
-            for s in 1..20u8 {
+            for s in 1..32u8 {
                 let want = (v as f64 / 2f64.powi(s as i32) + 0.5).floor() as i32;
                 assert_eq!(round_shift32(v, s), want, "{v} >> {s}");
+                assert_eq!(shr_var(v, s), shr_var_steps(v, s), "{v} >> {s}");
             }
         }
     }
