@@ -386,6 +386,126 @@ fn residuals(m: &InnovationModel, x0: &[DVector<f64>], data: &[Series]) -> DVect
     out
 }
 
+/// Where one sample's errors go: the first of their `ny` columns of the
+/// residual vector and Jacobian, and the experiment (whose own `x0`
+/// parameters they depend on).
+#[derive(Clone, Copy)]
+struct Column {
+    col: usize,
+    experiment: usize,
+}
+
+/// One sample's output error `e = y - C z - D u` (into `e` and the
+/// residuals) and its sensitivity `de = -(C dz) - dC z - dD u` (into the
+/// Jacobian columns; `cpsi` is scratch), for the state `z` with
+/// sensitivity `dz`.
+#[allow(clippy::too_many_arguments)]
+fn error_and_sensitivity(
+    lay: &Layout,
+    m: &InnovationModel,
+    (z, dz): (&[f64], &DMatrix<f64>),
+    (u, y): (&[f64], &[f64]),
+    at: Column,
+    e: &mut [f64],
+    (res, jt): (&mut DVector<f64>, &mut DMatrix<f64>),
+    cpsi: &mut DMatrix<f64>,
+) {
+    let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
+    let ps = lay.shared();
+    for o in 0..ny {
+        let mut v = y[o];
+        for i in 0..n {
+            v -= m.c[(o, i)] * z[i];
+        }
+        for j in 0..nu {
+            v -= m.d[(o, j)] * u[j];
+        }
+        e[o] = v;
+        res[at.col + o] = v;
+    }
+    cpsi.gemm(-1.0, &m.c, dz, 0.0);
+    for o in 0..ny {
+        for b in 0..n {
+            cpsi[(o, lay.oc + o * n + b)] -= z[b];
+        }
+        if lay.has_d {
+            for b in 0..nu {
+                cpsi[(o, lay.od + o * nu + b)] -= u[b];
+            }
+        }
+    }
+    for o in 0..ny {
+        let mut jc = jt.column_mut(at.col + o);
+        for q in 0..ps {
+            jc[q] = cpsi[(o, q)];
+        }
+        for a in 0..n {
+            jc[lay.ox + at.experiment * n + a] = cpsi[(o, ps + a)];
+        }
+    }
+}
+
+/// One predictor step with its sensitivity:
+/// `Psi+ = Abar Psi + dA x + dB u + dK e - K (dC x + dD u)` and
+/// `x+ = A x + B u + K e` (`xn`, `psin` are scratch; the results are
+/// swapped into `x`, `psi`).
+fn advance_predictor(
+    lay: &Layout,
+    m: &InnovationModel,
+    abar: &DMatrix<f64>,
+    (u, e): (&[f64], &[f64]),
+    (x, xn): (&mut Vec<f64>, &mut Vec<f64>),
+    (psi, psin): (&mut DMatrix<f64>, &mut DMatrix<f64>),
+) {
+    let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
+    psin.gemm(1.0, abar, psi, 0.0);
+    for a in 0..n {
+        for b in 0..n {
+            psin[(a, a * n + b)] += x[b];
+        }
+        for b in 0..nu {
+            psin[(a, lay.ob + a * nu + b)] += u[b];
+        }
+        if lay.has_k {
+            for b in 0..ny {
+                psin[(a, lay.ok + a * ny + b)] += e[b];
+            }
+        }
+    }
+    for o in 0..ny {
+        for b in 0..n {
+            let c = lay.oc + o * n + b;
+            let xb = x[b];
+            for a in 0..n {
+                psin[(a, c)] -= m.k[(a, o)] * xb;
+            }
+        }
+        if lay.has_d {
+            for b in 0..nu {
+                let c = lay.od + o * nu + b;
+                for a in 0..n {
+                    psin[(a, c)] -= m.k[(a, o)] * u[b];
+                }
+            }
+        }
+    }
+    std::mem::swap(psi, psin);
+    for i in 0..n {
+        let mut v = 0.0;
+        for j in 0..n {
+            v += m.a[(i, j)] * x[j];
+        }
+        for j in 0..nu {
+            v += m.b[(i, j)] * u[j];
+        }
+        for o in 0..ny {
+            v += m.k[(i, o)] * e[o];
+        }
+        xn[i] = v;
+    }
+    std::mem::swap(x, xn);
+}
+
 /// Prediction errors and the transposed Jacobian `d e / d theta` (`p x M`)
 /// by forward sensitivity recursions of the predictor:
 /// `Psi+ = (A - KC) Psi + dA x + dB u + dK e - K (dC x + dD u)`,
@@ -419,85 +539,28 @@ fn residuals_and_jacobian(
         for t in 0..s.n {
             let u = &s.u[t * nu..(t + 1) * nu];
             let y = &s.y[t * ny..(t + 1) * ny];
-            for o in 0..ny {
-                let mut v = y[o];
-                for i in 0..n {
-                    v -= m.c[(o, i)] * x[i];
-                }
-                for j in 0..nu {
-                    v -= m.d[(o, j)] * u[j];
-                }
-                e[o] = v;
-                res[col + o] = v;
-            }
-            // de = -(C Psi) - dC x - dD u
-            cpsi.gemm(-1.0, &m.c, &psi, 0.0);
-            for o in 0..ny {
-                for b in 0..n {
-                    cpsi[(o, lay.oc + o * n + b)] -= x[b];
-                }
-                if lay.has_d {
-                    for b in 0..nu {
-                        cpsi[(o, lay.od + o * nu + b)] -= u[b];
-                    }
-                }
-            }
-            for o in 0..ny {
-                let mut jc = jt.column_mut(col + o);
-                for q in 0..ps {
-                    jc[q] = cpsi[(o, q)];
-                }
-                for a in 0..n {
-                    jc[lay.ox + ei * n + a] = cpsi[(o, ps + a)];
-                }
-            }
-            // Psi+ = Abar Psi + forcing
-            psin.gemm(1.0, &abar, &psi, 0.0);
-            for a in 0..n {
-                for b in 0..n {
-                    psin[(a, a * n + b)] += x[b];
-                }
-                for b in 0..nu {
-                    psin[(a, lay.ob + a * nu + b)] += u[b];
-                }
-                if lay.has_k {
-                    for b in 0..ny {
-                        psin[(a, lay.ok + a * ny + b)] += e[b];
-                    }
-                }
-            }
-            for o in 0..ny {
-                for b in 0..n {
-                    let c = lay.oc + o * n + b;
-                    let xb = x[b];
-                    for a in 0..n {
-                        psin[(a, c)] -= m.k[(a, o)] * xb;
-                    }
-                }
-                if lay.has_d {
-                    for b in 0..nu {
-                        let c = lay.od + o * nu + b;
-                        for a in 0..n {
-                            psin[(a, c)] -= m.k[(a, o)] * u[b];
-                        }
-                    }
-                }
-            }
-            std::mem::swap(&mut psi, &mut psin);
-            for i in 0..n {
-                let mut v = 0.0;
-                for j in 0..n {
-                    v += m.a[(i, j)] * x[j];
-                }
-                for j in 0..nu {
-                    v += m.b[(i, j)] * u[j];
-                }
-                for o in 0..ny {
-                    v += m.k[(i, o)] * e[o];
-                }
-                xn[i] = v;
-            }
-            std::mem::swap(&mut x, &mut xn);
+            let at = Column {
+                col,
+                experiment: ei,
+            };
+            error_and_sensitivity(
+                lay,
+                m,
+                (&x, &psi),
+                (u, y),
+                at,
+                &mut e,
+                (&mut res, &mut jt),
+                &mut cpsi,
+            );
+            advance_predictor(
+                lay,
+                m,
+                &abar,
+                (u, &e),
+                (&mut x, &mut xn),
+                (&mut psi, &mut psin),
+            );
             col += ny;
         }
     }
@@ -536,6 +599,7 @@ fn multistep_residuals_and_jacobian(
     let mut x = vec![0.0; n];
     let mut xn = vec![0.0; n];
     let mut e = vec![0.0; ny];
+    let mut ej = vec![0.0; ny];
     for (ei, (s, x0e)) in data.iter().zip(x0).enumerate() {
         x.copy_from_slice(x0e.as_slice());
         psi.fill(0.0);
@@ -545,38 +609,20 @@ fn multistep_residuals_and_jacobian(
         for t in 0..s.n {
             let u = &s.u[t * nu..(t + 1) * nu];
             let y = &s.y[t * ny..(t + 1) * ny];
-            for o in 0..ny {
-                let mut v = y[o];
-                for i in 0..n {
-                    v -= m.c[(o, i)] * x[i];
-                }
-                for j in 0..nu {
-                    v -= m.d[(o, j)] * u[j];
-                }
-                e[o] = v;
-                res[col + o] = v;
-            }
-            // de = -(C Psi) - dC x - dD u
-            cpsi.gemm(-1.0, &m.c, &psi, 0.0);
-            for o in 0..ny {
-                for b in 0..n {
-                    cpsi[(o, lay.oc + o * n + b)] -= x[b];
-                }
-                if lay.has_d {
-                    for b in 0..nu {
-                        cpsi[(o, lay.od + o * nu + b)] -= u[b];
-                    }
-                }
-            }
-            for o in 0..ny {
-                let mut jc = jt.column_mut(col + o);
-                for q in 0..ps {
-                    jc[q] = cpsi[(o, q)];
-                }
-                for a in 0..n {
-                    jc[lay.ox + ei * n + a] = cpsi[(o, ps + a)];
-                }
-            }
+            let at = Column {
+                col,
+                experiment: ei,
+            };
+            error_and_sensitivity(
+                lay,
+                m,
+                (&x, &psi),
+                (u, y),
+                at,
+                &mut e,
+                (&mut res, &mut jt),
+                &mut cpsi,
+            );
             // Look ahead: steps 2..=h from z0 = x, dz0 = Psi.
             z.copy_from_slice(&x);
             dz.clone_from(&psi);
@@ -606,85 +652,29 @@ fn multistep_residuals_and_jacobian(
                 std::mem::swap(&mut z, &mut zn);
                 let uj = &s.u[(t + j) * nu..(t + j + 1) * nu];
                 let yj = &s.y[(t + j) * ny..(t + j + 1) * ny];
-                let cj = col + j * ny;
-                for o in 0..ny {
-                    let mut v = yj[o];
-                    for i in 0..n {
-                        v -= m.c[(o, i)] * z[i];
-                    }
-                    for jj in 0..nu {
-                        v -= m.d[(o, jj)] * uj[jj];
-                    }
-                    res[cj + o] = v;
-                }
-                cpsi.gemm(-1.0, &m.c, &dz, 0.0);
-                for o in 0..ny {
-                    for b in 0..n {
-                        cpsi[(o, lay.oc + o * n + b)] -= z[b];
-                    }
-                    if lay.has_d {
-                        for b in 0..nu {
-                            cpsi[(o, lay.od + o * nu + b)] -= uj[b];
-                        }
-                    }
-                }
-                for o in 0..ny {
-                    let mut jc = jt.column_mut(cj + o);
-                    for q in 0..ps {
-                        jc[q] = cpsi[(o, q)];
-                    }
-                    for a in 0..n {
-                        jc[lay.ox + ei * n + a] = cpsi[(o, ps + a)];
-                    }
-                }
+                let at = Column {
+                    col: col + j * ny,
+                    experiment: ei,
+                };
+                error_and_sensitivity(
+                    lay,
+                    m,
+                    (&z, &dz),
+                    (uj, yj),
+                    at,
+                    &mut ej,
+                    (&mut res, &mut jt),
+                    &mut cpsi,
+                );
             }
-            // Psi+ = Abar Psi + forcing
-            psin.gemm(1.0, &abar, &psi, 0.0);
-            for a in 0..n {
-                for b in 0..n {
-                    psin[(a, a * n + b)] += x[b];
-                }
-                for b in 0..nu {
-                    psin[(a, lay.ob + a * nu + b)] += u[b];
-                }
-                if lay.has_k {
-                    for b in 0..ny {
-                        psin[(a, lay.ok + a * ny + b)] += e[b];
-                    }
-                }
-            }
-            for o in 0..ny {
-                for b in 0..n {
-                    let c = lay.oc + o * n + b;
-                    let xb = x[b];
-                    for a in 0..n {
-                        psin[(a, c)] -= m.k[(a, o)] * xb;
-                    }
-                }
-                if lay.has_d {
-                    for b in 0..nu {
-                        let c = lay.od + o * nu + b;
-                        for a in 0..n {
-                            psin[(a, c)] -= m.k[(a, o)] * u[b];
-                        }
-                    }
-                }
-            }
-            std::mem::swap(&mut psi, &mut psin);
-            for i in 0..n {
-                let mut v = 0.0;
-                for j in 0..n {
-                    v += m.a[(i, j)] * x[j];
-                }
-                for j in 0..nu {
-                    v += m.b[(i, j)] * u[j];
-                }
-                for o in 0..ny {
-                    v += m.k[(i, o)] * e[o];
-                }
-                xn[i] = v;
-            }
-            std::mem::swap(&mut x, &mut xn);
+            advance_predictor(
+                lay,
+                m,
+                &abar,
+                (u, &e),
+                (&mut x, &mut xn),
+                (&mut psi, &mut psin),
+            );
             col += ny * h.min(s.n - t);
         }
     }
