@@ -286,15 +286,7 @@ impl<S: Scalar, T: TreeTables<S>, const P: usize, const NU: usize> ControlLaw
     for EmpcLaw<S, T, P, NU>
 {
     type Scalar = S;
-    fn nx(&self) -> usize {
-        self.nx
-    }
-    fn nr(&self) -> usize {
-        P - self.nx
-    }
-    fn nu(&self) -> usize {
-        NU
-    }
+    crate::law::parametric_law_sizes!();
     fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
         let theta: [S; P] = pack_theta(self.nx, NU, x, r, u)?;
         let e = evaluate(&self.tables, &theta, u)?;

@@ -257,15 +257,7 @@ impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usiz
     for Fgm16Law<S, N, P, T, NU>
 {
     type Scalar = S;
-    fn nx(&self) -> usize {
-        self.nx
-    }
-    fn nr(&self) -> usize {
-        P - self.nx
-    }
-    fn nu(&self) -> usize {
-        NU
-    }
+    crate::law::parametric_law_sizes!();
     fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
         let theta: [S; P] = pack_theta(self.nx, NU, x, r, u)?;
         let z = self.solve(&theta)?;

@@ -120,15 +120,7 @@ impl<S: Scalar, const N: usize, const P: usize, const T: usize, const NU: usize>
     for FgmLaw<S, N, P, T, NU>
 {
     type Scalar = S;
-    fn nx(&self) -> usize {
-        self.nx
-    }
-    fn nr(&self) -> usize {
-        P - self.nx
-    }
-    fn nu(&self) -> usize {
-        NU
-    }
+    crate::law::parametric_law_sizes!();
     fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
         let theta: [S; P] = pack_theta(self.nx, NU, x, r, u)?;
         let k = self.iterations as usize;
@@ -157,6 +149,24 @@ impl<S: Scalar, const N: usize, const P: usize, const T: usize, const NU: usize>
         self.ws.reset();
     }
 }
+
+/// The `ControlLaw` size methods of a parametric law with a field `nx`
+/// and const parameters `P` (parameters: `nx` states, then `P - nx`
+/// references) and `NU` (outputs); shared by the laws of this crate.
+macro_rules! parametric_law_sizes {
+    () => {
+        fn nx(&self) -> usize {
+            self.nx
+        }
+        fn nr(&self) -> usize {
+            P - self.nx
+        }
+        fn nu(&self) -> usize {
+            NU
+        }
+    };
+}
+pub(crate) use parametric_law_sizes;
 
 /// Checks the lengths of a parametric law's state `x`, reference `r` and
 /// output `u` (`r` takes the `P - nx` parameters after the state) and packs

@@ -603,15 +603,7 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     for Empc16Law<S, T, P, NU, R>
 {
     type Scalar = S;
-    fn nx(&self) -> usize {
-        self.nx
-    }
-    fn nr(&self) -> usize {
-        P - self.nx
-    }
-    fn nu(&self) -> usize {
-        NU
-    }
+    crate::law::parametric_law_sizes!();
     fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
         let theta: [S; P] = pack_theta(self.nx, NU, x, r, u)?;
         self.solve(&theta, u)
