@@ -510,71 +510,15 @@ fn advance_predictor(
 /// by forward sensitivity recursions of the predictor:
 /// `Psi+ = (A - KC) Psi + dA x + dB u + dK e - K (dC x + dD u)`,
 /// `de = -(C Psi + dC x + dD u)`.
+///
+/// With horizon `h > 1` (multi-step focus): for every `t` the errors of
+/// the `1..=h`-step-ahead predictions made from the predictor state
+/// `x(t|t-1)` (`z0 = x, z+ = A z + B u`, error `y - C z - D u`), stacked
+/// `[t][step][output]` (steps that run past the end of an experiment are
+/// left out), and their exact Jacobian: the look-ahead sensitivities
+/// `dz0 = Psi`, `dz+ = A dz + dA z + dB u`, `de = -(C dz + dC z + dD u)`.
+/// `h = 1` gives the one-step errors.
 fn residuals_and_jacobian(
-    lay: &Layout,
-    m: &InnovationModel,
-    x0: &[DVector<f64>],
-    data: &[Series],
-) -> (DVector<f64>, DMatrix<f64>) {
-    let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
-    let total: usize = data.iter().map(|s| s.n * ny).sum();
-    let mut res = DVector::zeros(total);
-    let mut jt = DMatrix::<f64>::zeros(lay.p, total);
-    let ps = lay.shared();
-    let pl = ps + n; // shared + own x0
-    let abar = &m.a - &m.k * &m.c;
-    let mut psi = DMatrix::<f64>::zeros(n, pl);
-    let mut psin = DMatrix::<f64>::zeros(n, pl);
-    let mut cpsi = DMatrix::<f64>::zeros(ny, pl);
-    let mut col = 0;
-    let mut x = vec![0.0; n];
-    let mut xn = vec![0.0; n];
-    let mut e = vec![0.0; ny];
-    for (ei, (s, x0e)) in data.iter().zip(x0).enumerate() {
-        x.copy_from_slice(x0e.as_slice());
-        psi.fill(0.0);
-        for a in 0..n {
-            psi[(a, ps + a)] = 1.0;
-        }
-        for t in 0..s.n {
-            let u = &s.u[t * nu..(t + 1) * nu];
-            let y = &s.y[t * ny..(t + 1) * ny];
-            let at = Column {
-                col,
-                experiment: ei,
-            };
-            error_and_sensitivity(
-                lay,
-                m,
-                (&x, &psi),
-                (u, y),
-                at,
-                &mut e,
-                (&mut res, &mut jt),
-                &mut cpsi,
-            );
-            advance_predictor(
-                lay,
-                m,
-                &abar,
-                (u, &e),
-                (&mut x, &mut xn),
-                (&mut psi, &mut psin),
-            );
-            col += ny;
-        }
-    }
-    (res, jt)
-}
-
-/// The multi-step version of [`residuals_and_jacobian`]: for every `t`
-/// the errors of the `1..=h`-step-ahead predictions made from the
-/// predictor state `x(t|t-1)` (`z0 = x, z+ = A z + B u`, error
-/// `y - C z - D u`), stacked `[t][step][output]` (steps that run past the
-/// end of an experiment are left out), and their exact Jacobian: the
-/// look-ahead sensitivities `dz0 = Psi`,
-/// `dz+ = A dz + dA z + dB u`, `de = -(C dz + dC z + dD u)`.
-fn multistep_residuals_and_jacobian(
     lay: &Layout,
     m: &InnovationModel,
     x0: &[DVector<f64>],
@@ -624,9 +568,11 @@ fn multistep_residuals_and_jacobian(
                 &mut cpsi,
             );
             // Look ahead: steps 2..=h from z0 = x, dz0 = Psi.
-            z.copy_from_slice(&x);
-            dz.clone_from(&psi);
-            dzn.clone_from(&psi);
+            if h > 1 {
+                z.copy_from_slice(&x);
+                dz.clone_from(&psi);
+                dzn.clone_from(&psi);
+            }
             for j in 1..h.min(s.n - t) {
                 let up = &s.u[(t + j - 1) * nu..(t + j) * nu];
                 dzn.gemm(1.0, &m.a, &dz, 0.0);
@@ -688,7 +634,7 @@ fn multistep_count(len: usize, h: usize) -> usize {
 }
 
 /// Multi-step prediction errors (cost evaluation of
-/// [`multistep_residuals_and_jacobian`]).
+/// [`residuals_and_jacobian`]).
 fn multistep_residuals(
     m: &InnovationModel,
     x0: &[DVector<f64>],
@@ -812,13 +758,8 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
         .map(|e| estimate_x0_predictor(&base, &e.u, &e.y))
         .collect::<Result<_>>()?;
     let series = series_of(&sdata);
-    let res_jac = |m: &InnovationModel, x: &[DVector<f64>]| {
-        if h > 1 {
-            multistep_residuals_and_jacobian(&lay, m, x, &series, h)
-        } else {
-            residuals_and_jacobian(&lay, m, x, &series)
-        }
-    };
+    let res_jac =
+        |m: &InnovationModel, x: &[DVector<f64>]| residuals_and_jacobian(&lay, m, x, &series, h);
     let res_only = |m: &InnovationModel, x: &[DVector<f64>]| {
         if h > 1 {
             multistep_residuals(m, x, &series, h)
@@ -986,7 +927,7 @@ mod tests {
             ];
             let th = lay.pack(&base, &x0);
             let (mm, xx) = lay.unpack(&th, &base);
-            let (r0, jt) = residuals_and_jacobian(&lay, &mm, &xx, &series);
+            let (r0, jt) = residuals_and_jacobian(&lay, &mm, &xx, &series, 1);
             assert!((&r0 - residuals(&mm, &xx, &series)).norm() < 1e-12);
             for j in 0..lay.p {
                 let h = 1e-6;
@@ -1041,7 +982,7 @@ mod tests {
             let lay = Layout::new(3, 2, 2, 2, has_d, has_k);
             let th = lay.pack(&base, &x0);
             let (mm, xx) = lay.unpack(&th, &base);
-            let (r0, jt) = multistep_residuals_and_jacobian(&lay, &mm, &xx, &series, h);
+            let (r0, jt) = residuals_and_jacobian(&lay, &mm, &xx, &series, h);
             assert!((&r0 - multistep_residuals(&mm, &xx, &series, h)).norm() < 1e-12);
             for j in 0..lay.p {
                 let eps = 1e-6;
