@@ -8,7 +8,7 @@ use crate::error::{Result, SysidError};
 use crate::filter::Butterworth;
 use crate::model::InnovationModel;
 use crate::n4sid::{N4sidSettings, Weighting, n4sid};
-use crate::pem::{Focus, PemSettings, StopReason, pem};
+use crate::pem::{Criterion, Focus, PemSettings, StopReason, pem};
 use crate::reduce::{BalredSettings, ReductionMethod, Zero, balred, transmission_zeros};
 use crate::validate::{ValidationReport, validate};
 use core::fmt;
@@ -241,6 +241,10 @@ pub struct IdentifySpec {
     /// `h > 1` fits the `1..=h`-step-ahead predictions together
     /// ([`PemSettings::horizon`]); 1 is the one-step criterion.
     pub pem_horizon: usize,
+    /// How the PEM stages weigh the errors of the outputs (and steps):
+    /// [`Criterion::Trace`] (default), [`Criterion::Determinant`] or
+    /// [`Criterion::Fit`] (the sum of the RMS errors, the mean fit).
+    pub criterion: Criterion,
     /// Estimate a feed-through `D`.
     pub feedthrough: bool,
     /// Largest number of PEM iterations.
@@ -272,6 +276,7 @@ impl Default for IdentifySpec {
             horizon: None,
             focus: PemFocus::Prediction,
             pem_horizon: 1,
+            criterion: Criterion::Trace,
             feedthrough: false,
             max_iterations: 30,
             input_map: None,
@@ -538,6 +543,7 @@ pub fn identify(data: &IoData, spec: &IdentifySpec) -> Result<IdentifyReport> {
             PemFocus::MultiStepThenNoise { horizon } => horizon,
             PemFocus::Simulation | PemFocus::SimulationThenNoise => 1,
         },
+        criterion: spec.criterion,
         ..Default::default()
     };
     let noise = PemSettings {
@@ -818,6 +824,51 @@ mod tests {
             identify(&d, &bad),
             Err(SysidError::InvalidArgument(_))
         ));
+    }
+
+    /// `criterion` reaches both PEM stages (the same model as the calls by
+    /// hand) and differs from the trace.
+    #[test]
+    fn criterion_is_passed_on() {
+        let d = data();
+        let spec = IdentifySpec {
+            order: Some(2),
+            focus: PemFocus::MultiStepThenNoise { horizon: 3 },
+            criterion: Criterion::Fit,
+            ..Default::default()
+        };
+        let r = identify(&d, &spec).unwrap();
+        let (est, _) = d.remove_means().unwrap();
+        let start = n4sid(
+            &est,
+            &N4sidSettings {
+                order: Some(2),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let settings = PemSettings {
+            horizon: 3,
+            criterion: Criterion::Fit,
+            ..Default::default()
+        };
+        let p = pem(&est, &start.model, &settings).unwrap();
+        let noise = PemSettings {
+            fixed_dynamics: true,
+            criterion: Criterion::Fit,
+            ..Default::default()
+        };
+        let k = pem(&est, &p.model, &noise).unwrap();
+        assert_eq!(r.full_model, k.model);
+        let trace = identify(
+            &d,
+            &IdentifySpec {
+                criterion: Criterion::Trace,
+                ..spec
+            },
+        )
+        .unwrap();
+        assert!((&trace.full_model.a - &r.full_model.a).amax() > 1e-9);
     }
 
     /// `MultiStepThenNoise` is the multi-step fit followed by the K-only
