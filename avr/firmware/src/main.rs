@@ -331,6 +331,8 @@ pub extern "C" fn main() -> ! {
     send(Kind::Boot, 0, &boot.to_payload());
     #[cfg(feature = "fgm-bench")]
     fgm_bench(&clock);
+    #[cfg(feature = "empc-check")]
+    empc_check(&mut rate_loop.law, &clock);
 
     let mut decoder = FrameDecoder::new();
     let mut seqs = SeqTracker::new();
@@ -392,6 +394,69 @@ pub extern "C" fn main() -> ! {
 fn read_volatile_sreg() -> u8 {
     // SAFETY: reading SREG has no side effects.
     unsafe { read_volatile(SREG) }
+}
+
+/// The explicit MPC law of the `empc` builds.
+#[cfg(feature = "empc-check")]
+type EmpcLaw16 = kestrel_avr_rt::explicit::tree16::Empc16Law<
+    S,
+    FarTable,
+    NP,
+    4,
+    { generated_empc::EMPC16_ROWS },
+>;
+
+/// Parameters evaluated by [`empc_check`].
+#[cfg(feature = "empc-check")]
+const EMPC_CHECK_SAMPLES: u16 = 200;
+
+/// Evaluates the tree (the raw walk from quantised parameters) at
+/// `EMPC_CHECK_SAMPLES` pseudo-random parameters in the box and sends, per
+/// parameter, one Bench-kind frame of 30 bytes: index (u16), law (u16,
+/// 0xFFFF for an error), nodes (u16), cycles (u32), the 4 outputs (i32),
+/// then the cycles of the whole law (`ControlLaw::control`) there (u32),
+/// its nodes (u16) and the wrapping sum of its outputs' Q15.16 bits (u32).
+#[cfg(feature = "empc-check")]
+fn empc_check(law: &mut EmpcLaw16, clock: &Timer1Clock) {
+    use kestrel_core::ControlLaw;
+    let mut seed = 0x2545_f491u32;
+    for i in 0..EMPC_CHECK_SAMPLES {
+        let q = law.box_sample(&mut seed);
+        let t0 = clock.now();
+        let r = core::hint::black_box(law.evaluate_raw(core::hint::black_box(&q)));
+        let cycles = clock.now().wrapping_sub(t0);
+        // The whole law (theta as the loop's scalar, quantisation, walk,
+        // outputs) at the same parameter: theta_j = q_j 2^(s_j - 16).
+        let theta: [S; NP] = core::array::from_fn(|j| {
+            let s = law.param_shift(j);
+            S::from_q16(i32::from(q[j]) << s)
+        });
+        let theta = core::hint::black_box(theta);
+        let mut u = [S::ZERO; 4];
+        let t1 = clock.now();
+        let _ = core::hint::black_box(law.control(&theta[..NX], &theta[NX..], &mut u));
+        let control_cycles = clock.now().wrapping_sub(t1);
+        let steps2 = kestrel_avr_rt::control::LawInfo::iterations(law);
+        let u_sum = u
+            .iter()
+            .fold(0u32, |a, v| a.wrapping_add(v.to_q16().unwrap_or(0) as u32));
+        let mut p = [0u8; 36];
+        p[0..2].copy_from_slice(&i.to_le_bytes());
+        let (lw, steps, z) = match r {
+            Ok(raw) => (raw.law, raw.steps, raw.z),
+            Err(_) => (0xFFFF, 0, [0; 4]),
+        };
+        p[2..4].copy_from_slice(&lw.to_le_bytes());
+        p[4..6].copy_from_slice(&steps.to_le_bytes());
+        p[6..10].copy_from_slice(&cycles.to_le_bytes());
+        for (k, zk) in z.iter().enumerate() {
+            p[10 + 4 * k..14 + 4 * k].copy_from_slice(&zk.to_le_bytes());
+        }
+        p[26..30].copy_from_slice(&control_cycles.to_le_bytes());
+        p[30..32].copy_from_slice(&steps2.to_le_bytes());
+        p[32..36].copy_from_slice(&u_sum.to_le_bytes());
+        send(Kind::Bench, i as u8, &p);
+    }
 }
 
 #[panic_handler]

@@ -34,6 +34,8 @@
 #[cfg(feature = "std")]
 pub mod quantize;
 pub mod tree16;
+#[cfg(target_arch = "avr")]
+mod walk_avr;
 
 use crate::control::LawInfo;
 use crate::law::pack_theta;

@@ -683,6 +683,120 @@ fn far_table_above_64k_reads_back() {
     assert_eq!(boot.table_address, addr);
 }
 
+/// One parameter of the firmware's on-target explicit-MPC check.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct EmpcSample {
+    law: u16,
+    steps: u16,
+    cycles: u32,
+    z: [i32; 4],
+    /// Cycles of the whole law (`control`: quantisation, walk, outputs).
+    control_cycles: u32,
+    /// Nodes visited by `control`.
+    control_steps: u16,
+    /// Wrapping sum of `control`'s outputs' Q15.16 bits.
+    control_sum: u32,
+}
+
+/// The `empc-check` firmware evaluates the 16-bit tree (the assembly walk
+/// from flash) at `EMPC_CHECK_SAMPLES` pseudo-random parameters at boot;
+/// the host walks the same table in Rust at the same parameters (the
+/// same generator, `Empc16Law::box_sample`): law, nodes visited and the
+/// four outputs must agree bit for bit. Returns the on-target samples.
+fn empc_on_target<const ROWS: usize>(
+    features: &[&str],
+    table: &'static [u8],
+    layout: kestrel_avr_rt::explicit::tree16::Tree16Layout,
+    n: usize,
+) -> Vec<EmpcSample> {
+    use kestrel_avr_rt::explicit::tree16::{Empc16Law, Tree16};
+    let elf = build_firmware(features, false);
+    let mut avr = AvrTester::atmega2560().with_clock_of_16_mhz().load(&elf);
+    let mut dec = FrameDecoder::new();
+    let mut got: Vec<EmpcSample> = Vec::new();
+    for _ in 0..5000 {
+        avr.run_for_ms(2);
+        for f in read_frames(&mut avr, &mut dec) {
+            let p = f.payload();
+            if f.kind == Kind::Bench && p.len() == 36 {
+                let u16_at = |i: usize| u16::from_le_bytes([p[i], p[i + 1]]);
+                let u32_at = |i: usize| u32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
+                assert_eq!(u16_at(0) as usize, got.len(), "sample frames in order");
+                got.push(EmpcSample {
+                    law: u16_at(2),
+                    steps: u16_at(4),
+                    cycles: u32_at(6),
+                    z: std::array::from_fn(|k| u32_at(10 + 4 * k) as i32),
+                    control_cycles: u32_at(26),
+                    control_steps: u16_at(30),
+                    control_sum: u32_at(32),
+                });
+            }
+        }
+        if got.len() >= n {
+            break;
+        }
+    }
+    assert_eq!(got.len(), n, "on-target explicit MPC samples");
+    let tree = Tree16::new(table, layout).unwrap();
+    let mut host =
+        Empc16Law::<f64, _, { generated::NP }, 4, ROWS>::new(tree, generated::NX).unwrap();
+    let mut seed = 0x2545_f491u32;
+    for (i, g) in got.iter().enumerate() {
+        let q = host.box_sample(&mut seed);
+        let r = host.evaluate_raw(&q).unwrap();
+        assert_eq!(
+            (g.law, g.steps, g.z),
+            (r.law, r.steps, r.z),
+            "sample {i}: firmware (law, nodes, outputs) differ from the host walk at {q:?}"
+        );
+        // The whole law at the same parameter (theta_j = q_j 2^(s_j - 16)):
+        // the same nodes and the outputs rounded to Q15.16.
+        let k = i32::from(layout.scale) - 16;
+        let sum = r.z.iter().fold(0u32, |a, &z| {
+            let q16 = if k > 0 {
+                ((i64::from(z) + (1 << (k - 1))) >> k) as i32
+            } else {
+                z << -k
+            };
+            a.wrapping_add(q16 as u32)
+        });
+        assert_eq!(
+            (g.control_steps, g.control_sum),
+            (r.steps, sum),
+            "sample {i}: the firmware's whole law differs from its walk"
+        );
+    }
+    got
+}
+
+/// The firmware's explicit MPC (N = 2, Ns = 1) equals the host walk on 200
+/// parameters; prints the walk's cycles (quantised parameter to outputs).
+#[test]
+fn empc_on_target_equals_host_walk() {
+    let got = empc_on_target::<{ generated_empc::EMPC16_ROWS }>(
+        &["empc-check", "fixed-mac"],
+        &generated_empc::EMPC16,
+        generated_empc::EMPC16_LAYOUT,
+        200,
+    );
+    let (mut s, mut c) = (CycleStats::new(), CycleStats::new());
+    for g in &got {
+        s.add(g.cycles);
+        c.add(g.control_cycles);
+    }
+    let nodes = got.iter().map(|g| g.steps as f64).sum::<f64>() / got.len() as f64;
+    println!(
+        "empc on target (N = 2, Ns = 1, 200 random parameters): walk {}/{:.0}/{} cycles, whole law {}/{:.0}/{} cycles, {nodes:.1} nodes",
+        s.min,
+        s.mean().unwrap_or(0.0),
+        s.max,
+        c.min,
+        c.mean().unwrap_or(0.0),
+        c.max
+    );
+}
+
 /// kestrel-fgm's run-time solver on the AVR: the `fgm-bench` firmware times
 /// cold solves of a thesis-sized problem (4 variables, 9 parameters) with
 /// 1, 12, 56 and 91 iterations at boot (the thesis's Table 7.2 counts).

@@ -442,7 +442,11 @@ pub fn check_tree16<const P: usize, const NU: usize>(
         let mut z = [0.0; NU];
         let e = kestrel_empc::evaluate(&tables, th, &mut z).map_err(err)?;
         let (qt, _) = law.quantize(th).map_err(err)?;
-        let (z16, l16, steps) = law.evaluate_raw(&qt).map_err(err)?;
+        let super::tree16::Raw {
+            z: z16,
+            law: l16,
+            steps,
+        } = law.evaluate_raw(&qt).map_err(err)?;
         let diff = z
             .iter()
             .zip(z16)

@@ -60,7 +60,6 @@
 //! ```
 
 use crate::control::LawInfo;
-use crate::law::pack_theta;
 use crate::output::RtScalar;
 use crate::progmem::TableRead;
 use kestrel_core::{ControlLaw, Error};
@@ -172,16 +171,9 @@ impl<T: TableRead> Tree16<T> {
 /// `c0 + sum_{j >= start} c_j theta_j` of the row at table offset `at`
 /// (the caller has checked the row index, so the row is inside the table;
 /// the design bounds the sum within `i32` on the box, and it wraps
-/// otherwise). On the AVR, tables in flash go through the assembly kernel.
+/// otherwise); the Rust form of the assembly walk's row (`super::walk_avr`).
 #[inline]
 fn row_value<T: TableRead, const P: usize>(table: &T, at: u32, theta: &[i16; P]) -> Option<i32> {
-    #[cfg(target_arch = "avr")]
-    if let Some(base) = table.flash_address() {
-        // SAFETY: the row's 5 + 2 P bytes are inside the table (`Tree16::new`
-        // checked its length against the layout, the caller the index);
-        // the kernel reads at most P theta entries.
-        return Some(unsafe { row_dot_avr(base.wrapping_add(at), theta.as_ptr(), P as u8) });
-    }
     let head: [u8; 5] = table.read_array(at)?;
     let start = head[0] as usize;
     let mut acc = i32::from_le_bytes([head[1], head[2], head[3], head[4]]);
@@ -220,86 +212,6 @@ fn read_bytes<T: TableRead, const N: usize>(table: &T, at: u32) -> Option<[u8; N
         return Some(out);
     }
     table.read_array(at)
-}
-
-/// The AVR kernel: the row at flash address `addr` (`start`, the `i32`
-/// constant, then the `i16` gains of columns `start..p`), evaluated at
-/// `theta`: constant `+ sum_k c_k theta_(start + k)`.
-///
-/// # Safety
-/// `addr .. addr + 5 + 2 p` must be in flash, `theta` must hold `p` entries.
-#[cfg(target_arch = "avr")]
-#[inline(never)]
-unsafe fn row_dot_avr(addr: u32, theta: *const i16, p: u8) -> i32 {
-    let (a0, a1, a2, a3): (u8, u8, u8, u8);
-    // SAFETY: flash reads through ELPM (RAMPZ:Z, which Z+ increments as a
-    // whole), RAM reads through X; r0/r1 take the products and r1 (the
-    // zero register) is cleared at the end. A start at or past p (a
-    // corrupted row) leaves the constant alone.
-    unsafe {
-        core::arch::asm!(
-            "out 0x3B, {hh}",
-            "clr {z}",
-            "elpm {n}, Z+",
-            "elpm {a0}, Z+",
-            "elpm {a1}, Z+",
-            "elpm {a2}, Z+",
-            "elpm {a3}, Z+",
-            "cp {n}, {p}",
-            "brsh 2f",
-            // X += 2 start; n = p - start
-            "add r26, {n}",
-            "adc r27, {z}",
-            "add r26, {n}",
-            "adc r27, {z}",
-            "neg {n}",
-            "add {n}, {p}",
-            "1:",
-            "elpm r16, Z+",
-            "elpm r17, Z+",
-            "ld r18, X+",
-            "ld r19, X+",
-            // c_lo * t_lo (unsigned), at byte 0
-            "mul r16, r18",
-            "add {a0}, r0",
-            "adc {a1}, r1",
-            "adc {a2}, {z}",
-            "adc {a3}, {z}",
-            // c_hi (signed) * t_lo (unsigned), at byte 1; C = sign
-            "mulsu r17, r18",
-            "sbc {a3}, {z}",
-            "add {a1}, r0",
-            "adc {a2}, r1",
-            "adc {a3}, {z}",
-            // t_hi (signed) * c_lo (unsigned), at byte 1
-            "mulsu r19, r16",
-            "sbc {a3}, {z}",
-            "add {a1}, r0",
-            "adc {a2}, r1",
-            "adc {a3}, {z}",
-            // c_hi * t_hi (signed), at byte 2
-            "muls r17, r19",
-            "add {a2}, r0",
-            "adc {a3}, r1",
-            "dec {n}",
-            "brne 1b",
-            "2:",
-            "clr r1",
-            hh = in(reg) (addr >> 16) as u8,
-            p = in(reg) p,
-            a0 = out(reg) a0,
-            a1 = out(reg) a1,
-            a2 = out(reg) a2,
-            a3 = out(reg) a3,
-            z = out(reg) _,
-            n = out(reg) _,
-            inout("Z") addr as u16 => _,
-            inout("X") theta => _,
-            out("r16") _, out("r17") _, out("r18") _, out("r19") _,
-            options(readonly, nostack),
-        );
-    }
-    i32::from_le_bytes([a0, a1, a2, a3])
 }
 
 /// Rounds `v / 2^s` to nearest (`s` in `0..32`).
@@ -385,26 +297,55 @@ fn shr_var_steps(mut v: i32, s: u8) -> i32 {
     v
 }
 
+/// The law's RAM scratch, in the order the assembly walk addresses it:
+/// the quantised `theta` (`P` `i16`) directly followed by the row value
+/// cache, 5 bytes per row (the period stamp, then the `i32` value).
+#[repr(C)]
+#[derive(Clone, Debug)]
+struct Scratch<const P: usize, const R: usize> {
+    theta: [i16; P],
+    cache: [[u8; 5]; R],
+}
+
 /// The fast explicit MPC law (see the module docs): `P` parameters
 /// (`theta = [x; r]`, the first `nx` the state), `NU` outputs (the input
 /// moves), a value cache for up to `R` rows. Works in any
 /// [`RtScalar`]: `theta` is taken as Q15.16 and the outputs are given back
 /// from Q15.16.
+///
+/// On the AVR, with the table in flash, one assembly routine
+/// ([`super::walk_avr`]) quantises `theta`, walks the tree and evaluates
+/// the leaf's outputs; elsewhere the same steps run in Rust (the host
+/// tests' reference: the firmware's results are compared with it bit for
+/// bit in simavr).
 #[derive(Clone, Debug)]
 pub struct Empc16Law<S, T, const P: usize, const NU: usize, const R: usize> {
     tree: Tree16<T>,
     nx: usize,
     /// The parameters' shifts and boxes, read from the table once.
     params: [(i8, i16, i16); P],
+    /// The same as the table's bytes (shift, `lb`, `ub`), for the assembly walk.
+    #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
+    param_bytes: [[u8; 5]; P],
     /// Table offsets of the nodes, laws, bounds and rows (from the layout).
     at: [u32; 4],
     row_bytes: u16,
-    values: [i32; R],
-    stamps: [u8; R],
+    scratch: Scratch<P, R>,
     period: u8,
     steps: u16,
     outside: u32,
     _s: core::marker::PhantomData<S>,
+}
+
+/// The evaluation of the tree at a quantised `theta`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Raw<const NU: usize> {
+    /// The outputs in units of `2^-K` (the table's scale).
+    pub z: [i32; NU],
+    /// The leaf's law.
+    pub law: u16,
+    /// Tree nodes visited.
+    pub steps: u16,
 }
 
 impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
@@ -431,14 +372,24 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
                 found: nx,
             });
         }
+        if P > 127 || NU > 255 || l.n_laws > 255 || l.n_nodes > usize::from(LEAF) {
+            return Err(Error::InvalidArgument(
+                "more than 127 parameters, 255 outputs or laws, or 32768 nodes",
+            ));
+        }
         let mut params = [(0i8, 0i16, 0i16); P];
-        for (j, pj) in params.iter_mut().enumerate() {
+        let mut param_bytes = [[0u8; 5]; P];
+        for (j, (pj, bj)) in params.iter_mut().zip(param_bytes.iter_mut()).enumerate() {
+            *bj = tree
+                .table
+                .read_array((Tree16Layout::PARAM_BYTES * j) as u32)
+                .ok_or(Error::OutOfRange)?;
             *pj = tree.param(j).ok_or(Error::OutOfRange)?;
             if pj.1 > pj.2 {
                 return Err(Error::InvalidArgument("a parameter box with lb > ub"));
             }
-            if pj.0 > 31 {
-                return Err(Error::InvalidArgument("a parameter shift above 31"));
+            if !(0..=31).contains(&pj.0) {
+                return Err(Error::InvalidArgument("a parameter shift outside 0..=31"));
             }
         }
         if l.n_rows * l.row_bytes() > usize::from(u16::MAX)
@@ -451,10 +402,13 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
             tree,
             nx,
             params,
+            param_bytes,
             at,
             row_bytes: l.row_bytes() as u16,
-            values: [0; R],
-            stamps: [0; R],
+            scratch: Scratch {
+                theta: [0; P],
+                cache: [[0; 5]; R],
+            },
             period: 0,
             steps: 0,
             outside: 0,
@@ -472,23 +426,22 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
 
     /// `theta` in the table's `i16` units, projected onto the box; whether
     /// it was outside. [`Error::NonFinite`] for a non-finite entry.
-    #[inline(never)]
     pub fn quantize(&self, theta: &[S; P]) -> Result<([i16; P], bool), Error> {
-        self.quantize_in(theta)
+        let mut bits = [0i32; P];
+        for (b, t) in bits.iter_mut().zip(theta) {
+            *b = t.to_q16().ok_or(Error::NonFinite)?;
+        }
+        Ok(self.quantize_bits(&bits))
     }
 
-    /// [`Empc16Law::quantize`], inlined into the period's one frame.
-    #[inline(always)]
-    fn quantize_in(&self, theta: &[S; P]) -> Result<([i16; P], bool), Error> {
+    /// [`Empc16Law::quantize`] from the Q15.16 bits (the Rust form of the
+    /// assembly's first part).
+    fn quantize_bits(&self, bits: &[i32; P]) -> ([i16; P], bool) {
         let mut q = [0i16; P];
         let mut outside = false;
-        for ((qj, t), &(s, lb, ub)) in q.iter_mut().zip(theta).zip(&self.params) {
-            let bits = t.to_q16().ok_or(Error::NonFinite)?;
-            let v = if s >= 0 {
-                round_shift32(bits, s as u8)
-            } else {
-                bits.saturating_mul(1 << (-(s as i32)).min(30))
-            };
+        for ((qj, &b), &(s, lb, ub)) in q.iter_mut().zip(bits).zip(&self.params) {
+            // `new` checked 0 <= s <= 31.
+            let v = round_shift32(b, s as u8);
             *qj = if v < lb as i32 {
                 outside = true;
                 lb
@@ -499,53 +452,92 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
                 v as i16
             };
         }
-        Ok((q, outside))
+        (q, outside)
     }
 
-    /// The value of row `r` at `theta` (cached for the period); `None` for
-    /// a row outside the table.
-    #[inline]
-    fn value(&mut self, r: u8, theta: &[i16; P]) -> Option<i32> {
+    /// The right shift from Q15.16 to parameter `j`'s `i16` units (0 for
+    /// `j >= P`).
+    pub fn param_shift(&self, j: usize) -> u8 {
+        self.params.get(j).map_or(0, |p| p.0 as u8)
+    }
+
+    /// A pseudo-random quantised parameter in the box (a 32-bit LCG in
+    /// `seed`, the same sequence on every target): what the firmware's
+    /// on-target check evaluates and the host compares bit for bit.
+    pub fn box_sample(&self, seed: &mut u32) -> [i16; P] {
+        let mut q = [0i16; P];
+        for (qj, &(_, lb, ub)) in q.iter_mut().zip(&self.params) {
+            *seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let span = (i32::from(ub) - i32::from(lb)) as u32 + 1; // new: lb <= ub
+            let r = ((*seed >> 16) * span) >> 16; // < span
+            *qj = (i32::from(lb) + r as i32) as i16;
+        }
+        q
+    }
+
+    /// Rows evaluated in the current period (test instrumentation).
+    #[doc(hidden)]
+    pub fn rows_evaluated(&self) -> usize {
+        self.scratch
+            .cache
+            .iter()
+            .filter(|e| e[0] == self.period)
+            .count()
+    }
+
+    /// A new period stamp for the value cache (0 is never used, so a
+    /// fresh cache is empty).
+    fn next_period(&mut self) {
+        self.period = self.period.wrapping_add(1);
+        if self.period == 0 {
+            for e in self.scratch.cache.iter_mut() {
+                e[0] = 0;
+            }
+            self.period = 1;
+        }
+    }
+
+    /// The value of row `r` at the scratch's `theta` (cached for the
+    /// period); `None` for a row outside the table.
+    fn value(&mut self, r: u8) -> Option<i32> {
         let i = r as usize;
         if i >= self.tree.layout.n_rows {
             return None;
         }
-        let (stamp, slot) = (self.stamps.get_mut(i)?, self.values.get_mut(i)?);
-        if *stamp == self.period {
-            return Some(*slot);
+        let period = self.period;
+        let e = self.scratch.cache.get(i)?;
+        if e[0] == period {
+            return Some(i32::from_le_bytes([e[1], e[2], e[3], e[4]]));
         }
-        // `new` checked that every row's offset fits in 16 bits: a 16-bit
-        // product (no 32-bit multiply call on the AVR).
+        // `new` checked that every row's offset fits in 16 bits.
         let at = self.at[3] + u32::from(u16::from(r).wrapping_mul(self.row_bytes));
-        let v = row_value(&self.tree.table, at, theta)?;
-        *stamp = self.period;
-        *slot = v;
+        let v = row_value(&self.tree.table, at, &self.scratch.theta)?;
+        let e = self.scratch.cache.get_mut(i)?;
+        let b = v.to_le_bytes();
+        *e = [period, b[0], b[1], b[2], b[3]];
         Some(v)
     }
 
-    /// Evaluates the tree at a quantised `theta`: the outputs in units of
-    /// `2^-K`, the law, and the nodes visited.
-    #[inline(never)]
-    pub fn evaluate_raw(&mut self, theta: &[i16; P]) -> Result<([i32; NU], u16, u16), Error> {
-        self.walk(theta).ok_or(Error::OutOfRange)
+    /// Evaluates the tree at a quantised `theta` (in the box): the outputs
+    /// in units of `2^-K`, the law, and the nodes visited.
+    /// [`Error::OutOfRange`] for a corrupted table (a row, law or node
+    /// index out of range, a right child that does not come after its node).
+    pub fn evaluate_raw(&mut self, theta: &[i16; P]) -> Result<Raw<NU>, Error> {
+        self.scratch.theta = *theta;
+        self.next_period();
+        #[cfg(target_arch = "avr")]
+        if let Some(r) = self.walk_asm(None, 0) {
+            return r;
+        }
+        self.walk().ok_or(Error::OutOfRange)
     }
 
-    /// [`Empc16Law::evaluate_raw`]; `None` for a corrupted table.
-    #[inline(always)]
-    fn walk(&mut self, theta: &[i16; P]) -> Option<([i32; NU], u16, u16)> {
-        // A new period stamp (0 is never used, so a fresh cache is empty).
-        self.period = self.period.wrapping_add(1);
-        if self.period == 0 {
-            self.stamps = [0; R];
-            self.period = 1;
-        }
+    /// The walk at the scratch's `theta` in Rust (the period is set).
+    fn walk(&mut self) -> Option<Raw<NU>> {
         let mut code = self.tree.layout.root;
         let mut steps: u16 = 0;
         let limit = self.tree.layout.n_nodes;
         while code & LEAF == 0 {
-            if steps as usize > limit {
-                return None; // a cycle: corrupted table
-            }
             if code as usize >= limit {
                 return None;
             }
@@ -554,12 +546,9 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
                 &self.tree.table,
                 self.at[0] + u32::from(code.wrapping_mul(5)),
             )?;
-            let a = self.value(n[0], theta)?;
-            let b = if n[1] == NONE {
-                0
-            } else {
-                self.value(n[1], theta)?
-            };
+            steps = steps.saturating_add(1);
+            let a = self.value(n[0])?;
+            let b = if n[1] == NONE { 0 } else { self.value(n[1])? };
             code = if a <= b {
                 if n[2] == NONE {
                     code + 1
@@ -567,9 +556,13 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
                     LEAF | n[2] as u16
                 }
             } else {
-                u16::from_le_bytes([n[3], n[4]])
+                let right = u16::from_le_bytes([n[3], n[4]]);
+                // Children come after their node (preorder): the walk ends.
+                if right & LEAF == 0 && right <= code {
+                    return None;
+                }
+                right
             };
-            steps = steps.saturating_add(1);
         }
         let law = code & !LEAF;
         if law as usize >= self.tree.layout.n_laws {
@@ -577,25 +570,91 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         }
         let rows: [u8; NU] =
             read_bytes(&self.tree.table, self.at[1] + (NU as u32) * u32::from(law))?;
-        let bounds: [[u8; 2]; NU] = {
-            let mut b = [[NONE; 2]; NU];
-            for (o, bo) in b.iter_mut().enumerate() {
-                *bo = read_bytes(&self.tree.table, self.at[2] + 2 * o as u32)?;
-            }
-            b
-        };
         let mut z = [0i32; NU];
-        for ((zo, &r), &[lo, hi]) in z.iter_mut().zip(&rows).zip(&bounds) {
-            let mut v = self.value(r, theta)?;
-            if lo != NONE {
-                v = v.max(self.value(lo, theta)?);
+        for (o, (zo, &r)) in z.iter_mut().zip(&rows).enumerate() {
+            let [lo, hi]: [u8; 2] = read_bytes(&self.tree.table, self.at[2] + 2 * o as u32)?;
+            let lo = if lo != NONE {
+                Some(self.value(lo)?)
+            } else {
+                None
+            };
+            let hi = if hi != NONE {
+                Some(self.value(hi)?)
+            } else {
+                None
+            };
+            let mut v = self.value(r)?;
+            if let Some(lo) = lo {
+                v = v.max(lo);
             }
-            if hi != NONE {
-                v = v.min(self.value(hi, theta)?);
+            if let Some(hi) = hi {
+                v = v.min(hi);
             }
             *zo = v;
         }
-        Some((z, law, steps))
+        Some(Raw { z, law, steps })
+    }
+
+    /// The assembly walk ([`super::walk_avr`]) when the table is in flash:
+    /// with `bits`, `theta` is quantised from those Q15.16 values first
+    /// (the outside flag is returned through `self.outside`); the outputs
+    /// rounded and shifted right by `out_shift` bits; `None`: the table is
+    /// not in flash.
+    #[cfg(target_arch = "avr")]
+    #[inline(always)]
+    fn walk_asm(
+        &mut self,
+        bits: Option<&[i32; P]>,
+        out_shift: u8,
+    ) -> Option<Result<Raw<NU>, Error>> {
+        let base = self.tree.table.flash_address()?;
+        let addr = |off: u32| {
+            let b = base.wrapping_add(off).to_le_bytes();
+            [b[0], b[1], b[2], 0]
+        };
+        let l = &self.tree.layout;
+        let mut z = [0i32; NU];
+        let mut ctx = super::walk_avr::Ctx {
+            nodes: addr(self.at[0]),
+            rows: addr(self.at[3]),
+            laws: addr(self.at[1]),
+            bounds: addr(self.at[2]),
+            cache: self.scratch.cache.as_mut_ptr() as usize as u16,
+            q16: bits.map_or(0, |b| b.as_ptr() as usize as u16),
+            params: self.param_bytes.as_ptr() as usize as u16,
+            out: z.as_mut_ptr() as usize as u16,
+            root: l.root,
+            n_nodes: l.n_nodes as u16,
+            n_rows: l.n_rows as u8,
+            n_laws: l.n_laws as u8,
+            np: P as u8,
+            nu: NU as u8,
+            rb: self.row_bytes as u8,
+            period: self.period,
+            steps: 0,
+            outside: 0,
+            law: 0,
+            scratch: 0,
+            out_shift,
+        };
+        // SAFETY: `ctx` points at this law's scratch (theta directly
+        // before the cache, `repr(C)`), its parameter bytes, `z` (NU
+        // values) and the bits (P values); the routine writes only the
+        // scratch (row indices checked against `n_rows <= R`), `z` and
+        // `ctx`, and reads flash inside the table (indices checked).
+        let status = unsafe { super::walk_avr::kestrel_empc16_eval(&mut ctx) };
+        if ctx.outside != 0 {
+            self.outside = self.outside.saturating_add(1);
+        }
+        Some(if status == 0 {
+            Ok(Raw {
+                z,
+                law: u16::from(ctx.law),
+                steps: ctx.steps,
+            })
+        } else {
+            Err(Error::OutOfRange)
+        })
     }
 }
 
@@ -605,35 +664,68 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     type Scalar = S;
     crate::law::parametric_law_sizes!();
     fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
-        let theta: [S; P] = pack_theta(self.nx, NU, x, r, u)?;
-        self.solve(&theta, u)
+        for (found, expected) in [(x.len(), self.nx), (r.len(), P - self.nx), (u.len(), NU)] {
+            if found != expected {
+                return Err(Error::DimensionMismatch { expected, found });
+            }
+        }
+        // theta = [x; r] as Q15.16 bits, in one pass (no packed copy).
+        let mut bits = [0i32; P];
+        for (b, t) in bits.iter_mut().zip(x.iter().chain(r)) {
+            *b = t.to_q16().ok_or(Error::NonFinite)?;
+        }
+        self.solve(&bits, u)
     }
 }
 
 impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     Empc16Law<S, T, P, NU, R>
 {
-    /// One period in one frame of its own (quantisation, walk, outputs):
-    /// inlined into the caller's large frame, every local cost a long
-    /// stack-pointer adjustment on the AVR.
+    /// One period from `theta`'s Q15.16 bits in one frame of its own
+    /// (quantisation, walk, outputs): inlined into the caller's large
+    /// frame, every local cost a long stack-pointer adjustment on the AVR.
     #[inline(never)]
-    fn solve(&mut self, theta: &[S; P], u: &mut [S]) -> Result<(), Error> {
-        let (q, outside) = self.quantize_in(theta)?;
-        let (z, _, steps) = self.walk(&q).ok_or(Error::OutOfRange)?;
-        self.steps = steps;
+    fn solve(&mut self, bits: &[i32; P], u: &mut [S]) -> Result<(), Error> {
+        self.next_period();
+        let k = self.tree.layout.scale;
+        // On the AVR with the table in flash: quantisation, walk and the
+        // outputs in Q15.16 (k >= 16) in one assembly routine.
+        #[cfg(target_arch = "avr")]
+        if k >= 16 {
+            if let Some(r) = self.walk_asm(Some(bits), k - 16) {
+                let raw = r?;
+                self.steps = raw.steps;
+                for (ui, zi) in u.iter_mut().zip(raw.z) {
+                    *ui = S::from_q16(zi);
+                }
+                return Ok(());
+            }
+        }
+        let (q, outside) = self.quantize_bits(bits);
+        self.scratch.theta = q;
         if outside {
             self.outside = self.outside.saturating_add(1);
         }
-        let k = self.tree.layout.scale;
-        for (ui, zi) in u.iter_mut().zip(z) {
-            let q16 = if k >= 16 {
-                round_shift32(zi, k - 16)
-            } else {
-                zi.saturating_mul(1 << (16 - k))
-            };
-            *ui = S::from_q16(q16);
+        let raw = self.walk().ok_or(Error::OutOfRange)?;
+        self.steps = raw.steps;
+        if k >= 16 {
+            let s = k - 16;
+            for (ui, zi) in u.iter_mut().zip(raw.z) {
+                *ui = S::from_q16(round_shift32(zi, s));
+            }
+        } else {
+            outputs_up(&raw.z, 16 - k, u);
         }
         Ok(())
+    }
+}
+
+/// Outputs of a table with fewer than 16 fraction bits: `z 2^s`, saturated.
+#[cold]
+#[inline(never)]
+fn outputs_up<S: RtScalar, const NU: usize>(z: &[i32; NU], s: u8, u: &mut [S]) {
+    for (ui, &zi) in u.iter_mut().zip(z) {
+        *ui = S::from_q16(zi.saturating_mul(1 << s.min(30)));
     }
 }
 

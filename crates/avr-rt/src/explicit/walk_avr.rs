@@ -1,0 +1,548 @@
+//! The AVR assembly of [`super::tree16::Empc16Law`]'s period: one routine,
+//! `kestrel_empc16_eval`, that quantises `theta` from Q15.16, walks the
+//! tree in flash and evaluates the leaf's clamped outputs, with the row
+//! value cache in RAM. It does exactly what the law's Rust path does (the
+//! host's reference), in the same integer arithmetic:
+//!
+//! - quantisation: `q_j = clamp(round(bits_j / 2^s_j), lb_j, ub_j)`
+//!   (a byte move per 8 bits of the shift, then one 4-cycle pass per bit);
+//! - a row: the `i32` constant plus `sum c_k theta_k` over the stored
+//!   columns, each term a 16 x 16-bit product from four hardware
+//!   multiplies (`MUL`, `MULSU` twice, `MULS`) added into a 32-bit
+//!   accumulator held in registers, gains read with `ELPM Z+`, `theta`
+//!   with `LD X+` (about 35 cycles per term);
+//! - a node: its 5 bytes by `ELPM Z+`, its rows through the cache (an
+//!   evaluated row costs a stamp compare), a signed 32-bit compare;
+//! - outputs: optionally rounded to Q15.16 (`out_shift`);
+//! - checks: every row index below `n_rows`, node index below `n_nodes`,
+//!   law below `n_laws`, and a right child after its node (so the walk
+//!   ends); any failure returns 1 (the law's [`kestrel_core::Error::OutOfRange`]).
+//!
+//! The routine is one `asm!` block (the context pointer in Z, the status
+//! in r24, every other register declared clobbered; Y, the frame
+//! pointer, saved and restored by the block, r1 cleared) and keeps its
+//! context struct in Y. It leaves RAMPZ set (only `ELPM` reads it).
+
+/// The routine's context (offsets are the assembly's `Y+q`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Ctx {
+    /// 0: flash address (24-bit, little-endian, then a pad byte) of node 0.
+    pub nodes: [u8; 4],
+    /// 4: of row 0.
+    pub rows: [u8; 4],
+    /// 8: of the laws' row indices.
+    pub laws: [u8; 4],
+    /// 12: of the output bounds' row indices.
+    pub bounds: [u8; 4],
+    /// 16: RAM address of the cache (`theta`, `P` `i16`, directly before it).
+    pub cache: u16,
+    /// 18: RAM address of the Q15.16 `theta` (`P` `i32`); 0: `theta` is
+    /// already quantised in the scratch.
+    pub q16: u16,
+    /// 20: RAM address of the parameters' 5 bytes each (shift, `lb`, `ub`).
+    pub params: u16,
+    /// 22: RAM address of the outputs (`NU` `i32`).
+    pub out: u16,
+    /// 24: the root code.
+    pub root: u16,
+    /// 26: nodes.
+    pub n_nodes: u16,
+    /// 28: rows.
+    pub n_rows: u8,
+    /// 29: laws.
+    pub n_laws: u8,
+    /// 30: parameters.
+    pub np: u8,
+    /// 31: outputs.
+    pub nu: u8,
+    /// 32: bytes per row.
+    pub rb: u8,
+    /// 33: the period stamp of valid cache entries.
+    pub period: u8,
+    /// 34: out: nodes visited.
+    pub steps: u16,
+    /// 36: out: non-zero if `theta` was outside the box.
+    pub outside: u8,
+    /// 37: out: the leaf's law.
+    pub law: u8,
+    /// 38: the routine's scratch byte.
+    pub scratch: u8,
+    /// 39: outputs are rounded and shifted right by this many bits
+    /// (0: the raw row values).
+    pub out_shift: u8,
+}
+
+/// See the module docs. Returns 0, or 1 for a corrupted table.
+///
+/// # Safety
+/// `ctx` must describe the law's scratch, parameters, outputs and a
+/// table in flash as [`Ctx`] documents.
+#[inline(never)]
+#[allow(named_asm_labels)] // one copy: the function is never inlined
+pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
+    let status: u8;
+    // SAFETY: the caller's contract; Y (the frame pointer, which cannot
+    // be an operand) is saved and restored around the routine, r1 is
+    // cleared, r0 is scratch; every other register it writes is declared.
+    unsafe {
+        core::arch::asm!(
+        "push r28",
+        "push r29",
+        "movw r28, r30",          // Y = ctx
+        "clr r2",                 // zero
+        "ldd r3, Y+33",           // period
+        "ldd r4, Y+16",           // cache base
+        "ldd r5, Y+17",
+        // ---- quantisation (skipped when q16 == 0)
+        "clr r7",                 // outside
+        "ldd r26, Y+18",
+        "ldd r27, Y+19",
+        "mov r24, r26",
+        "or r24, r27",
+        "brne 9f",
+        "rjmp .Lke_walk",
+        "9:",
+        "ldd r30, Y+20",          // Z = params (RAM)
+        "ldd r31, Y+21",
+        "ldd r6, Y+30",           // count = P
+        "movw r8, r4",            // theta = cache - 2P
+        "sub r8, r6",
+        "sbc r9, r2",
+        "sub r8, r6",
+        "sbc r9, r2",
+        ".Lke_q:",
+        "ld r16, X+",
+        "ld r17, X+",
+        "ld r18, X+",
+        "ld r19, X+",
+        "ld r20, Z+",             // s
+        "ld r22, Z+",             // lb
+        "ld r23, Z+",
+        "ld r24, Z+",             // ub
+        "ld r25, Z+",
+        "tst r20",
+        "breq .Lke_qclamp",
+        "dec r20",                // shift by s - 1, then by one with rounding
+        ".Lke_qbyte:",
+        "cpi r20, 8",
+        "brlo .Lke_qbits",
+        "mov r16, r17",
+        "mov r17, r18",
+        "mov r18, r19",
+        "lsl r19",
+        "sbc r19, r19",
+        "subi r20, 8",
+        "rjmp .Lke_qbyte",
+        ".Lke_qbits:",
+        "tst r20",
+        "breq .Lke_qlast",
+        ".Lke_qbit:",
+        "asr r19",
+        "ror r18",
+        "ror r17",
+        "ror r16",
+        "dec r20",
+        "brne .Lke_qbit",
+        ".Lke_qlast:",
+        "asr r19",
+        "ror r18",
+        "ror r17",
+        "ror r16",
+        "adc r16, r2",
+        "adc r17, r2",
+        "adc r18, r2",
+        "adc r19, r2",
+        ".Lke_qclamp:",
+        "mov r21, r23",           // lb's sign byte
+        "lsl r21",
+        "sbc r21, r21",
+        "cp r16, r22",
+        "cpc r17, r23",
+        "cpc r18, r21",
+        "cpc r19, r21",
+        "brge .Lke_qub",
+        "movw r16, r22",          // v < lb: lb
+        "inc r7",
+        "rjmp .Lke_qstore",
+        ".Lke_qub:",
+        "mov r21, r25",           // ub's sign byte
+        "lsl r21",
+        "sbc r21, r21",
+        "cp r24, r16",
+        "cpc r25, r17",
+        "cpc r21, r18",
+        "cpc r21, r19",
+        "brge .Lke_qstore",
+        "movw r16, r24",          // v > ub: ub
+        "inc r7",
+        ".Lke_qstore:",
+        "push r28",
+        "push r29",
+        "movw r28, r8",
+        "st Y+, r16",
+        "st Y+, r17",
+        "movw r8, r28",
+        "pop r29",
+        "pop r28",
+        "dec r6",
+        "breq 9f",
+        "rjmp .Lke_q",
+        "9:",
+        // ---- the walk: r14:r15 code, r12:r13 steps
+        ".Lke_walk:",
+        "std Y+36, r7",
+        "ldd r14, Y+24",
+        "ldd r15, Y+25",
+        "clr r12",
+        "clr r13",
+        ".Lke_node:",
+        "sbrc r15, 7",
+        "rjmp .Lke_leaf",
+        "ldd r24, Y+26",
+        "ldd r25, Y+27",
+        "cp r14, r24",
+        "cpc r15, r25",
+        "brlo 9f",
+        "rjmp .Lke_err0",
+        "9:",
+        "movw r24, r14",          // r20:r25:r24 = 5 code (24 bits)
+        "clr r20",
+        "lsl r24",
+        "rol r25",
+        "rol r20",
+        "lsl r24",
+        "rol r25",
+        "rol r20",
+        "add r24, r14",
+        "adc r25, r15",
+        "adc r20, r2",
+        "ldd r30, Y+0",
+        "ldd r31, Y+1",
+        "ldd r21, Y+2",
+        "add r30, r24",
+        "adc r31, r25",
+        "adc r21, r20",
+        "out 0x3B, r21",
+        "elpm r24, Z+",           // a
+        "elpm r8, Z+",            // b
+        "elpm r9, Z+",            // left
+        "elpm r10, Z+",           // right
+        "elpm r11, Z+",
+        "sec",                    // steps += 1
+        "adc r12, r2",
+        "adc r13, r2",
+        "rcall .Lke_row",
+        "brcc 9f",
+        "rjmp .Lke_err0",
+        "9:",
+        "movw r6, r26",           // &a
+        "mov r24, r8",
+        "cpi r24, 0xFF",
+        "breq .Lke_zero",
+        "rcall .Lke_row",
+        "brcc 9f",
+        "rjmp .Lke_err0",
+        "9:",
+        "ld r20, X+",
+        "ld r21, X+",
+        "ld r22, X+",
+        "ld r23, X",
+        "rjmp .Lke_cmp",
+        ".Lke_err0:",
+        "rjmp .Lke_err",
+        ".Lke_zero:",
+        "clr r20",
+        "clr r21",
+        "movw r22, r20",
+        ".Lke_cmp:",
+        "movw r30, r6",
+        "ld r16, Z+",
+        "ld r17, Z+",
+        "ld r18, Z+",
+        "ld r19, Z",
+        "cp r20, r16",            // b - a
+        "cpc r21, r17",
+        "cpc r22, r18",
+        "cpc r23, r19",
+        "brlt .Lke_right",        // b < a
+        "mov r24, r9",            // a <= b: left
+        "cpi r24, 0xFF",
+        "brne .Lke_lleaf",
+        "sec",                    // the next node
+        "adc r14, r2",
+        "adc r15, r2",
+        "rjmp .Lke_node",
+        ".Lke_lleaf:",
+        "mov r14, r24",
+        "ldi r24, 0x80",
+        "mov r15, r24",
+        "rjmp .Lke_leaf",
+        ".Lke_right:",
+        "sbrc r11, 7",
+        "rjmp .Lke_rgo",
+        "cp r14, r10",            // a node child must come after its node
+        "cpc r15, r11",
+        "brlo 9f",
+        "rjmp .Lke_err0",
+        "9:",
+        ".Lke_rgo:",
+        "movw r14, r10",
+        "rjmp .Lke_node",
+        // ---- the leaf: law r14 (checked), outputs o = r9 into *out (r6:r7)
+        ".Lke_leaf:",
+        "std Y+34, r12",
+        "std Y+35, r13",
+        "mov r24, r15",
+        "andi r24, 0x7F",
+        "breq 9f",
+        "rjmp .Lke_err",
+        "9:",
+        "ldd r24, Y+29",
+        "cp r14, r24",
+        "brlo 9f",
+        "rjmp .Lke_err",
+        "9:",
+        "std Y+37, r14",
+        "ldd r24, Y+31",          // NU law
+        "mul r14, r24",
+        "movw r10, r0",
+        "ldd r6, Y+22",
+        "ldd r7, Y+23",
+        "clr r9",
+        ".Lke_out:",
+        "ldd r30, Y+8",           // the law's row for output o
+        "ldd r31, Y+9",
+        "ldd r21, Y+10",
+        "add r30, r10",
+        "adc r31, r11",
+        "adc r21, r2",
+        "add r30, r9",
+        "adc r31, r2",
+        "adc r21, r2",
+        "out 0x3B, r21",
+        "elpm r8, Z",
+        "ldd r30, Y+12",          // its bounds' rows
+        "ldd r31, Y+13",
+        "ldd r21, Y+14",
+        "add r30, r9",
+        "adc r31, r2",
+        "adc r21, r2",
+        "add r30, r9",
+        "adc r31, r2",
+        "adc r21, r2",
+        "out 0x3B, r21",
+        "elpm r16, Z+",
+        "elpm r17, Z",
+        "std Y+38, r17",
+        "clr r12",                // &lo (0: none)
+        "clr r13",
+        "cpi r16, 0xFF",
+        "breq .Lke_hi",
+        "mov r24, r16",
+        "rcall .Lke_row",
+        "brcc 9f",
+        "rjmp .Lke_err",
+        "9:",
+        "movw r12, r26",
+        ".Lke_hi:",
+        "clr r14",                // &hi (0: none)
+        "clr r15",
+        "ldd r24, Y+38",
+        "cpi r24, 0xFF",
+        "breq .Lke_law",
+        "rcall .Lke_row",
+        "brcc 9f",
+        "rjmp .Lke_err",
+        "9:",
+        "movw r14, r26",
+        ".Lke_law:",
+        "mov r24, r8",
+        "rcall .Lke_row",
+        "brcc 9f",
+        "rjmp .Lke_err",
+        "9:",
+        "ld r16, X+",
+        "ld r17, X+",
+        "ld r18, X+",
+        "ld r19, X",
+        "mov r24, r12",
+        "or r24, r13",
+        "breq .Lke_chi",
+        "movw r30, r12",
+        "ld r20, Z+",
+        "ld r21, Z+",
+        "ld r22, Z+",
+        "ld r23, Z",
+        "cp r16, r20",            // v - lo
+        "cpc r17, r21",
+        "cpc r18, r22",
+        "cpc r19, r23",
+        "brge .Lke_chi",
+        "movw r16, r20",
+        "movw r18, r22",
+        ".Lke_chi:",
+        "mov r24, r14",
+        "or r24, r15",
+        "breq .Lke_store",
+        "movw r30, r14",
+        "ld r20, Z+",
+        "ld r21, Z+",
+        "ld r22, Z+",
+        "ld r23, Z",
+        "cp r20, r16",            // hi - v
+        "cpc r21, r17",
+        "cpc r22, r18",
+        "cpc r23, r19",
+        "brge .Lke_store",
+        "movw r16, r20",
+        "movw r18, r22",
+        ".Lke_store:",
+        "ldd r24, Y+39",          // v = round(v / 2^out_shift)
+        "tst r24",
+        "breq .Lke_st2",
+        "dec r24",
+        ".Lke_obyte:",
+        "cpi r24, 8",
+        "brlo .Lke_obits",
+        "mov r16, r17",
+        "mov r17, r18",
+        "mov r18, r19",
+        "lsl r19",
+        "sbc r19, r19",
+        "subi r24, 8",
+        "rjmp .Lke_obyte",
+        ".Lke_obits:",
+        "tst r24",
+        "breq .Lke_olast",
+        ".Lke_obit:",
+        "asr r19",
+        "ror r18",
+        "ror r17",
+        "ror r16",
+        "dec r24",
+        "brne .Lke_obit",
+        ".Lke_olast:",
+        "asr r19",
+        "ror r18",
+        "ror r17",
+        "ror r16",
+        "adc r16, r2",
+        "adc r17, r2",
+        "adc r18, r2",
+        "adc r19, r2",
+        ".Lke_st2:",
+        "movw r30, r6",
+        "st Z+, r16",
+        "st Z+, r17",
+        "st Z+, r18",
+        "st Z+, r19",
+        "movw r6, r30",
+        "inc r9",
+        "ldd r24, Y+31",
+        "cp r9, r24",
+        "brsh 9f",
+        "rjmp .Lke_out",
+        "9:",
+        "clr r24",
+        "rjmp .Lke_ret",
+        ".Lke_err:",
+        "ldi r24, 1",
+        ".Lke_ret:",
+        "clr r1",
+        "pop r29",
+        "pop r28",
+        "rjmp .Lke_end",
+        // ---- row r24: X -> its cached value, C clear; C set for r24 >= n_rows.
+        // Clobbers r0, r1, r16-r25, X, Z.
+        ".Lke_row:",
+        "ldd r25, Y+28",
+        "cp r24, r25",
+        "brsh .Lke_rbad",
+        "ldi r25, 5",
+        "mul r24, r25",
+        "movw r26, r4",
+        "add r26, r0",
+        "adc r27, r1",
+        "ld r25, X+",
+        "cp r25, r3",
+        "brne .Lke_miss",
+        "clc",
+        "ret",
+        ".Lke_rbad:",
+        "sec",
+        "ret",
+        ".Lke_miss:",
+        "ldd r25, Y+32",          // Z:RAMPZ = rows + r rb
+        "mul r24, r25",
+        "ldd r30, Y+4",
+        "ldd r31, Y+5",
+        "ldd r25, Y+6",
+        "add r30, r0",
+        "adc r31, r1",
+        "adc r25, r2",
+        "out 0x3B, r25",
+        "elpm r20, Z+",           // start
+        "elpm r16, Z+",           // the constant
+        "elpm r17, Z+",
+        "elpm r18, Z+",
+        "elpm r19, Z+",
+        "ldd r25, Y+30",          // n = P - start terms
+        "sub r25, r20",
+        "brcs .Lke_rstore",
+        "breq .Lke_rstore",
+        "movw r26, r4",           // X = theta + start = cache - 2 n
+        "sub r26, r25",
+        "sbc r27, r2",
+        "sub r26, r25",
+        "sbc r27, r2",
+        ".Lke_term:",
+        "elpm r20, Z+",
+        "elpm r21, Z+",
+        "ld r22, X+",
+        "ld r23, X+",
+        "mul r20, r22",           // c_lo t_lo, byte 0
+        "add r16, r0",
+        "adc r17, r1",
+        "adc r18, r2",
+        "adc r19, r2",
+        "mulsu r21, r22",         // c_hi t_lo, byte 1 (C: sign)
+        "sbc r19, r2",
+        "add r17, r0",
+        "adc r18, r1",
+        "adc r19, r2",
+        "mulsu r23, r20",         // t_hi c_lo, byte 1
+        "sbc r19, r2",
+        "add r17, r0",
+        "adc r18, r1",
+        "adc r19, r2",
+        "muls r21, r23",          // c_hi t_hi, byte 2
+        "add r18, r0",
+        "adc r19, r1",
+        "dec r25",
+        "brne .Lke_term",
+        ".Lke_rstore:",
+        "ldi r25, 5",
+        "mul r24, r25",
+        "movw r26, r4",
+        "add r26, r0",
+        "adc r27, r1",
+        "st X+, r3",
+        "st X+, r16",
+        "st X+, r17",
+        "st X+, r18",
+        "st X, r19",
+        "sbiw r26, 3",
+        "clc",
+        "ret",
+        ".Lke_end:",
+        inout("Z") ctx => _,
+        out("r24") status,
+        out("r2") _, out("r3") _, out("r4") _, out("r5") _, out("r6") _, out("r7") _,
+        out("r8") _, out("r9") _, out("r10") _, out("r11") _, out("r12") _, out("r13") _,
+        out("r14") _, out("r15") _, out("r16") _, out("r17") _, out("r18") _, out("r19") _,
+        out("r20") _, out("r21") _, out("r22") _, out("r23") _, out("r25") _, out("X") _,
+        );
+    }
+    status
+}
