@@ -217,6 +217,46 @@ fn multi_step_then_noise_focus() {
     );
 }
 
+/// `--criterion fit` weighs the prediction steps by their RMS error: a
+/// different model from the trace on the same multi-step fit; an unknown
+/// criterion is refused with the choices.
+#[test]
+fn criterion_flag() {
+    let d = dir("criterion");
+    let log = d.join("log.csv");
+    write_log(&log, 1000, |_, _| {});
+    let run = |criterion: &str| {
+        let l = log.display().to_string();
+        kestrel(&[
+            "--data",
+            &l,
+            "--inputs",
+            "a,b",
+            "--outputs",
+            "p",
+            "--order",
+            "1",
+            "--focus",
+            "multi-step-then-noise",
+            "--dynamics-horizon",
+            "4",
+            "--criterion",
+            criterion,
+        ])
+    };
+    let model = |o: std::process::Output| {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        SsModel::from_json_str(&String::from_utf8_lossy(&o.stdout)).unwrap()
+    };
+    let (fit, trace) = (model(run("fit")), model(run("trace")));
+    assert_eq!((fit.nx(), fit.nu(), fit.ny()), (1, 2, 1));
+    assert!((fit.a[(0, 0)] - trace.a[(0, 0)]).abs() > 1e-9);
+    let o = run("median");
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("determinant") && err.contains("fit"), "{err}");
+}
+
 #[test]
 fn bad_logs_give_clear_errors() {
     let d = dir("bad");

@@ -46,8 +46,8 @@ pub enum PemFocus {
     /// ([`IdentifySpec::pem_horizon`]; 1: one-step). The simulation fit is
     /// that of the multi-step dynamics (it does not depend on `K`); the
     /// second stage tunes the short-range predictions. On the DaISy steam
-    /// generator this is the one model above all three open-source
-    /// targets (see the crate README).
+    /// generator it comes closest to the open-source subspace targets
+    /// with one model, without meeting all three (see the crate README).
     MultiStepThenNoise {
         /// Prediction horizon `h >= 1` of the dynamics stage.
         horizon: usize,

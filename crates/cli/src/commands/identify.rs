@@ -5,7 +5,7 @@ use anyhow::{Context, bail};
 use kestrel_sysid::workflow::{
     self, AfterReduction, IdentifySpec, InputMap, Lowpass, PemFocus, Segment,
 };
-use kestrel_sysid::{CsvColumns, IoData, Weighting};
+use kestrel_sysid::{Criterion, CsvColumns, IoData, Weighting};
 use std::path::PathBuf;
 
 /// Identification method.
@@ -38,9 +38,20 @@ pub enum FocusArg {
     SimulationThenNoise,
     /// Multi-step prediction errors (1..--dynamics-horizon steps together)
     /// for A, B, C (D), K, then K alone with the dynamics fixed by the
-    /// 1..--pem-horizon-step criterion (the one steam-generator model
-    /// above all three open-source targets).
+    /// 1..--pem-horizon-step criterion (simulation and k-step fits of
+    /// one model together).
     MultiStepThenNoise,
+}
+
+/// How PEM weighs the errors of the outputs (and prediction steps).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CriterionArg {
+    /// Sum of squared errors of the outputs scaled to unit variance.
+    Trace,
+    /// Determinant of the residual covariance (maximum likelihood).
+    Determinant,
+    /// Sum of the RMS errors per output and prediction step (the mean fit).
+    Fit,
 }
 
 /// What PEM re-estimates after `--reduce`.
@@ -114,6 +125,9 @@ pub struct Args {
     /// `--focus multi-step-then-noise` (ignored by the other foci).
     #[arg(long, default_value_t = 10)]
     pub dynamics_horizon: usize,
+    /// How the PEM stages weigh the errors of the outputs and steps.
+    #[arg(long, value_enum, default_value_t = CriterionArg::Trace)]
+    pub criterion: CriterionArg,
     /// Estimate a feed-through matrix D.
     #[arg(long)]
     pub feedthrough: bool,
@@ -216,6 +230,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             },
         },
         pem_horizon: args.pem_horizon,
+        criterion: match args.criterion {
+            CriterionArg::Trace => Criterion::Trace,
+            CriterionArg::Determinant => Criterion::Determinant,
+            CriterionArg::Fit => Criterion::Fit,
+        },
         feedthrough: args.feedthrough,
         max_iterations: args.max_iterations,
         input_map: args.virtual_inputs.then(InputMap::tricopter_virtual),
