@@ -11,8 +11,9 @@
 //! `cargo run --release -p kestrel-sysid --example steam_criterion [path]`
 //!
 //! `STEAM_STARTS` (N4SID starts `weighting:i`, default `moesp:10`),
-//! `STEAM_CRITERIA` (default `trace,fit`) and `STEAM_HORIZONS` (default
-//! `1,6,10`) set the grid; `STEAM_REFIT=0` stops after the inner table.
+//! `STEAM_CRITERIA` (default `trace,fit`), `STEAM_HORIZONS` (default
+//! `1,6,10`: all steps `1..=h`) and `STEAM_STEPS` (selected step sets
+//! such as `1+5,1+5+10`, [`PemSettings::steps`]; default none) set the grid; `STEAM_REFIT=0` stops after the inner table.
 
 use kestrel_sysid::{
     Criterion, CsvColumns, InnovationModel, IoData, N4sidSettings, PemSettings, Weighting, n4sid,
@@ -45,11 +46,13 @@ struct Start {
 
 /// A candidate: N4SID start, criterion, dynamics horizon, and whether `K`
 /// is re-estimated by one-step prediction afterwards.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 struct Config {
     start: Start,
     criterion: Criterion,
     h: usize,
+    /// Selected steps (empty: all of `1..=h`).
+    steps: Vec<usize>,
     refit_k: bool,
 }
 
@@ -58,7 +61,7 @@ fn fit(
     est: &IoData,
     st: Start,
     criterion: Criterion,
-    h: usize,
+    (h, steps): (usize, &[usize]),
     with_k: &[bool],
 ) -> Result<Vec<(bool, InnovationModel)>, String> {
     let start = n4sid(
@@ -77,13 +80,14 @@ fn fit(
         &start.model,
         &PemSettings {
             horizon: h,
+            steps: steps.to_vec(),
             criterion,
             ..Default::default()
         },
     )
     .map_err(|e| e.to_string())?;
     eprintln!(
-        "  {st:?} {criterion:?} h = {h}: {} iterations, stop {:?}, {:.1} s",
+        "  {st:?} {criterion:?} h = {h} steps {steps:?}: {} iterations, stop {:?}, {:.1} s",
         dynamics.iterations,
         dynamics.stop,
         t.elapsed().as_secs_f64()
@@ -113,6 +117,7 @@ fn list<T>(var: &str, default: &str, parse: impl Fn(&str) -> Option<T>) -> Resul
     std::env::var(var)
         .unwrap_or_else(|_| default.into())
         .split(',')
+        .filter(|s| !s.trim().is_empty())
         .map(|s| parse(s.trim()).ok_or(format!("{var}: cannot read {s:?}")))
         .collect()
 }
@@ -129,6 +134,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         _ => None,
     })?;
     let horizons = list("STEAM_HORIZONS", "1,6,10", |s| s.parse::<usize>().ok())?;
+    let step_sets: Vec<Vec<usize>> = match std::env::var("STEAM_STEPS") {
+        Ok(v) if !v.trim().is_empty() => list("STEAM_STEPS", "", |s| {
+            s.split('+').map(|k| k.parse::<usize>().ok()).collect()
+        })?,
+        _ => Vec::new(),
+    };
     let starts = list("STEAM_STARTS", "moesp:10", |s| {
         let (w, i) = s.split_once(':')?;
         let weighting = match w {
@@ -153,11 +164,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (inner_est, inner_val) = est.split(2.0 / 3.0)?;
     let (inner_est, inner_off) = inner_est.remove_means()?;
     let inner_val = inner_val.subtract(&inner_off)?;
-    let mut jobs: Vec<(Start, Criterion, usize)> = Vec::new();
+    let mut jobs: Vec<(Start, Criterion, usize, Vec<usize>)> = Vec::new();
     for &st in &starts {
         for &c in &criteria {
             for &h in &horizons {
-                jobs.push((st, c, h));
+                jobs.push((st, c, h, Vec::new()));
+            }
+            for set in &step_sets {
+                let h = set.iter().copied().max().unwrap_or(1);
+                jobs.push((st, c, h, set.clone()));
             }
         }
     }
@@ -169,12 +184,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             s.spawn(|| {
                 loop {
                     let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                    let Some(&(st, c, h)) = jobs.get(i) else {
+                    let Some((st, c, h, steps)) = jobs.get(i).cloned() else {
                         break;
                     };
                     // h = 1 with the one-step K refit is the same criterion twice.
                     let with_k: &[bool] = if h == 1 { &[false] } else { &[false, true] };
-                    let r = fit(&inner_est, st, c, h, with_k).and_then(|models| {
+                    let r = fit(&inner_est, st, c, (h, &steps), with_k).and_then(|models| {
                         models
                             .into_iter()
                             .map(|(k, m)| {
@@ -184,6 +199,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                                         start: st,
                                         criterion: c,
                                         h,
+                                        steps: steps.clone(),
                                         refit_k: k,
                                     },
                                     f,
@@ -202,10 +218,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     });
     let mut rows = results.into_inner().map_err(|_| "poisoned")?;
-    rows.sort_by_key(|(c, _)| (format!("{:?}{:?}", c.start, c.criterion), c.h, c.refit_k));
+    rows.sort_by_key(|(c, _)| {
+        (
+            format!("{:?}{:?}", c.start, c.criterion),
+            c.h,
+            c.steps.clone(),
+            c.refit_k,
+        )
+    });
     println!("cross-validation inside the estimation half (fit on 2/3, score on 1/3):");
     println!(
-        "| start | criterion | h | K | simulation | 1-step | 5-step | score |\n|---|---|---|---|---|---|---|---|"
+        "| start | criterion | steps | K | simulation | 1-step | 5-step | score |\n|---|---|---|---|---|---|---|---|"
     );
     let mut best: Option<(f64, Config)> = None;
     for (c, f) in &rows {
@@ -215,14 +238,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             c.start.weighting,
             c.start.i,
             c.criterion,
-            c.h,
+            if c.steps.is_empty() {
+                format!("1..{}", c.h)
+            } else {
+                format!("{:?}", c.steps)
+            },
             if c.refit_k { "one-step" } else { "kept" },
             f.sim,
             f.one,
             f.five
         );
-        if score.is_finite() && best.is_none_or(|(s, _)| score > s) {
-            best = Some((score, *c));
+        if score.is_finite() && best.as_ref().is_none_or(|(s, _)| score > *s) {
+            best = Some((score, c.clone()));
         }
     }
     let (_, c) = best.ok_or("no configuration")?;
@@ -233,7 +260,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     // The chosen configuration on the whole estimation half, validated once.
     let t = std::time::Instant::now();
-    let models = fit(&est, c.start, c.criterion, c.h, &[c.refit_k])?;
+    let models = fit(&est, c.start, c.criterion, (c.h, &c.steps), &[c.refit_k])?;
     let (_, model) = models.last().ok_or("no model")?;
     let r = validate(model, &val, &[1, 5])?;
     let mean = |l: &str| r.row(l).map(|x| x.mean()).unwrap_or(f64::NAN);
