@@ -1043,7 +1043,7 @@ pub const EMPC_Q16: [u8; EMPC_BYTES] = [
 // 148 rows, output scale 2^-17, row error bound 7.408e-1 (output units).
 /// Layout of the 16-bit table.
 pub const EMPC16_LAYOUT: kestrel_avr_rt::explicit::tree16::Tree16Layout = kestrel_avr_rt::explicit::tree16::Tree16Layout {
-    n_params: 9, n_outputs: 4, n_nodes: 856, n_laws: 81, n_rows: 148, root: 0, scale: 17,
+    n_params: 9, n_outputs: 4, n_nodes: 856, n_laws: 81, n_rows: 148, root: 0, scale: 17, wide: false,
 };
 /// Bytes of the 16-bit table.
 pub const EMPC16_BYTES: usize = 8061;

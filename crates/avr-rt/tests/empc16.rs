@@ -182,3 +182,34 @@ fn quantize_refuses_what_it_cannot_represent() {
     t.rows[0] = 1e12;
     assert!(quantize_tree(&t).is_err());
 }
+
+#[test]
+fn wide_layout_walks_like_the_narrow_one() {
+    use kestrel_avr_rt::explicit::quantize::quantize_tree_layout;
+    use kestrel_avr_rt::explicit::tree16::{Empc16Law, Tree16};
+    let (c, _) = controller();
+    let narrow = quantize_tree(&c.tables).unwrap();
+    let wide = quantize_tree_layout(&c.tables, 32, true).unwrap();
+    assert!(!narrow.layout.wide && wide.layout.wide);
+    assert_eq!(wide.bytes.len(), wide.layout.bytes());
+    println!(
+        "narrow {} bytes, wide {} bytes",
+        narrow.bytes.len(),
+        wide.bytes.len()
+    );
+    let tn = Tree16::new(&narrow.bytes[..], narrow.layout).unwrap();
+    let tw = Tree16::new(&wide.bytes[..], wide.layout).unwrap();
+    let mut ln = Empc16Law::<f64, _, P, NU, 256>::new(tn, 5).unwrap();
+    // A small direct-mapped cache (rows share entries): the same results.
+    let mut lw = Empc16Law::<f64, _, P, NU, 16>::new(tw, 5).unwrap();
+    assert!(Empc16Law::<f64, _, P, NU, 24>::new(tw, 5).is_err()); // not a power of two
+    let mut seed = 7u32;
+    for i in 0..10_000 {
+        let q = ln.box_sample(&mut seed);
+        assert_eq!(
+            ln.evaluate_raw(&q).unwrap(),
+            lw.evaluate_raw(&q).unwrap(),
+            "sample {i}"
+        );
+    }
+}

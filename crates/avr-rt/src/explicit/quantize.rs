@@ -16,7 +16,7 @@
 //! the tricopter) from the rounding of gains, constant and parameter;
 //! [`check_tree16`] measures the evaluation against kestrel-empc's f64 one.
 
-use super::tree16::{Empc16Law, LEAF, NONE, Tree16, Tree16Layout};
+use super::tree16::{Empc16Law, LEAF, NONE, NONE16, Tree16, Tree16Layout};
 use crate::design::DesignError;
 use kestrel_empc::{NO_ROW, OwnedTables};
 use std::fmt::Write as _;
@@ -117,10 +117,27 @@ pub fn quantize_tree(t: &OwnedTables<f64>) -> Result<Tree16Tables, DesignError> 
 
 /// [`quantize_tree`] with at most `max_own_rows` hyperplanes given rows of
 /// their own (the worst conditioned first; 23 bytes each for 9 parameters).
+/// The layout is the narrow one unless the tree has more than 254 rows or
+/// laws (then wide, [`Tree16Layout::wide`]).
 pub fn quantize_tree_with(
     t: &OwnedTables<f64>,
     max_own_rows: usize,
 ) -> Result<Tree16Tables, DesignError> {
+    let k = t.n_outputs.max(1);
+    let w = t.n_params + 1;
+    let wide =
+        t.rows.len() / w + max_own_rows >= NONE as usize || t.laws.len() / k >= NONE as usize;
+    quantize_tree_layout(t, max_own_rows, wide)
+}
+
+/// [`quantize_tree_with`] in the layout asked for: `wide` for `u16` row
+/// and law indices (up to 65534 rows and 32767 laws, 8-byte nodes).
+pub fn quantize_tree_layout(
+    t: &OwnedTables<f64>,
+    max_own_rows: usize,
+    wide: bool,
+) -> Result<Tree16Tables, DesignError> {
+    let max_index: usize = if wide { NONE16 as usize } else { NONE as usize };
     let p = t.n_params;
     let k = t.n_outputs;
     let w = p + 1;
@@ -142,9 +159,9 @@ pub fn quantize_tree_with(
     {
         return Err(unsupported("explicit MPC tables with inconsistent lengths"));
     }
-    if n_rows >= NONE as usize || n_laws >= NONE as usize {
+    if n_rows >= max_index || n_laws >= max_index.min(LEAF as usize) {
         return Err(unsupported(format!(
-            "{n_rows} rows, {n_laws} laws: the 16-bit table holds at most 254 of each"
+            "{n_rows} rows, {n_laws} laws: more than the layout's indices hold"
         )));
     }
     if t.rows.iter().any(|v| !v.is_finite()) {
@@ -237,7 +254,7 @@ pub fn quantize_tree_with(
     pairs.sort_by(|x, y| y.1.total_cmp(&x.1));
     let mut own: std::collections::HashMap<(u16, u16), u16> = std::collections::HashMap::new();
     for ((a, b), _) in pairs.iter().take(max_own_rows) {
-        if rows.len() + 1 >= NONE as usize {
+        if rows.len() + 1 >= max_index {
             break;
         }
         let d: Vec<f64> = rows[*a as usize]
@@ -255,9 +272,9 @@ pub fn quantize_tree_with(
         }
     }
     let n_rows = rows.len();
-    if n_rows >= NONE as usize {
+    if n_rows >= max_index {
         return Err(unsupported(format!(
-            "{n_rows} rows with the hyperplanes of their own: the 16-bit table holds at most 254"
+            "{n_rows} rows with the hyperplanes of their own: more than the layout's indices hold"
         )));
     }
     // Rows and their error bounds.
@@ -285,12 +302,14 @@ pub fn quantize_tree_with(
         row_error_bound.push(enc.bound(g, kk));
     }
     // Nodes in preorder (the `a <= b` child of an inner node is the next one).
-    let mut nodes: Vec<[u8; 5]> = Vec::new();
-    let row8 = |i: u16| -> Result<u8, DesignError> {
+    // Logical nodes [a, b, left, right] with NONE16 for none, encoded in
+    // the layout's width below.
+    let mut nodes: Vec<[u16; 4]> = Vec::new();
+    let row_ix = |i: u16| -> Result<u16, DesignError> {
         if i == NO_ROW {
-            Ok(NONE)
+            Ok(NONE16)
         } else if (i as usize) < n_rows {
-            Ok(i as u8)
+            Ok(i)
         } else {
             Err(unsupported("a node's row is outside the row table"))
         }
@@ -312,30 +331,27 @@ pub fn quantize_tree_with(
         depth = depth.max(d + 1);
         let me = nodes.len();
         if let Some(at) = patch {
-            let b = (me as u16).to_le_bytes();
-            nodes[at][3] = b[0];
-            nodes[at][4] = b[1];
+            nodes[at][3] = me as u16;
         }
-        let leaf8 = |c: u16| -> Result<u8, DesignError> {
+        let leaf = |c: u16| -> Result<u16, DesignError> {
             let l = c & !LEAF;
             if (l as usize) < n_laws {
-                Ok(l as u8)
+                Ok(l)
             } else {
                 Err(unsupported("a leaf's law is outside the law table"))
             }
         };
         let left = if nd[2] & LEAF != 0 {
-            leaf8(nd[2])?
+            leaf(nd[2])?
         } else {
-            NONE
+            NONE16
         };
         let right = if nd[3] & LEAF != 0 {
-            LEAF | u16::from(leaf8(nd[3])?)
+            LEAF | leaf(nd[3])?
         } else {
             0 // patched when the right child is written
         };
-        let rb = right.to_le_bytes();
-        nodes.push([row8(nd[0])?, row8(nd[1])?, left, rb[0], rb[1]]);
+        nodes.push([row_ix(nd[0])?, row_ix(nd[1])?, left, right]);
         // Right pushed first so the left subtree comes next in preorder.
         if nd[3] & LEAF == 0 {
             stack.push((nd[3], Some(me), d + 1));
@@ -352,6 +368,15 @@ pub fn quantize_tree_with(
         n_rows,
         root: root_code,
         scale: scale as u8,
+        wide,
+    };
+    // An index (row or law, NONE16 for none) in the layout's width.
+    let put = |bytes: &mut Vec<u8>, v: u16| {
+        if wide {
+            bytes.extend(v.to_le_bytes());
+        } else {
+            bytes.push(if v == NONE16 { NONE } else { v as u8 });
+        }
     };
     let mut bytes = Vec::with_capacity(layout.bytes());
     for j in 0..p {
@@ -360,15 +385,18 @@ pub fn quantize_tree_with(
         bytes.extend(q_ub[j].to_le_bytes());
     }
     for n in &nodes {
-        bytes.extend(n);
+        put(&mut bytes, n[0]);
+        put(&mut bytes, n[1]);
+        put(&mut bytes, n[2]);
+        bytes.extend(n[3].to_le_bytes());
     }
     for &l in &t.laws {
-        bytes.push(row8(l)?);
+        put(&mut bytes, row_ix(l)?);
     }
     let mut output_error_bound: f64 = 0.0;
     for b in &t.bounds {
-        bytes.push(row8(b[0])?);
-        bytes.push(row8(b[1])?);
+        put(&mut bytes, row_ix(b[0])?);
+        put(&mut bytes, row_ix(b[1])?);
     }
     for &r in t.laws.iter().chain(t.bounds.iter().flatten()) {
         if let Some(e) = row_error_bound.get(r as usize) {
@@ -433,7 +461,7 @@ pub fn check_tree16<const P: usize, const NU: usize>(
     }
     let err = |e: kestrel_core::Error| unsupported(format!("evaluation: {e:?}"));
     let tree = Tree16::new(&q.bytes[..], q.layout).map_err(err)?;
-    let mut law = Empc16Law::<f64, _, P, NU, 255>::new(tree, 0).map_err(err)?;
+    let mut law = Empc16Law::<f64, _, P, NU, 256>::new(tree, 0).map_err(err)?;
     let tables = reference.tables();
     let mut c = Tree16Check::default();
     let mut steps_sum = 0.0;
@@ -477,7 +505,7 @@ pub fn tree16_source(q: &Tree16Tables) -> String {
          // {} rows, output scale 2^-{}, row error bound {:.3e} (output units).\n\
          /// Layout of the 16-bit table.\n\
          pub const EMPC16_LAYOUT: kestrel_avr_rt::explicit::tree16::Tree16Layout = kestrel_avr_rt::explicit::tree16::Tree16Layout {{\n    \
-         n_params: {}, n_outputs: {}, n_nodes: {}, n_laws: {}, n_rows: {}, root: {}, scale: {},\n}};\n\
+         n_params: {}, n_outputs: {}, n_nodes: {}, n_laws: {}, n_rows: {}, root: {}, scale: {}, wide: {},\n}};\n\
          /// Bytes of the 16-bit table.\npub const EMPC16_BYTES: usize = {};\n\
          /// Rows of the 16-bit table (the law's value cache).\npub const EMPC16_ROWS: usize = {};\n\
          /// Depth of the 16-bit table's tree.\npub const EMPC16_DEPTH: usize = {};\n\
@@ -495,6 +523,7 @@ pub fn tree16_source(q: &Tree16Tables) -> String {
         l.n_rows,
         l.root,
         l.scale,
+        l.wide,
         q.bytes.len(),
         l.n_rows,
         q.depth,

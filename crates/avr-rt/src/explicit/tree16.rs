@@ -38,7 +38,7 @@
 //! use kestrel_core::ControlLaw;
 //! // One parameter theta in [-1, 1] (Q15.16 >> 1: 2^15 units per 1),
 //! // one output: z = -theta for theta <= 0, 0 otherwise, in units of 2^-16.
-//! let layout = Tree16Layout { n_params: 1, n_outputs: 1, n_nodes: 1, n_laws: 2, n_rows: 3, root: 0, scale: 16 };
+//! let layout = Tree16Layout { n_params: 1, n_outputs: 1, n_nodes: 1, n_laws: 2, n_rows: 3, root: 0, scale: 16, wide: false };
 //! let mut b = vec![1u8];
 //! b.extend((-32767i16).to_le_bytes());
 //! b.extend(32767i16.to_le_bytes());
@@ -68,6 +68,8 @@ use kestrel_core::{ControlLaw, Error};
 pub const LEAF: u16 = 0x8000;
 /// "None" in a `u8` field: no row `b` (zero), the next node, no bound.
 pub const NONE: u8 = 0xFF;
+/// "None" in a `u16` field of the wide layout ([`Tree16Layout::wide`]).
+pub const NONE16: u16 = 0xFFFF;
 
 /// Counts and scale of a [`Tree16`] table (the generated constants).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -80,19 +82,32 @@ pub struct Tree16Layout {
     pub n_nodes: usize,
     /// Laws.
     pub n_laws: usize,
-    /// Affine rows (at most 255).
+    /// Affine rows (at most 255 in the narrow layout, 65534 in the wide).
     pub n_rows: usize,
     /// The root child code (node 0, or a leaf).
     pub root: u16,
     /// Fraction bits `K` of every row's value (value = row / 2^K).
     pub scale: u8,
+    /// The wide layout: row and law indices are `u16` ([`NONE16`] for
+    /// none; nodes of 8 bytes: `a`, `b`, the `a <= b` child, the other
+    /// child), for trees beyond 255 rows or laws (Ns = 2). The narrow one
+    /// (`u8` indices, 5-byte nodes) is what the assembly walk reads.
+    pub wide: bool,
 }
 
 impl Tree16Layout {
     /// Bytes per parameter entry.
     pub const PARAM_BYTES: usize = 5;
-    /// Bytes per node.
+    /// Bytes per node of the narrow layout.
     pub const NODE_BYTES: usize = 5;
+    /// Bytes per node: 5 narrow, 8 wide.
+    pub const fn node_bytes(&self) -> usize {
+        if self.wide { 8 } else { Self::NODE_BYTES }
+    }
+    /// Bytes per row or law index: 1 narrow, 2 wide.
+    pub const fn index_bytes(&self) -> usize {
+        if self.wide { 2 } else { 1 }
+    }
     /// Bytes per row: `start`, the constant, `P` gains.
     pub const fn row_bytes(&self) -> usize {
         5 + 2 * self.n_params
@@ -103,15 +118,15 @@ impl Tree16Layout {
     }
     /// Byte offset of the laws.
     pub const fn laws_at(&self) -> usize {
-        self.nodes_at() + Self::NODE_BYTES * self.n_nodes
+        self.nodes_at() + self.node_bytes() * self.n_nodes
     }
     /// Byte offset of the output bounds.
     pub const fn bounds_at(&self) -> usize {
-        self.laws_at() + self.n_laws * self.n_outputs
+        self.laws_at() + self.index_bytes() * self.n_laws * self.n_outputs
     }
     /// Byte offset of the rows.
     pub const fn rows_at(&self) -> usize {
-        self.bounds_at() + 2 * self.n_outputs
+        self.bounds_at() + 2 * self.index_bytes() * self.n_outputs
     }
     /// Total bytes.
     pub const fn bytes(&self) -> usize {
@@ -130,7 +145,7 @@ pub struct Tree16<T> {
 impl<T: TableRead> Tree16<T> {
     /// The accessor; [`Error::DimensionMismatch`] if the table's length is
     /// not the layout's, [`Error::InvalidArgument`] for more than 255 rows
-    /// or a scale above 30.
+    /// (65534 wide) or a scale above 30.
     pub fn new(table: T, layout: Tree16Layout) -> Result<Self, Error> {
         let len = table.len_bytes() as usize;
         if len != layout.bytes() {
@@ -139,8 +154,10 @@ impl<T: TableRead> Tree16<T> {
                 found: len,
             });
         }
-        if layout.n_rows > 255 {
-            return Err(Error::InvalidArgument("more than 255 rows"));
+        if layout.n_rows > if layout.wide { 65534 } else { 255 } {
+            return Err(Error::InvalidArgument(
+                "more rows than the layout's indices hold",
+            ));
         }
         if layout.scale > 30 {
             return Err(Error::InvalidArgument("row scale above 2^30"));
@@ -299,12 +316,15 @@ fn shr_var_steps(mut v: i32, s: u8) -> i32 {
 
 /// The law's RAM scratch, in the order the assembly walk addresses it:
 /// the quantised `theta` (`P` `i16`) directly followed by the row value
-/// cache, 5 bytes per row (the period stamp, then the `i32` value).
+/// cache, 5 bytes per row (the period stamp, then the `i32` value); for
+/// the wide layout the cache is direct-mapped (row `r` in entry
+/// `r mod R`) and `tags` holds each entry's row.
 #[repr(C)]
 #[derive(Clone, Debug)]
 struct Scratch<const P: usize, const R: usize> {
     theta: [i16; P],
     cache: [[u8; 5]; R],
+    tags: [u16; R],
 }
 
 /// The fast explicit MPC law (see the module docs): `P` parameters
@@ -352,7 +372,8 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     Empc16Law<S, T, P, NU, R>
 {
     /// The law over `tree`; [`Error::DimensionMismatch`] unless the table
-    /// has `P` parameters, `NU` outputs, at most `R` rows, and `nx < P`.
+    /// has `P` parameters, `NU` outputs, at most `R` rows (narrow layout;
+    /// wide: `R` a power of two, the direct-mapped cache), and `nx < P`.
     pub fn new(tree: Tree16<T>, nx: usize) -> Result<Self, Error> {
         let l = tree.layout;
         for (expected, found) in [(P, l.n_params), (NU, l.n_outputs)] {
@@ -360,7 +381,7 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
                 return Err(Error::DimensionMismatch { expected, found });
             }
         }
-        if l.n_rows > R {
+        if (!l.wide && l.n_rows > R) || (l.wide && !R.is_power_of_two()) {
             return Err(Error::DimensionMismatch {
                 expected: R,
                 found: l.n_rows,
@@ -372,9 +393,10 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
                 found: nx,
             });
         }
-        if P > 127 || NU > 255 || l.n_laws > 255 || l.n_nodes > usize::from(LEAF) {
+        let max_laws = if l.wide { usize::from(LEAF) } else { 255 };
+        if P > 127 || NU > 255 || l.n_laws > max_laws || l.n_nodes > usize::from(LEAF) {
             return Err(Error::InvalidArgument(
-                "more than 127 parameters, 255 outputs or laws, or 32768 nodes",
+                "more than 127 parameters, 255 outputs, the layout's laws, or 32768 nodes",
             ));
         }
         let mut params = [(0i8, 0i16, 0i16); P];
@@ -392,8 +414,9 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
                 return Err(Error::InvalidArgument("a parameter shift outside 0..=31"));
             }
         }
-        if l.n_rows * l.row_bytes() > usize::from(u16::MAX)
-            || Tree16Layout::NODE_BYTES * l.n_nodes > usize::from(u16::MAX)
+        if !l.wide
+            && (l.n_rows * l.row_bytes() > usize::from(u16::MAX)
+                || Tree16Layout::NODE_BYTES * l.n_nodes > usize::from(u16::MAX))
         {
             return Err(Error::InvalidArgument("rows or nodes above 64 KiB"));
         }
@@ -408,6 +431,7 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
             scratch: Scratch {
                 theta: [0; P],
                 cache: [[0; 5]; R],
+                tags: [0; R],
             },
             period: 0,
             steps: 0,
@@ -499,23 +523,70 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
 
     /// The value of row `r` at the scratch's `theta` (cached for the
     /// period); `None` for a row outside the table.
-    fn value(&mut self, r: u8) -> Option<i32> {
-        let i = r as usize;
-        if i >= self.tree.layout.n_rows {
+    fn value(&mut self, r: u16) -> Option<i32> {
+        let l = &self.tree.layout;
+        if r as usize >= l.n_rows {
             return None;
         }
+        let wide = l.wide;
+        // Narrow: `new` checked n_rows <= R; wide: R is a power of two.
+        let i = if wide {
+            r as usize & (R - 1)
+        } else {
+            r as usize
+        };
         let period = self.period;
         let e = self.scratch.cache.get(i)?;
-        if e[0] == period {
+        if e[0] == period && (!wide || self.scratch.tags.get(i) == Some(&r)) {
             return Some(i32::from_le_bytes([e[1], e[2], e[3], e[4]]));
         }
-        // `new` checked that every row's offset fits in 16 bits.
-        let at = self.at[3] + u32::from(u16::from(r).wrapping_mul(self.row_bytes));
+        let at = if wide {
+            self.at[3] + u32::from(r) * u32::from(self.row_bytes)
+        } else {
+            // `new` checked that every row's offset fits in 16 bits: a
+            // 16-bit product (no 32-bit multiply call on the AVR).
+            self.at[3] + u32::from(r.wrapping_mul(self.row_bytes))
+        };
         let v = row_value(&self.tree.table, at, &self.scratch.theta)?;
-        let e = self.scratch.cache.get_mut(i)?;
         let b = v.to_le_bytes();
-        *e = [period, b[0], b[1], b[2], b[3]];
+        *self.scratch.cache.get_mut(i)? = [period, b[0], b[1], b[2], b[3]];
+        if let Some(t) = self.scratch.tags.get_mut(i) {
+            *t = r;
+        }
         Some(v)
+    }
+
+    /// Node `code`: rows `a`, `b`, the `a <= b` child and the other child
+    /// as `u16` ([`NONE16`] for none), from either layout.
+    fn node(&self, code: u16) -> Option<[u16; 4]> {
+        if self.tree.layout.wide {
+            let n: [u8; 8] = read_bytes(&self.tree.table, self.at[0] + 8 * u32::from(code))?;
+            Some([
+                u16::from_le_bytes([n[0], n[1]]),
+                u16::from_le_bytes([n[2], n[3]]),
+                u16::from_le_bytes([n[4], n[5]]),
+                u16::from_le_bytes([n[6], n[7]]),
+            ])
+        } else {
+            // `new` checked that the nodes fit in 64 KiB: a 16-bit product.
+            let n: [u8; 5] = read_bytes(
+                &self.tree.table,
+                self.at[0] + u32::from(code.wrapping_mul(5)),
+            )?;
+            let w = |b: u8| if b == NONE { NONE16 } else { u16::from(b) };
+            Some([w(n[0]), w(n[1]), w(n[2]), u16::from_le_bytes([n[3], n[4]])])
+        }
+    }
+
+    /// Index `k` (a row or law index, [`NONE16`] for none) of the index
+    /// array at table offset `at`, in the layout's width.
+    fn index(&self, at: u32, k: u32) -> Option<u16> {
+        if self.tree.layout.wide {
+            read_bytes::<_, 2>(&self.tree.table, at + 2 * k).map(u16::from_le_bytes)
+        } else {
+            read_bytes::<_, 1>(&self.tree.table, at + k)
+                .map(|[b]| if b == NONE { NONE16 } else { u16::from(b) })
+        }
     }
 
     /// Evaluates the tree at a quantised `theta` (in the box): the outputs
@@ -541,22 +612,17 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
             if code as usize >= limit {
                 return None;
             }
-            // `new` checked that the nodes fit in 64 KiB: a 16-bit product.
-            let n: [u8; 5] = read_bytes(
-                &self.tree.table,
-                self.at[0] + u32::from(code.wrapping_mul(5)),
-            )?;
+            let [ra, rb, left, right] = self.node(code)?;
             steps = steps.saturating_add(1);
-            let a = self.value(n[0])?;
-            let b = if n[1] == NONE { 0 } else { self.value(n[1])? };
+            let a = self.value(ra)?;
+            let b = if rb == NONE16 { 0 } else { self.value(rb)? };
             code = if a <= b {
-                if n[2] == NONE {
+                if left == NONE16 {
                     code + 1
                 } else {
-                    LEAF | n[2] as u16
+                    LEAF | (left & !LEAF)
                 }
             } else {
-                let right = u16::from_le_bytes([n[3], n[4]]);
                 // Children come after their node (preorder): the walk ends.
                 if right & LEAF == 0 && right <= code {
                     return None;
@@ -568,17 +634,17 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         if law as usize >= self.tree.layout.n_laws {
             return None;
         }
-        let rows: [u8; NU] =
-            read_bytes(&self.tree.table, self.at[1] + (NU as u32) * u32::from(law))?;
         let mut z = [0i32; NU];
-        for (o, (zo, &r)) in z.iter_mut().zip(&rows).enumerate() {
-            let [lo, hi]: [u8; 2] = read_bytes(&self.tree.table, self.at[2] + 2 * o as u32)?;
-            let lo = if lo != NONE {
+        for (o, zo) in z.iter_mut().enumerate() {
+            let r = self.index(self.at[1], (NU * law as usize + o) as u32)?;
+            let lo = self.index(self.at[2], 2 * o as u32)?;
+            let hi = self.index(self.at[2], 2 * o as u32 + 1)?;
+            let lo = if lo != NONE16 {
                 Some(self.value(lo)?)
             } else {
                 None
             };
-            let hi = if hi != NONE {
+            let hi = if hi != NONE16 {
                 Some(self.value(hi)?)
             } else {
                 None
@@ -607,6 +673,9 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         bits: Option<&[i32; P]>,
         out_shift: u8,
     ) -> Option<Result<Raw<NU>, Error>> {
+        if self.tree.layout.wide {
+            return None; // the assembly reads the narrow layout
+        }
         let base = self.tree.table.flash_address()?;
         let addr = |off: u32| {
             let b = base.wrapping_add(off).to_le_bytes();
@@ -754,6 +823,7 @@ mod tests {
             n_rows: 5,
             root: 0,
             scale: 16,
+            wide: false,
         };
         let mut b = vec![1u8];
         b.extend((-32767i16).to_le_bytes());
