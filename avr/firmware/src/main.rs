@@ -40,11 +40,12 @@ const CONFIG: u8 = (if cfg!(feature = "fixed-mac") {
     1
 } else {
     0
-}) | if cfg!(feature = "empc") { 4 } else { 0 };
+}) | if cfg!(feature = "empc") { 4 } else { 0 }
+    | if cfg!(feature = "empc-ns2") { 8 } else { 0 };
 
 /// The explicit controller's 16-bit table (kestrel_avr_rt::explicit::tree16),
 /// in flash, read with ELPM; the same bytes for every scalar.
-#[cfg(feature = "empc")]
+#[cfg(all(feature = "empc", not(feature = "empc-ns2")))]
 #[unsafe(link_section = ".text.kestrel_tables")]
 #[used]
 static EMPC_TABLE: [u8; generated_empc::EMPC16_BYTES] = generated_empc::EMPC16;
@@ -55,6 +56,10 @@ mod generated;
 #[cfg(feature = "empc")]
 #[allow(dead_code)]
 mod generated_empc;
+/// The Ns = 2 explicit MPC's table (wide layout, flash chunks).
+#[cfg(feature = "empc-ns2")]
+#[allow(dead_code)]
+mod generated_empc_ns2;
 /// Controller tables in flash (see tables.rs).
 mod tables;
 use tables::*;
@@ -288,7 +293,7 @@ pub extern "C" fn main() -> ! {
     };
     // Explicit MPC: kestrel-empc's tree with 16-bit rows, read from flash
     // through ELPM by an assembly MAC (kestrel_avr_rt::explicit::tree16).
-    #[cfg(feature = "empc")]
+    #[cfg(all(feature = "empc", not(feature = "empc-ns2")))]
     let law = {
         use kestrel_avr_rt::explicit::tree16::{Empc16Law, Tree16};
         let Ok(tree) = Tree16::new(far_table!(EMPC_TABLE), generated_empc::EMPC16_LAYOUT) else {
@@ -296,6 +301,22 @@ pub extern "C" fn main() -> ! {
         };
         let Ok(law) = Empc16Law::<S, _, NP, 4, { generated_empc::EMPC16_ROWS }>::new(tree, NX)
         else {
+            loop {}
+        };
+        law
+    };
+    // Ns = 2: the wide 16-bit tree in flash chunks, walked in Rust with a
+    // direct-mapped cache of 64 rows.
+    #[cfg(feature = "empc-ns2")]
+    let law = {
+        use kestrel_avr_rt::explicit::tree16::{Empc16Law, Tree16};
+        let Some(chunks) = generated_empc_ns2::empc_ns2_table() else {
+            loop {}
+        };
+        let Ok(tree) = Tree16::new(chunks, generated_empc_ns2::EMPC_NS2_LAYOUT) else {
+            loop {}
+        };
+        let Ok(law) = Empc16Law::<S, _, NP, 4, 64>::new(tree, NX) else {
             loop {}
         };
         law
@@ -397,13 +418,23 @@ fn read_volatile_sreg() -> u8 {
 }
 
 /// The explicit MPC law of the `empc` builds.
-#[cfg(feature = "empc-check")]
+#[cfg(all(feature = "empc-check", not(feature = "empc-ns2")))]
 type EmpcLaw16 = kestrel_avr_rt::explicit::tree16::Empc16Law<
     S,
     FarTable,
     NP,
     4,
     { generated_empc::EMPC16_ROWS },
+>;
+
+/// The explicit MPC law of the `empc-ns2` builds.
+#[cfg(all(feature = "empc-check", feature = "empc-ns2"))]
+type EmpcLaw16 = kestrel_avr_rt::explicit::tree16::Empc16Law<
+    S,
+    kestrel_avr_rt::progmem::FarChunks<{ generated_empc_ns2::EMPC_NS2_CHUNKS }>,
+    NP,
+    4,
+    64,
 >;
 
 /// Parameters evaluated by [`empc_check`].

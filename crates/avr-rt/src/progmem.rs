@@ -202,6 +202,82 @@ impl TableRead for FarTable {
     }
 }
 
+/// One table made of `N` flash chunks of `2^chunk_bits` bytes each (the
+/// last may be shorter): data beyond the 32 kB limit of a single Rust
+/// object, read at one offset as if contiguous (the chunks may sit
+/// anywhere in flash). On the host the chunks are byte slices.
+///
+/// ```
+/// use kestrel_avr_rt::progmem::{FarChunks, FarTable, TableRead};
+/// static A: [u8; 4] = [1, 2, 3, 4];
+/// static B: [u8; 2] = [5, 6];
+/// let t = FarChunks::new([kestrel_avr_rt::far_table!(A), kestrel_avr_rt::far_table!(B)], 2).unwrap();
+/// assert_eq!(t.len_bytes(), 6);
+/// assert_eq!(t.read_array::<3>(2), Some([3, 4, 5])); // across the seam
+/// assert_eq!(t.read_u8(6), None);
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct FarChunks<const N: usize> {
+    chunks: [FarTable; N],
+    bits: u8,
+    len: u32,
+}
+
+impl<const N: usize> FarChunks<N> {
+    /// The table; `None` unless every chunk but the last holds exactly
+    /// `2^chunk_bits` bytes, the last at most that, and `chunk_bits < 24`.
+    pub fn new(chunks: [FarTable; N], chunk_bits: u8) -> Option<Self> {
+        if chunk_bits >= 24 || N == 0 {
+            return None;
+        }
+        let size = 1u32 << chunk_bits;
+        let mut len = 0u32;
+        for (i, c) in chunks.iter().enumerate() {
+            let l = c.len_bytes();
+            if l > size || (i + 1 < N && l != size) {
+                return None;
+            }
+            len += l;
+        }
+        Some(FarChunks {
+            chunks,
+            bits: chunk_bits,
+            len,
+        })
+    }
+}
+
+impl<const N: usize> TableRead for FarChunks<N> {
+    #[inline]
+    fn len_bytes(&self) -> u32 {
+        self.len
+    }
+    #[inline]
+    fn read_u8_unchecked(&self, offset: u32) -> u8 {
+        let c = (offset >> self.bits) as usize;
+        let within = offset & ((1 << self.bits) - 1);
+        self.chunks
+            .get(c)
+            .map_or(0, |t| t.read_u8_unchecked(within))
+    }
+    #[inline]
+    fn read_array_unchecked<const M: usize>(&self, offset: u32) -> [u8; M] {
+        let c = (offset >> self.bits) as usize;
+        let within = offset & ((1 << self.bits) - 1);
+        match self.chunks.get(c) {
+            // Inside one chunk: that chunk's (ELPM Z+) reads.
+            Some(t) if within + M as u32 <= t.len_bytes() => t.read_array_unchecked(within),
+            _ => {
+                let mut out = [0u8; M];
+                for (i, b) in out.iter_mut().enumerate() {
+                    *b = self.read_u8_unchecked(offset + i as u32);
+                }
+                out
+            }
+        }
+    }
+}
+
 /// A [`FarTable`] over a `static NAME: [u8; N]`, with the full 24-bit flash
 /// address on the AVR (taken through the linker's `lo8`/`hi8`/`hh8`
 /// relocations, never through a truncated 16-bit Rust pointer).
@@ -306,5 +382,23 @@ mod tests {
         assert_eq!(t.read_f32(u32::MAX - 1), None);
         // The same bytes read as a RAM slice give the same answers.
         assert_eq!(T[..].read_f32(4), t.read_f32(4));
+    }
+
+    static C0: [u8; 4] = [1, 2, 3, 4];
+    static C1: [u8; 3] = [5, 6, 7];
+
+    #[test]
+    fn chunks_read_as_one_table_and_refuse_bad_shapes() {
+        let t = FarChunks::new([far_table!(C0), far_table!(C1)], 2).unwrap();
+        assert_eq!(t.len_bytes(), 7);
+        let all: Vec<u8> = (0..7).map(|i| t.read_u8(i).unwrap()).collect();
+        assert_eq!(all, [1, 2, 3, 4, 5, 6, 7]);
+        assert_eq!(t.read_array::<4>(3), Some([4, 5, 6, 7]));
+        assert_eq!(t.read_array::<2>(6), None);
+        // A short chunk before the last, a chunk over the size, no chunks.
+        assert!(FarChunks::new([far_table!(C1), far_table!(C0)], 2).is_none());
+        assert!(FarChunks::new([far_table!(C0), far_table!(C1)], 1).is_none());
+        assert!(FarChunks::<0>::new([], 2).is_none());
+        assert!(FarChunks::new([far_table!(C0)], 24).is_none());
     }
 }

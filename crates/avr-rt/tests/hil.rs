@@ -57,6 +57,11 @@ mod generated_empc {
 }
 
 #[allow(dead_code)]
+mod generated_empc_ns2 {
+    include!("../../../avr/firmware/src/generated_empc_ns2.rs");
+}
+
+#[allow(dead_code)]
 #[path = "../examples/avr_tables.rs"]
 mod avr_tables;
 
@@ -703,9 +708,9 @@ struct EmpcSample {
 /// the host walks the same table in Rust at the same parameters (the
 /// same generator, `Empc16Law::box_sample`): law, nodes visited and the
 /// four outputs must agree bit for bit. Returns the on-target samples.
-fn empc_on_target<const ROWS: usize>(
+fn empc_on_target<T: kestrel_avr_rt::progmem::TableRead, const ROWS: usize>(
     features: &[&str],
-    table: &'static [u8],
+    table: T,
     layout: kestrel_avr_rt::explicit::tree16::Tree16Layout,
     n: usize,
 ) -> Vec<EmpcSample> {
@@ -774,9 +779,9 @@ fn empc_on_target<const ROWS: usize>(
 /// parameters; prints the walk's cycles (quantised parameter to outputs).
 #[test]
 fn empc_on_target_equals_host_walk() {
-    let got = empc_on_target::<{ generated_empc::EMPC16_ROWS }>(
+    let got = empc_on_target::<_, { generated_empc::EMPC16_ROWS }>(
         &["empc-check", "fixed-mac"],
-        &generated_empc::EMPC16,
+        &generated_empc::EMPC16[..],
         generated_empc::EMPC16_LAYOUT,
         200,
     );
@@ -788,6 +793,38 @@ fn empc_on_target_equals_host_walk() {
     let nodes = got.iter().map(|g| g.steps as f64).sum::<f64>() / got.len() as f64;
     println!(
         "empc on target (N = 2, Ns = 1, 200 random parameters): walk {}/{:.0}/{} cycles, whole law {}/{:.0}/{} cycles, {nodes:.1} nodes",
+        s.min,
+        s.mean().unwrap_or(0.0),
+        s.max,
+        c.min,
+        c.mean().unwrap_or(0.0),
+        c.max
+    );
+}
+
+/// The firmware's Ns = 2 explicit MPC (`empc-ns2`: the wide 16-bit table
+/// in flash chunks, the Rust walk with a 64-row direct-mapped cache)
+/// equals the host walk of the same table on 200 parameters; prints its
+/// cycles and the firmware's flash and RAM.
+#[test]
+fn empc_ns2_on_target_equals_host_walk() {
+    let features = ["empc-ns2", "empc-check", "fixed-mac"];
+    let table = generated_empc_ns2::empc_ns2_table().expect("chunks");
+    let got = empc_on_target::<_, 64>(&features, table, generated_empc_ns2::EMPC_NS2_LAYOUT, 200);
+    let (mut s, mut c) = (CycleStats::new(), CycleStats::new());
+    for g in &got {
+        s.add(g.cycles);
+        c.add(g.control_cycles);
+    }
+    let nodes = got.iter().map(|g| g.steps as f64).sum::<f64>() / got.len() as f64;
+    let (flash, ram) = avr_size(
+        &repo_root()
+            .join("avr/target/hil")
+            .join(format!("{}.elf", features.join("-"))),
+    );
+    println!(
+        "empc-ns2 on target ({} bytes of table, 200 random parameters): walk {}/{:.0}/{} cycles, whole law {}/{:.0}/{} cycles, {nodes:.1} nodes; firmware flash {flash} B, RAM {ram} B",
+        generated_empc_ns2::EMPC_NS2_BYTES,
         s.min,
         s.mean().unwrap_or(0.0),
         s.max,

@@ -334,7 +334,7 @@ struct Scratch<const P: usize, const R: usize> {
 /// from Q15.16.
 ///
 /// On the AVR, with the table in flash, one assembly routine
-/// ([`super::walk_avr`]) quantises `theta`, walks the tree and evaluates
+/// (`explicit/walk_avr.rs`, AVR only) quantises `theta`, walks the tree and evaluates
 /// the leaf's outputs; elsewhere the same steps run in Rust (the host
 /// tests' reference: the firmware's results are compared with it bit for
 /// bit in simavr).
@@ -661,7 +661,7 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         Some(Raw { z, law, steps })
     }
 
-    /// The assembly walk ([`super::walk_avr`]) when the table is in flash:
+    /// The assembly walk (`explicit/walk_avr.rs`, AVR only) when the table is in flash:
     /// with `bits`, `theta` is quantised from those Q15.16 values first
     /// (the outside flag is returned through `self.outside`); the outputs
     /// rounded and shifted right by `out_shift` bits; `None`: the table is
