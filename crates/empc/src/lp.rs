@@ -47,20 +47,55 @@ pub(crate) struct LpWorkspace {
     ad: Vec<f64>,
     v: Vec<f64>,
     coef: Vec<f64>,
+    /// Rows with at most two non-zeros (box rows, the radius bound):
+    /// `(count, [column; 2], [value; 2])`, count 3 meaning dense.
+    sparse: Vec<(u8, [usize; 2], [f64; 2])>,
+    /// Working rows to push again after a drop.
+    redo: Vec<usize>,
     /// The maximiser of the last optimal solve.
     pub x: Vec<f64>,
     /// Iterations of the last solve.
     pub iterations: usize,
 }
 
+/// Dot product with four independent partial sums: the adds of a plain
+/// `sum()` form one dependent chain (four cycles each), which made the
+/// short (length 9 to 10) products of the LPs latency-bound.
 #[inline]
-fn dot(x: &[f64], y: &[f64]) -> f64 {
+pub(crate) fn dot(x: &[f64], y: &[f64]) -> f64 {
+    let n = x.len().min(y.len());
+    let (x, y) = (&x[..n], &y[..n]);
+    let (xc, yc) = (x.chunks_exact(4), y.chunks_exact(4));
+    let (xr, yr) = (xc.remainder(), yc.remainder());
+    let mut acc = [0.0f64; 4];
+    for (u, v) in xc.zip(yc) {
+        for t in 0..4 {
+            acc[t] += u[t] * v[t];
+        }
+    }
+    let mut s = (acc[0] + acc[2]) + (acc[1] + acc[3]);
+    for (u, v) in xr.iter().zip(yr) {
+        s += u * v;
+    }
+    s
+}
+
+/// The plain sequential dot product (one rounding order, as every solve
+/// used before the fast mode existed).
+#[inline]
+fn dot_seq(x: &[f64], y: &[f64]) -> f64 {
     x.iter().zip(y).map(|(a, b)| a * b).sum()
+}
+
+/// [`dot`] in the fast mode, [`dot_seq`] otherwise.
+#[inline]
+fn dotk<const FAST: bool>(x: &[f64], y: &[f64]) -> f64 {
+    if FAST { dot(x, y) } else { dot_seq(x, y) }
 }
 
 impl LpWorkspace {
     /// Appends row `a_i` to the orthonormal basis; false if it is (numerically) dependent.
-    fn push_row(&mut self, a: &[f64], i: usize, d: usize) -> bool {
+    fn push_row<const FAST: bool>(&mut self, a: &[f64], i: usize, d: usize) -> bool {
         let k = self.work.len();
         let row = &a[i * d..(i + 1) * d];
         let mut v = std::mem::take(&mut self.v);
@@ -69,18 +104,26 @@ impl LpWorkspace {
         v.extend_from_slice(row);
         coef.clear();
         coef.resize(k, 0.0);
-        // Modified Gram-Schmidt, twice for orthogonality to working precision.
-        for _ in 0..2 {
+        // Modified Gram-Schmidt, a second pass for orthogonality to working
+        // precision when the first one cancelled much of the row (the
+        // "twice is enough" criterion of Daniel, Gragg, Kaufman and Stewart:
+        // a row that keeps more than 1/sqrt(2) of its norm is orthogonal to
+        // working precision after one pass).
+        for pass in 0..2 {
             for j in 0..k {
                 let qj = &self.q[j * d..(j + 1) * d];
-                let s = dot(qj, &v);
+                let s = dotk::<FAST>(qj, &v);
                 coef[j] += s;
                 for t in 0..d {
                     v[t] -= s * qj[t];
                 }
             }
+            if pass == 0 && (k == 0 || (FAST && dot(&v, &v) > 0.5 * self.anorm[i] * self.anorm[i]))
+            {
+                break;
+            }
         }
-        let nv = dot(&v, &v).sqrt();
+        let nv = dotk::<FAST>(&v, &v).sqrt();
         if nv <= 1e-12 * self.anorm[i] {
             self.v = v;
             self.coef = coef;
@@ -105,15 +148,23 @@ impl LpWorkspace {
         true
     }
 
-    fn rebuild(&mut self, a: &[f64], d: usize) {
-        let rows = std::mem::take(&mut self.work);
-        self.q.clear();
+    /// Rebuilds the basis after the working row at position `from` was
+    /// removed. Modified Gram-Schmidt is sequential: the basis vectors and
+    /// `R` columns of the rows before `from` are exactly those a rebuild
+    /// from scratch computes, so only the later rows are pushed again.
+    fn rebuild<const FAST: bool>(&mut self, a: &[f64], d: usize, from: usize) {
+        let mut rows = std::mem::take(&mut self.redo);
+        rows.clear();
+        rows.extend_from_slice(&self.work[from.min(self.work.len())..]);
+        self.work.truncate(from);
+        self.q.truncate(from * d);
         for &i in &rows {
             self.in_work[i] = false;
         }
         for &i in &rows {
-            let _ = self.push_row(a, i, d);
+            let _ = self.push_row::<FAST>(a, i, d);
         }
+        self.redo = rows;
     }
 
     /// maximise `c'x` subject to `A x <= b` (`a` is `m x d` row-major),
@@ -141,6 +192,37 @@ impl LpWorkspace {
         x0: &[f64],
         warm: &[usize],
     ) -> (LpStatus, f64) {
+        self.maximize_inner::<false>(c, a, b, x0, warm, f64::INFINITY)
+    }
+
+    /// Decides whether `max c'x` over `A x <= b` exceeds `level`, stopping
+    /// as soon as a vertex on the way does: on `Optimal` with a value above
+    /// `level`, `self.x` is a feasible point with that value (not
+    /// necessarily a maximiser); with a value at or below `level` it is the
+    /// maximiser, as from [`Self::maximize_from`]. The redundancy test only
+    /// needs a feasible point beyond the row, and the simplex path crosses
+    /// the level well before it reaches the optimum (the row's LP is capped
+    /// far beyond it).
+    pub fn maximize_until(
+        &mut self,
+        c: &[f64],
+        a: &[f64],
+        b: &[f64],
+        x0: &[f64],
+        level: f64,
+    ) -> (LpStatus, f64) {
+        self.maximize_inner::<true>(c, a, b, x0, &[], level)
+    }
+
+    fn maximize_inner<const FAST: bool>(
+        &mut self,
+        c: &[f64],
+        a: &[f64],
+        b: &[f64],
+        x0: &[f64],
+        warm: &[usize],
+        level: f64,
+    ) -> (LpStatus, f64) {
         let d = c.len();
         let m = b.len();
         debug_assert_eq!(a.len(), m * d);
@@ -157,17 +239,37 @@ impl LpWorkspace {
         self.work.clear();
         self.in_work.clear();
         self.in_work.resize(m, false);
-        self.anorm.clear();
-        self.anorm
-            .extend((0..m).map(|i| dot(&a[i * d..(i + 1) * d], &a[i * d..(i + 1) * d]).sqrt()));
+        // One pass over the rows: norms, sparsity, slacks at the start.
+        self.anorm.resize(m, 0.0);
+        self.sparse.resize(m, (0, [0; 2], [0.0; 2]));
+        self.slack.resize(m, 0.0);
         self.dir.clear();
         self.dir.resize(d, 0.0);
-        self.slack.clear();
-        self.slack
-            .extend((0..m).map(|i| b[i] - dot(&a[i * d..(i + 1) * d], x0)));
+        let rows = a.chunks_exact(d).zip(b);
+        let outs = self
+            .anorm
+            .iter_mut()
+            .zip(&mut self.sparse)
+            .zip(&mut self.slack);
+        for ((row, bi), ((nrm, sp), sl)) in rows.zip(outs) {
+            *nrm = dotk::<FAST>(row, row).sqrt();
+            *sl = bi - dotk::<FAST>(row, x0);
+            *sp = (0u8, [0usize; 2], [0.0; 2]);
+            for (t, &v) in row.iter().enumerate() {
+                if v != 0.0 {
+                    if sp.0 == 2 {
+                        sp.0 = 3;
+                        break;
+                    }
+                    sp.1[sp.0 as usize] = t;
+                    sp.2[sp.0 as usize] = v;
+                    sp.0 += 1;
+                }
+            }
+        }
         self.ad.clear();
         self.ad.resize(m, 0.0);
-        let cn = dot(c, c).sqrt();
+        let cn = dotk::<FAST>(c, c).sqrt();
         if cn == 0.0 {
             return (LpStatus::Optimal, 0.0);
         }
@@ -177,43 +279,65 @@ impl LpWorkspace {
                 && self.work.len() < d
                 && self.slack[i].abs() <= 1e-10 * (1.0 + b[i].abs())
             {
-                let _ = self.push_row(a, i, d);
+                let _ = self.push_row::<FAST>(a, i, d);
             }
         }
         let max_iter = 10 * (m + d) + 100;
         let mut degenerate_run = 0usize;
+        // Working rows the direction `dir` is orthogonal to (usize::MAX: recompute).
+        let mut projected = usize::MAX;
         for _ in 0..max_iter {
             self.iterations += 1;
             let bland = degenerate_run > 2 * d + 5;
             let k = self.work.len();
-            // qc = Q c, dir = c - Q'qc.
-            self.qc.clear();
-            self.dir.copy_from_slice(c);
-            for j in 0..k {
-                let qj = &self.q[j * d..(j + 1) * d];
-                let s = dot(qj, c);
-                self.qc.push(s);
-                for t in 0..d {
-                    self.dir[t] -= s * qj[t];
+            if FAST && projected != usize::MAX && projected + 1 == k {
+                // One row joined since the last step: project it out of the
+                // direction (twice, as below), extend qc.
+                let qj = &self.q[(k - 1) * d..k * d];
+                self.qc.push(dot(qj, c));
+                for _ in 0..2 {
+                    let s = dot(qj, &self.dir);
+                    for t in 0..d {
+                        self.dir[t] -= s * qj[t];
+                    }
+                }
+            } else {
+                // qc = Q c, dir = c - Q'qc.
+                self.qc.clear();
+                self.dir.copy_from_slice(c);
+                for j in 0..k {
+                    let qj = &self.q[j * d..(j + 1) * d];
+                    let s = dotk::<FAST>(qj, c);
+                    self.qc.push(s);
+                    for t in 0..d {
+                        self.dir[t] -= s * qj[t];
+                    }
+                }
+                // Re-orthogonalise the direction once (it must lie in the null space).
+                for j in 0..k {
+                    let qj = &self.q[j * d..(j + 1) * d];
+                    let s = dotk::<FAST>(qj, &self.dir);
+                    for t in 0..d {
+                        self.dir[t] -= s * qj[t];
+                    }
                 }
             }
-            // Re-orthogonalise the direction once (it must lie in the null space).
-            for j in 0..k {
-                let qj = &self.q[j * d..(j + 1) * d];
-                let s = dot(qj, &self.dir);
-                for t in 0..d {
-                    self.dir[t] -= s * qj[t];
-                }
-            }
-            let dn = dot(&self.dir, &self.dir).sqrt();
+            projected = k;
+            let dn = dotk::<FAST>(&self.dir, &self.dir).sqrt();
             if k < d && dn > 1e-11 * cn {
                 // Ratio test along dir.
                 let mut best: Option<usize> = None;
                 let mut tmin = f64::INFINITY;
                 let mut best_ad = 0.0;
                 for i in 0..m {
-                    let row = &a[i * d..(i + 1) * d];
-                    let ad = dot(row, &self.dir);
+                    // Rows with at most two non-zeros: the same value as the
+                    // dense product (adding exact zeros does not round).
+                    let ad = match self.sparse[i] {
+                        (0, _, _) => 0.0,
+                        (1, [j, _], [v, _]) => v * self.dir[j],
+                        (2, [j, l], [v, w]) => v * self.dir[j] + w * self.dir[l],
+                        _ => dotk::<FAST>(&a[i * d..(i + 1) * d], &self.dir),
+                    };
                     self.ad[i] = ad;
                     if self.in_work[i] || ad <= 1e-11 * dn * self.anorm[i] {
                         continue;
@@ -245,12 +369,18 @@ impl LpWorkspace {
                     *s -= tmin * ad;
                 }
                 self.slack[i] = 0.0;
-                if tmin * dn <= 1e-14 * (1.0 + dot(&self.x, &self.x).sqrt()) {
+                if level < f64::INFINITY {
+                    let v = dot(c, &self.x);
+                    if v > level {
+                        return (LpStatus::Optimal, v);
+                    }
+                }
+                if tmin * dn <= 1e-14 * (1.0 + dotk::<FAST>(&self.x, &self.x).sqrt()) {
                     degenerate_run += 1;
                 } else {
                     degenerate_run = 0;
                 }
-                if !self.push_row(a, i, d) {
+                if !self.push_row::<FAST>(a, i, d) {
                     // Cannot happen in exact arithmetic (a_i'dir > 0 with dir in
                     // the null space of the working rows); give up safely.
                     return (LpStatus::NotConverged, 0.0);
@@ -284,11 +414,12 @@ impl LpWorkspace {
                 }
             }
             let Some(j) = drop else {
-                return (LpStatus::Optimal, dot(c, &self.x));
+                return (LpStatus::Optimal, dotk::<FAST>(c, &self.x));
             };
             let i = self.work.remove(j);
             self.in_work[i] = false;
-            self.rebuild(a, d);
+            self.rebuild::<FAST>(a, d, j);
+            projected = usize::MAX;
         }
         (LpStatus::NotConverged, 0.0)
     }
@@ -305,7 +436,7 @@ pub(crate) fn slack_start(a: &[f64], b: &[f64], x: &mut [f64], rcol: usize) {
         let row = &a[i * d..(i + 1) * d];
         let coef = row[rcol];
         if coef > 0.0 {
-            r = r.min((b[i] - dot(row, x)) / coef);
+            r = r.min((b[i] - dot_seq(row, x)) / coef);
         }
     }
     x[rcol] = if r.is_finite() { r } else { 0.0 };
@@ -329,6 +460,57 @@ mod tests {
         let (s, v) = ws.maximize_from(&[-1.0, -1.0], &a, &b, &[1.0, 0.0]);
         assert_eq!(s, LpStatus::Optimal);
         assert!(v.abs() < 1e-12);
+    }
+
+    /// `maximize_until` against the full solve on random 6-D LPs (box plus
+    /// random rows, some with one or two non-zeros): below the optimum it
+    /// returns a feasible point beyond the level, at or above it the
+    /// optimum itself.
+    #[test]
+    fn until_decides_like_the_full_solve() {
+        let mut rng = crate::mpqp::Rng::new(9);
+        let mut ws = LpWorkspace::default();
+        let d = 6;
+        let (mut beyond, mut below) = (0, 0);
+        for _ in 0..400 {
+            let m = 4 + (rng.next_u64() % 20) as usize;
+            let mut a = Vec::new();
+            let mut b = Vec::new();
+            for _ in 0..m {
+                let nz = 1 + (rng.next_u64() % d as u64) as usize;
+                let row: Vec<f64> = (0..d)
+                    .map(|j| if j < nz { rng.sym() } else { 0.0 })
+                    .collect();
+                a.extend(row);
+                b.push(0.5 + rng.sym().abs());
+            }
+            for j in 0..d {
+                for s in [1.0, -1.0] {
+                    a.extend((0..d).map(|t| if t == j { s } else { 0.0 }));
+                    b.push(3.0);
+                }
+            }
+            let c: Vec<f64> = (0..d).map(|_| rng.sym()).collect();
+            let x0 = vec![0.0; d];
+            let (s, opt) = ws.maximize_from(&c, &a, &b, &x0);
+            assert_eq!(s, LpStatus::Optimal);
+            let level = opt * (0.5 + rng.sym().abs()) + 0.1 * rng.sym();
+            let (s, v) = ws.maximize_until(&c, &a, &b, &x0, level);
+            assert_eq!(s, LpStatus::Optimal);
+            if v > level {
+                beyond += 1;
+                assert!(opt > level && v <= opt + 1e-9, "{v} {opt} {level}");
+                assert!((dot(&c, &ws.x) - v).abs() < 1e-12);
+                for i in 0..b.len() {
+                    assert!(dot(&a[i * d..(i + 1) * d], &ws.x) <= b[i] + 1e-9);
+                }
+            } else {
+                below += 1;
+                assert!((v - opt).abs() < 1e-9, "{v} {opt}");
+                assert!(opt <= level + 1e-9);
+            }
+        }
+        assert!(beyond > 50 && below > 50, "{beyond} {below}");
     }
 
     #[test]

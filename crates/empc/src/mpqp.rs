@@ -491,13 +491,13 @@ impl Prepared {
             kzc -= &hga * &lam_c;
         }
         // Half-spaces.
-        let mut raw: Vec<(Vec<f64>, f64, Origin)> = Vec::with_capacity(m + self.param_b.len());
+        // Raw half-spaces, one flat row-major array (no allocation per row).
+        let nraw = k + (m - k) + self.param_b.len();
+        let mut raw_a: Vec<f64> = Vec::with_capacity(nraw * p);
+        let mut raw: Vec<(f64, Origin)> = Vec::with_capacity(nraw);
         for (r, &j) in act.iter().enumerate() {
-            raw.push((
-                (0..p).map(|c| -lam_t[(r, c)]).collect(),
-                lam_c[r],
-                Origin::Dual(j),
-            ));
+            raw_a.extend((0..p).map(|c| -lam_t[(r, c)]));
+            raw.push((lam_c[r], Origin::Dual(j)));
         }
         let gk = &self.g * &kz; // m x p
         let gkc = &self.g * &kzc;
@@ -505,31 +505,28 @@ impl Prepared {
             if act.binary_search(&i).is_ok() {
                 continue;
             }
-            raw.push((
-                (0..p).map(|c| gk[(i, c)] - self.e[(i, c)]).collect(),
-                self.w[i] - gkc[i],
-                Origin::Primal(i),
-            ));
+            raw_a.extend((0..p).map(|c| gk[(i, c)] - self.e[(i, c)]));
+            raw.push((self.w[i] - gkc[i], Origin::Primal(i)));
         }
         for i in 0..self.param_b.len() {
-            raw.push((
-                self.param_a.row(i).iter().copied().collect(),
-                self.param_b[i],
-                Origin::Param,
-            ));
+            raw_a.extend(self.param_a.row(i).iter().copied());
+            raw.push((self.param_b[i], Origin::Param));
         }
         let mut hs_a: Vec<f64> = Vec::with_capacity(raw.len() * p);
         let mut hs_b: Vec<f64> = Vec::with_capacity(raw.len());
         let mut origins: Vec<Vec<Origin>> = Vec::with_capacity(raw.len());
-        for (a, b, o) in raw {
-            let nrm = a.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let mut a = vec![0.0; p];
+        for (ra, &(b, o)) in raw_a.chunks_exact(p).zip(&raw) {
+            let nrm = ra.iter().map(|v| v * v).sum::<f64>().sqrt();
             if nrm <= 1e-10 {
                 if b < -1e-9 * self.scale {
                     return None; // empty
                 }
                 continue; // always satisfied
             }
-            let a: Vec<f64> = a.iter().map(|v| v / nrm).collect();
+            for (x, v) in a.iter_mut().zip(ra) {
+                *x = v / nrm;
+            }
             let b = b / nrm;
             let cnt = hs_b.len();
             let mut merged = false;
@@ -594,15 +591,18 @@ impl Prepared {
         let p = self.p;
         let nh = b.len();
         let row = |i: usize| &a[i * p..(i + 1) * p];
-        let dot = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(u, v)| u * v).sum::<f64>();
+        let dot = crate::lp::dot;
         let slack: Vec<f64> = (0..nh).map(|i| b[i] - dot(row(i), c)).collect();
         let tol = self.radius_tol;
-        // First hit of the ray c + t dir: (row, point, margin inside the facet).
-        let first_hit = |dir: &[f64]| -> Option<(usize, Vec<f64>, f64)> {
+        // First hit of the ray c + t dir: (row, t), if one row is hit first.
+        // `ads` keeps a_i'dir for the margin below.
+        let mut ads = vec![0.0; nh];
+        let first_hit = |dir: &[f64], ads: &mut [f64]| -> Option<(usize, f64)> {
             let mut best = (usize::MAX, f64::INFINITY);
             let mut second = f64::INFINITY;
             for i in 0..nh {
                 let ad = dot(row(i), dir);
+                ads[i] = ad;
                 if ad > 1e-12 {
                     let t = slack[i] / ad;
                     if t < best.1 {
@@ -618,32 +618,43 @@ impl Prepared {
                 (second - t).partial_cmp(&1e-9),
                 Some(std::cmp::Ordering::Greater)
             );
-            if j == usize::MAX || !gap_ok {
-                return None;
-            }
-            let pt: Vec<f64> = (0..p).map(|k| c[k] + t * dir[k]).collect();
-            // Distance, inside the facet's hyperplane, to the other hyperplanes.
-            let aj = row(j);
-            let mut margin = f64::INFINITY;
-            for i in 0..nh {
-                if i == j {
-                    continue;
-                }
-                let cosang = dot(row(i), aj);
-                let sin = (1.0 - cosang * cosang).max(0.0).sqrt();
-                if sin > 1e-9 {
-                    let s = (b[i] - dot(row(i), &pt)) / sin;
-                    margin = margin.min(s);
-                }
-            }
-            let margin = margin.min(self.scale);
-            if margin > tol {
-                Some((j, pt, margin))
-            } else {
-                None
-            }
+            (j != usize::MAX && gap_ok).then_some((j, t))
         };
+        // The hit point and its distance, inside the facet's hyperplane, to
+        // the other hyperplanes (a_i'pt = b_i - slack_i + t a_i'dir needs no
+        // second product); `None` if below the tolerance. `inv_sin` caches
+        // 1 / sin(angle between rows j and i) per row j (0: parallel),
+        // filled when row j is first hit (`sin_done`).
+        let mut inv_sin = vec![0.0; nh * nh];
+        let mut sin_done = vec![false; nh];
+        let mut facet_at =
+            |j: usize, t: f64, dir: &[f64], ads: &[f64]| -> Option<(usize, Vec<f64>, f64)> {
+                let gj = &mut inv_sin[j * nh..(j + 1) * nh];
+                if !sin_done[j] {
+                    let aj = row(j);
+                    for i in 0..nh {
+                        let cosang = dot(row(i), aj);
+                        let sin = (1.0 - cosang * cosang).max(0.0).sqrt();
+                        gj[i] = if i != j && sin > 1e-9 { 1.0 / sin } else { 0.0 };
+                    }
+                    sin_done[j] = true;
+                }
+                let mut margin = f64::INFINITY;
+                for i in 0..nh {
+                    if gj[i] != 0.0 {
+                        margin = margin.min((slack[i] - t * ads[i]) * gj[i]);
+                    }
+                }
+                let margin = margin.min(self.scale);
+                if margin > tol {
+                    let pt: Vec<f64> = (0..p).map(|k| c[k] + t * dir[k]).collect();
+                    Some((j, pt, margin))
+                } else {
+                    None
+                }
+            };
         let mut state = vec![0u8; nh]; // 0 unknown, 1 facet, 2 redundant
+        let mut dir: Vec<f64> = Vec::with_capacity(p);
         let mut facets: Vec<Facet> = Vec::new();
         let mut rng = Rng::new(seed_of(act) ^ 0x5555);
         let add =
@@ -661,8 +672,12 @@ impl Prepared {
             if state[k] != 0 {
                 continue;
             }
-            let dir: Vec<f64> = (0..p).map(|q| row(k)[q] + 1e-3 * rng.sym()).collect();
-            if let Some((j, pt, mg)) = first_hit(&dir) {
+            dir.clear();
+            dir.extend((0..p).map(|q| row(k)[q] + 1e-3 * rng.sym()));
+            if let Some((j, t)) = first_hit(&dir, &mut ads)
+                && state[j] != 1
+                && let Some((j, pt, mg)) = facet_at(j, t, &dir, &ads)
+            {
                 add(j, pt, mg, &mut state, &mut facets);
             }
         }
@@ -697,15 +712,19 @@ impl Prepared {
                 la.extend_from_slice(row(k));
                 lb.push(b[k] + self.scale);
                 *lps += 1;
-                let (st, val) = lp.maximize_from(row(k), &la, &lb, c);
-                if st == LpStatus::Optimal && val <= b[k] + 1e-9 * self.scale {
+                let level = b[k] + 1e-9 * self.scale;
+                let (st, val) = lp.maximize_until(row(k), &la, &lb, c, level);
+                if st == LpStatus::Optimal && val <= level {
                     state[k] = 2;
                     break;
                 }
                 let mut found = None;
                 if st == LpStatus::Optimal && guard < 50 {
-                    let dir: Vec<f64> = (0..p).map(|q| lp.x[q] - c[q]).collect();
-                    found = first_hit(&dir);
+                    dir.clear();
+                    dir.extend((0..p).map(|q| lp.x[q] - c[q]));
+                    found = first_hit(&dir, &mut ads)
+                        .filter(|&(j, _)| state[j] != 1)
+                        .and_then(|(j, t)| facet_at(j, t, &dir, &ads));
                 }
                 match found {
                     Some((j, pt, mg)) if state[j] != 1 => add(j, pt, mg, &mut state, &mut facets),
