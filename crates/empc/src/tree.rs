@@ -50,7 +50,49 @@ pub struct TreeSettings {
     /// whole region; checked with one LP per output). Fewer leaves, the
     /// same answers.
     pub clipping: bool,
+    /// How candidate hyperplanes are scored ([`TreeMethod::Auto`] by default).
+    pub method: TreeMethod,
+    /// Score candidates and split regions on several threads (needs the
+    /// `parallel` feature; ignored otherwise). The tree is the same.
+    pub parallel: bool,
+    /// Stop with [`EmpcError::TooLarge`] once the tree has this many nodes
+    /// (at most the 32767 the `u16` child codes address), instead of
+    /// building a tree the tables cannot hold ([`TreeMethod::Sampled`]).
+    pub max_nodes: usize,
 }
+
+/// How the tree construction scores candidate hyperplanes at a node.
+///
+/// Both are exact: a region is dropped from a side only when an LP (or its
+/// own facet, or its bounding box) proves it does not meet that side of
+/// the cell in a full-dimensional set. They differ in how the split is
+/// chosen, which changes the tree's size and the build time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum TreeMethod {
+    /// [`TreeMethod::Lp`] up to [`AUTO_SAMPLED_REGIONS`] regions,
+    /// [`TreeMethod::Sampled`] above.
+    #[default]
+    Auto,
+    /// The best few candidates (after a ranking without LPs) are scored
+    /// exactly: per straddling region and side an LP within the cell. Small
+    /// trees, but slow beyond a few hundred regions.
+    Lp,
+    /// Candidates are scored without LPs, from sample points kept inside
+    /// every region and cell (interior points found by the LPs along the
+    /// way); only the chosen split runs LPs, at most one per region whose
+    /// points lie on one side. Builds trees over thousands of regions in
+    /// seconds (thesis problem with `Ns = 2`: 1545 regions).
+    Sampled,
+}
+
+/// Above this many regions [`TreeMethod::Auto`] uses [`TreeMethod::Sampled`].
+pub const AUTO_SAMPLED_REGIONS: usize = 400;
+
+/// Exact splits tried per node by [`TreeMethod::Sampled`].
+const SAMPLED_ATTEMPTS: usize = 6;
+
+/// Most nodes the `u16` child codes address (the [`LEAF`] bit marks leaves).
+pub const MAX_NODES: usize = LEAF as usize - 1;
 
 impl Default for TreeSettings {
     fn default() -> Self {
@@ -60,6 +102,9 @@ impl Default for TreeSettings {
             max_candidates: 40,
             exact_budget: 60_000,
             clipping: true,
+            method: TreeMethod::Auto,
+            parallel: true,
+            max_nodes: MAX_NODES,
         }
     }
 }
@@ -206,6 +251,564 @@ struct Builder<'a> {
     depth: usize,
     max_candidates: usize,
     exact_budget: usize,
+    /// Sample points of every region (`p` numbers each), all inside the
+    /// region: its centre, bounding-box vertices pulled towards it, and
+    /// interior points of region and cell found by the split LPs
+    /// ([`TreeMethod::Sampled`]).
+    pool: Vec<Vec<f64>>,
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))]
+    parallel: bool,
+    /// Number of distinct laws (for the law counters of the scoring).
+    n_laws_total: usize,
+    max_nodes: usize,
+}
+
+/// How a region lies relative to a hyperplane within the current cell,
+/// from its facets, bounding box and sample points (no LP).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Lie {
+    /// Proven inside `a'x <= b` (a facet, or the bounding box).
+    Left,
+    /// Proven inside `a'x >= b`.
+    Right,
+    /// Sample points strictly on both sides: meets both in a full-dimensional set.
+    Both,
+    /// Sample points only strictly left (it may still reach the right side).
+    PtsLeft,
+    /// Sample points only strictly right.
+    PtsRight,
+    /// No sample point off the hyperplane.
+    Unknown,
+}
+
+/// The LP of [`Builder::meets`] with a caller-owned workspace: whether the
+/// polytope `ra x <= rb` meets the cell (and the extra half-space
+/// `sign (a'x - b) <= 0`, if given) in a ball of radius above `1e-9 scale`,
+/// and the ball's centre and radius when the LP finished.
+#[allow(clippy::too_many_arguments)]
+fn meets_lp(
+    lp: &mut LpWorkspace,
+    p: usize,
+    scale: f64,
+    ra: &[f64],
+    rb: &[f64],
+    center: &[f64],
+    cell: &[(Vec<f64>, f64)],
+    extra: Option<(&[f64], f64, f64)>,
+) -> (bool, Option<Ball>) {
+    let mut a = Vec::with_capacity((rb.len() + cell.len() + 2) * (p + 1));
+    let mut b = Vec::with_capacity(rb.len() + cell.len() + 2);
+    for (i, bi) in rb.iter().enumerate() {
+        a.extend_from_slice(&ra[i * p..(i + 1) * p]);
+        a.push(1.0);
+        b.push(*bi);
+    }
+    for (ca, cb) in cell {
+        a.extend_from_slice(ca);
+        a.push(1.0);
+        b.push(*cb);
+    }
+    if let Some((ea, eb, sign)) = extra {
+        a.extend(ea.iter().map(|v| sign * v));
+        a.push(1.0);
+        b.push(sign * eb);
+    }
+    a.extend(std::iter::repeat_n(0.0, p));
+    a.push(1.0);
+    b.push(scale);
+    let mut c = vec![0.0; p + 1];
+    c[p] = 1.0;
+    let mut x0: Vec<f64> = center.iter().copied().chain([0.0]).collect();
+    slack_start(&a, &b, &mut x0, p);
+    let (st, rad) = lp.maximize_from(&c, &a, &b, &x0);
+    match st {
+        LpStatus::Optimal => (rad > 1e-9 * scale, Some((lp.x[..p].to_vec(), rad))),
+        // An LP that did not finish proves nothing: keep the region.
+        _ => (true, None),
+    }
+}
+
+/// A candidate split exactly: its key (larger side's laws, both sides'
+/// laws, smaller side's laws), the hyperplane and every region's split.
+type Tried = ((usize, usize, usize), usize, Vec<RegionSplit>);
+
+/// The outcome of splitting one region of a node ([`TreeMethod::Sampled`]):
+/// its points on each side, whether it goes left and right, and the new
+/// interior points the LPs found.
+struct RegionSplit {
+    left: Option<Vec<u32>>,
+    right: Option<Vec<u32>>,
+    new_left: Option<Vec<f64>>,
+    new_right: Option<Vec<f64>>,
+}
+
+impl Builder<'_> {
+    /// Whether hyperplane `h` is a facet of region `r`, and on which side
+    /// `r` lies; else whether `r`'s bounding box lies on one side.
+    fn proven_side(&self, r: usize, h: usize, tol: f64) -> Option<Lie> {
+        if let Some(&(_, s)) = self.reg_facets[r].iter().find(|f| f.0 == h) {
+            return Some(if s { Lie::Left } else { Lie::Right });
+        }
+        let (a, b) = (&self.hp[h].0, self.hp[h].1);
+        let (lo, up) = &self.reg_box[r];
+        let (mut bmax, mut bmin) = (0.0, 0.0);
+        for j in 0..a.len() {
+            let (u, v) = (a[j] * lo[j], a[j] * up[j]);
+            bmax += u.max(v);
+            bmin += u.min(v);
+        }
+        if bmax <= b + tol {
+            Some(Lie::Left)
+        } else if bmin >= b - tol {
+            Some(Lie::Right)
+        } else {
+            None
+        }
+    }
+
+    /// How region `r` (with its sample points `pts` inside the cell) lies
+    /// relative to hyperplane `h`, without an LP.
+    fn lie(&self, r: usize, h: usize, pts: &[u32]) -> Lie {
+        let tol = 1e-9 * self.scale;
+        if let Some(l) = self.proven_side(r, h, tol) {
+            return l;
+        }
+        let (a, b) = (&self.hp[h].0, self.hp[h].1);
+        let p = self.p;
+        let pool = &self.pool[r];
+        let (mut l, mut rt) = (false, false);
+        for &i in pts {
+            let x = &pool[i as usize * p..(i as usize + 1) * p];
+            let v: f64 = a.iter().zip(x).map(|(u, w)| u * w).sum::<f64>() - b;
+            l |= v < -tol;
+            rt |= v > tol;
+            if l && rt {
+                return Lie::Both;
+            }
+        }
+        match (l, rt) {
+            (true, _) => Lie::PtsLeft,
+            (_, true) => Lie::PtsRight,
+            _ => Lie::Unknown,
+        }
+    }
+
+    /// The sampled split key of hyperplane `h` (distinct laws on the larger
+    /// side, then on both): a region counts on the sides its facets, box or
+    /// points show, on both when nothing shows. `None` if every region
+    /// would stay on both sides. `mark` is a scratch law counter.
+    fn score_sampled(
+        &self,
+        h: usize,
+        set: &[usize],
+        pts: &[Vec<u32>],
+        mark: &mut [u32],
+        stamp: u32,
+        n_laws: usize,
+    ) -> Option<(usize, usize)> {
+        let (mut nl, mut nr, mut ll, mut lr) = (0, 0, 0, 0);
+        // mark bit 0: seen left, bit 1: seen right (with the stamp above).
+        for (i, &r) in set.iter().enumerate() {
+            let (inl, inr) = match self.lie(r, h, &pts[i]) {
+                Lie::Left | Lie::PtsLeft => (true, false),
+                Lie::Right | Lie::PtsRight => (false, true),
+                Lie::Both | Lie::Unknown => (true, true),
+            };
+            nl += usize::from(inl);
+            nr += usize::from(inr);
+            let m = &mut mark[self.law[r] as usize];
+            if *m >> 2 != stamp {
+                *m = stamp << 2;
+            }
+            if inl && *m & 1 == 0 {
+                *m |= 1;
+                ll += 1;
+            }
+            if inr && *m & 2 == 0 {
+                *m |= 2;
+                lr += 1;
+            }
+        }
+        if (nl == set.len() && nr == set.len()) || nl == 0 || nr == 0 {
+            return None; // every region on both sides, or one side empty
+        }
+        // A side that keeps every law ranks last (max = n_laws), but stays
+        // a candidate: the exact split may show progress the points miss.
+        let _ = n_laws;
+        Some((ll.max(lr), ll + lr))
+    }
+
+    /// Splits region `r` (points `pts` in the cell) by hyperplane `h`:
+    /// proven sides take no LP, points on both sides prove both, and a
+    /// side without a point is decided by one LP within the cell.
+    fn split_region(
+        &self,
+        lp: &mut LpWorkspace,
+        r: usize,
+        h: usize,
+        pts: &[u32],
+        cell: &[(Vec<f64>, f64)],
+    ) -> RegionSplit {
+        let (a, b) = (&self.hp[h].0, self.hp[h].1);
+        let p = self.p;
+        let pool = &self.pool[r];
+        let val = |i: u32| -> f64 {
+            let x = &pool[i as usize * p..(i as usize + 1) * p];
+            a.iter().zip(x).map(|(u, w)| u * w).sum::<f64>() - b
+        };
+        let lie = self.lie(r, h, pts);
+        // Points in each closed side (they stay inside the child's cell).
+        let lpts = || pts.iter().copied().filter(|&i| val(i) <= 0.0).collect();
+        let rpts = || pts.iter().copied().filter(|&i| val(i) >= 0.0).collect();
+        let mut out = RegionSplit {
+            left: None,
+            right: None,
+            new_left: None,
+            new_right: None,
+        };
+        let mut lp_side = |sign: f64| -> (bool, Option<Vec<f64>>) {
+            let (ok, ball) = meets_lp(
+                lp,
+                p,
+                self.scale,
+                &self.reg_a[r],
+                &self.reg_b[r],
+                &self.reg_center[r],
+                cell,
+                Some((a, b, sign)),
+            );
+            (ok, ball.filter(|_| ok).map(|bl| bl.0))
+        };
+        match lie {
+            Lie::Left => out.left = Some(pts.to_vec()),
+            Lie::Right => out.right = Some(pts.to_vec()),
+            Lie::Both => {
+                out.left = Some(lpts());
+                out.right = Some(rpts());
+            }
+            Lie::PtsLeft | Lie::PtsRight | Lie::Unknown => {
+                let check_left = lie != Lie::PtsLeft;
+                let check_right = lie != Lie::PtsRight;
+                let (mut go_l, mut go_r) = (true, true);
+                if check_left {
+                    let (ok, x) = lp_side(1.0);
+                    go_l = ok;
+                    out.new_left = x;
+                }
+                if check_right {
+                    let (ok, x) = lp_side(-1.0);
+                    go_r = ok;
+                    out.new_right = x;
+                }
+                if go_l {
+                    out.left = Some(lpts());
+                }
+                if go_r {
+                    out.right = Some(rpts());
+                }
+            }
+        }
+        out
+    }
+
+    /// Sample points of every region for [`TreeMethod::Sampled`]: the
+    /// centre and the vertices that maximise the coordinates, the inward
+    /// facet normals and a few fixed pseudo-random directions (LPs).
+    fn init_pool(&mut self) {
+        let p = self.p;
+        let mut seed: u64 = 0x9E37_79B9_7F4A_7C15;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let random: Vec<f64> = (0..2 * p * p).map(|_| rnd()).collect();
+        self.pool = (0..self.reg_a.len())
+            .map(|r| {
+                let c = &self.reg_center[r];
+                let ra = &self.reg_a[r];
+                let mut dirs: Vec<f64> = Vec::new();
+                for j in 0..p {
+                    for sign in [1.0, -1.0] {
+                        dirs.extend((0..p).map(|i| if i == j { sign } else { 0.0 }));
+                    }
+                }
+                dirs.extend(ra.iter().map(|v| -v));
+                dirs.extend_from_slice(&random);
+                let mut pts = c.clone();
+                for d in dirs.chunks(p) {
+                    let (st, _) = self.lp.maximize_from(d, ra, &self.reg_b[r], c);
+                    if st == LpStatus::Optimal {
+                        pts.extend_from_slice(&self.lp.x[..p]);
+                    }
+                }
+                pts
+            })
+            .collect();
+    }
+
+    /// Sampled scores of the candidates (in their order), on several threads
+    /// when the node is large.
+    fn score_all(
+        &self,
+        cands: &[usize],
+        set: &[usize],
+        pts: &[Vec<u32>],
+        n_laws: usize,
+        mark: &mut [u32],
+        stamp: &mut u32,
+    ) -> Vec<Option<(usize, usize)>> {
+        #[cfg(feature = "parallel")]
+        if self.parallel && set.len() * cands.len() > 2000 {
+            use rayon::prelude::*;
+            let n = self.n_laws_total;
+            return cands
+                .par_iter()
+                .map_init(
+                    || (vec![0u32; n], 0u32),
+                    |(m, st), &h| {
+                        *st += 1;
+                        self.score_sampled(h, set, pts, m, *st, n_laws)
+                    },
+                )
+                .collect();
+        }
+        cands
+            .iter()
+            .map(|&h| {
+                *stamp += 1;
+                self.score_sampled(h, set, pts, mark, *stamp, n_laws)
+            })
+            .collect()
+    }
+
+    /// Splits every region of the set by hyperplane `h` (LPs only where
+    /// the points cannot tell), on several threads when the set is large.
+    fn split_all(
+        &mut self,
+        h: usize,
+        set: &[usize],
+        pts: &[Vec<u32>],
+        cell: &[(Vec<f64>, f64)],
+    ) -> Vec<RegionSplit> {
+        let mut lp = std::mem::take(&mut self.lp);
+        let this = &*self;
+        #[cfg(feature = "parallel")]
+        let out = if this.parallel && set.len() > 16 {
+            use rayon::prelude::*;
+            set.par_iter()
+                .zip(pts.par_iter())
+                .map_init(LpWorkspace::default, |lp, (&r, q)| {
+                    this.split_region(lp, r, h, q, cell)
+                })
+                .collect()
+        } else {
+            set.iter()
+                .zip(pts)
+                .map(|(&r, q)| this.split_region(&mut lp, r, h, q, cell))
+                .collect()
+        };
+        #[cfg(not(feature = "parallel"))]
+        let out = set
+            .iter()
+            .zip(pts)
+            .map(|(&r, q)| this.split_region(&mut lp, r, h, q, cell))
+            .collect();
+        self.lp = lp;
+        out
+    }
+
+    /// Adds the interior points the split LPs found to the regions' pools,
+    /// to the node's point lists (they lie in region and cell) and to the
+    /// child lists of their side.
+    fn absorb(&mut self, set: &[usize], pts: &mut [Vec<u32>], splits: &mut [RegionSplit]) {
+        let p = self.p;
+        for ((&r, q), sp) in set.iter().zip(pts.iter_mut()).zip(splits.iter_mut()) {
+            for (new, side) in [
+                (sp.new_left.take(), &mut sp.left),
+                (sp.new_right.take(), &mut sp.right),
+            ] {
+                if let Some(x) = new {
+                    let id = (self.pool[r].len() / p) as u32;
+                    self.pool[r].extend(x);
+                    q.push(id);
+                    if let Some(s) = side {
+                        s.push(id);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The exact key of a split (as [`Builder::score_sampled`], from the
+    /// regions each side really keeps).
+    fn split_key(&self, set: &[usize], splits: &[RegionSplit]) -> (usize, usize, usize) {
+        let (mut l, mut r): (Vec<u16>, Vec<u16>) = (Vec::new(), Vec::new());
+        for (&reg, sp) in set.iter().zip(splits) {
+            if sp.left.is_some() {
+                l.push(self.law[reg]);
+            }
+            if sp.right.is_some() {
+                r.push(self.law[reg]);
+            }
+        }
+        for v in [&mut l, &mut r] {
+            v.sort_unstable();
+            v.dedup();
+        }
+        (
+            l.len().max(r.len()),
+            l.len() + r.len(),
+            l.len().min(r.len()),
+        )
+    }
+
+    /// The search tree with sampled scoring ([`TreeMethod::Sampled`]):
+    /// `pts[i]` are the sample points of region `set[i]` inside the cell.
+    ///
+    /// The candidates are scored from the points; the best one is split
+    /// exactly (LPs), the points the LPs find join the pools, and the
+    /// candidates are scored again, until the best is one already split
+    /// (its score then is exact) or [`SAMPLED_ATTEMPTS`] splits were tried.
+    fn build_sampled(
+        &mut self,
+        set: Vec<usize>,
+        mut pts: Vec<Vec<u32>>,
+        cell: &mut Vec<(Vec<f64>, f64)>,
+        depth: usize,
+        mark: &mut Vec<u32>,
+        stamp: &mut u32,
+    ) -> Result<u16, EmpcError> {
+        self.depth = self.depth.max(depth);
+        let first_law = set.first().map_or(0, |&r| self.law[r]);
+        if set.iter().all(|&r| self.law[r] == first_law) || depth > 60 {
+            if depth > 60 {
+                self.ambiguous += 1;
+            }
+            return Ok(LEAF | first_law);
+        }
+        if self.clipping
+            && let Some(l) = self.serving_law(&set, cell)
+        {
+            return Ok(LEAF | l);
+        }
+        if self.nodes.len() >= self.max_nodes {
+            return Err(EmpcError::TooLarge(format!(
+                "the search tree exceeds {} nodes (TreeSettings::max_nodes; the u16 child codes address {MAX_NODES})",
+                self.max_nodes
+            )));
+        }
+        let mut freq: HashMap<usize, usize> = HashMap::new();
+        for &r in &set {
+            for &(h, _) in &self.reg_facets[r] {
+                *freq.entry(h).or_default() += 1;
+            }
+        }
+        let mut cands: Vec<(usize, usize)> = freq.into_iter().collect();
+        cands.sort_by(|x, y| y.1.cmp(&x.1).then(x.0.cmp(&y.0)));
+        if set.len() * cands.len() > self.exact_budget {
+            cands.truncate(self.max_candidates);
+        }
+        let cands: Vec<usize> = cands.into_iter().map(|c| c.0).collect();
+        let n_laws = {
+            let mut v: Vec<u16> = set.iter().map(|&r| self.law[r]).collect();
+            v.sort_unstable();
+            v.dedup();
+            v.len()
+        };
+        // (exact key, candidate, splits) of the candidates split so far.
+        let mut tried: Vec<Tried> = Vec::new();
+        let progress = |k: &(usize, usize, usize)| k.0 < n_laws && k.2 > 0;
+        loop {
+            let scores = self.score_all(&cands, &set, &pts, n_laws, mark, stamp);
+            // Candidates by key; ties go to the more frequent facet.
+            let mut order: Vec<((usize, usize), usize, usize)> = cands
+                .iter()
+                .enumerate()
+                .zip(&scores)
+                .filter_map(|((i, &h), k)| k.map(|k| (k, i, h)))
+                .collect();
+            order.sort_unstable();
+            let done = |h: usize| tried.iter().find(|t| t.1 == h);
+            // The best candidate is split already and its exact key shows
+            // progress: its score is exact now, take it.
+            if let Some(&(_, _, h)) = order.first()
+                && done(h).is_some_and(|t| progress(&t.0))
+            {
+                break;
+            }
+            if tried.len() >= SAMPLED_ATTEMPTS && tried.iter().any(|t| progress(&t.0)) {
+                break;
+            }
+            let Some(&(_, _, h)) = order.iter().find(|c| done(c.2).is_none()) else {
+                break;
+            };
+            let mut splits = self.split_all(h, &set, &pts, cell);
+            self.absorb(&set, &mut pts, &mut splits);
+            let key = self.split_key(&set, &splits);
+            tried.push((key, h, splits));
+        }
+        // The best exact split that makes progress on both sides.
+        let Some(pos) = tried
+            .iter()
+            .enumerate()
+            .filter(|(_, t)| progress(&t.0))
+            .min_by(|x, y| (x.1.0.0, x.1.0.1).cmp(&(y.1.0.0, y.1.0.1)))
+            .map(|x| x.0)
+            .or_else(|| (!tried.is_empty()).then_some(0))
+        else {
+            self.ambiguous += 1;
+            return Ok(LEAF | first_law);
+        };
+        let (_, h, splits) = tried.swap_remove(pos);
+        drop(tried);
+        let (mut left, mut lp_) = (Vec::new(), Vec::new());
+        let (mut right, mut rp) = (Vec::new(), Vec::new());
+        for (&r, sp) in set.iter().zip(splits) {
+            if let Some(q) = sp.left {
+                left.push(r);
+                lp_.push(q);
+            }
+            if let Some(q) = sp.right {
+                right.push(r);
+                rp.push(q);
+            }
+        }
+        if left.is_empty() {
+            left.push(set[0]);
+            lp_.push(Vec::new());
+        }
+        if right.is_empty() {
+            right.push(set[0]);
+            rp.push(Vec::new());
+        }
+        drop(set);
+        drop(pts);
+        let hid = match self.used_hp.get(&h) {
+            Some(&i) => i,
+            None => {
+                let i = self.used_hp.len() as u16;
+                self.used_hp.insert(h, i);
+                i
+            }
+        };
+        let me = self.nodes.len();
+        self.nodes.push([hid, 0, 0, 0]);
+        let (a, b) = self.hp[h].clone();
+        let na: Vec<f64> = a.iter().map(|v| -v).collect();
+        cell.push((a, b));
+        let l = self.build_sampled(left, lp_, cell, depth + 1, mark, stamp);
+        cell.pop();
+        let l = l?;
+        cell.push((na, -b));
+        let rgt = self.build_sampled(right, rp, cell, depth + 1, mark, stamp);
+        cell.pop();
+        let rgt = rgt?;
+        self.nodes[me][2] = l;
+        self.nodes[me][3] = rgt;
+        Ok(me as u16)
+    }
 }
 
 impl Builder<'_> {
@@ -310,35 +913,16 @@ impl Builder<'_> {
     /// Whether region r meets the cell (rows) in a full-dimensional set,
     /// with the largest ball of the intersection when the LP found it.
     fn meets(&mut self, r: usize, cell: &[(Vec<f64>, f64)]) -> (bool, Option<Ball>) {
-        let p = self.p;
-        let mut a = Vec::new();
-        let mut b = Vec::new();
-        for (i, bi) in self.reg_b[r].iter().enumerate() {
-            a.extend_from_slice(&self.reg_a[r][i * p..(i + 1) * p]);
-            a.push(1.0);
-            b.push(*bi);
-        }
-        for (ca, cb) in cell {
-            a.extend_from_slice(ca);
-            a.push(1.0);
-            b.push(*cb);
-        }
-        a.extend(std::iter::repeat_n(0.0, p));
-        a.push(1.0);
-        b.push(self.scale);
-        let mut c = vec![0.0; p + 1];
-        c[p] = 1.0;
-        let mut x0: Vec<f64> = self.reg_center[r].iter().copied().chain([0.0]).collect();
-        slack_start(&a, &b, &mut x0, p);
-        let (st, rad) = self.lp.maximize_from(&c, &a, &b, &x0);
-        match st {
-            LpStatus::Optimal => (
-                rad > 1e-9 * self.scale,
-                Some((self.lp.x[..p].to_vec(), rad)),
-            ),
-            // An LP that did not finish proves nothing: keep the region.
-            _ => (true, None),
-        }
+        meets_lp(
+            &mut self.lp,
+            self.p,
+            self.scale,
+            &self.reg_a[r],
+            &self.reg_b[r],
+            &self.reg_center[r],
+            cell,
+            None,
+        )
     }
 
     /// Whether region `r` (with the ball `wit` inside it and the cell)
@@ -467,6 +1051,23 @@ impl Builder<'_> {
         laws.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
         let mut pieces: Vec<Option<Option<Piece>>> = vec![None; set.len()];
         'law: for (_, l) in laws {
+            // Without an LP: every differing output of every region must
+            // be saturated in that region's law (else `serves` fails too).
+            let saturated = |o: usize, lr: u16| {
+                let rr = self.law_rows[lr as usize][o];
+                rr == self.bounds[o][0] as usize || rr == self.bounds[o][1] as usize
+            };
+            for &r in set {
+                let lr = self.law[r];
+                if lr != l
+                    && (0..self.bounds.len()).any(|o| {
+                        self.law_rows[l as usize][o] != self.law_rows[lr as usize][o]
+                            && !saturated(o, lr)
+                    })
+                {
+                    continue 'law;
+                }
+            }
             for (i, &r) in set.iter().enumerate() {
                 if self.serves(l, r) {
                     continue;
@@ -894,6 +1495,10 @@ fn build_for(
         depth: 0,
         max_candidates: settings.max_candidates.max(1),
         exact_budget: settings.exact_budget,
+        pool: Vec::new(),
+        parallel: settings.parallel,
+        n_laws_total: distinct_laws,
+        max_nodes: settings.max_nodes.min(MAX_NODES),
     };
     let (lb, ub) = (
         solution.theta_lb.as_slice().to_vec(),
@@ -904,8 +1509,22 @@ fn build_for(
         .collect();
     let all: Vec<usize> = (0..solution.regions.len()).collect();
     let mut cell = Vec::new();
+    let sampled = match settings.method {
+        TreeMethod::Auto => all.len() > AUTO_SAMPLED_REGIONS,
+        TreeMethod::Lp => false,
+        TreeMethod::Sampled => true,
+    };
     let root = if all.is_empty() {
         LEAF
+    } else if sampled {
+        builder.init_pool();
+        let pts = builder
+            .pool
+            .iter()
+            .map(|v| (0..(v.len() / p) as u32).collect())
+            .collect();
+        let mut mark = vec![0u32; builder.n_laws_total];
+        builder.build_sampled(all, pts, &mut cell, 0, &mut mark, &mut 0)?
     } else {
         let wits = all
             .iter()
@@ -1375,4 +1994,134 @@ fn share_hyperplane_rows(
         *b = [re(b[0]), re(b[1])];
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mpqp::{Settings, solve};
+    use crate::testing;
+
+    /// The first `k` outputs of the law of a region containing `theta`
+    /// (the solution's own lookup), `None` if no region contains it.
+    fn lookup(sol: &MpqpSolution, theta: &[f64], k: usize) -> Option<Vec<f64>> {
+        let r = sol.regions.iter().find(|r| {
+            (0..r.a.nrows()).all(|i| {
+                let v: f64 = (0..theta.len()).map(|j| r.a[(i, j)] * theta[j]).sum();
+                v <= r.b[i] + 1e-9 * (1.0 + r.b[i].abs())
+            })
+        })?;
+        Some(
+            (0..k)
+                .map(|o| {
+                    r.gz[o]
+                        + (0..theta.len())
+                            .map(|j| r.fz[(o, j)] * theta[j])
+                            .sum::<f64>()
+                })
+                .collect(),
+        )
+    }
+
+    /// Mismatches (beyond 1e-9 relative) of the tree against the region
+    /// lookup at `n` random parameters of the box; panics on an uncovered one.
+    fn mismatches(sol: &MpqpSolution, t: &OwnedTables<f64>, n: usize, seed: u64) -> usize {
+        let mut rng = crate::mpqp::Rng::new(seed);
+        let (p, k) = (t.n_params, t.n_outputs);
+        let (mut z, mut scratch) = (vec![0.0; k], vec![0.0; p]);
+        let mut bad = 0;
+        for _ in 0..n {
+            let th: Vec<f64> = (0..p)
+                .map(|j| {
+                    let u = 0.5 * (rng.sym() + 1.0);
+                    sol.theta_lb[j] + u * (sol.theta_ub[j] - sol.theta_lb[j])
+                })
+                .collect();
+            let want = lookup(sol, &th, k).expect("every parameter of the box is covered");
+            let e = crate::eval::evaluate_with(&t.tables(), &th, &mut scratch, &mut z).unwrap();
+            assert!(!e.outside);
+            if want
+                .iter()
+                .zip(&z)
+                .any(|(a, b)| (a - b).abs() > 1e-9 * (1.0 + a.abs()))
+            {
+                bad += 1;
+            }
+        }
+        bad
+    }
+
+    fn problems() -> Vec<(&'static str, MpqpProblem)> {
+        let mut blocked = testing::random_system(2, 2, 1, 0.9, 7);
+        blocked.horizon = 3;
+        blocked.free_moves = 2;
+        vec![
+            ("thesis-sized", testing::thesis_sized(1)),
+            (
+                "random 3x2",
+                testing::random_system(3, 2, 2, 0.95, 3).condense(),
+            ),
+            ("blocked 2x2", blocked.condense()),
+        ]
+    }
+
+    #[test]
+    fn sampled_and_lp_trees_are_exact() {
+        for (name, prob) in problems() {
+            let sol = solve(&prob, &Settings::default()).unwrap();
+            for k in [2, prob.n()] {
+                let mut sizes = Vec::new();
+                for method in [TreeMethod::Lp, TreeMethod::Sampled] {
+                    for clipping in [true, false] {
+                        let settings = TreeSettings {
+                            outputs: Outputs::First(k),
+                            method,
+                            clipping,
+                            ..TreeSettings::default()
+                        };
+                        let ctl = build_controller(&prob, &sol, &settings).unwrap();
+                        assert_eq!(ctl.stats.ambiguous_leaves, 0, "{name} {method:?}");
+                        let bad = mismatches(&sol, &ctl.tables, 2000, 11);
+                        assert_eq!(bad, 0, "{name}, k = {k}, {method:?}, clipping {clipping}");
+                        sizes.push(ctl.stats.nodes);
+                    }
+                }
+                // Both methods build a tree (of comparable size).
+                assert!(sizes.iter().all(|&s| s > 0), "{name}: {sizes:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn sampled_tree_is_deterministic_and_parallel_invariant() {
+        let prob = testing::thesis_sized(2);
+        let sol = solve(&prob, &Settings::default()).unwrap();
+        let build = |parallel| {
+            let settings = TreeSettings {
+                outputs: Outputs::First(4),
+                method: TreeMethod::Sampled,
+                parallel,
+                ..TreeSettings::default()
+            };
+            build_controller(&prob, &sol, &settings).unwrap().tables
+        };
+        let a = build(true);
+        assert_eq!(a, build(true));
+        assert_eq!(a, build(false));
+    }
+
+    #[test]
+    fn node_cap_gives_too_large() {
+        let prob = testing::thesis_sized(1);
+        let sol = solve(&prob, &Settings::default()).unwrap();
+        let settings = TreeSettings {
+            outputs: Outputs::First(4),
+            method: TreeMethod::Sampled,
+            max_nodes: 20,
+            ..TreeSettings::default()
+        };
+        let e = build_controller(&prob, &sol, &settings).unwrap_err();
+        assert!(matches!(e, EmpcError::TooLarge(_)), "{e}");
+        assert!(e.to_string().contains("max_nodes"), "{e}");
+    }
 }
