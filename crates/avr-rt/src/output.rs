@@ -78,11 +78,14 @@ impl RtScalar for f32 {
         }
         let m = (bits & 0x7F_FFFF) | 0x80_0000;
         let q = if k >= 0 {
-            m << k
+            (m << k) as i32
         } else {
-            let s = (-k) as u32;
-            (m + (1 << (s - 1))) >> s
-        } as i32; // < 2^31
+            // round(m / 2^s) = (floor(m / 2^(s - 1)) + 1) / 2, the shift by
+            // whole bytes then bits (the AVR has no barrel shifter: LLVM
+            // shifts one bit per pass, and `1 << (s - 1)` is another loop).
+            let s = (-k) as u8; // 1..=24
+            (crate::explicit::tree16::shr_var(m as i32, s - 1) + 1) >> 1
+        }; // < 2^31
         Some(if neg { -q } else { q })
     }
     /// avr-libc's conversion, then scales by `2^-16` through the exponent.

@@ -249,7 +249,7 @@ fn round_shift32(v: i32, s: u8) -> i32 {
 /// one-bit passes of about 14 cycles) whole bytes move first, then one
 /// 6-cycle pass per remaining bit.
 #[inline]
-fn shr_var(v: i32, s: u8) -> i32 {
+pub(crate) fn shr_var(v: i32, s: u8) -> i32 {
     #[cfg(target_arch = "avr")]
     {
         let [mut a0, mut a1, mut a2, mut a3] = v.to_le_bytes();
