@@ -214,32 +214,6 @@ fn wide_layout_walks_like_the_narrow_one() {
     }
 }
 
-/// What `avr/firmware/src/generated_empc_ns2.rs` holds (the firmware's
-/// `empc-ns2` table): see its header.
-fn ns2_source() -> String {
-    use kestrel_avr_rt::explicit::quantize::{quantize_tree_layout, tree16_chunked_source};
-    let (c, _) = controller();
-    let q = quantize_tree_layout(&c.tables, 32, true).unwrap();
-    tree16_chunked_source(
-        &q,
-        "EMPC_NS2",
-        12,
-        "STAND-IN until the Ns = 2 tree is available: the Ns = 1 tree (N = 2, blocks [2]) in the wide layout, to test the chunked flash table and the wide walk on the target.",
-    )
-    .unwrap()
-}
-
-#[test]
-fn generated_empc_ns2_follows_its_design() {
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../avr/firmware/src/generated_empc_ns2.rs");
-    let fresh = ns2_source();
-    if std::fs::read_to_string(&path).ok().as_deref() != Some(fresh.as_str()) {
-        std::fs::write(&path, &fresh).unwrap();
-        panic!("avr/firmware/src/generated_empc_ns2.rs was stale: regenerated; commit it");
-    }
-}
-
 #[test]
 fn chunked_source_refuses_bad_names_and_chunks() {
     use kestrel_avr_rt::explicit::quantize::tree16_chunked_source;
