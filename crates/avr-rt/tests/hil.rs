@@ -90,7 +90,8 @@ fn repo_root() -> PathBuf {
 fn build_firmware(features: &[&str], generic_float: bool) -> PathBuf {
     let _guard = BUILD_LOCK.lock().unwrap_or_else(|e| e.into_inner());
     ensure_generated();
-    if features.contains(&"empc") {
+    // Every explicit-MPC build (empc, empc-check, empc-ns2) compiles generated_empc.rs.
+    if features.iter().any(|f| f.starts_with("empc")) {
         ensure_generated_empc();
     }
     if features.contains(&"empc-ns2") {

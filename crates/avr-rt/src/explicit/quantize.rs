@@ -111,9 +111,30 @@ impl Enc<'_> {
 /// (hull rows), more than 254 rows or laws, 32767 nodes, a non-finite or
 /// inconsistent table, an unbounded parameter, or rows too large for a
 /// scale of at least `2^0`.
+///
+/// Hyperplanes get rows of their own (see [`quantize_tree_with`]) up to 32,
+/// as many as keep the table under [`TABLE_BUDGET`] bytes (all 32 if even
+/// none does).
 pub fn quantize_tree(t: &OwnedTables<f64>) -> Result<Tree16Tables, DesignError> {
-    quantize_tree_with(t, 32)
+    let most = quantize_tree_with(t, MAX_OWN_ROWS)?;
+    if most.bytes.len() < TABLE_BUDGET {
+        return Ok(most);
+    }
+    for m in (0..MAX_OWN_ROWS).rev() {
+        let q = quantize_tree_with(t, m)?;
+        if q.bytes.len() < TABLE_BUDGET {
+            return Ok(q);
+        }
+    }
+    Ok(most)
 }
+
+/// The table size [`quantize_tree`] keeps under if it can (the issue's
+/// 8 kB target, in decimal kilobytes).
+pub const TABLE_BUDGET: usize = 8000;
+
+/// Most hyperplane rows of their own [`quantize_tree`] gives.
+pub const MAX_OWN_ROWS: usize = 32;
 
 /// [`quantize_tree`] with at most `max_own_rows` hyperplanes given rows of
 /// their own (the worst conditioned first; 23 bytes each for 9 parameters).
