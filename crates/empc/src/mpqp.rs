@@ -568,6 +568,44 @@ impl Prepared {
         })
     }
 
+    /// A box containing `{x in the parameter box : a x <= b}` (unit rows,
+    /// `rows x p`): a few rounds of bound propagation, each row bounding
+    /// each coordinate by the smallest value the other terms take on the
+    /// current box. Every bound it gives is implied by the rows.
+    fn implied_box(&self, a: &[f64], b: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let p = self.p;
+        let mut lo: Vec<f64> = self.theta_lb.iter().copied().collect();
+        let mut hi: Vec<f64> = self.theta_ub.iter().copied().collect();
+        for _ in 0..3 {
+            let mut changed = false;
+            for (r, &bi) in a.chunks_exact(p).zip(b) {
+                let low = |j: usize, lo: &[f64], hi: &[f64]| (r[j] * lo[j]).min(r[j] * hi[j]);
+                let total: f64 = (0..p).map(|j| low(j, &lo, &hi)).sum();
+                if !total.is_finite() {
+                    continue;
+                }
+                for j in 0..p {
+                    // Coefficients below 1e-6 would amplify rounding.
+                    if r[j].abs() < 1e-6 {
+                        continue;
+                    }
+                    let bound = (bi - (total - low(j, &lo, &hi))) / r[j];
+                    if r[j] > 0.0 && bound < hi[j] {
+                        hi[j] = bound;
+                        changed = true;
+                    } else if r[j] < 0.0 && bound > lo[j] {
+                        lo[j] = bound;
+                        changed = true;
+                    }
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+        (lo, hi)
+    }
+
     /// Finds the facets of `{a x <= b}` (unit rows) around the interior point `c`.
     ///
     /// Rays from `c` find most facets without an LP (the first hyperplane a
@@ -681,16 +719,20 @@ impl Prepared {
                 add(j, pt, mg, &mut state, &mut facets);
             }
         }
-        // Rows that the parameter box alone keeps from binding are redundant.
+        // A box around the region by bound propagation (every row holds on
+        // the region, so each row bounds one coordinate given the box of the
+        // others); a row that stays clear of this box by a margin does not
+        // touch the region, so it is not a facet: no LP for it. (A facet has
+        // points of the region on its hyperplane, which lie in the box.)
+        let (lo, hi) = self.implied_box(a, b);
         for k in 0..nh {
             if state[k] == 0 {
-                let hi: f64 = (0..p)
-                    .map(|j| {
-                        let v = row(k)[j];
-                        (v * self.theta_lb[j]).max(v * self.theta_ub[j])
-                    })
+                let top: f64 = row(k)
+                    .iter()
+                    .zip(lo.iter().zip(&hi))
+                    .map(|(&v, (&l, &u))| (v * l).max(v * u))
                     .sum();
-                if hi <= b[k] - 1e-9 * self.scale {
+                if top <= b[k] - 1e-9 * self.scale {
                     state[k] = 2;
                 }
             }
@@ -1260,4 +1302,73 @@ fn feasible_set(prep: &Prepared, set: &[usize], lp: &mut LpWorkspace) -> bool {
     slack_start(&a, &b, &mut x0, d - 1);
     let (st, r) = lp.maximize_from(&c, &a, &b, &x0);
     st == LpStatus::Optimal && r >= -1e-12 * prep.scale
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing;
+
+    /// The propagated box contains the polytope: for random polytopes
+    /// (random unit rows around the box centre, within the thesis-sized
+    /// problem's parameter box) every coordinate's maximum and minimum,
+    /// from an LP, lie inside it; and it is tighter than the parameter box.
+    #[test]
+    fn implied_box_contains_the_polytope() {
+        let prep = prepare(&testing::thesis_sized(1), &Settings::default()).unwrap();
+        let p = prep.p;
+        let mut rng = Rng::new(21);
+        let mut lp = LpWorkspace::default();
+        let mut tighter = 0;
+        for _ in 0..200 {
+            let rows = 2 + (rng.next_u64() % 14) as usize;
+            let centre: Vec<f64> = (0..p)
+                .map(|j| 0.5 * (prep.theta_lb[j] + prep.theta_ub[j]))
+                .collect();
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            for _ in 0..rows {
+                let mut r: Vec<f64> = (0..p).map(|_| rng.sym()).collect();
+                if rng.next_u64().is_multiple_of(3) {
+                    let keep = (rng.next_u64() % p as u64) as usize;
+                    for (j, v) in r.iter_mut().enumerate() {
+                        if j != keep && rng.next_u64().is_multiple_of(2) {
+                            *v = 0.0;
+                        }
+                    }
+                }
+                let n = r.iter().map(|v| v * v).sum::<f64>().sqrt();
+                r.iter_mut().for_each(|v| *v /= n);
+                b.push(crate::lp::dot(&r, &centre) + 0.05 + 0.5 * rng.sym().abs());
+                a.extend(r);
+            }
+            let (lo, hi) = prep.implied_box(&a, &b);
+            // The LP over the rows and the box.
+            let (mut la, mut lb) = (a.clone(), b.clone());
+            for j in 0..p {
+                for (s, v) in [(1.0, prep.theta_ub[j]), (-1.0, -prep.theta_lb[j])] {
+                    la.extend((0..p).map(|t| if t == j { s } else { 0.0 }));
+                    lb.push(v);
+                }
+            }
+            for j in 0..p {
+                let e: Vec<f64> = (0..p).map(|t| if t == j { 1.0 } else { 0.0 }).collect();
+                let (st, top) = lp.maximize_from(&e, &la, &lb, &centre);
+                assert_eq!(st, LpStatus::Optimal);
+                assert!(top <= hi[j] + 1e-9, "max {top} above the box's {}", hi[j]);
+                let ne: Vec<f64> = e.iter().map(|v| -v).collect();
+                let (st, bot) = lp.maximize_from(&ne, &la, &lb, &centre);
+                assert_eq!(st, LpStatus::Optimal);
+                assert!(
+                    -bot >= lo[j] - 1e-9,
+                    "min {} below the box's {}",
+                    -bot,
+                    lo[j]
+                );
+                if hi[j] < prep.theta_ub[j] - 1e-6 || lo[j] > prep.theta_lb[j] + 1e-6 {
+                    tighter += 1;
+                }
+            }
+        }
+        assert!(tighter > 20, "{tighter}");
+    }
 }
