@@ -126,14 +126,14 @@ pub struct PemResult {
     /// Estimated initial state of every experiment.
     pub x0: Vec<DVector<f64>>,
     /// Mean squared prediction error of the outputs scaled to unit
-    /// variance (over all steps `1..=horizon`), at the start.
+    /// variance (over the steps `1..=horizon`, or [`PemSettings::steps`]), at the start.
     pub initial_cost: f64,
     /// The same at the end.
     pub cost: f64,
     /// `det` of the residual covariance (of the scaled outputs) at the end.
     pub det_cost: f64,
     /// The weighted criterion after every accepted iteration (the first
-    /// entry is the start; with [`Criterion::Determinant`] the weight is
+    /// entry is the start; with [`Criterion::Determinant`] and [`Criterion::Fit`] the weight is
     /// renewed every iteration, so only consecutive entries compare).
     pub history: Vec<f64>,
     /// Iterations (Jacobian evaluations) done.
