@@ -120,6 +120,11 @@ pub fn quantize_tree(t: &OwnedTables<f64>) -> Result<Tree16Tables, DesignError> 
     if most.bytes.len() < TABLE_BUDGET {
         return Ok(most);
     }
+    // Without any own row the table is smallest: if that does not fit
+    // either (large trees), keep the most accurate one.
+    if quantize_tree_with(t, 0)?.bytes.len() >= TABLE_BUDGET {
+        return Ok(most);
+    }
     for m in (0..MAX_OWN_ROWS).rev() {
         let q = quantize_tree_with(t, m)?;
         if q.bytes.len() < TABLE_BUDGET {
