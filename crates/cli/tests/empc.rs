@@ -348,3 +348,45 @@ fn compact_layout_eval_and_export() {
         assert!(stderr(&o).contains("compact_tables"), "{}", stderr(&o));
     }
 }
+
+#[test]
+fn tree_method_and_node_cap() {
+    // Both tree methods give the same answers (here z = clamp(-theta)).
+    let thetas = file("methods.csv", "0.5,-0.25\n2,-3\n-1.5,0.75\n");
+    let mut outputs = Vec::new();
+    for method in ["lp", "sampled"] {
+        let sol = solve_box(
+            &format!("method-{method}"),
+            &["--no-clipping", "--tree-method", method],
+        );
+        let o = kestrel()
+            .args(["empc", "eval", "--solution"])
+            .arg(&sol)
+            .arg("--thetas")
+            .arg(&thetas)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        outputs.push(String::from_utf8(o.stdout).unwrap());
+    }
+    assert_eq!(outputs[0], outputs[1]);
+    assert_eq!(outputs[0].lines().next().unwrap(), "-0.5,0.25");
+    // A node cap the tree exceeds is a clear error, not a truncated tree.
+    let prob = file("cap-problem.json", BOX2);
+    let o = kestrel()
+        .args(["empc", "solve", "--no-clipping", "--tree-method", "sampled"])
+        .args(["--max-nodes", "2", "--problem"])
+        .arg(&prob)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("max_nodes"), "{}", stderr(&o));
+    // An unknown method is rejected by the argument parser.
+    let o = kestrel()
+        .args(["empc", "solve", "--tree-method", "fastest", "--problem"])
+        .arg(&prob)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--tree-method"), "{}", stderr(&o));
+}

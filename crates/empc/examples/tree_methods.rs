@@ -1,7 +1,8 @@
 //! Builds the first-move search tree of a problem with both tree methods
 //! and reports size, build time (wall and CPU) and exactness:
 //! `cargo run --release -p kestrel-empc --features parallel --example
-//! tree_methods -- [problem.json|thesis] [first_move] [lp|sampled|both] [samples]`.
+//! tree_methods -- [problem.json|thesis] [first_move] [lp|sampled|both] [samples]
+//! [shrink]` (`shrink` < 1 scales the parameter box about its centre).
 //!
 //! Exactness: at `samples` (default 10^4) random parameters in the box,
 //! the tree's output equals the law of a region containing the parameter
@@ -52,11 +53,18 @@ fn main() {
     let k: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(4);
     let which = args.next().unwrap_or_else(|| "both".into());
     let samples: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(10_000);
-    let prob = if path == "thesis" {
+    let shrink: f64 = args.next().and_then(|v| v.parse().ok()).unwrap_or(1.0);
+    let mut prob = if path == "thesis" {
         kestrel_empc::testing::thesis_sized(1)
     } else {
         MpqpProblem::read(std::path::Path::new(&path)).expect("problem")
     };
+    for j in 0..prob.p() {
+        let (lo, hi) = (prob.theta_lb[j], prob.theta_ub[j]);
+        let (c, h) = (0.5 * (lo + hi), 0.5 * shrink * (hi - lo));
+        prob.theta_lb[j] = c - h;
+        prob.theta_ub[j] = c + h;
+    }
     let t0 = std::time::Instant::now();
     let sol = solve(&prob, &Settings::default()).expect("solve");
     println!(

@@ -88,11 +88,33 @@ struct SolveArgs {
     /// regions whose differing outputs saturate, with the same clamped z).
     #[arg(long)]
     no_clipping: bool,
+    /// How the search tree scores candidate hyperplanes: `lp` (exact LP
+    /// scores of the best few, small trees, slow beyond a few hundred
+    /// regions), `sampled` (scores from sample points inside the regions,
+    /// only the chosen split runs LPs; fast on thousands of regions) or
+    /// `auto` (`lp` up to 400 regions). Both trees are exact.
+    #[arg(long, value_enum, default_value = "auto")]
+    tree_method: TreeMethodArg,
+    /// Stop with an error once the search tree has this many nodes (at
+    /// most 32767, what the u16 child codes address).
+    #[arg(long, value_name = "NODES", default_value_t = kestrel_empc::tree::MAX_NODES)]
+    max_nodes: usize,
     /// Also build the compact layout (one search tree per output, 6-byte
     /// nodes): adds `tree_compact` (with its f32 `bytes`) and
     /// `compact_tables` to the solution file.
     #[arg(long)]
     compact: bool,
+}
+
+/// Tree construction method (`kestrel_empc::tree::TreeMethod`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum TreeMethodArg {
+    /// LP scoring up to 400 regions, sampled scoring above.
+    Auto,
+    /// Exact LP scores of the best few candidates.
+    Lp,
+    /// Scores from sample points; LPs only for the chosen split.
+    Sampled,
 }
 
 /// `kestrel empc eval`.
@@ -168,6 +190,12 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
     let tree = TreeSettings {
         outputs,
         clipping: !a.no_clipping,
+        method: match a.tree_method {
+            TreeMethodArg::Auto => kestrel_empc::tree::TreeMethod::Auto,
+            TreeMethodArg::Lp => kestrel_empc::tree::TreeMethod::Lp,
+            TreeMethodArg::Sampled => kestrel_empc::tree::TreeMethod::Sampled,
+        },
+        max_nodes: a.max_nodes,
         ..TreeSettings::default()
     };
     let ctl = build_controller(&problem, &sol, &tree).with_context(|| name.clone())?;
