@@ -1,9 +1,10 @@
 //! kestrel-empc on the thesis problem with `N_s = 2` (N = 2, blocks [1, 1],
 //! 8 variables) of the identified black-box model: the problem kestrel-mpc
 //! builds has the shape of the checked-in fixture
-//! `crates/empc/tests/data/thesis-ns2.json` (whose ready solution
-//! `thesis-ns2-solution.json` kestrel-empc's `tests/ns2.rs` checks), and
-//! `EMPC_DUMP=dir` writes it again (for a re-identified model).
+//! `crates/empc/tests/data/thesis-ns2.json` (kestrel-empc's `tests/ns2.rs`
+//! checks its search trees, on a sub-box: the whole box needs more than the
+//! 32767 nodes of the `u16` child codes), and `EMPC_DUMP=dir` writes it
+//! again (for a re-identified model).
 
 use kestrel_core::formats::{MpqpProblem, SsModel};
 use kestrel_mpc::{Blocking, MpcProblem, MpcSettings, default_weights, tricopter_trim};
@@ -49,7 +50,7 @@ fn ns2_problem_has_the_fixture_shape() {
     assert_eq!(fixture.g, prob.g);
     if fixture.h != prob.h || fixture.w != prob.w {
         eprintln!(
-            "note: models/tricopter-blackbox-5.json changed since the Ns = 2 fixture was written; regenerate it (crates/empc/tests/ns2.rs)"
+            "note: models/tricopter-blackbox-5.json changed since the Ns = 2 fixture was written; regenerate it with EMPC_DUMP=dir"
         );
     }
 }
