@@ -1,9 +1,12 @@
 //! Explicit MPC: the mpQP solve of a 9-parameter, 8-variable problem with
 //! about a thousand regions, and the tree evaluation of the thesis-sized
 //! controller (9 parameters, 4 outputs) in f64, f32 and Q16, in the default and
-//! the compact layout.
+//! the compact layout. The group `empc solve 9x8 cpu` measures the sequential
+//! solve in CPU time of the benchmarking thread (Linux), which a loaded
+//! machine inflates far less than wall time.
 
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::measurement::{Measurement, ValueFormatter};
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use kestrel_core::{Q16, Scalar};
 use kestrel_empc::mpqp::Rng;
 use kestrel_empc::{
@@ -90,5 +93,95 @@ fn eval_bench(c: &mut Criterion) {
     eval_one(c, "compact f32", &c32.tables(), &cast(&thetas));
 }
 
+/// CPU time of the calling thread in nanoseconds (Linux
+/// `/proc/thread-self/schedstat`, first field): the machine is shared, so
+/// wall time grows with the load while the CPU time of a sequential solve
+/// does not (much).
+fn thread_cpu_ns() -> f64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().and_then(|v| v.parse().ok()))
+        .unwrap_or(0.0)
+}
+
+/// A criterion measurement of thread CPU time (for single-threaded code).
+struct CpuTime;
+
+/// Formats nanoseconds of CPU time like criterion's wall time.
+struct CpuFormatter;
+
+impl ValueFormatter for CpuFormatter {
+    fn scale_values(&self, typical: f64, values: &mut [f64]) -> &'static str {
+        let (factor, unit) = if typical < 1e3 {
+            (1.0, "ns cpu")
+        } else if typical < 1e6 {
+            (1e-3, "us cpu")
+        } else if typical < 1e9 {
+            (1e-6, "ms cpu")
+        } else {
+            (1e-9, "s cpu")
+        };
+        values.iter_mut().for_each(|v| *v *= factor);
+        unit
+    }
+    fn scale_throughputs(
+        &self,
+        _typical: f64,
+        _t: &Throughput,
+        values: &mut [f64],
+    ) -> &'static str {
+        // Not used: elements per CPU second.
+        values.iter_mut().for_each(|v| *v = 1e9 / *v);
+        "elem/s cpu"
+    }
+    fn scale_for_machines(&self, _values: &mut [f64]) -> &'static str {
+        "ns"
+    }
+}
+
+impl Measurement for CpuTime {
+    type Intermediate = f64;
+    type Value = f64;
+    fn start(&self) -> f64 {
+        thread_cpu_ns()
+    }
+    fn end(&self, start: f64) -> f64 {
+        thread_cpu_ns() - start
+    }
+    fn add(&self, a: &f64, b: &f64) -> f64 {
+        a + b
+    }
+    fn zero(&self) -> f64 {
+        0.0
+    }
+    fn to_f64(&self, v: &f64) -> f64 {
+        *v
+    }
+    fn formatter(&self) -> &dyn ValueFormatter {
+        &CpuFormatter
+    }
+}
+
+/// The sequential solve of the 9x8 problem measured in CPU time of the
+/// benchmarking thread (the figure to compare across machine loads).
+fn solve_cpu_bench(c: &mut Criterion<CpuTime>) {
+    let prob = testing::benchmark_9x8();
+    let seq = Settings {
+        parallel: false,
+        ..Settings::default()
+    };
+    let mut g = c.benchmark_group("empc solve 9x8 cpu");
+    g.sample_size(10);
+    g.bench_function("sequential", |b| {
+        b.iter(|| solve(black_box(&prob), &seq).unwrap())
+    });
+    g.finish();
+}
+
 criterion_group!(benches, solve_bench, eval_bench);
-criterion_main!(benches);
+criterion_group! {
+    name = cpu;
+    config = Criterion::default().with_measurement(CpuTime);
+    targets = solve_cpu_bench
+}
+criterion_main!(benches, cpu);
