@@ -1,6 +1,6 @@
 //! End-to-end tests of `kestrel empc solve|eval|export` on good and malformed files.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn kestrel() -> Command {
@@ -21,6 +21,27 @@ fn file(name: &str, text: &str) -> PathBuf {
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Runs `kestrel empc eval --solution SOL --thetas THETAS EXTRA...`.
+fn eval(sol: &Path, thetas: &Path, extra: &[&str]) -> Output {
+    kestrel()
+        .args(["empc", "eval", "--solution"])
+        .arg(sol)
+        .arg("--thetas")
+        .arg(thetas)
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+/// The comma-separated numbers `kestrel empc eval` printed, one row per line.
+fn csv_rows(o: &Output) -> Vec<Vec<f64>> {
+    String::from_utf8(o.stdout.clone())
+        .unwrap()
+        .lines()
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect()
 }
 
 /// min 1/2 |z|^2 + theta'z on the box |z_i| <= 1: z = clamp(-theta), 9 regions.
@@ -75,19 +96,9 @@ fn solve_eval_export_one(name: &str, extra: &[&str]) {
         &format!("{name}-thetas.csv"),
         "0.5, -0.25\n2, -3\n-1.5,0.75\n10,0\n",
     );
-    let o = kestrel()
-        .args(["empc", "eval", "--solution"])
-        .arg(&sol)
-        .arg("--thetas")
-        .arg(&thetas)
-        .output()
-        .unwrap();
+    let o = eval(&sol, &thetas, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let text = String::from_utf8(o.stdout.clone()).unwrap();
-    let rows: Vec<Vec<f64>> = text
-        .lines()
-        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
-        .collect();
+    let rows = csv_rows(&o);
     let want = [[-0.5, 0.25], [-1.0, 1.0], [1.0, -0.75], [-1.0, 0.0]];
     assert_eq!(rows.len(), 4);
     for (r, w) in rows.iter().zip(want) {
@@ -123,13 +134,7 @@ fn first_move_only() {
     assert_eq!(v["distinct_laws"], 3); // z_0 = clamp(-theta_0): three laws
     assert!(v.get("region_list").is_none());
     let thetas = file("first.csv", "0.5,2\n");
-    let o = kestrel()
-        .args(["empc", "eval", "--solution"])
-        .arg(&sol)
-        .arg("--thetas")
-        .arg(&thetas)
-        .output()
-        .unwrap();
+    let o = eval(&sol, &thetas, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(String::from_utf8(o.stdout).unwrap().trim(), "-0.5");
 }
@@ -206,14 +211,7 @@ fn bad_inputs_give_clear_errors() {
     let thetas = file("short.csv", "1\n");
     let o = run(&["empc", "eval", "--solution"], &[&sol]);
     assert!(!o.status.success()); // --thetas missing
-    let mut c = kestrel();
-    let o = c
-        .args(["empc", "eval", "--solution"])
-        .arg(&sol)
-        .arg("--thetas")
-        .arg(&thetas)
-        .output()
-        .unwrap();
+    let o = eval(&sol, &thetas, &[]);
     assert!(!o.status.success());
     assert!(
         stderr(&o).contains("row 1 has 1 values, expected 2"),
@@ -221,13 +219,7 @@ fn bad_inputs_give_clear_errors() {
         stderr(&o)
     );
     let nan = file("nan.csv", "1,nan\n");
-    let o = kestrel()
-        .args(["empc", "eval", "--solution"])
-        .arg(&sol)
-        .arg("--thetas")
-        .arg(&nan)
-        .output()
-        .unwrap();
+    let o = eval(&sol, &nan, &[]);
     assert!(
         stderr(&o).contains("column 2: expected a finite number"),
         "{}",
@@ -293,25 +285,13 @@ fn compact_layout_eval_and_export() {
         }
     }
     let thetas = file("cmp.csv", &csv);
-    let eval = |extra: &[&str]| {
-        let o = kestrel()
-            .args(["empc", "eval", "--solution"])
-            .arg(&sol)
-            .arg("--thetas")
-            .arg(&thetas)
-            .args(extra)
-            .output()
-            .unwrap();
+    let eval_rows = |extra: &[&str]| {
+        let o = eval(&sol, &thetas, extra);
         assert!(o.status.success(), "{}", stderr(&o));
-        let rows: Vec<Vec<f64>> = String::from_utf8(o.stdout.clone())
-            .unwrap()
-            .lines()
-            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
-            .collect();
-        (rows, stderr(&o))
+        (csv_rows(&o), stderr(&o))
     };
-    let (default, warn_default) = eval(&[]);
-    let (compact, warn_compact) = eval(&["--compact"]);
+    let (default, warn_default) = eval_rows(&[]);
+    let (compact, warn_compact) = eval_rows(&["--compact"]);
     assert_eq!(default.len(), 400);
     assert_eq!(warn_default, warn_compact); // the same parameters flagged outside
     for (a, b) in default.iter().zip(&compact) {
@@ -359,13 +339,7 @@ fn tree_method_and_node_cap() {
             &format!("method-{method}"),
             &["--no-clipping", "--tree-method", method],
         );
-        let o = kestrel()
-            .args(["empc", "eval", "--solution"])
-            .arg(&sol)
-            .arg("--thetas")
-            .arg(&thetas)
-            .output()
-            .unwrap();
+        let o = eval(&sol, &thetas, &[]);
         assert!(o.status.success(), "{}", stderr(&o));
         outputs.push(String::from_utf8(o.stdout).unwrap());
     }
