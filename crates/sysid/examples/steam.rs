@@ -12,42 +12,19 @@
 //! open-source subspace result (simulation 74.4 %, 1-step 94.1 %,
 //! 5-step 88.9 %) states them.
 
-use kestrel_sysid::{
-    CsvColumns, Focus, InnovationModel, IoData, N4sidSettings, PemSettings, n4sid, pem, validate,
-};
-use std::path::PathBuf;
+#[path = "common/steam.rs"]
+mod steam;
 
-fn table(
-    title: &str,
-    model: &InnovationModel,
-    val: &IoData,
-) -> Result<(), Box<dyn std::error::Error>> {
-    let r = validate(model, val, &[1, 5])?;
-    let mean = |l: &str| r.row(l).map(|x| x.mean()).unwrap_or(f64::NAN);
-    println!(
-        "== {title}: simulation {:.2} %, 1-step {:.2} %, 5-step {:.2} % (targets 74.4, 94.1, 88.9)\n{r}",
-        mean("model simulation"),
-        mean("model 1-step"),
-        mean("model 5-step")
-    );
-    Ok(())
-}
+use kestrel_sysid::{Focus, N4sidSettings, PemSettings, n4sid, pem};
+use steam::{ORDER, halves, table};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let path = std::env::args()
-        .nth(1)
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from("../shared/data/daisy/steam_generator.csv"));
-    let cols = CsvColumns::new(&["u1", "u2", "u3", "u4"], &["y1", "y2", "y3", "y4"]);
-    let data = IoData::read_csv(&path, &cols)?;
-    let (est, val) = data.split(0.5)?;
-    let (est, off) = est.remove_means()?;
-    let val = val.subtract(&off)?;
+    let steam::Halves { est, val } = halves()?;
     let t = std::time::Instant::now();
     let start = n4sid(
         &est,
         &N4sidSettings {
-            order: Some(9),
+            order: Some(ORDER),
             ..Default::default()
         },
     )?;

@@ -15,27 +15,13 @@
 //! `1,6,10`: all steps `1..=h`) and `STEAM_STEPS` (selected step sets
 //! such as `1+5,1+5+10`, [`PemSettings::steps`]; default none) set the grid; `STEAM_REFIT=0` stops after the inner table.
 
+#[path = "common/steam.rs"]
+mod steam;
+
 use kestrel_sysid::{
-    Criterion, CsvColumns, InnovationModel, IoData, N4sidSettings, PemSettings, Weighting, n4sid,
-    pem, validate,
+    Criterion, InnovationModel, IoData, N4sidSettings, PemSettings, Weighting, pem,
 };
-use std::path::PathBuf;
-
-struct Fits {
-    sim: f64,
-    one: f64,
-    five: f64,
-}
-
-fn fits(model: &InnovationModel, data: &IoData) -> Result<Fits, String> {
-    let r = validate(model, data, &[1, 5]).map_err(|e| e.to_string())?;
-    let mean = |l: &str| r.row(l).map(|x| x.mean()).unwrap_or(f64::NAN);
-    Ok(Fits {
-        sim: mean("model simulation"),
-        one: mean("model 1-step"),
-        five: mean("model 5-step"),
-    })
-}
+use steam::{dynamics, fits, halves, inner_halves, table};
 
 /// The N4SID start: weighting and horizon (block rows).
 #[derive(Clone, Copy, Debug)]
@@ -64,34 +50,21 @@ fn fit(
     (h, steps): (usize, &[usize]),
     with_k: &[bool],
 ) -> Result<Vec<(bool, InnovationModel)>, String> {
-    let start = n4sid(
+    let dynamics = dynamics(
         est,
-        &N4sidSettings {
-            order: Some(9),
+        N4sidSettings {
             weighting: st.weighting,
             horizon: Some(st.i),
             ..Default::default()
         },
-    )
-    .map_err(|e| e.to_string())?;
-    let t = std::time::Instant::now();
-    let dynamics = pem(
-        est,
-        &start.model,
         &PemSettings {
             horizon: h,
             steps: steps.to_vec(),
             criterion,
             ..Default::default()
         },
-    )
-    .map_err(|e| e.to_string())?;
-    eprintln!(
-        "  {st:?} {criterion:?} h = {h} steps {steps:?}: {} iterations, stop {:?}, {:.1} s",
-        dynamics.iterations,
-        dynamics.stop,
-        t.elapsed().as_secs_f64()
-    );
+        &format!("  {st:?} {criterion:?} h = {h} steps {steps:?}"),
+    )?;
     let mut out = Vec::new();
     for &refit in with_k {
         if !refit {
@@ -123,10 +96,6 @@ fn list<T>(var: &str, default: &str, parse: impl Fn(&str) -> Option<T>) -> Resul
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let path = std::env::args()
-        .nth(1)
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from("../shared/data/daisy/steam_generator.csv"));
     let criteria = list("STEAM_CRITERIA", "trace,fit", |s| match s {
         "trace" => Some(Criterion::Trace),
         "fit" => Some(Criterion::Fit),
@@ -154,16 +123,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })
     })?;
     let refit = std::env::var("STEAM_REFIT").map_or(true, |v| v != "0");
-    let cols = CsvColumns::new(&["u1", "u2", "u3", "u4"], &["y1", "y2", "y3", "y4"]);
-    let data = IoData::read_csv(&path, &cols)?;
-    let (est, val) = data.split(0.5)?;
-    let (est, off) = est.remove_means()?;
-    let val = val.subtract(&off)?;
+    let steam::Halves { est, val } = halves()?;
 
     // Cross-validation inside the estimation half only.
-    let (inner_est, inner_val) = est.split(2.0 / 3.0)?;
-    let (inner_est, inner_off) = inner_est.remove_means()?;
-    let inner_val = inner_val.subtract(&inner_off)?;
+    let steam::Halves {
+        est: inner_est,
+        val: inner_val,
+    } = inner_halves(&est)?;
     let mut jobs: Vec<(Start, Criterion, usize, Vec<usize>)> = Vec::new();
     for &st in &starts {
         for &c in &criteria {
@@ -232,7 +198,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let mut best: Option<(f64, Config)> = None;
     for (c, f) in &rows {
-        let score = f.sim + f.one + f.five;
+        let score = f.score();
         println!(
             "| {:?} i = {} | {:?} | {} | {} | {:.2} | {:.2} | {:.2} | {score:.2} |",
             c.start.weighting,
@@ -262,14 +228,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t = std::time::Instant::now();
     let models = fit(&est, c.start, c.criterion, (c.h, &c.steps), &[c.refit_k])?;
     let (_, model) = models.last().ok_or("no model")?;
-    let r = validate(model, &val, &[1, 5])?;
-    let mean = |l: &str| r.row(l).map(|x| x.mean()).unwrap_or(f64::NAN);
-    println!(
-        "== {c:?} ({:.1} s): simulation {:.2} %, 1-step {:.2} %, 5-step {:.2} % (targets 74.4, 94.1, 88.9)\n{r}",
-        t.elapsed().as_secs_f64(),
-        mean("model simulation"),
-        mean("model 1-step"),
-        mean("model 5-step")
-    );
+    table(
+        &format!("{c:?} ({:.1} s)", t.elapsed().as_secs_f64()),
+        model,
+        &val,
+    )?;
     Ok(())
 }

@@ -11,30 +11,15 @@
 //! then fitted on the whole estimation half and validated once on the
 //! second half: `cargo run --release -p kestrel-sysid --example steam_focus [path]`.
 
-use kestrel_sysid::{
-    CsvColumns, InnovationModel, IoData, N4sidSettings, PemSettings, n4sid, pem, validate,
-};
-use std::path::PathBuf;
+#[path = "common/steam.rs"]
+mod steam;
+
+use kestrel_sysid::{InnovationModel, IoData, PemSettings};
+use steam::{dynamics, fits, halves, inner_halves, table, timed_pem};
 
 /// Dynamics horizons and noise-model horizons tried.
 const DYNAMICS_HORIZONS: [usize; 4] = [6, 8, 10, 12];
 const NOISE_HORIZONS: [usize; 3] = [1, 3, 5];
-
-struct Fits {
-    sim: f64,
-    one: f64,
-    five: f64,
-}
-
-fn fits(model: &InnovationModel, data: &IoData) -> Result<Fits, Box<dyn std::error::Error>> {
-    let r = validate(model, data, &[1, 5])?;
-    let mean = |l: &str| r.row(l).map(|x| x.mean()).unwrap_or(f64::NAN);
-    Ok(Fits {
-        sim: mean("model simulation"),
-        one: mean("model 1-step"),
-        five: mean("model 5-step"),
-    })
-}
 
 /// Multi-step dynamics (`h`), then `K` for each noise horizon; returns the
 /// models `(hk, model)`, the first with `hk = 0` meaning "K of the
@@ -45,36 +30,19 @@ fn fit(
     feedthrough: bool,
     noise_horizons: &[usize],
 ) -> Result<Vec<(usize, InnovationModel)>, String> {
-    let start = n4sid(
+    let dynamics = dynamics(
         est,
-        &N4sidSettings {
-            order: Some(9),
-            feedthrough,
-            ..Default::default()
-        },
-    )
-    .map_err(|e| e.to_string())?;
-    let t = std::time::Instant::now();
-    let dynamics = pem(
-        est,
-        &start.model,
+        Default::default(),
         &PemSettings {
             horizon: h,
             feedthrough,
             ..Default::default()
         },
-    )
-    .map_err(|e| e.to_string())?;
-    eprintln!(
-        "  h = {h}, D {feedthrough}: {} iterations, stop {:?}, {:.1} s",
-        dynamics.iterations,
-        dynamics.stop,
-        t.elapsed().as_secs_f64()
-    );
+        &format!("  h = {h}, D {feedthrough}"),
+    )?;
     let mut out = vec![(0, dynamics.model.clone())];
     for &hk in noise_horizons {
-        let t = std::time::Instant::now();
-        let k = pem(
+        let k = timed_pem(
             est,
             &dynamics.model,
             &PemSettings {
@@ -82,34 +50,21 @@ fn fit(
                 horizon: hk,
                 ..Default::default()
             },
-        )
-        .map_err(|e| e.to_string())?;
-        eprintln!(
-            "    K by 1..{hk}: {} iterations, stop {:?}, {:.1} s",
-            k.iterations,
-            k.stop,
-            t.elapsed().as_secs_f64()
-        );
+            &format!("    K by 1..{hk}"),
+        )?;
         out.push((hk, k.model));
     }
     Ok(out)
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let path = std::env::args()
-        .nth(1)
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from("../shared/data/daisy/steam_generator.csv"));
-    let cols = CsvColumns::new(&["u1", "u2", "u3", "u4"], &["y1", "y2", "y3", "y4"]);
-    let data = IoData::read_csv(&path, &cols)?;
-    let (est, val) = data.split(0.5)?;
-    let (est, off) = est.remove_means()?;
-    let val = val.subtract(&off)?;
+    let steam::Halves { est, val } = halves()?;
 
     // Cross-validation inside the estimation half only.
-    let (inner_est, inner_val) = est.split(2.0 / 3.0)?;
-    let (inner_est, inner_off) = inner_est.remove_means()?;
-    let inner_val = inner_val.subtract(&inner_off)?;
+    let steam::Halves {
+        est: inner_est,
+        val: inner_val,
+    } = inner_halves(&est)?;
     println!("cross-validation inside the estimation half (fit on 2/3, score on 1/3):");
     println!(
         "| D | h | K by | simulation | 1-step | 5-step | score |\n|---|---|---|---|---|---|---|"
@@ -134,7 +89,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (feedthrough, h, hk, model) in models {
         {
             let f = fits(&model, &inner_val)?;
-            let score = f.sim + f.one + f.five;
+            let score = f.score();
             let by = if hk == 0 {
                 format!("1..{h} (kept)")
             } else {
@@ -159,14 +114,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t = std::time::Instant::now();
     let models = fit(&est, h, feedthrough, &[hk])?;
     let (_, model) = models.last().ok_or("no model")?;
-    let r = validate(model, &val, &[1, 5])?;
-    let mean = |l: &str| r.row(l).map(|x| x.mean()).unwrap_or(f64::NAN);
-    println!(
-        "== PEM, multi-step focus 1..{h} (D estimated: {feedthrough}) then K by 1..{hk} ({:.1} s): simulation {:.2} %, 1-step {:.2} %, 5-step {:.2} % (targets 74.4, 94.1, 88.9)\n{r}",
-        t.elapsed().as_secs_f64(),
-        mean("model simulation"),
-        mean("model 1-step"),
-        mean("model 5-step")
-    );
+    table(
+        &format!(
+            "PEM, multi-step focus 1..{h} (D estimated: {feedthrough}) then K by 1..{hk} ({:.1} s)",
+            t.elapsed().as_secs_f64()
+        ),
+        model,
+        &val,
+    )?;
     Ok(())
 }
