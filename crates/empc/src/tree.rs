@@ -343,6 +343,13 @@ struct RegionSplit {
 }
 
 impl Builder<'_> {
+    /// The node code of candidate hyperplane `h`: its index among the
+    /// hyperplanes the tree uses, numbered in order of first use.
+    fn hyperplane_id(&mut self, h: usize) -> u16 {
+        let next = self.used_hp.len() as u16;
+        *self.used_hp.entry(h).or_insert(next)
+    }
+
     /// Whether hyperplane `h` is a facet of region `r`, and on which side
     /// `r` lies; else whether `r`'s bounding box lies on one side.
     fn proven_side(&self, r: usize, h: usize, tol: f64) -> Option<Lie> {
@@ -785,14 +792,7 @@ impl Builder<'_> {
         }
         drop(set);
         drop(pts);
-        let hid = match self.used_hp.get(&h) {
-            Some(&i) => i,
-            None => {
-                let i = self.used_hp.len() as u16;
-                self.used_hp.insert(h, i);
-                i
-            }
-        };
+        let hid = self.hyperplane_id(h);
         let me = self.nodes.len();
         self.nodes.push([hid, 0, 0, 0]);
         let (a, b) = self.hp[h].clone();
@@ -1263,14 +1263,7 @@ impl Builder<'_> {
             right.push(set[0]);
             rw.push((wits[0].0.clone(), 0.0));
         }
-        let hid = match self.used_hp.get(&h) {
-            Some(&i) => i,
-            None => {
-                let i = self.used_hp.len() as u16;
-                self.used_hp.insert(h, i);
-                i
-            }
-        };
+        let hid = self.hyperplane_id(h);
         let me = self.nodes.len();
 
         self.nodes.push([hid, 0, 0, 0]);
