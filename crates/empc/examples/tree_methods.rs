@@ -10,9 +10,7 @@
 //! output's size); every parameter must be covered by a region.
 use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::tree::TreeMethod;
-use kestrel_empc::{
-    MpqpSolution, Outputs, Settings, TreeSettings, build_controller, evaluate_with, solve,
-};
+use kestrel_empc::{Outputs, Settings, TreeSettings, build_controller, evaluate_with, solve};
 
 /// CPU seconds of this process (user + system), from `/proc/self/stat`.
 fn cpu_seconds() -> f64 {
@@ -25,26 +23,6 @@ fn cpu_seconds() -> f64 {
         .collect();
     let t = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
     (t(11) + t(12)) / 100.0
-}
-
-/// The first `k` outputs of the law of a region containing `theta`.
-fn lookup(sol: &MpqpSolution, theta: &[f64], k: usize) -> Option<Vec<f64>> {
-    let r = sol.regions.iter().find(|r| {
-        (0..r.a.nrows()).all(|i| {
-            let v: f64 = (0..theta.len()).map(|j| r.a[(i, j)] * theta[j]).sum();
-            v <= r.b[i] + 1e-9 * (1.0 + r.b[i].abs())
-        })
-    })?;
-    Some(
-        (0..k)
-            .map(|o| {
-                r.gz[o]
-                    + (0..theta.len())
-                        .map(|j| r.fz[(o, j)] * theta[j])
-                        .sum::<f64>()
-            })
-            .collect(),
-    )
 }
 
 fn main() {
@@ -125,7 +103,7 @@ fn main() {
         let mut z = vec![0.0; k];
         let mut scratch = vec![0.0; p];
         for th in &thetas {
-            let Some(want) = lookup(&sol, th, k) else {
+            let Some(want) = sol.first_outputs_at(th, k) else {
                 uncovered += 1;
                 continue;
             };

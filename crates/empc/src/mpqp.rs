@@ -139,6 +139,47 @@ impl MpqpSolution {
     pub fn locate(&self, theta: &[f64], tol: f64) -> Option<usize> {
         self.regions.iter().position(|r| r.contains(theta, tol))
     }
+
+    /// The first `k` entries of the optimiser `fz theta + gz` of the first
+    /// region containing `theta`, each half-space `a_i theta <= b_i` allowed
+    /// the relative slack `1e-9 (1 + |b_i|)`: the solution's own answer, the
+    /// reference a search tree is checked against. `None` where no region
+    /// contains `theta`, or where `theta.len() != p` or `k > n`.
+    ///
+    /// ```
+    /// use kestrel_core::formats::MpqpProblem;
+    /// use kestrel_empc::{Settings, solve};
+    ///
+    /// // min 1/2 z^2 + theta z on |z| <= 1: z = clamp(-theta).
+    /// let prob = MpqpProblem::from_json_str(r#"{"format": "kestrel.mpqp.v1",
+    ///   "H": [[1]], "F": [[1]], "G": [[1], [-1]], "W": [1, 1],
+    ///   "E": [[0], [0]], "theta_lb": [-3], "theta_ub": [3]}"#).unwrap();
+    /// let sol = solve(&prob, &Settings::default()).unwrap();
+    /// assert!((sol.first_outputs_at(&[0.5], 1).unwrap()[0] + 0.5).abs() < 1e-12);
+    /// assert_eq!(sol.first_outputs_at(&[2.0], 1).unwrap(), vec![-1.0]);
+    /// assert!(sol.first_outputs_at(&[0.5, 0.0], 1).is_none());
+    /// ```
+    pub fn first_outputs_at(&self, theta: &[f64], k: usize) -> Option<Vec<f64>> {
+        if theta.len() != self.p || k > self.n {
+            return None;
+        }
+        let r = self.regions.iter().find(|r| {
+            (0..r.a.nrows()).all(|i| {
+                let v: f64 = (0..theta.len()).map(|j| r.a[(i, j)] * theta[j]).sum();
+                v <= r.b[i] + 1e-9 * (1.0 + r.b[i].abs())
+            })
+        })?;
+        Some(
+            (0..k)
+                .map(|o| {
+                    r.gz[o]
+                        + (0..theta.len())
+                            .map(|j| r.fz[(o, j)] * theta[j])
+                            .sum::<f64>()
+                })
+                .collect(),
+        )
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

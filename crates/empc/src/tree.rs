@@ -1995,27 +1995,6 @@ mod tests {
     use crate::mpqp::{Settings, solve};
     use crate::testing;
 
-    /// The first `k` outputs of the law of a region containing `theta`
-    /// (the solution's own lookup), `None` if no region contains it.
-    fn lookup(sol: &MpqpSolution, theta: &[f64], k: usize) -> Option<Vec<f64>> {
-        let r = sol.regions.iter().find(|r| {
-            (0..r.a.nrows()).all(|i| {
-                let v: f64 = (0..theta.len()).map(|j| r.a[(i, j)] * theta[j]).sum();
-                v <= r.b[i] + 1e-9 * (1.0 + r.b[i].abs())
-            })
-        })?;
-        Some(
-            (0..k)
-                .map(|o| {
-                    r.gz[o]
-                        + (0..theta.len())
-                            .map(|j| r.fz[(o, j)] * theta[j])
-                            .sum::<f64>()
-                })
-                .collect(),
-        )
-    }
-
     /// Mismatches (beyond 1e-9 relative) of the tree against the region
     /// lookup at `n` random parameters of the box; panics on an uncovered one.
     fn mismatches(sol: &MpqpSolution, t: &OwnedTables<f64>, n: usize, seed: u64) -> usize {
@@ -2030,7 +2009,9 @@ mod tests {
                     sol.theta_lb[j] + u * (sol.theta_ub[j] - sol.theta_lb[j])
                 })
                 .collect();
-            let want = lookup(sol, &th, k).expect("every parameter of the box is covered");
+            let want = sol
+                .first_outputs_at(&th, k)
+                .expect("every parameter of the box is covered");
             let e = crate::eval::evaluate_with(&t.tables(), &th, &mut scratch, &mut z).unwrap();
             assert!(!e.outside);
             if want

@@ -18,9 +18,7 @@ use clarabel::solver::{
 use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::mpqp::Rng;
 use kestrel_empc::tree::TreeMethod;
-use kestrel_empc::{
-    MpqpSolution, Outputs, Settings, TreeSettings, build_controller, evaluate_with, solve,
-};
+use kestrel_empc::{Outputs, Settings, TreeSettings, build_controller, evaluate_with, solve};
 use nalgebra::{DMatrix, DVector};
 
 fn ns2_problem(shrink: f64) -> MpqpProblem {
@@ -70,26 +68,6 @@ fn clarabel_qp(prob: &MpqpProblem, theta: &[f64]) -> Vec<f64> {
     s.solution.x[..prob.n()].to_vec()
 }
 
-/// The first `k` entries of the law of a region containing `theta`.
-fn lookup(sol: &MpqpSolution, theta: &[f64], k: usize) -> Option<Vec<f64>> {
-    let r = sol.regions.iter().find(|r| {
-        (0..r.a.nrows()).all(|i| {
-            let v: f64 = (0..theta.len()).map(|j| r.a[(i, j)] * theta[j]).sum();
-            v <= r.b[i] + 1e-9 * (1.0 + r.b[i].abs())
-        })
-    })?;
-    Some(
-        (0..k)
-            .map(|o| {
-                r.gz[o]
-                    + (0..theta.len())
-                        .map(|j| r.fz[(o, j)] * theta[j])
-                        .sum::<f64>()
-            })
-            .collect(),
-    )
-}
-
 fn rel(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
@@ -116,7 +94,10 @@ fn ns2_first_move_trees_are_exact_on_a_sub_box() {
         .collect();
     let reference: Vec<Vec<f64>> = thetas
         .iter()
-        .map(|th| lookup(&sol, th, k).expect("every parameter is covered by a region"))
+        .map(|th| {
+            sol.first_outputs_at(th, k)
+                .expect("every parameter is covered by a region")
+        })
         .collect();
     let mut sizes = Vec::new();
     for method in [TreeMethod::Sampled, TreeMethod::Lp] {
