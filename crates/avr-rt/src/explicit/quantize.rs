@@ -529,9 +529,7 @@ pub fn tree16_source(q: &Tree16Tables) -> String {
         s,
         "// 16-bit explicit MPC (kestrel_avr_rt::explicit::tree16): {} nodes (depth {}), {} laws,\n\
          // {} rows, output scale 2^-{}, row error bound {:.3e} (output units).\n\
-         /// Layout of the 16-bit table.\n\
-         pub const EMPC16_LAYOUT: kestrel_avr_rt::explicit::tree16::Tree16Layout = kestrel_avr_rt::explicit::tree16::Tree16Layout {{\n    \
-         n_params: {}, n_outputs: {}, n_nodes: {}, n_laws: {}, n_rows: {}, root: {}, scale: {}, wide: {},\n}};\n\
+         {}\n\
          /// Bytes of the 16-bit table.\npub const EMPC16_BYTES: usize = {};\n\
          /// Rows of the 16-bit table (the law's value cache).\npub const EMPC16_ROWS: usize = {};\n\
          /// Depth of the 16-bit table's tree.\npub const EMPC16_DEPTH: usize = {};\n\
@@ -542,24 +540,33 @@ pub fn tree16_source(q: &Tree16Tables) -> String {
         l.n_rows,
         l.scale,
         q.output_error_bound,
-        l.n_params,
-        l.n_outputs,
-        l.n_nodes,
-        l.n_laws,
-        l.n_rows,
-        l.root,
-        l.scale,
-        l.wide,
+        layout_source("EMPC16", l),
         q.bytes.len(),
         l.n_rows,
         q.depth,
     );
-    for ch in q.bytes.chunks(24) {
-        let line: Vec<String> = ch.iter().map(|v| v.to_string()).collect();
+    byte_rows_source(&mut s, &q.bytes);
+    s
+}
+
+/// The Rust source of the `{name}_LAYOUT` constant (with its doc line).
+fn layout_source(name: &str, l: &Tree16Layout) -> String {
+    format!(
+        "/// Layout of the 16-bit table.\n\
+         pub const {name}_LAYOUT: kestrel_avr_rt::explicit::tree16::Tree16Layout = kestrel_avr_rt::explicit::tree16::Tree16Layout {{\n    \
+         n_params: {}, n_outputs: {}, n_nodes: {}, n_laws: {}, n_rows: {}, root: {}, scale: {}, wide: {},\n}};",
+        l.n_params, l.n_outputs, l.n_nodes, l.n_laws, l.n_rows, l.root, l.scale, l.wide,
+    )
+}
+
+/// Appends `bytes` as the lines of a Rust array body (24 a line) and its
+/// closing `];`.
+fn byte_rows_source(s: &mut String, bytes: &[u8]) {
+    for row in bytes.chunks(24) {
+        let line: Vec<String> = row.iter().map(|v| v.to_string()).collect();
         let _ = writeln!(s, "    {},", line.join(", "));
     }
     let _ = writeln!(s, "];");
-    s
 }
 
 /// The Rust source of a 16-bit table too large for one Rust object (over
@@ -600,9 +607,7 @@ pub fn tree16_chunked_source(
          // 16-bit explicit MPC (kestrel_avr_rt::explicit::tree16, {} layout): {} nodes (depth {}),\n\
          // {} laws, {} rows, output scale 2^-{}, row error bound {:.3e} (output units);\n\
          // {} bytes in {} chunks of at most {} bytes.\n\
-         /// Layout of the 16-bit table.\n\
-         pub const {name}_LAYOUT: kestrel_avr_rt::explicit::tree16::Tree16Layout = kestrel_avr_rt::explicit::tree16::Tree16Layout {{\n    \
-         n_params: {}, n_outputs: {}, n_nodes: {}, n_laws: {}, n_rows: {}, root: {}, scale: {}, wide: {},\n}};\n\
+         {}\n\
          /// Bytes of the 16-bit table.\npub const {name}_BYTES: usize = {};\n\
          /// Depth of the 16-bit table's tree.\npub const {name}_DEPTH: usize = {};\n\
          /// Chunk size of the table: 2^bits bytes.\npub const {name}_CHUNK_BITS: u8 = {chunk_bits};\n\
@@ -617,14 +622,7 @@ pub fn tree16_chunked_source(
         q.bytes.len(),
         chunks.len(),
         1usize << chunk_bits,
-        l.n_params,
-        l.n_outputs,
-        l.n_nodes,
-        l.n_laws,
-        l.n_rows,
-        l.root,
-        l.scale,
-        l.wide,
+        layout_source(name, l),
         q.bytes.len(),
         q.depth,
         chunks.len(),
@@ -639,11 +637,7 @@ pub fn tree16_chunked_source(
             (i << chunk_bits) + ch.len(),
             ch.len()
         );
-        for row in ch.chunks(24) {
-            let line: Vec<String> = row.iter().map(|v| v.to_string()).collect();
-            let _ = writeln!(s, "    {},", line.join(", "));
-        }
-        let _ = writeln!(s, "];");
+        byte_rows_source(&mut s, ch);
     }
     let names: Vec<String> = (0..chunks.len())
         .map(|i| format!("kestrel_avr_rt::far_table!({name}_{i})"))
