@@ -464,6 +464,12 @@ fn stats(replies: &[Option<Reply>], f: impl Fn(&Reply) -> u32) -> CycleStats {
     s
 }
 
+/// `min/mean/max` of the samples (mean rounded to a whole cycle), as the
+/// printed figures show them.
+fn min_mean_max(s: &CycleStats) -> String {
+    format!("{}/{:.0}/{}", s.min, s.mean().unwrap_or(0.0), s.max)
+}
+
 fn json_stats(s: &CycleStats) -> String {
     format!(
         "{{\"min\": {}, \"mean\": {:.1}, \"max\": {}}}",
@@ -534,16 +540,10 @@ fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u
         Solver::Empc => ("empc", empc().stats.depth),
     };
     println!(
-        "{scalar} {solver_name} ({iters} iterations or tree depth): kalman {}/{:.0}/{} cycles, solver {}/{:.0}/{} cycles, period {}/{:.0}/{} cycles (max {:.3} ms at 16 MHz); flash {flash} B, RAM {ram} B; table at 0x{:05x}; max |PWM - f64 ref| = {} us; rate error worst {:.4} mean {:.4} rad/s",
-        k.min,
-        k.mean().unwrap_or(0.0),
-        k.max,
-        s.min,
-        s.mean().unwrap_or(0.0),
-        s.max,
-        p.min,
-        p.mean().unwrap_or(0.0),
-        p.max,
+        "{scalar} {solver_name} ({iters} iterations or tree depth): kalman {} cycles, solver {} cycles, period {} cycles (max {:.3} ms at 16 MHz); flash {flash} B, RAM {ram} B; table at 0x{:05x}; max |PWM - f64 ref| = {} us; rate error worst {:.4} mean {:.4} rad/s",
+        min_mean_max(&k),
+        min_mean_max(&s),
+        min_mean_max(&p),
         ms(p.max as f64),
         fl.boot.table_address,
         fl.pwm_diff_max,
@@ -813,13 +813,9 @@ fn empc_on_target_equals_host_walk() {
     }
     let nodes = got.iter().map(|g| g.steps as f64).sum::<f64>() / got.len() as f64;
     println!(
-        "empc on target (N = 2, Ns = 1, 200 random parameters): walk {}/{:.0}/{} cycles, whole law {}/{:.0}/{} cycles, {nodes:.1} nodes",
-        s.min,
-        s.mean().unwrap_or(0.0),
-        s.max,
-        c.min,
-        c.mean().unwrap_or(0.0),
-        c.max
+        "empc on target (N = 2, Ns = 1, 200 random parameters): walk {} cycles, whole law {} cycles, {nodes:.1} nodes",
+        min_mean_max(&s),
+        min_mean_max(&c),
     );
 }
 
@@ -844,14 +840,10 @@ fn empc_ns2_on_target_equals_host_walk() {
             .join(format!("{}.elf", features.join("-"))),
     );
     println!(
-        "empc-ns2 on target ({} bytes of table, 200 random parameters): walk {}/{:.0}/{} cycles, whole law {}/{:.0}/{} cycles, {nodes:.1} nodes; firmware flash {flash} B, RAM {ram} B",
+        "empc-ns2 on target ({} bytes of table, 200 random parameters): walk {} cycles, whole law {} cycles, {nodes:.1} nodes; firmware flash {flash} B, RAM {ram} B",
         q.bytes.len(),
-        s.min,
-        s.mean().unwrap_or(0.0),
-        s.max,
-        c.min,
-        c.mean().unwrap_or(0.0),
-        c.max
+        min_mean_max(&s),
+        min_mean_max(&c),
     );
 }
 
