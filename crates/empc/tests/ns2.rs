@@ -11,15 +11,13 @@
 //! exact at 10^4 random parameters against the solution's own region
 //! lookup, and within 1e-8 (relative) of clarabel on a subset.
 
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{
-    DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus,
-};
+mod common;
+
+use common::clarabel_qp;
 use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::mpqp::Rng;
 use kestrel_empc::tree::TreeMethod;
 use kestrel_empc::{Outputs, Settings, TreeSettings, build_controller, evaluate_with, solve};
-use nalgebra::{DMatrix, DVector};
 
 fn ns2_problem(shrink: f64) -> MpqpProblem {
     let mut prob = MpqpProblem::from_json_str(include_str!("data/thesis-ns2.json")).unwrap();
@@ -30,42 +28,6 @@ fn ns2_problem(shrink: f64) -> MpqpProblem {
         prob.theta_ub[j] = c + h;
     }
     prob
-}
-
-/// clarabel's solution of the QP at `theta`.
-fn clarabel_qp(prob: &MpqpProblem, theta: &[f64]) -> Vec<f64> {
-    let th = DVector::from_column_slice(theta);
-    let (q, rhs) = (prob.linear_term(&th), prob.rhs(&th));
-    let rows = |m: &DMatrix<f64>| -> Vec<Vec<f64>> {
-        (0..m.nrows())
-            .map(|i| m.row(i).iter().copied().collect())
-            .collect()
-    };
-    let pm = CscMatrix::from(&rows(&prob.h)).to_triu();
-    let am = CscMatrix::from(&rows(&prob.g));
-    let settings = DefaultSettingsBuilder::default()
-        .verbose(false)
-        .tol_gap_abs(1e-13)
-        .tol_gap_rel(1e-13)
-        .tol_feas(1e-13)
-        .tol_ktratio(1e-10)
-        .max_iter(400)
-        .build()
-        .unwrap();
-    let cones = [NonnegativeConeT(prob.m())];
-    let qv: Vec<f64> = q.iter().copied().collect();
-    let bv: Vec<f64> = rhs.iter().copied().collect();
-    let mut s = DefaultSolver::new(&pm, &qv, &am, &bv, &cones, settings).unwrap();
-    s.solve();
-    assert!(
-        matches!(
-            s.solution.status,
-            SolverStatus::Solved | SolverStatus::AlmostSolved
-        ),
-        "clarabel: {:?}",
-        s.solution.status
-    );
-    s.solution.x[..prob.n()].to_vec()
 }
 
 fn rel(a: &[f64], b: &[f64]) -> f64 {
@@ -119,7 +81,7 @@ fn ns2_first_move_trees_are_exact_on_a_sub_box() {
             assert!(d <= 1e-9, "{method:?}: theta {i}: {z:?} vs {want:?}");
             // clarabel, an independent QP solver, on every 50th parameter.
             if i % 50 == 0 && method == TreeMethod::Sampled {
-                let x = clarabel_qp(&prob, th);
+                let x = clarabel_qp(&prob, th).expect("clarabel: the QP is feasible");
                 let dc = rel(&x[..k], &z);
                 assert!(dc <= 1e-8, "theta {i}: {z:?} vs clarabel {x:?} ({dc:.1e})");
             }

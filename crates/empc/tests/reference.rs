@@ -3,10 +3,9 @@
 //! f64), coverage of every sampled parameter, and region counts against a
 //! brute-force enumeration of active sets, on regular and degenerate problems.
 
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{
-    DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus,
-};
+mod common;
+
+use common::clarabel_qp;
 use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::mpqp::Rng;
 use kestrel_empc::{
@@ -14,41 +13,6 @@ use kestrel_empc::{
     evaluate, solve, testing,
 };
 use nalgebra::{DMatrix, DVector};
-
-/// clarabel's solution of the QP at `theta` (None if infeasible).
-fn clarabel_qp(prob: &MpqpProblem, theta: &[f64]) -> Option<Vec<f64>> {
-    let n = prob.n();
-    let th = DVector::from_column_slice(theta);
-    let q = prob.linear_term(&th);
-    let rhs = prob.rhs(&th);
-    let rows = |m: &DMatrix<f64>| -> Vec<Vec<f64>> {
-        (0..m.nrows())
-            .map(|i| m.row(i).iter().copied().collect())
-            .collect()
-    };
-    let (hr, gr) = (rows(&prob.h), rows(&prob.g));
-    let pm = CscMatrix::from(&hr).to_triu();
-    let am = CscMatrix::from(&gr);
-    let settings = DefaultSettingsBuilder::default()
-        .verbose(false)
-        .tol_gap_abs(1e-13)
-        .tol_gap_rel(1e-13)
-        .tol_feas(1e-13)
-        .tol_ktratio(1e-10)
-        .max_iter(400)
-        .build()
-        .unwrap();
-    let cones = [NonnegativeConeT(prob.m())];
-    let qv: Vec<f64> = q.iter().copied().collect();
-    let bv: Vec<f64> = rhs.iter().copied().collect();
-    let mut s = DefaultSolver::new(&pm, &qv, &am, &bv, &cones, settings).unwrap();
-    s.solve();
-    match s.solution.status {
-        SolverStatus::Solved | SolverStatus::AlmostSolved => Some(s.solution.x[..n].to_vec()),
-        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => None,
-        other => panic!("clarabel: {other:?}"),
-    }
-}
 
 fn sample(prob: &MpqpProblem, rng: &mut Rng) -> Vec<f64> {
     (0..prob.p())
