@@ -350,13 +350,10 @@ impl Builder<'_> {
         *self.used_hp.entry(h).or_insert(next)
     }
 
-    /// Whether hyperplane `h` is a facet of region `r`, and on which side
-    /// `r` lies; else whether `r`'s bounding box lies on one side.
-    fn proven_side(&self, r: usize, h: usize, tol: f64) -> Option<Lie> {
-        if let Some(&(_, s)) = self.reg_facets[r].iter().find(|f| f.0 == h) {
-            return Some(if s { Lie::Left } else { Lie::Right });
-        }
-        let (a, b) = (&self.hp[h].0, self.hp[h].1);
+    /// The least and the greatest value of `a_h theta` over the bounding
+    /// box of region `r`.
+    fn box_range(&self, r: usize, h: usize) -> (f64, f64) {
+        let a = &self.hp[h].0;
         let (lo, up) = &self.reg_box[r];
         let (mut bmax, mut bmin) = (0.0, 0.0);
         for j in 0..a.len() {
@@ -364,6 +361,17 @@ impl Builder<'_> {
             bmax += u.max(v);
             bmin += u.min(v);
         }
+        (bmin, bmax)
+    }
+
+    /// Whether hyperplane `h` is a facet of region `r`, and on which side
+    /// `r` lies; else whether `r`'s bounding box lies on one side.
+    fn proven_side(&self, r: usize, h: usize, tol: f64) -> Option<Lie> {
+        if let Some(&(_, s)) = self.reg_facets[r].iter().find(|f| f.0 == h) {
+            return Some(if s { Lie::Left } else { Lie::Right });
+        }
+        let b = self.hp[h].1;
+        let (bmin, bmax) = self.box_range(r, h);
         if bmax <= b + tol {
             Some(Lie::Left)
         } else if bmin >= b - tol {
@@ -892,13 +900,7 @@ impl Builder<'_> {
         }
         let (a, b) = (&self.hp[h].0, self.hp[h].1);
         let tol = 1e-9 * self.scale;
-        let (lo, up) = &self.reg_box[r];
-        let (mut bmax, mut bmin) = (0.0, 0.0);
-        for j in 0..a.len() {
-            let (u, v) = (a[j] * lo[j], a[j] * up[j]);
-            bmax += u.max(v);
-            bmin += u.min(v);
-        }
+        let (bmin, bmax) = self.box_range(r, h);
         if bmax <= b + tol {
             return Some(-1);
         }
