@@ -404,6 +404,20 @@ pub(crate) fn fit_bd_x0(
     Ok(BdX0 { b, d, x0 })
 }
 
+/// N4SID of the given `order` with the default settings, unwrapped: the
+/// start the tests of this crate (N4SID, PEM, the workflow) compare with.
+#[cfg(test)]
+pub(crate) fn n4sid_of_order(data: &IoData, order: usize) -> N4sidResult {
+    n4sid(
+        data,
+        &N4sidSettings {
+            order: Some(order),
+            ..Default::default()
+        },
+    )
+    .unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -447,14 +461,7 @@ mod tests {
     fn noisy_data_give_a_close_model_with_a_stable_predictor() {
         let truth = synthetic::random_model(3, 2, 2, 5, 0.9);
         let data = synthetic::simulate(&truth, 5000, 0.2, 9).unwrap();
-        let r = n4sid(
-            &data,
-            &N4sidSettings {
-                order: Some(3),
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let r = n4sid_of_order(&data, 3);
         assert!(max_tf_error(&r.model, &truth) < 0.1);
         assert!(r.model.radius_predictor() < 1.0);
     }

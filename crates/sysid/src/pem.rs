@@ -1301,14 +1301,7 @@ mod tests {
         }
         let data = synthetic::simulate(&truth, 1500, 0.5, 8).unwrap();
         let (data, _) = data.remove_means().unwrap();
-        let start = n4sid(
-            &data,
-            &N4sidSettings {
-                order: Some(3),
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let start = crate::n4sid::n4sid_of_order(&data, 3);
         let fit_of = |criterion: Criterion, horizon: usize| {
             let s = PemSettings {
                 criterion,
@@ -1348,14 +1341,7 @@ mod tests {
     fn selected_steps_mask_the_others() {
         let truth = synthetic::random_model(3, 2, 2, 12, 0.85);
         let data = synthetic::simulate(&truth, 600, 0.3, 4).unwrap();
-        let start = n4sid(
-            &data,
-            &N4sidSettings {
-                order: Some(2),
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let start = crate::n4sid::n4sid_of_order(&data, 2);
         let run = |horizon: usize, steps: Vec<usize>, max_iterations: usize| {
             let s = PemSettings {
                 horizon,

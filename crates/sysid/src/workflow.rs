@@ -648,6 +648,24 @@ mod tests {
         synthetic::simulate(&truth, 1200, 0.05, 3).unwrap()
     }
 
+    /// `identify` on all of `d` and the same start by hand: the mean-free
+    /// data and their N4SID start of the spec's order.
+    struct ByHand {
+        /// `identify`'s report.
+        r: IdentifyReport,
+        /// The mean-free data.
+        est: IoData,
+        /// N4SID on `est`.
+        start: crate::N4sidResult,
+    }
+
+    fn by_hand(d: &IoData, spec: &IdentifySpec) -> ByHand {
+        let r = identify(d, spec).unwrap();
+        let (est, _) = d.remove_means().unwrap();
+        let start = crate::n4sid::n4sid_of_order(&est, spec.order.unwrap());
+        ByHand { r, est, start }
+    }
+
     #[test]
     fn identify_matches_the_separate_steps() {
         let d = data();
@@ -668,14 +686,7 @@ mod tests {
             .unwrap()
             .subtract(&off)
             .unwrap();
-        let start = n4sid(
-            &est,
-            &N4sidSettings {
-                order: Some(3),
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let start = crate::n4sid::n4sid_of_order(&est, 3);
         let p = pem(&est, &start.model, &PemSettings::default()).unwrap();
         let red = balred(
             &p.model,
@@ -798,16 +809,7 @@ mod tests {
             pem_horizon: 3,
             ..Default::default()
         };
-        let r = identify(&d, &spec).unwrap();
-        let (est, _) = d.remove_means().unwrap();
-        let start = n4sid(
-            &est,
-            &N4sidSettings {
-                order: Some(2),
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let ByHand { r, est, start } = by_hand(&d, &spec);
         let settings = PemSettings {
             horizon: 3,
             ..Default::default()
@@ -837,16 +839,7 @@ mod tests {
             criterion: Criterion::Fit,
             ..Default::default()
         };
-        let r = identify(&d, &spec).unwrap();
-        let (est, _) = d.remove_means().unwrap();
-        let start = n4sid(
-            &est,
-            &N4sidSettings {
-                order: Some(2),
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let ByHand { r, est, start } = by_hand(&d, &spec);
         let settings = PemSettings {
             horizon: 3,
             criterion: Criterion::Fit,
@@ -883,16 +876,7 @@ mod tests {
             focus: PemFocus::MultiStepThenNoise { horizon: 4 },
             ..Default::default()
         };
-        let r = identify(&d, &spec).unwrap();
-        let (est, _) = d.remove_means().unwrap();
-        let start = n4sid(
-            &est,
-            &N4sidSettings {
-                order: Some(2),
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let ByHand { r, est, start } = by_hand(&d, &spec);
         let multi = pem(
             &est,
             &start.model,
