@@ -29,7 +29,7 @@ use avr_tester::AvrTester;
 use kestrel_avr_rt::control::{Mixer, RateLoop};
 use kestrel_avr_rt::cycles::{CycleClock, CycleStats};
 use kestrel_avr_rt::design::{
-    FirmwareDesign, empc_controller, generate_empc_tables, generate_tables,
+    FirmwareDesign, empc_controller, generate_empc_tables, generate_tables, ns2_problem,
 };
 use kestrel_avr_rt::explicit::EmpcLaw;
 use kestrel_avr_rt::frame::{
@@ -67,6 +67,8 @@ enum Solver {
     Fgm,
     /// Explicit MPC from flash (`EmpcLaw` over `FlashTree`), feature `empc`.
     Empc,
+    /// Explicit MPC with Ns = 2 ([`ns2_empc`]), feature `empc-ns2`.
+    EmpcNs2,
 }
 
 const TS: f64 = 0.02;
@@ -183,12 +185,12 @@ fn empc() -> &'static ExplicitController {
     C.get_or_init(|| empc_controller(&design().problem).expect("explicit controller"))
 }
 
-/// The host reference of the `empc` build: the same loop in f64 with the
-/// f64 tables of [`empc`] read from RAM.
-fn host_empc_loop() -> HostEmpcLoop {
+/// The host reference of the `empc` builds: the same loop in f64 with the
+/// f64 tables of `controller` ([`empc`] or [`ns2_empc`]) read from RAM.
+fn host_empc_loop(controller: &'static ExplicitController) -> HostEmpcLoop {
     let d = design();
     let filter = StationaryFilter::new(d.gains().expect("gains"), [0.0; generated::NX]);
-    let law = EmpcLaw::new(empc().tables.tables(), generated::NX).unwrap();
+    let law = EmpcLaw::new(controller.tables.tables(), generated::NX).unwrap();
     RateLoop::new(
         filter,
         law,
@@ -275,11 +277,36 @@ fn ensure_generated_empc() -> bool {
     stale
 }
 
+/// Scale of the `empc-ns2` design's parameter box about its centre: the
+/// exact first-move tree of the Ns = 2 problem over the whole box needs
+/// more than the 32767 nodes of the `u16` child codes (crates/empc/README.md),
+/// over half of it (states within +-5, references within +-1.5 rad/s,
+/// throttle 1250-1750 us) it has about 8,000.
+const NS2_BOX_SCALE: f64 = 0.5;
+
+/// The explicit controller with `Ns = 2` free moves (N = 2, blocks [1, 1],
+/// `design::ns2_problem` of the firmware's model) over the parameter box
+/// scaled by [`NS2_BOX_SCALE`], built here with kestrel-empc (once per
+/// test binary), in f64.
+fn ns2_empc() -> &'static ExplicitController {
+    static C: std::sync::OnceLock<ExplicitController> = std::sync::OnceLock::new();
+    C.get_or_init(|| {
+        let mut prob = ns2_problem(&design().model).expect("Ns = 2 problem");
+        for j in 0..prob.p() {
+            let (lo, hi) = (prob.theta_lb[j], prob.theta_ub[j]);
+            let (c, h) = (0.5 * (lo + hi), 0.5 * NS2_BOX_SCALE * (hi - lo));
+            prob.theta_lb[j] = c - h;
+            prob.theta_ub[j] = c + h;
+        }
+        empc_controller(&prob).expect("Ns = 2 explicit controller")
+    })
+}
+
 /// What `avr/firmware/src/generated_empc_ns2.rs` holds (the `empc-ns2`
-/// build's table; see its header): for now a stand-in, the design's Ns = 1
-/// tree in the wide layout.
+/// build's table): [`ns2_empc`] in the wide 16-bit layout.
 fn ns2_tables() -> kestrel_avr_rt::explicit::quantize::Tree16Tables {
-    kestrel_avr_rt::explicit::quantize::quantize_tree_layout(&empc().tables, 32, true).unwrap()
+    kestrel_avr_rt::explicit::quantize::quantize_tree_layout(&ns2_empc().tables, 4096, true)
+        .unwrap()
 }
 
 /// The same for `avr/firmware/src/generated_empc_ns2.rs` (the `empc-ns2` build).
@@ -289,7 +316,7 @@ fn ensure_generated_empc_ns2() -> bool {
         &ns2_tables(),
         "EMPC_NS2",
         12,
-        "STAND-IN until the Ns = 2 tree is available: the Ns = 1 tree (N = 2, blocks [2]) in the wide layout, to test the chunked flash table and the wide walk on the target.",
+        "Explicit MPC with Ns = 2 free moves (N = 2, blocks [1, 1]) over the parameter box scaled by 0.5 about its centre (the whole box's exact tree exceeds the u16 node codes).",
     )
     .unwrap();
     let stale = std::fs::read_to_string(&path).ok().as_deref() != Some(fresh.as_str());
@@ -393,7 +420,11 @@ fn fly(elf: &Path, periods: usize, solver: Solver) -> Flight {
     let mut plant = NonlinearPlant::hovering(PlantConfig::default(), [2.0, 2.0, 2.0], 7).unwrap();
     let throttle = design().trim.hover_throttle as f32;
     let mut host_fgm = host_loop();
-    let mut host_empc = (solver == Solver::Empc).then(host_empc_loop);
+    let mut host_empc = match solver {
+        Solver::Empc => Some(host_empc_loop(empc())),
+        Solver::EmpcNs2 => Some(host_empc_loop(ns2_empc())),
+        Solver::Fgm => None,
+    };
     let mut replies = Vec::with_capacity(periods);
     let mut rates = Vec::with_capacity(periods);
     let mut pwm = SafeOutput::default().pwm(&PwmLimits::default());
@@ -481,7 +512,9 @@ fn json_stats(s: &CycleStats) -> String {
 
 /// Flies the step scenario and checks everything the issue asks of the HIL run.
 fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u16) {
-    let solver = if features.contains(&"empc") {
+    let solver = if features.contains(&"empc-ns2") {
+        Solver::EmpcNs2
+    } else if features.contains(&"empc") {
         Solver::Empc
     } else {
         Solver::Fgm
@@ -538,6 +571,7 @@ fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u
     let (solver_name, iters) = match solver {
         Solver::Fgm => ("fgm", design().loop_iterations()),
         Solver::Empc => ("empc", empc().stats.depth),
+        Solver::EmpcNs2 => ("empc-ns2", ns2_empc().stats.depth),
     };
     println!(
         "{scalar} {solver_name} ({iters} iterations or tree depth): kalman {} cycles, solver {} cycles, period {} cycles (max {:.3} ms at 16 MHz); flash {flash} B, RAM {ram} B; table at 0x{:05x}; max |PWM - f64 ref| = {} us; rate error worst {:.4} mean {:.4} rad/s",
@@ -674,6 +708,13 @@ fn hil_step_scenario_empc_fixed_q16_mac() {
 // build is the fixed-point configuration (the same numbers, faster
 // products). The plain build's kernels are timed by
 // `fgm_kernel_cycles_fixed_q16`.
+
+/// The explicit MPC with Ns = 2 free moves (its parameter box halved,
+/// see [`NS2_BOX_SCALE`]; the wide table in flash chunks above 64 kB).
+#[test]
+fn hil_step_scenario_empc_ns2_fixed_q16_mac() {
+    check_flight(&["empc-ns2", "fixed-mac"], false, "fixed-mac", 3);
+}
 
 #[test]
 fn hil_step_scenario_fixed_q16_mac() {
@@ -820,13 +861,42 @@ fn empc_on_target_equals_host_walk() {
 }
 
 /// The firmware's Ns = 2 explicit MPC (`empc-ns2`: the wide 16-bit table
-/// in flash chunks, the Rust walk with a 64-row direct-mapped cache)
-/// equals the host walk of the same table on 200 parameters; prints its
-/// cycles and the firmware's flash and RAM.
+/// of [`ns2_empc`] in flash chunks, the Rust walk with a 64-row
+/// direct-mapped cache) agrees with the f64 tree and equals the host walk
+/// of the same table on 200 parameters; prints its cycles and the
+/// firmware's flash and RAM.
 #[test]
 fn empc_ns2_on_target_equals_host_walk() {
     let features = ["empc-ns2", "empc-check", "fixed-mac"];
     let q = ns2_tables();
+    // The 16-bit table against the f64 tree at 2000 random parameters of
+    // its box: the same law up to the rounding margin of a hyperplane, and
+    // within the proved output bound where the law is the same.
+    let t = &ns2_empc().tables;
+    let mut seed = 0x2545_F491_4F6C_DD1Du64;
+    let thetas: Vec<[f64; 9]> = (0..2000)
+        .map(|_| {
+            std::array::from_fn(|j| {
+                seed = seed
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
+                let u = (seed >> 11) as f64 / (1u64 << 53) as f64;
+                t.theta_lb[j] + u * (t.theta_ub[j] - t.theta_lb[j])
+            })
+        })
+        .collect();
+    let check = kestrel_avr_rt::explicit::quantize::check_tree16::<9, 4>(&q, t, &thetas).unwrap();
+    println!(
+        "empc-ns2 design: {} laws, depth {}, {} nodes; 16-bit table {} bytes; {check:?}",
+        ns2_empc().stats.distinct_laws,
+        ns2_empc().stats.depth,
+        ns2_empc().stats.nodes,
+        q.bytes.len()
+    );
+    assert!(check.max_output_error_same_law <= q.output_error_bound);
+    assert!(q.output_error_bound < 1.0, "{} us", q.output_error_bound);
+    // Every ill-conditioned hyperplane has a row of its own (0 when written).
+    assert!(check.law_mismatches <= 10, "{check:?}");
     let got = empc_on_target::<_, 64>(&features, &q.bytes[..], q.layout, 200);
     let (mut s, mut c) = (CycleStats::new(), CycleStats::new());
     for g in &got {

@@ -608,7 +608,7 @@ pub fn tree16_chunked_source(
          // {} laws, {} rows, output scale 2^-{}, row error bound {:.3e} (output units);\n\
          // {} bytes in {} chunks of at most {} bytes.\n\
          {}\n\
-         /// Bytes of the 16-bit table.\npub const {name}_BYTES: usize = {};\n\
+         /// Bytes of the 16-bit table.\npub const {name}_BYTES: u32 = {};\n\
          /// Depth of the 16-bit table's tree.\npub const {name}_DEPTH: usize = {};\n\
          /// Chunk size of the table: 2^bits bytes.\npub const {name}_CHUNK_BITS: u8 = {chunk_bits};\n\
          /// Chunks of the table.\npub const {name}_CHUNKS: usize = {};",

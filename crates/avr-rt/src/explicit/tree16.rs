@@ -132,6 +132,19 @@ impl Tree16Layout {
     pub const fn bytes(&self) -> usize {
         self.rows_at() + self.n_rows * self.row_bytes()
     }
+    /// The byte offsets of the nodes, laws, bounds and rows and the total
+    /// bytes, computed in `u32`: the run-time's figures, since a wide table
+    /// may pass 64 KiB, where the AVR's 16-bit `usize` (and so
+    /// [`Tree16Layout::bytes`] there) would overflow.
+    pub const fn offsets(&self) -> [u32; 5] {
+        let nodes = (Self::PARAM_BYTES as u32) * (self.n_params as u32);
+        let laws = nodes + (self.node_bytes() as u32) * (self.n_nodes as u32);
+        let bounds =
+            laws + (self.index_bytes() as u32) * (self.n_laws as u32) * (self.n_outputs as u32);
+        let rows = bounds + 2 * (self.index_bytes() as u32) * (self.n_outputs as u32);
+        let total = rows + (self.n_rows as u32) * (self.row_bytes() as u32);
+        [nodes, laws, bounds, rows, total]
+    }
 }
 
 /// A [`Tree16Layout`] table read through [`TableRead`] (a
@@ -147,11 +160,12 @@ impl<T: TableRead> Tree16<T> {
     /// not the layout's, [`Error::InvalidArgument`] for more than 255 rows
     /// (65534 wide) or a scale above 30.
     pub fn new(table: T, layout: Tree16Layout) -> Result<Self, Error> {
-        let len = table.len_bytes() as usize;
-        if len != layout.bytes() {
+        let (len, want) = (table.len_bytes(), layout.offsets()[4]);
+        if len != want {
+            let size = |v: u32| usize::try_from(v).unwrap_or(usize::MAX);
             return Err(Error::DimensionMismatch {
-                expected: layout.bytes(),
-                found: len,
+                expected: size(want),
+                found: size(len),
             });
         }
         if layout.n_rows > if layout.wide { 65534 } else { 255 } {
@@ -420,7 +434,8 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         {
             return Err(Error::InvalidArgument("rows or nodes above 64 KiB"));
         }
-        let at = [l.nodes_at(), l.laws_at(), l.bounds_at(), l.rows_at()].map(|v| v as u32);
+        let [nodes_at, laws_at, bounds_at, rows_at, _] = l.offsets();
+        let at = [nodes_at, laws_at, bounds_at, rows_at];
         Ok(Empc16Law {
             tree,
             nx,
