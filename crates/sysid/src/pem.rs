@@ -458,35 +458,46 @@ fn residuals(m: &InnovationModel, x0: &[DVector<f64>], data: &[Series]) -> DVect
         for t in 0..s.n {
             let u = &s.u[t * nu..(t + 1) * nu];
             let y = &s.y[t * ny..(t + 1) * ny];
-            for o in 0..ny {
-                let mut v = y[o];
-                for i in 0..n {
-                    v -= m.c[(o, i)] * x[i];
-                }
-                for j in 0..nu {
-                    v -= m.d[(o, j)] * u[j];
-                }
-                e[o] = v;
-                out[row + o] = v;
-            }
-            for i in 0..n {
-                let mut v = 0.0;
-                for j in 0..n {
-                    v += m.a[(i, j)] * x[j];
-                }
-                for j in 0..nu {
-                    v += m.b[(i, j)] * u[j];
-                }
-                for o in 0..ny {
-                    v += m.k[(i, o)] * e[o];
-                }
-                xn[i] = v;
-            }
+            output_error(m, &x, (u, y), &mut e);
+            out.rows_mut(row, ny).copy_from_slice(&e);
+            predictor_state_step(m, &x, u, &e, &mut xn);
             std::mem::swap(&mut x, &mut xn);
             row += ny;
         }
     }
     out
+}
+
+/// The predictor's output error `e = y - C x - D u`.
+fn output_error(m: &InnovationModel, x: &[f64], (u, y): (&[f64], &[f64]), e: &mut [f64]) {
+    for (o, eo) in e.iter_mut().enumerate() {
+        let mut v = y[o];
+        for (i, xi) in x.iter().enumerate() {
+            v -= m.c[(o, i)] * xi;
+        }
+        for (j, uj) in u.iter().enumerate() {
+            v -= m.d[(o, j)] * uj;
+        }
+        *eo = v;
+    }
+}
+
+/// The predictor's state step `xn = A x + B u + K e` (with `e` empty the
+/// look-ahead step `A x + B u`).
+fn predictor_state_step(m: &InnovationModel, x: &[f64], u: &[f64], e: &[f64], xn: &mut [f64]) {
+    for (i, xi) in xn.iter_mut().enumerate() {
+        let mut v = 0.0;
+        for (j, xj) in x.iter().enumerate() {
+            v += m.a[(i, j)] * xj;
+        }
+        for (j, uj) in u.iter().enumerate() {
+            v += m.b[(i, j)] * uj;
+        }
+        for (o, eo) in e.iter().enumerate() {
+            v += m.k[(i, o)] * eo;
+        }
+        *xi = v;
+    }
 }
 
 /// Where one sample's errors go: the first of their `ny` columns of the
@@ -515,17 +526,8 @@ fn error_and_sensitivity(
 ) {
     let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
     let ps = lay.shared();
-    for o in 0..ny {
-        let mut v = y[o];
-        for i in 0..n {
-            v -= m.c[(o, i)] * z[i];
-        }
-        for j in 0..nu {
-            v -= m.d[(o, j)] * u[j];
-        }
-        e[o] = v;
-        res[at.col + o] = v;
-    }
+    output_error(m, z, (u, y), e);
+    res.rows_mut(at.col, ny).copy_from_slice(e);
     cpsi.gemm(-1.0, &m.c, dz, 0.0);
     for o in 0..ny {
         for b in 0..n {
@@ -593,19 +595,7 @@ fn advance_predictor(
         }
     }
     std::mem::swap(psi, psin);
-    for i in 0..n {
-        let mut v = 0.0;
-        for j in 0..n {
-            v += m.a[(i, j)] * x[j];
-        }
-        for j in 0..nu {
-            v += m.b[(i, j)] * u[j];
-        }
-        for o in 0..ny {
-            v += m.k[(i, o)] * e[o];
-        }
-        xn[i] = v;
-    }
+    predictor_state_step(m, x, u, e, xn);
     std::mem::swap(x, xn);
 }
 
@@ -688,16 +678,7 @@ fn residuals_and_jacobian(
                     }
                 }
                 std::mem::swap(&mut dz, &mut dzn);
-                for i in 0..n {
-                    let mut v = 0.0;
-                    for jj in 0..n {
-                        v += m.a[(i, jj)] * z[jj];
-                    }
-                    for jj in 0..nu {
-                        v += m.b[(i, jj)] * up[jj];
-                    }
-                    zn[i] = v;
-                }
+                predictor_state_step(m, &z, up, &[], &mut zn);
                 std::mem::swap(&mut z, &mut zn);
                 let uj = &s.u[(t + j) * nu..(t + j + 1) * nu];
                 let yj = &s.y[(t + j) * ny..(t + j + 1) * ny];
