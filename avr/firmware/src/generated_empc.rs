@@ -1039,8 +1039,8 @@ pub const EMPC_Q16: [u8; EMPC_BYTES] = [
     0, 0, 10, 0, 0, 0, 10, 0, 0, 0, 10, 0, 0, 0, 10, 0, 0, 0, 3, 0, 0, 0, 3, 0,
     0, 0, 3, 0, 0, 0, 208, 7,
 ];
-// 16-bit explicit MPC (kestrel_avr_rt::explicit::tree16): 856 nodes (depth 13), 81 laws,
-// 145 rows, output scale 2^-17, row error bound 7.408e-1 (output units).
+// 16-bit explicit MPC (kestrel_avr_rt::explicit::tree16, narrow layout): 856 nodes (depth 13),
+// 81 laws, 145 rows, output scale 2^-17, row error bound 7.408e-1 (output units).
 /// Layout of the 16-bit table.
 pub const EMPC16_LAYOUT: kestrel_avr_rt::explicit::tree16::Tree16Layout = kestrel_avr_rt::explicit::tree16::Tree16Layout {
     n_params: 9, n_outputs: 4, n_nodes: 856, n_laws: 81, n_rows: 145, root: 0, scale: 17, wide: false,
