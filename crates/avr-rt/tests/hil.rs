@@ -292,12 +292,7 @@ fn ns2_empc() -> &'static ExplicitController {
     static C: std::sync::OnceLock<ExplicitController> = std::sync::OnceLock::new();
     C.get_or_init(|| {
         let mut prob = ns2_problem(&design().model).expect("Ns = 2 problem");
-        for j in 0..prob.p() {
-            let (lo, hi) = (prob.theta_lb[j], prob.theta_ub[j]);
-            let (c, h) = (0.5 * (lo + hi), 0.5 * NS2_BOX_SCALE * (hi - lo));
-            prob.theta_lb[j] = c - h;
-            prob.theta_ub[j] = c + h;
-        }
+        prob.scale_parameter_box(NS2_BOX_SCALE);
         empc_controller(&prob).expect("Ns = 2 explicit controller")
     })
 }

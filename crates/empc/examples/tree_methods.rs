@@ -37,12 +37,7 @@ fn main() {
     } else {
         MpqpProblem::read(std::path::Path::new(&path)).expect("problem")
     };
-    for j in 0..prob.p() {
-        let (lo, hi) = (prob.theta_lb[j], prob.theta_ub[j]);
-        let (c, h) = (0.5 * (lo + hi), 0.5 * shrink * (hi - lo));
-        prob.theta_lb[j] = c - h;
-        prob.theta_ub[j] = c + h;
-    }
+    prob.scale_parameter_box(shrink);
     let t0 = std::time::Instant::now();
     let sol = solve(&prob, &Settings::default()).expect("solve");
     println!(

@@ -21,12 +21,7 @@ use kestrel_empc::{Outputs, Settings, TreeSettings, build_controller, evaluate_w
 
 fn ns2_problem(shrink: f64) -> MpqpProblem {
     let mut prob = MpqpProblem::from_json_str(include_str!("data/thesis-ns2.json")).unwrap();
-    for j in 0..prob.p() {
-        let (lo, hi) = (prob.theta_lb[j], prob.theta_ub[j]);
-        let (c, h) = (0.5 * (lo + hi), 0.5 * shrink * (hi - lo));
-        prob.theta_lb[j] = c - h;
-        prob.theta_ub[j] = c + h;
-    }
+    prob.scale_parameter_box(shrink);
     prob
 }
 

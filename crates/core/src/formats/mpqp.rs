@@ -215,6 +215,16 @@ impl MpqpProblem {
     pub fn rhs(&self, theta: &DVector<f64>) -> DVector<f64> {
         &self.w + &self.e * theta
     }
+
+    /// Scales the parameter box `[theta_lb, theta_ub]` by `factor` about its
+    /// centre (e.g. `0.5`: half the width in every parameter).
+    pub fn scale_parameter_box(&mut self, factor: f64) {
+        for (lb, ub) in self.theta_lb.iter_mut().zip(self.theta_ub.iter_mut()) {
+            let (c, h) = (0.5 * (*lb + *ub), 0.5 * factor * (*ub - *lb));
+            *lb = c - h;
+            *ub = c + h;
+        }
+    }
 }
 
 #[cfg(test)]
@@ -237,6 +247,15 @@ mod tests {
         assert_eq!(p.linear_term(&th).as_slice(), &[4.5, 5.0]);
         // W + E theta = [1 + 3, 1, 2 + 1].
         assert_eq!(p.rhs(&th).as_slice(), &[4.0, 1.0, 3.0]);
+    }
+
+    #[test]
+    fn scales_the_parameter_box_about_its_centre() {
+        let mut p = MpqpProblem::from_json_str(GOOD).unwrap();
+        p.scale_parameter_box(0.5);
+        // [-1, 1] -> [-0.5, 0.5]; [0, 1] -> [0.25, 0.75].
+        assert_eq!(p.theta_lb.as_slice(), &[-0.5, -0.5, 0.25]);
+        assert_eq!(p.theta_ub.as_slice(), &[0.5, 0.5, 0.75]);
     }
 
     #[test]
