@@ -419,7 +419,6 @@ impl Builder<'_> {
         pts: &[Vec<u32>],
         mark: &mut [u32],
         stamp: u32,
-        n_laws: usize,
     ) -> Option<(usize, usize)> {
         let (mut nl, mut nr, mut ll, mut lr) = (0, 0, 0, 0);
         // mark bit 0: seen left, bit 1: seen right (with the stamp above).
@@ -447,9 +446,9 @@ impl Builder<'_> {
         if (nl == set.len() && nr == set.len()) || nl == 0 || nr == 0 {
             return None; // every region on both sides, or one side empty
         }
-        // A side that keeps every law ranks last (max = n_laws), but stays
-        // a candidate: the exact split may show progress the points miss.
-        let _ = n_laws;
+        // A side that keeps every law ranks last (its count is the node's
+        // law count), but stays a candidate: the exact split may show
+        // progress the points miss.
         Some((ll.max(lr), ll + lr))
     }
 
@@ -570,7 +569,6 @@ impl Builder<'_> {
         cands: &[usize],
         set: &[usize],
         pts: &[Vec<u32>],
-        n_laws: usize,
         mark: &mut [u32],
         stamp: &mut u32,
     ) -> Vec<Option<(usize, usize)>> {
@@ -584,7 +582,7 @@ impl Builder<'_> {
                     || (vec![0u32; n], 0u32),
                     |(m, st), &h| {
                         *st += 1;
-                        self.score_sampled(h, set, pts, m, *st, n_laws)
+                        self.score_sampled(h, set, pts, m, *st)
                     },
                 )
                 .collect();
@@ -593,7 +591,7 @@ impl Builder<'_> {
             .iter()
             .map(|&h| {
                 *stamp += 1;
-                self.score_sampled(h, set, pts, mark, *stamp, n_laws)
+                self.score_sampled(h, set, pts, mark, *stamp)
             })
             .collect()
     }
@@ -736,7 +734,7 @@ impl Builder<'_> {
         let mut tried: Vec<Tried> = Vec::new();
         let progress = |k: &(usize, usize, usize)| k.0 < n_laws && k.2 > 0;
         loop {
-            let scores = self.score_all(&cands, &set, &pts, n_laws, mark, stamp);
+            let scores = self.score_all(&cands, &set, &pts, mark, stamp);
             // Candidates by key; ties go to the more frequent facet.
             let mut order: Vec<((usize, usize), usize, usize)> = cands
                 .iter()

@@ -434,13 +434,11 @@ fn weigh(w: &DMatrix<f64>, res: &mut DVector<f64>, jt: Option<&mut DMatrix<f64>>
     e = w * e;
     res.copy_from_slice(e.as_slice());
     if let Some(jt) = jt {
-        let p = jt.nrows();
         for t in 0..m {
             let blk = jt.columns(t * ny, ny).into_owned();
             let wb = blk * w.transpose();
             jt.columns_mut(t * ny, ny).copy_from(&wb);
         }
-        let _ = p;
     }
 }
 
