@@ -6,7 +6,7 @@ use crate::error::{Result, SysidError};
 use crate::linalg::spectral_radius;
 use crate::model::InnovationModel;
 use crate::n4sid::{N4sidResult, N4sidSettings, Scaling, n4sid};
-use crate::validate::estimate_x0_predictor;
+use crate::validate::{estimate_x0_predictor, estimate_x0_simulation};
 use nalgebra::{DMatrix, DVector};
 
 /// What the criterion measures.
@@ -82,6 +82,25 @@ pub struct PemSettings {
     /// sum of the one-step and five-step fits. The work is that of the
     /// whole horizon.
     pub steps: Vec<usize>,
+    /// Weight of the simulation term (`0`: off, the default). With a
+    /// positive weight the criterion is the validation tables' shape in
+    /// one objective: the prediction errors of the steps above (of the
+    /// innovation model with its `K`) together with the simulation
+    /// errors of the same `A, B, C, D` (`K = 0`, from an initial state of
+    /// its own per experiment, estimated as a parameter and started by
+    /// least squares like [`compare`](crate::compare)), the simulation
+    /// term weighted by this factor. With [`Criterion::Trace`] the
+    /// criterion is `(|e_pred|^2 + w |e_sim|^2) / M` (simulation errors
+    /// are usually much larger than one-step errors, so even `w = 1`
+    /// leans the fit towards simulation); with [`Criterion::Fit`] it is
+    /// the sum of the RMS errors per output and prediction step plus `w`
+    /// times the RMS simulation error per output, so `w = 1` counts the
+    /// simulation fit like one more prediction step. The simulation
+    /// term's Jacobian is the exact one of [`Focus::Simulation`] (`K`
+    /// does not enter it). Needs [`Focus::Prediction`], estimated
+    /// dynamics (not [`PemSettings::fixed_dynamics`]) and the trace or
+    /// fit criterion; must be finite and not negative.
+    pub simulation_weight: f64,
 }
 
 impl Default for PemSettings {
@@ -98,6 +117,7 @@ impl Default for PemSettings {
             fixed_dynamics: false,
             horizon: 1,
             steps: Vec::new(),
+            simulation_weight: 0.0,
         }
     }
 }
@@ -123,14 +143,21 @@ pub enum StopReason {
 pub struct PemResult {
     /// The estimated model, in the units of the data.
     pub model: InnovationModel,
-    /// Estimated initial state of every experiment.
+    /// Estimated initial state of every experiment (of the predictor).
     pub x0: Vec<DVector<f64>>,
+    /// Estimated initial state of the simulation term of every
+    /// experiment (empty unless [`PemSettings::simulation_weight`] is
+    /// positive).
+    pub simulation_x0: Vec<DVector<f64>>,
     /// Mean squared prediction error of the outputs scaled to unit
-    /// variance (over the steps `1..=horizon`, or [`PemSettings::steps`]), at the start.
+    /// variance (over the steps `1..=horizon`, or [`PemSettings::steps`],
+    /// and, with a simulation term, over the simulation errors too,
+    /// unweighted), at the start.
     pub initial_cost: f64,
     /// The same at the end.
     pub cost: f64,
-    /// `det` of the residual covariance (of the scaled outputs) at the end.
+    /// `det` of the residual covariance (of the scaled outputs; prediction
+    /// errors only) at the end.
     pub det_cost: f64,
     /// The weighted criterion after every accepted iteration (the first
     /// entry is the start; with [`Criterion::Determinant`] and [`Criterion::Fit`] the weight is
@@ -146,8 +173,9 @@ pub struct PemResult {
     pub stop: StopReason,
 }
 
-/// Parameter layout: `vec(A), vec(B), vec(C), [vec(D)], [vec(K)], x0 per experiment`
-/// (row-major inside every matrix).
+/// Parameter layout: `vec(A), vec(B), vec(C), [vec(D)], [vec(K)], x0 per
+/// experiment, [simulation x0 per experiment]` (row-major inside every
+/// matrix).
 #[derive(Clone, Copy, Debug)]
 struct Layout {
     n: usize,
@@ -161,6 +189,8 @@ struct Layout {
     od: usize,
     ok: usize,
     ox: usize,
+    /// Offset of the simulation term's initial states (`p` without one).
+    osx: usize,
     p: usize,
 }
 
@@ -173,6 +203,7 @@ impl Layout {
         let ox = ok + if has_k { n * ny } else { 0 };
         let p = ox + n * ne;
         Layout {
+            osx: p,
             n,
             nu,
             ny,
@@ -187,6 +218,34 @@ impl Layout {
             p,
         }
     }
+    /// The layout with the simulation term's initial states appended.
+    fn with_simulation(mut self) -> Self {
+        self.osx = self.ox + self.n * self.ne;
+        self.p = self.osx + self.n * self.ne;
+        self
+    }
+
+    fn has_simulation(&self) -> bool {
+        self.p > self.osx
+    }
+
+    /// Writes the simulation term's initial states into `th`.
+    fn pack_simulation(&self, th: &mut DVector<f64>, xs: &[DVector<f64>]) {
+        for (e, x) in xs.iter().enumerate() {
+            th.rows_mut(self.osx + e * self.n, self.n).copy_from(x);
+        }
+    }
+
+    /// The simulation term's initial states (empty without one).
+    fn simulation_x0(&self, th: &DVector<f64>) -> Vec<DVector<f64>> {
+        if !self.has_simulation() {
+            return Vec::new();
+        }
+        (0..self.ne)
+            .map(|e| th.rows(self.osx + e * self.n, self.n).into_owned())
+            .collect()
+    }
+
     /// Parameters shared by all experiments.
     fn shared(&self) -> usize {
         self.ox
@@ -267,7 +326,7 @@ impl Layout {
     /// Basis of the complement of the similarity directions (data-driven
     /// local coordinates): the tangent of `T -> (T^-1 A T, T^-1 B, C T, D,
     /// T^-1 K, T^-1 x0)` at `T = I` is projected out of every step.
-    fn ddlc(&self, m: &InnovationModel, x0: &[DVector<f64>]) -> DMatrix<f64> {
+    fn ddlc(&self, m: &InnovationModel, x0: &[DVector<f64>], xs: &[DVector<f64>]) -> DMatrix<f64> {
         let (n, nu, ny) = (self.n, self.nu, self.ny);
         let mut tg = DMatrix::<f64>::zeros(self.p, n * n);
         for i in 0..n {
@@ -291,6 +350,9 @@ impl Layout {
                 }
                 for (e, x) in x0.iter().enumerate() {
                     tg[(self.ox + e * n + i, col)] += x[j];
+                }
+                for (e, x) in xs.iter().enumerate() {
+                    tg[(self.osx + e * n + i, col)] += x[j];
                 }
             }
         }
@@ -751,6 +813,57 @@ fn multistep_residuals(
     out
 }
 
+/// The model with `K = 0`: the simulation (output-error) model of the
+/// same `A, B, C, D`.
+fn without_k(m: &InnovationModel) -> InnovationModel {
+    let mut m0 = m.clone();
+    m0.k.fill(0.0);
+    m0
+}
+
+/// The simulation term of [`PemSettings::simulation_weight`]: the errors
+/// `y - C x - D u` of `x+ = A x + B u` from the initial states `xs`
+/// (sample-major like [`residuals`]) and their transposed Jacobian in the
+/// layout `lay` (rows of `A, B, C, D` and of the simulation initial
+/// states; `K` and the predictor's initial states do not enter). The
+/// sensitivities are those of [`Focus::Simulation`]: the one-step
+/// recursion with `K = 0`.
+fn simulation_residuals_and_jacobian(
+    lay: &Layout,
+    m: &InnovationModel,
+    xs: &[DVector<f64>],
+    data: &[Series],
+) -> (DVector<f64>, DMatrix<f64>) {
+    let sl = Layout::new(lay.n, lay.nu, lay.ny, lay.ne, lay.has_d, false);
+    let (r, js) = residuals_and_jacobian(&sl, &without_k(m), xs, data, 1);
+    let mut jt = DMatrix::zeros(lay.p, r.len());
+    // A, B, C, [D] come first in both layouts (sl.ox == lay.ok).
+    jt.rows_mut(0, sl.ox).copy_from(&js.rows(0, sl.ox));
+    let nx0 = lay.n * lay.ne;
+    jt.rows_mut(lay.osx, nx0).copy_from(&js.rows(sl.ox, nx0));
+    (r, jt)
+}
+
+/// Residuals `[a; b]` and transposed Jacobians `[ja, jb]` side by side.
+fn stack(
+    (a, ja): (DVector<f64>, DMatrix<f64>),
+    (b, jb): (DVector<f64>, DMatrix<f64>),
+) -> (DVector<f64>, DMatrix<f64>) {
+    let (na, nb) = (a.len(), b.len());
+    let r = stack_residuals(a, &b);
+    let mut j = ja.resize_horizontally(na + nb, 0.0);
+    j.columns_mut(na, nb).copy_from(&jb);
+    (r, j)
+}
+
+/// Residuals `[a; b]`.
+fn stack_residuals(a: DVector<f64>, b: &DVector<f64>) -> DVector<f64> {
+    let na = a.len();
+    let mut r = a.resize_vertically(na + b.len(), 0.0);
+    r.rows_mut(na, b.len()).copy_from(b);
+    r
+}
+
 /// Prediction-error identification of an innovation model (4.4)-(4.10):
 /// minimises the mean squared one-step prediction error (of the outputs
 /// scaled to unit variance) over `A, B, C, K`, optionally `D`, and one
@@ -810,7 +923,23 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
             "PEM step {bad}: the selected steps must lie in 1..={h} (the horizon)"
         )));
     }
-    let lay = Layout::new(n, nu, ny, ne, settings.feedthrough, has_k);
+    let ws = settings.simulation_weight;
+    if !ws.is_finite() || ws < 0.0 {
+        return Err(SysidError::invalid(format!(
+            "PEM simulation weight {ws}: must be finite and not negative"
+        )));
+    }
+    let sim = ws > 0.0;
+    if sim && (!has_k || settings.fixed_dynamics || settings.criterion == Criterion::Determinant) {
+        return Err(SysidError::invalid(
+            "a simulation term (simulation_weight > 0) needs the prediction focus, \
+             estimated dynamics (not fixed_dynamics) and the trace or fit criterion",
+        ));
+    }
+    let mut lay = Layout::new(n, nu, ny, ne, settings.feedthrough, has_k);
+    if sim {
+        lay = lay.with_simulation();
+    }
     let shortest = data
         .experiments()
         .iter()
@@ -844,17 +973,39 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
         .iter()
         .map(|e| estimate_x0_predictor(&base, &e.u, &e.y))
         .collect::<Result<_>>()?;
+    let xs0: Vec<DVector<f64>> = if sim {
+        let m0 = without_k(&base);
+        sdata
+            .experiments()
+            .iter()
+            .map(|e| estimate_x0_simulation(&m0, &e.u, &e.y))
+            .collect::<Result<_>>()?
+    } else {
+        Vec::new()
+    };
     let series = series_of(&sdata);
     let selected = !settings.steps.is_empty();
-    let groups = if settings.criterion == Criterion::Fit || selected {
+    let mut groups = if settings.criterion == Criterion::Fit || selected || sim {
         fit_groups(&series, ny, h)
     } else {
         Vec::new()
     };
-    let ng = h * ny;
+    // The simulation errors form groups `h * ny + output`.
+    let ng = h * ny + if sim { ny } else { 0 };
+    if sim {
+        for s in &series {
+            for _ in 0..s.n {
+                groups.extend((0..ny).map(|o| h * ny + o));
+            }
+        }
+    }
+    // Weight of every group's squared errors besides 1 / rms (fit).
+    let group_weight: Vec<f64> = (0..ng)
+        .map(|g| if g >= h * ny { ws } else { 1.0 })
+        .collect();
     // Errors of the steps left out are zeroed (with their Jacobian columns).
     let keep: Vec<bool> = (0..ng)
-        .map(|g| !selected || settings.steps.contains(&(g / ny + 1)))
+        .map(|g| !selected || g >= h * ny || settings.steps.contains(&(g / ny + 1)))
         .collect();
     let mask = |res: &mut DVector<f64>, jt: Option<&mut DMatrix<f64>>| {
         if !selected {
@@ -873,30 +1024,47 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
             }
         }
     };
-    let res_jac = |m: &InnovationModel, x: &[DVector<f64>]| {
-        let (mut r, mut j) = residuals_and_jacobian(&lay, m, x, &series, h);
+    let res_jac = |m: &InnovationModel, x: &[DVector<f64>], xs: &[DVector<f64>]| {
+        let mut rj = residuals_and_jacobian(&lay, m, x, &series, h);
+        if sim {
+            rj = stack(rj, simulation_residuals_and_jacobian(&lay, m, xs, &series));
+        }
+        let (mut r, mut j) = rj;
         mask(&mut r, Some(&mut j));
         (r, j)
     };
-    let res_only = |m: &InnovationModel, x: &[DVector<f64>]| {
+    let res_only = |m: &InnovationModel, x: &[DVector<f64>], xs: &[DVector<f64>]| {
         let mut r = if h > 1 {
             multistep_residuals(m, x, &series, h)
         } else {
             residuals(m, x, &series)
         };
+        if sim {
+            r = stack_residuals(r, &residuals(&without_k(m), xs, &series));
+        }
         mask(&mut r, None);
         r
     };
+    // The weighting of the criterion at the residuals `res`.
+    let weights_at = |res: &DVector<f64>| match (settings.criterion, sim) {
+        (Criterion::Trace, true) => ResidualWeights::Groups(group_weight.clone()),
+        (Criterion::Fit, true) => {
+            let w = fit_weights(res, &groups, ng);
+            ResidualWeights::Groups(w.iter().zip(&group_weight).map(|(a, b)| a * b).collect())
+        }
+        (criterion, _) => ResidualWeights::at(criterion, res, ny, &groups, ng),
+    };
     let mut theta = lay.pack(&base, &x0);
-    let (mut res, mut jt) = res_jac(&base, &x0);
-    let mf = if selected {
+    lay.pack_simulation(&mut theta, &xs0);
+    let (mut res, mut jt) = res_jac(&base, &x0, &xs0);
+    let mf = if selected || sim {
         groups.iter().filter(|&&g| keep[g]).count().max(1) as f64
     } else {
         res.len().max(1) as f64
     };
     let initial_cost = res.norm_squared() / mf;
     let mut plain_cost = initial_cost;
-    let mut w = ResidualWeights::at(settings.criterion, &res, ny, &groups, ng);
+    let mut w = weights_at(&res);
     w.apply(&groups, &mut res, Some(&mut jt));
     let mut cost = res.norm_squared() / mf;
     let mut history = vec![cost];
@@ -906,6 +1074,7 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
     let mut stop = StopReason::MaxIterations;
     let mut free = 0;
     let (mut model, mut x0s) = lay.unpack(&theta, &base);
+    let mut xss = lay.simulation_x0(&theta);
     while iterations < settings.max_iterations {
         iterations += 1;
         let qp = if settings.fixed_dynamics {
@@ -913,7 +1082,7 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
             let idx: Vec<usize> = (lay.ok..lay.p).collect();
             DMatrix::from_fn(lay.p, idx.len(), |r, c| if r == idx[c] { 1.0 } else { 0.0 })
         } else {
-            lay.ddlc(&model, &x0s)
+            lay.ddlc(&model, &x0s, &xss)
         };
         free = qp.ncols();
         let h = &jt * jt.transpose();
@@ -941,11 +1110,12 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
             let step = &qp * d;
             let th_try = &theta + &step;
             let (m_try, x0_try) = lay.unpack(&th_try, &base);
+            let xs_try = lay.simulation_x0(&th_try);
             evaluations += 1;
             let stable = spectral_radius(&m_try.a) <= limit
                 && (!has_k || spectral_radius(&(&m_try.a - &m_try.k * &m_try.c)) <= limit);
             let (c_try, p_try) = if stable {
-                let mut r = res_only(&m_try, &x0_try);
+                let mut r = res_only(&m_try, &x0_try, &xs_try);
                 let plain = r.norm_squared() / mf;
                 w.apply(&groups, &mut r, None);
                 (r.norm_squared() / mf, plain)
@@ -969,6 +1139,7 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
         plain_cost = p_new;
         history.push(cost);
         (model, x0s) = lay.unpack(&theta, &base);
+        xss = lay.simulation_x0(&theta);
         if rel < settings.cost_tolerance {
             stop = StopReason::CostTolerance;
             break;
@@ -977,20 +1148,28 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
             stop = StopReason::StepTolerance;
             break;
         }
-        (res, jt) = res_jac(&model, &x0s);
+        (res, jt) = res_jac(&model, &x0s, &xss);
         evaluations += 1;
         if settings.criterion != Criterion::Trace {
-            w = ResidualWeights::at(settings.criterion, &res, ny, &groups, ng);
-            w.apply(&groups, &mut res, Some(&mut jt));
-            cost = res.norm_squared() / mf;
+            w = weights_at(&res);
         }
+        w.apply(&groups, &mut res, Some(&mut jt));
+        cost = res.norm_squared() / mf;
     }
-    let final_res = res_only(&model, &x0s);
-    let em = DMatrix::from_column_slice(ny, final_res.len() / ny, final_res.as_slice());
-    let det_cost = (&em * em.transpose() / mf * ny as f64).determinant();
+    let final_res = res_only(&model, &x0s, &xss);
+    // The prediction errors only (the simulation errors come last).
+    let n_sim = if sim {
+        series.iter().map(|s| s.n * ny).sum::<usize>()
+    } else {
+        0
+    };
+    let n_pred = final_res.len() - n_sim;
+    let em = DMatrix::from_column_slice(ny, n_pred / ny, &final_res.as_slice()[..n_pred]);
+    let det_cost = (&em * em.transpose() / (mf - n_sim as f64).max(1.0) * ny as f64).determinant();
     Ok(PemResult {
         model: scaling.unscale(&model),
         x0: x0s,
+        simulation_x0: xss,
         initial_cost,
         cost: plain_cost,
         det_cost,
@@ -1137,8 +1316,22 @@ mod tests {
         let m = synthetic::random_model(3, 2, 2, 4, 0.8);
         let lay = Layout::new(3, 2, 2, 1, false, true);
         let x0 = vec![DVector::from_vec(vec![0.1, 0.2, 0.3])];
-        let qp = lay.ddlc(&m, &x0);
+        let qp = lay.ddlc(&m, &x0, &[]);
         assert_eq!(qp.ncols(), lay.p - 9);
+        // With a simulation term its initial states move along too.
+        let ls = lay.with_simulation();
+        let xs = vec![DVector::from_vec(vec![-0.3, 0.1, 0.2])];
+        let qs = ls.ddlc(&m, &x0, &xs);
+        assert_eq!(qs.ncols(), ls.p - 9);
+        let mut th0 = ls.pack(&m, &x0);
+        ls.pack_simulation(&mut th0, &xs);
+        let ti = DMatrix::<f64>::identity(3, 3)
+            + DMatrix::from_fn(3, 3, |i, j| 0.01 * ((i + 2 * j) as f64).cos());
+        let tinv = ti.clone().try_inverse().unwrap();
+        let mut th1 = ls.pack(&m.transform(&ti).unwrap(), &[&tinv * &x0[0]]);
+        ls.pack_simulation(&mut th1, &[&tinv * &xs[0]]);
+        let d = th1 - th0;
+        assert!((qs.transpose() * &d).norm() < 0.05 * d.norm());
         // The complement is orthogonal to the tangent of a similarity.
         let t = DMatrix::from_fn(3, 3, |i, j| 0.01 * ((i * 3 + j) as f64).sin());
         let ti = DMatrix::<f64>::identity(3, 3) + &t;
@@ -1377,6 +1570,258 @@ mod tests {
         let w = fit_weights(&res, &[0, 1, 0, 1], 2);
         assert!((w[0] - 1.0 / 3.0).abs() < 1e-15);
         assert!((w[1] - 1.0 / 2.5f64.sqrt()).abs() < 1e-15);
+    }
+
+    /// The combined criterion's residuals: the prediction errors, then
+    /// the simulation errors, which agree with an independent simulation
+    /// ([`InnovationModel::simulate`], `K` unused) from the simulation
+    /// term's own initial states; the stacked Jacobian agrees with central
+    /// differences (`K` and the predictor's `x0` do not move the
+    /// simulation errors, the simulation `x0` does not move the
+    /// prediction errors).
+    #[test]
+    fn simulation_term_jacobian_matches_central_differences() {
+        let m = synthetic::random_model(3, 2, 2, 41, 0.8);
+        let data = synthetic::simulate(&m, 30, 0.3, 7).unwrap();
+        let sdata = IoData::merge(&[data.clone(), data.clone()]).unwrap();
+        let series = series_of(&sdata);
+        let x0 = vec![
+            DVector::from_vec(vec![0.3, -0.2, 0.1]),
+            DVector::from_vec(vec![0.0, 0.5, -0.4]),
+        ];
+        let xs = vec![
+            DVector::from_vec(vec![-0.1, 0.4, 0.2]),
+            DVector::from_vec(vec![0.6, -0.3, 0.0]),
+        ];
+        let mut base = m.clone();
+        base.d = DMatrix::from_fn(2, 2, |i, j| 0.1 * (i + 2 * j) as f64);
+        let e0 = &data.experiments()[0];
+        let want = &e0.y - base.simulate(&e0.u, &xs[0]).unwrap();
+        let got = residuals(&without_k(&base), &xs, &series);
+        for t in 0..30 {
+            for o in 0..2 {
+                assert!((want[(t, o)] - got[t * 2 + o]).abs() < 1e-12);
+            }
+        }
+        for (has_d, h) in [(true, 1), (false, 3)] {
+            let lay = Layout::new(3, 2, 2, 2, has_d, true).with_simulation();
+            let mut th = lay.pack(&base, &x0);
+            lay.pack_simulation(&mut th, &xs);
+            let all = |th: &DVector<f64>| {
+                let (mm, xx) = lay.unpack(th, &base);
+                let ss = lay.simulation_x0(th);
+                stack_residuals(
+                    multistep_residuals(&mm, &xx, &series, h),
+                    &residuals(&without_k(&mm), &ss, &series),
+                )
+            };
+            let (mm, xx) = lay.unpack(&th, &base);
+            assert_eq!(lay.simulation_x0(&th), xs);
+            let (r0, jt) = stack(
+                residuals_and_jacobian(&lay, &mm, &xx, &series, h),
+                simulation_residuals_and_jacobian(&lay, &mm, &xs, &series),
+            );
+            assert_eq!(jt.nrows(), lay.p);
+            assert!((&r0 - all(&th)).norm() < 1e-12);
+            let n_pred = r0.len() - 2 * 60;
+            for j in 0..lay.p {
+                let eps = 1e-6;
+                let mut tp = th.clone();
+                tp[j] += eps;
+                let mut tm = th.clone();
+                tm[j] -= eps;
+                let fd = (all(&tp) - all(&tm)) / (2.0 * eps);
+                let an = jt.row(j).transpose();
+                let err = (&fd - &an).norm();
+                assert!(err < 1e-6 * (1.0 + an.norm()), "h {h} param {j}: {err}");
+                // K and the predictor's x0 leave the simulation alone; the
+                // simulation x0 leaves the prediction alone.
+                if (lay.ok..lay.osx).contains(&j) {
+                    assert!(an.rows(n_pred, 120).amax() == 0.0);
+                    assert!(fd.rows(n_pred, 120).amax() < 1e-9);
+                }
+                if j >= lay.osx {
+                    assert!(an.rows(0, n_pred).amax() == 0.0);
+                    assert!(fd.rows(0, n_pred).amax() < 1e-9);
+                }
+            }
+        }
+    }
+
+    /// The combined criterion of `settings` evaluated from the model and
+    /// initial states in the scaled data's units: `(|e_pred|^2 + w
+    /// |e_sim|^2) / M` (trace) or the sum of the RMS errors per output and
+    /// step plus `w` times those of the simulation (fit).
+    fn combined_criterion(
+        data: &IoData,
+        m: &InnovationModel,
+        (x0, xs): (&[DVector<f64>], &[DVector<f64>]),
+        settings: &PemSettings,
+    ) -> f64 {
+        let scaling = Scaling::of(data).unwrap();
+        let series = series_of(&data.scaled(&scaling.su, &scaling.sy));
+        let m = scaling.scale(m);
+        let (h, ny, w) = (settings.horizon, m.ny(), settings.simulation_weight);
+        let pred = multistep_residuals(&m, x0, &series, h);
+        let simr = residuals(&without_k(&m), xs, &series);
+        match settings.criterion {
+            Criterion::Trace => {
+                (pred.norm_squared() + w * simr.norm_squared()) / (pred.len() + simr.len()) as f64
+            }
+            _ => {
+                let rms = |r: &DVector<f64>, groups: &[usize], ng: usize| {
+                    let mut sum = vec![0.0; ng];
+                    let mut count = vec![0.0; ng];
+                    for (e, &g) in r.iter().zip(groups) {
+                        sum[g] += e * e;
+                        count[g] += 1.0;
+                    }
+                    (0..ng).map(|g| (sum[g] / count[g]).sqrt()).sum::<f64>()
+                };
+                let sim_groups: Vec<usize> = (0..simr.len()).map(|i| i % ny).collect();
+                rms(&pred, &fit_groups(&series, ny, h), h * ny) + w * rms(&simr, &sim_groups, ny)
+            }
+        }
+    }
+
+    /// PEM with a simulation term, trace and fit, from an N4SID start of
+    /// too low an order: the search ends lower in its own criterion
+    /// (evaluated independently of the search's weights) than it started,
+    /// and the result is stable with its simulation `x0` reported.
+    #[test]
+    fn simulation_term_never_ends_worse_than_its_start() {
+        let truth = synthetic::random_model(4, 2, 2, 33, 0.9);
+        let data = synthetic::simulate(&truth, 800, 0.4, 9).unwrap();
+        let (data, _) = data.remove_means().unwrap();
+        let start = crate::n4sid::n4sid_of_order(&data, 3).model;
+        for criterion in [Criterion::Trace, Criterion::Fit] {
+            let settings = PemSettings {
+                criterion,
+                horizon: 2,
+                simulation_weight: 1.0,
+                max_iterations: 10,
+                ..Default::default()
+            };
+            let r = pem(&data, &start, &settings).unwrap();
+            assert_eq!(r.simulation_x0.len(), 1);
+            // The search's start: the least-squares x0 of the predictor
+            // and of the simulation (as compare estimates it).
+            let sc = Scaling::of(&data).unwrap();
+            let sd = data.scaled(&sc.su, &sc.sy);
+            let e = &sd.experiments()[0];
+            let s0 = sc.scale(&start);
+            let x0 = vec![estimate_x0_predictor(&s0, &e.u, &e.y).unwrap()];
+            let xs = vec![estimate_x0_simulation(&without_k(&s0), &e.u, &e.y).unwrap()];
+            let before = combined_criterion(&data, &start, (&x0, &xs), &settings);
+            let after = combined_criterion(&data, &r.model, (&r.x0, &r.simulation_x0), &settings);
+            eprintln!("{criterion:?}: {before:.5} -> {after:.5} ({:?})", r.stop);
+            assert!(after < before, "{criterion:?}: {after} vs {before}");
+            assert!(r.model.radius_a() < 1.0 && r.model.radius_predictor() < 1.0);
+        }
+        // The plain PEM reports no simulation x0.
+        let plain = pem(
+            &data,
+            &start,
+            &PemSettings {
+                max_iterations: 2,
+                ..Default::default()
+            },
+        );
+        assert!(plain.unwrap().simulation_x0.is_empty());
+    }
+
+    /// Mean simulation fit (compare, its own least-squares x0).
+    fn mean_sim_fit(m: &InnovationModel, data: &IoData) -> f64 {
+        let f = crate::compare(m, data).unwrap().fit;
+        f.iter().sum::<f64>() / f.len() as f64
+    }
+
+    /// With a large simulation weight the combined criterion approaches
+    /// the simulation focus: its simulation fit comes within 0.05 points
+    /// of [`Focus::Simulation`]'s from the same start, above the plain
+    /// multi-step fit's, while `K` is still estimated (the one-step fit
+    /// beats that of the simulation-focus model, whose `K` is 0).
+    #[test]
+    fn large_simulation_weight_approaches_the_simulation_focus() {
+        let truth = synthetic::random_model(4, 2, 2, 35, 0.9);
+        let data = synthetic::simulate(&truth, 1000, 0.5, 11).unwrap();
+        let (data, _) = data.remove_means().unwrap();
+        let start = crate::n4sid::n4sid_of_order(&data, 3).model;
+        let run = |focus: Focus, simulation_weight: f64| {
+            let s = PemSettings {
+                focus,
+                simulation_weight,
+                max_iterations: 40,
+                ..Default::default()
+            };
+            pem(&data, &start, &s).unwrap().model
+        };
+        let sim = run(Focus::Simulation, 0.0);
+        let heavy = run(Focus::Prediction, 1e4);
+        let plain = run(Focus::Prediction, 0.0);
+        let (fs, fh, fp) = (
+            mean_sim_fit(&sim, &data),
+            mean_sim_fit(&heavy, &data),
+            mean_sim_fit(&plain, &data),
+        );
+        let one = |m: &InnovationModel| {
+            let f = crate::predict_fit(m, &data, 1).unwrap();
+            f.iter().sum::<f64>() / f.len() as f64
+        };
+        eprintln!(
+            "simulation fit: focus {fs:.3}, weight 1e4 {fh:.3}, plain {fp:.3}; one-step: focus {:.3}, weight 1e4 {:.3}",
+            one(&sim),
+            one(&heavy)
+        );
+        assert!(
+            fs > fp + 0.5,
+            "the test needs the two foci apart: {fs} vs {fp}"
+        );
+        assert!((fh - fs).abs() < 0.05, "{fh} vs {fs}");
+        assert!(one(&heavy) > one(&sim) + 0.5);
+    }
+
+    /// The simulation weight is checked: negative or not finite, with the
+    /// simulation focus, fixed dynamics or the determinant criterion.
+    #[test]
+    fn bad_simulation_weights_are_errors() {
+        let m = synthetic::random_model(2, 1, 1, 3, 0.8);
+        let data = synthetic::simulate(&m, 300, 0.1, 1).unwrap();
+        let bad = [
+            PemSettings {
+                simulation_weight: -1.0,
+                ..Default::default()
+            },
+            PemSettings {
+                simulation_weight: f64::NAN,
+                ..Default::default()
+            },
+            PemSettings {
+                simulation_weight: f64::INFINITY,
+                ..Default::default()
+            },
+            PemSettings {
+                simulation_weight: 1.0,
+                focus: Focus::Simulation,
+                ..Default::default()
+            },
+            PemSettings {
+                simulation_weight: 1.0,
+                fixed_dynamics: true,
+                ..Default::default()
+            },
+            PemSettings {
+                simulation_weight: 1.0,
+                criterion: Criterion::Determinant,
+                ..Default::default()
+            },
+        ];
+        for s in &bad {
+            assert!(
+                matches!(pem(&data, &m, s), Err(SysidError::InvalidArgument(_))),
+                "{s:?}"
+            );
+        }
     }
 
     #[test]
