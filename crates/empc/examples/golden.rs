@@ -1,6 +1,7 @@
-//! Writes the golden exported tables used by `tests/export.rs`:
+//! Writes the golden exported tables used by `tests/export.rs` and
+//! `tests/wide.rs`:
 //! `cargo run -p kestrel-empc --example golden`.
-use kestrel_empc::export::{ExportScalar, rust_source, rust_source_compact};
+use kestrel_empc::export::{ExportScalar, rust_source, rust_source_compact, rust_source_wide};
 use kestrel_empc::{Settings, TreeSettings, build_compact, build_controller, solve};
 
 fn main() {
@@ -21,6 +22,14 @@ fn main() {
             std::fs::write(
                 format!("{dir}/box2_{name}.rs"),
                 rust_source(&ctl.tables, scalar).unwrap(),
+            )
+            .unwrap();
+        }
+        if scalar != ExportScalar::Q16 {
+            // The same tree in the wide (u32) layout.
+            std::fs::write(
+                format!("{dir}/box2_wide_{name}.rs"),
+                rust_source_wide(&ctl.tables.widen(), scalar).unwrap(),
             )
             .unwrap();
         }

@@ -2,15 +2,44 @@
 //! and reports size, build time (wall and CPU) and exactness:
 //! `cargo run --release -p kestrel-empc --features parallel --example
 //! tree_methods -- [problem.json|thesis] [first_move] [lp|sampled|both] [samples]
-//! [shrink]` (`shrink` < 1 scales the parameter box about its centre).
+//! [shrink] [max_nodes]` (`shrink` < 1 scales the parameter box about its
+//! centre). The tables are those of `build_any` (`TreeLayout::Auto`: `u16`
+//! when the tree fits, else the wide `u32` layout); the example also times
+//! the evaluation (f64 and f32 tables) over the sample parameters.
 //!
 //! Exactness: at `samples` (default 10^4) random parameters in the box,
 //! the tree's output equals the law of a region containing the parameter
 //! (the mpQP solution's own region lookup) to 1e-8 (relative to the
 //! output's size); every parameter must be covered by a region.
+use kestrel_core::Scalar;
 use kestrel_core::formats::MpqpProblem;
-use kestrel_empc::tree::TreeMethod;
-use kestrel_empc::{Outputs, Settings, TreeSettings, build_controller, evaluate_with, solve};
+use kestrel_empc::eval::{TreeIndex, TreeTables};
+use kestrel_empc::tree::{AnyTables, TreeMethod, build_any};
+use kestrel_empc::{Outputs, Settings, TreeSettings, evaluate_with, solve};
+
+/// Mean seconds per evaluation of `tables` over `thetas` (three passes, the best).
+fn eval_time<S: Scalar, I: TreeIndex, T: TreeTables<S, I>>(
+    tables: &T,
+    thetas: &[Vec<f64>],
+    k: usize,
+) -> f64 {
+    let ths: Vec<Vec<S>> = thetas
+        .iter()
+        .map(|t| t.iter().map(|&v| S::from_f64(v)).collect())
+        .collect();
+    let mut z = vec![S::ZERO; k];
+    let mut scratch = vec![S::ZERO; tables.n_params()];
+    let mut best = f64::INFINITY;
+    for _ in 0..3 {
+        let t = std::time::Instant::now();
+        for th in &ths {
+            let e = evaluate_with(tables, std::hint::black_box(th), &mut scratch, &mut z);
+            std::hint::black_box((&e, &z));
+        }
+        best = best.min(t.elapsed().as_secs_f64() / ths.len().max(1) as f64);
+    }
+    best
+}
 
 /// CPU seconds of this process (user + system), from `/proc/self/stat`.
 fn cpu_seconds() -> f64 {
@@ -32,6 +61,7 @@ fn main() {
     let which = args.next().unwrap_or_else(|| "both".into());
     let samples: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(10_000);
     let shrink: f64 = args.next().and_then(|v| v.parse().ok()).unwrap_or(1.0);
+    let max_nodes: Option<usize> = args.next().and_then(|v| v.parse().ok());
     let mut prob = if path == "thesis" {
         kestrel_empc::testing::thesis_sized(1)
     } else {
@@ -71,10 +101,11 @@ fn main() {
         let settings = TreeSettings {
             outputs: Outputs::First(k),
             method,
+            max_nodes: max_nodes.unwrap_or(TreeSettings::default().max_nodes),
             ..TreeSettings::default()
         };
         let (w, c) = (std::time::Instant::now(), cpu_seconds());
-        let ctl = match build_controller(&prob, &sol, &settings) {
+        let ctl = match build_any(&prob, &sol, &settings) {
             Ok(c) => c,
             Err(e) => {
                 println!("{name}: {e}");
@@ -84,7 +115,12 @@ fn main() {
         let (wall, cpu) = (w.elapsed().as_secs_f64(), cpu_seconds() - c);
         let s = &ctl.stats;
         println!(
-            "{name}: {} laws, {} rows, depth {}, {} nodes, {} hyperplanes, {} bytes f32 ({} with 2-byte numbers), ambiguous {}, build {wall:.2} s wall, {cpu:.2} s CPU",
+            "{name}: {} layout, {} laws, {} rows, depth {}, {} nodes, {} hyperplanes, {} bytes f32 ({} with 2-byte numbers), ambiguous {}, build {wall:.2} s wall, {cpu:.2} s CPU",
+            if ctl.tables.is_wide() {
+                "wide u32"
+            } else {
+                "u16"
+            },
             s.distinct_laws,
             s.distinct_rows,
             s.depth,
@@ -102,7 +138,12 @@ fn main() {
                 uncovered += 1;
                 continue;
             };
-            let ok = evaluate_with(&ctl.tables.tables(), th, &mut scratch, &mut z).is_ok();
+            let ok = match &ctl.tables {
+                AnyTables::Narrow(t) => {
+                    evaluate_with(&t.tables(), th, &mut scratch, &mut z).is_ok()
+                }
+                AnyTables::Wide(t) => evaluate_with(&t.tables(), th, &mut scratch, &mut z).is_ok(),
+            };
             let dev = want
                 .iter()
                 .zip(&z)
@@ -115,6 +156,21 @@ fn main() {
         }
         println!(
             "{name}: {samples} thetas, {bad} mismatches, {uncovered} uncovered, worst relative deviation {worst:.1e}"
+        );
+        let (t64, t32) = match &ctl.tables {
+            AnyTables::Narrow(t) => (
+                eval_time(&t.tables(), &thetas, k),
+                eval_time(&t.cast::<f32>().tables(), &thetas, k),
+            ),
+            AnyTables::Wide(t) => (
+                eval_time(&t.tables(), &thetas, k),
+                eval_time(&t.cast::<f32>().tables(), &thetas, k),
+            ),
+        };
+        println!(
+            "{name}: evaluation {:.0} ns (f64), {:.0} ns (f32) per parameter (best of 3 passes over the {samples})",
+            t64 * 1e9,
+            t32 * 1e9
         );
     }
 }

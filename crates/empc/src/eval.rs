@@ -34,11 +34,70 @@ pub const LEAF: u16 = 0x8000;
 /// "No row" in the output-bound table.
 pub const NO_ROW: u16 = 0xFFFF;
 
+/// Marks a child code of the wide layout (index type `u32`) as a leaf;
+/// the low 31 bits are then the law index.
+pub const WIDE_LEAF: u32 = 0x8000_0000;
+/// "No row" in the wide layout.
+pub const WIDE_NO_ROW: u32 = u32::MAX;
+
+/// The index type of a table layout: `u16` (the default, flash-ready: at
+/// most 32767 nodes and laws, 65534 rows) or `u32` (the wide layout for
+/// trees beyond the `u16` codes, with [`WIDE_LEAF`] and [`WIDE_NO_ROW`]).
+pub trait TreeIndex: Copy + Eq + core::fmt::Debug {
+    /// The leaf bit of a child code.
+    const LEAF: Self;
+    /// "No row".
+    const NO_ROW: Self;
+    /// The value as an index.
+    fn index(self) -> usize;
+    /// Whether the child code is a leaf.
+    fn is_leaf(self) -> bool;
+    /// The child code without its leaf bit.
+    fn payload(self) -> Self;
+}
+
+impl TreeIndex for u16 {
+    const LEAF: u16 = LEAF;
+    const NO_ROW: u16 = NO_ROW;
+    #[inline]
+    fn index(self) -> usize {
+        self as usize
+    }
+    #[inline]
+    fn is_leaf(self) -> bool {
+        self & LEAF != 0
+    }
+    #[inline]
+    fn payload(self) -> u16 {
+        self & !LEAF
+    }
+}
+
+impl TreeIndex for u32 {
+    const LEAF: u32 = WIDE_LEAF;
+    const NO_ROW: u32 = WIDE_NO_ROW;
+    #[inline]
+    fn index(self) -> usize {
+        self as usize
+    }
+    #[inline]
+    fn is_leaf(self) -> bool {
+        self & WIDE_LEAF != 0
+    }
+    #[inline]
+    fn payload(self) -> u32 {
+        self & !WIDE_LEAF
+    }
+}
+
 /// Read access to the tables of an explicit controller.
 ///
 /// Every accessor returns `None` for an index outside its table, which the
 /// evaluation turns into [`Error::OutOfRange`] (corrupted tables), never a panic.
-pub trait TreeTables<S: Scalar> {
+///
+/// `I` is the index type: `u16` (the default) or `u32` (the wide layout,
+/// [`WideSliceTables`]; its codes use [`WIDE_LEAF`] and [`WIDE_NO_ROW`]).
+pub trait TreeTables<S: Scalar, I: TreeIndex = u16> {
     /// Number of parameters `p`.
     fn n_params(&self) -> usize;
     /// Number of outputs `k`.
@@ -46,11 +105,11 @@ pub trait TreeTables<S: Scalar> {
     /// Number of tree nodes.
     fn n_nodes(&self) -> usize;
     /// The root as a child code (a node index, or a leaf).
-    fn root(&self) -> u16;
+    fn root(&self) -> I;
     /// Node `i`: `[row a, row b, child if a(theta) <= b(theta), child otherwise]`.
-    fn node(&self, i: usize) -> Option<[u16; 4]>;
+    fn node(&self, i: usize) -> Option<[I; 4]>;
     /// The affine row of output `out` under law `law`.
-    fn law(&self, law: usize, out: usize) -> Option<u16>;
+    fn law(&self, law: usize, out: usize) -> Option<I>;
     /// Entry `j` of affine row `r`: gain for `j < p`, constant for `j == p`.
     fn row(&self, r: usize, j: usize) -> Option<S>;
     /// Number of rows of the explored set.
@@ -60,13 +119,13 @@ pub trait TreeTables<S: Scalar> {
     /// Lower and upper bound of parameter `j`.
     fn theta_bounds(&self, j: usize) -> Option<(S, S)>;
     /// Affine rows of the lower and upper bound of output `out` ([`NO_ROW`]: none).
-    fn output_bounds(&self, out: usize) -> Option<[u16; 2]>;
+    fn output_bounds(&self, out: usize) -> Option<[I; 2]>;
     /// The compact layout (one tree per output): the root child code of
     /// output `out`'s tree, whose leaves hold a law index of that output
     /// alone (read through [`TreeTables::law`] with the same `out`).
     /// `None` (the default): one tree for all outputs, rooted at
     /// [`TreeTables::root`].
-    fn output_root(&self, out: usize) -> Option<u16> {
+    fn output_root(&self, out: usize) -> Option<I> {
         let _ = out;
         None
     }
@@ -88,7 +147,7 @@ pub struct CompactNode {
 
 /// The accessors both slice layouts implement alike (same field names).
 macro_rules! shared_accessors {
-    () => {
+    ($i:ty) => {
         fn n_params(&self) -> usize {
             self.n_params
         }
@@ -110,7 +169,7 @@ macro_rules! shared_accessors {
         fn theta_bounds(&self, j: usize) -> Option<(S, S)> {
             Some((*self.theta_lb.get(j)?, *self.theta_ub.get(j)?))
         }
-        fn output_bounds(&self, out: usize) -> Option<[u16; 2]> {
+        fn output_bounds(&self, out: usize) -> Option<[$i; 2]> {
             self.bounds.get(out).copied()
         }
     };
@@ -157,7 +216,7 @@ impl<S: Scalar> TreeTables<S> for ForestTables<'_, S> {
         // The leaf payload is the row itself.
         (out < self.n_outputs && law < self.rows.len() / (self.n_params + 1)).then_some(law as u16)
     }
-    shared_accessors!();
+    shared_accessors!(u16);
     fn output_root(&self, out: usize) -> Option<u16> {
         // Out of range: a corrupted table, reported by the evaluation.
         Some(self.roots.get(out).copied().unwrap_or(MISSING_NODE))
@@ -204,7 +263,70 @@ impl<S: Scalar> TreeTables<S> for SliceTables<'_, S> {
             .get(law.checked_mul(self.n_outputs)?.checked_add(out)?)
             .copied()
     }
-    shared_accessors!();
+    shared_accessors!(u16);
+}
+
+/// Wide tables in slices (`u32` indices, [`WIDE_LEAF`] child codes,
+/// [`WIDE_NO_ROW`]): the layout of trees beyond the 32767 nodes the `u16`
+/// codes address, otherwise as [`SliceTables`]. Evaluated by the same
+/// [`evaluate`].
+///
+/// ```
+/// use kestrel_empc::evaluate;
+/// use kestrel_empc::eval::{WideSliceTables, WIDE_LEAF, WIDE_NO_ROW};
+/// // z = -theta for theta <= 0, z = 0 otherwise.
+/// static T: WideSliceTables<'static, f64> = WideSliceTables {
+///     n_params: 1, n_outputs: 1, root: 0,
+///     nodes: &[[2, WIDE_NO_ROW, WIDE_LEAF, WIDE_LEAF | 1]],
+///     laws: &[0, 1],
+///     rows: &[-1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+///     hull: &[], theta_lb: &[-1.0], theta_ub: &[1.0],
+///     bounds: &[[WIDE_NO_ROW, WIDE_NO_ROW]],
+/// };
+/// let mut z = [0.0];
+/// let e = evaluate(&T, &[-0.5], &mut z).unwrap();
+/// assert_eq!((z[0], e.law, e.outside), (0.5, 0_u32, false));
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct WideSliceTables<'a, S> {
+    /// Number of parameters `p`.
+    pub n_params: usize,
+    /// Number of outputs `k`.
+    pub n_outputs: usize,
+    /// The root child code.
+    pub root: u32,
+    /// Tree nodes.
+    pub nodes: &'a [[u32; 4]],
+    /// Laws, `k` row indices each.
+    pub laws: &'a [u32],
+    /// Affine rows, `p + 1` entries each.
+    pub rows: &'a [S],
+    /// Explored set rows, `p + 1` entries each.
+    pub hull: &'a [S],
+    /// Parameter lower bounds.
+    pub theta_lb: &'a [S],
+    /// Parameter upper bounds.
+    pub theta_ub: &'a [S],
+    /// Per output: rows of the lower and upper bound ([`WIDE_NO_ROW`]: none).
+    pub bounds: &'a [[u32; 2]],
+}
+
+impl<S: Scalar> TreeTables<S, u32> for WideSliceTables<'_, S> {
+    fn root(&self) -> u32 {
+        self.root
+    }
+    fn node(&self, i: usize) -> Option<[u32; 4]> {
+        self.nodes.get(i).copied()
+    }
+    fn law(&self, law: usize, out: usize) -> Option<u32> {
+        if out >= self.n_outputs {
+            return None;
+        }
+        self.laws
+            .get(law.checked_mul(self.n_outputs)?.checked_add(out)?)
+            .copied()
+    }
+    shared_accessors!(u32);
 }
 
 #[inline]
@@ -215,11 +337,11 @@ fn entry<S: Copy>(t: &[S], width: usize, i: usize, j: usize) -> Option<S> {
     t.get(i.checked_mul(width)?.checked_add(j)?).copied()
 }
 
-/// What the evaluation found.
+/// What the evaluation found (`I`: the tables' index type).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Evaluation {
+pub struct Evaluation<I = u16> {
     /// The law used.
-    pub law: u16,
+    pub law: I,
     /// `theta` was outside the explored set (outside the box or the hull):
     /// the output is the clamped law of the nearest region (see the module doc).
     pub outside: bool,
@@ -261,23 +383,23 @@ fn affine<S: Scalar>(theta: &[S], get: impl Fn(usize) -> Option<S>) -> Result<S,
 /// let e = evaluate(&T, &[3.0], &mut z).unwrap(); // outside: clamped to the box
 /// assert_eq!((z[0], e.law, e.outside), (0.0, 1, true));
 /// ```
-pub fn evaluate<S: Scalar, T: TreeTables<S> + ?Sized, const P: usize>(
+pub fn evaluate<S: Scalar, I: TreeIndex, T: TreeTables<S, I> + ?Sized, const P: usize>(
     tables: &T,
     theta: &[S; P],
     z: &mut [S],
-) -> Result<Evaluation, Error> {
+) -> Result<Evaluation<I>, Error> {
     let mut scratch = [S::ZERO; P];
     evaluate_with(tables, theta, &mut scratch, z)
 }
 
 /// [`evaluate`] for a parameter count known only at run time: `scratch`
 /// (at least `p` entries, caller-owned) holds the projected parameter.
-pub fn evaluate_with<S: Scalar, T: TreeTables<S> + ?Sized>(
+pub fn evaluate_with<S: Scalar, I: TreeIndex, T: TreeTables<S, I> + ?Sized>(
     tables: &T,
     theta: &[S],
     scratch: &mut [S],
     z: &mut [S],
-) -> Result<Evaluation, Error> {
+) -> Result<Evaluation<I>, Error> {
     let p = tables.n_params();
     if theta.len() != p {
         return Err(Error::DimensionMismatch {
@@ -335,7 +457,7 @@ pub fn evaluate_with<S: Scalar, T: TreeTables<S> + ?Sized>(
     let (mut law, mut steps) = if shared {
         locate(tables, th, tables.root())?
     } else {
-        (0, 0)
+        (I::LEAF.payload(), 0) // law 0 until output 0's tree gives it
     };
     for (o, zo) in z.iter_mut().enumerate() {
         let l = if shared {
@@ -349,15 +471,15 @@ pub fn evaluate_with<S: Scalar, T: TreeTables<S> + ?Sized>(
             }
             l
         };
-        let r = tables.law(l as usize, o).ok_or(Error::OutOfRange)? as usize;
+        let r = tables.law(l.index(), o).ok_or(Error::OutOfRange)?.index();
         let mut v = affine(th, |j| tables.row(r, j))?;
         let [lo, hi] = tables.output_bounds(o).ok_or(Error::OutOfRange)?;
-        if lo != NO_ROW {
-            let l = affine(th, |j| tables.row(lo as usize, j))?;
+        if lo != I::NO_ROW {
+            let l = affine(th, |j| tables.row(lo.index(), j))?;
             v = v.max(l);
         }
-        if hi != NO_ROW {
-            let u = affine(th, |j| tables.row(hi as usize, j))?;
+        if hi != I::NO_ROW {
+            let u = affine(th, |j| tables.row(hi.index(), j))?;
             v = v.min(u);
         }
         *zo = v;
@@ -371,28 +493,29 @@ pub fn evaluate_with<S: Scalar, T: TreeTables<S> + ?Sized>(
 
 /// Walks the tree from the child code `code` to a leaf: its payload and
 /// the nodes visited.
-fn locate<S: Scalar, T: TreeTables<S> + ?Sized>(
+fn locate<S: Scalar, I: TreeIndex, T: TreeTables<S, I> + ?Sized>(
     tables: &T,
     th: &[S],
-    mut code: u16,
-) -> Result<(u16, u16), Error> {
-    let mut steps: u16 = 0;
+    mut code: I,
+) -> Result<(I, u16), Error> {
+    // A path visits each node at most once: more steps than nodes is a cycle.
+    let mut steps: usize = 0;
     let limit = tables.n_nodes();
-    while code & LEAF == 0 {
-        if steps as usize > limit {
+    while !code.is_leaf() {
+        if steps > limit {
             return Err(Error::OutOfRange); // a cycle: corrupted tables
         }
-        let node = tables.node(code as usize).ok_or(Error::OutOfRange)?;
-        let a = affine(th, |j| tables.row(node[0] as usize, j))?;
-        let b = if node[1] == NO_ROW {
+        let node = tables.node(code.index()).ok_or(Error::OutOfRange)?;
+        let a = affine(th, |j| tables.row(node[0].index(), j))?;
+        let b = if node[1] == I::NO_ROW {
             S::ZERO
         } else {
-            affine(th, |j| tables.row(node[1] as usize, j))?
+            affine(th, |j| tables.row(node[1].index(), j))?
         };
         code = if a <= b { node[2] } else { node[3] };
         steps = steps.saturating_add(1);
     }
-    Ok((code & !LEAF, steps))
+    Ok((code.payload(), u16::try_from(steps).unwrap_or(u16::MAX)))
 }
 
 #[cfg(test)]

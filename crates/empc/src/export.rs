@@ -7,12 +7,19 @@
 //! laws: [[row..]], rows: [[gain.., const]],
 //! hull: [[a.., b]], theta_lb, theta_ub, bounds: [[lo, hi]]}` with the
 //! encoding of [`crate::eval`] (`tree.bytes` counts these tables in f32).
+//! Trees beyond the `u16` codes ([`crate::tree::build_any`]) are written
+//! in the wide layout: the same keys with `u32` indices
+//! ([`crate::eval::WIDE_LEAF`] child codes, [`crate::eval::WIDE_NO_ROW`]) and `tables.index = "u32"` (absent or
+//! `"u16"`: the `u16` layout); [`any_tables_from_json`] reads either.
 #![allow(clippy::needless_range_loop)] // dense numerical kernels read best with indices
 
 use crate::error::EmpcError;
-use crate::eval::{CompactNode, LEAF, NO_ROW, NO_ROW8};
+use crate::eval::{CompactNode, NO_ROW, NO_ROW8, TreeIndex};
 use crate::mpqp::MpqpSolution;
-use crate::tree::{CompactController, CompactTables, ExplicitController, OwnedTables};
+use crate::tree::{
+    AnyController, AnyTables, CompactController, CompactTables, ExplicitController, OwnedTables,
+    TreeStats, WideTables,
+};
 use kestrel_core::formats::json::{self, Object};
 use kestrel_core::formats::{FormatError, MpqpProblem};
 use kestrel_core::{Q16, Scalar};
@@ -103,19 +110,20 @@ fn write_numbers(
     Ok(())
 }
 
-/// The output-bound table as Rust source.
-fn write_bounds(s: &mut String, bounds: &[[u16; 2]]) {
+/// The output-bound table as Rust source (index type `ty`).
+fn write_bounds<I: TreeIndex + std::fmt::Display>(s: &mut String, bounds: &[[I; 2]], ty: &str) {
     let b: Vec<String> = bounds
         .iter()
         .map(|x| format!("[{}, {}]", x[0], x[1]))
         .collect();
     let _ = writeln!(
         s,
-        "/// Output bounds: rows of the lower and upper bound (65535: none)."
+        "/// Output bounds: rows of the lower and upper bound ({}: none).",
+        I::NO_ROW
     );
     let _ = writeln!(
         s,
-        "pub static BOUNDS: [[u16; 2]; {}] = [{}];",
+        "pub static BOUNDS: [[{ty}; 2]; {}] = [{}];",
         b.len(),
         b.join(", ")
     );
@@ -131,7 +139,82 @@ pub fn solution_json(
     controller: &ExplicitController,
     include_regions: bool,
 ) -> String {
-    json::to_pretty_string(&solution_object(solution, controller, include_regions))
+    json::to_pretty_string(&solution_object(
+        solution,
+        &controller.stats,
+        TablesView::narrow(&controller.tables),
+        include_regions,
+    ))
+}
+
+/// [`solution_json`] for either layout ([`crate::tree::build_any`]): the
+/// `u16` layout as [`solution_json`] writes it, the wide one with
+/// `tables.index = "u32"` and `tree.index_bytes = 4` (`tree.bytes` counts
+/// the wide tables in f32, 4 bytes per index).
+pub fn solution_json_any(
+    solution: &MpqpSolution,
+    controller: &AnyController,
+    include_regions: bool,
+) -> String {
+    let view = match &controller.tables {
+        AnyTables::Narrow(t) => TablesView::narrow(t),
+        AnyTables::Wide(t) => TablesView::wide(t),
+    };
+    json::to_pretty_string(&solution_object(
+        solution,
+        &controller.stats,
+        view,
+        include_regions,
+    ))
+}
+
+/// What the solution file writes of a layout: its tables object, f32
+/// bytes, outputs and index width.
+struct TablesView {
+    tables: Value,
+    bytes: usize,
+    n_outputs: usize,
+    wide: bool,
+}
+
+impl TablesView {
+    fn narrow(t: &OwnedTables<f64>) -> TablesView {
+        let w = t.n_params + 1;
+        TablesView {
+            tables: json!({
+                "root": t.root,
+                "nodes": t.nodes,
+                "laws": Value::Array(t.laws.chunks(t.n_outputs.max(1)).map(|r| json!(r)).collect()),
+                "rows": rows_value(&t.rows, w),
+                "hull": rows_value(&t.hull, w),
+                "theta_lb": t.theta_lb,
+                "theta_ub": t.theta_ub,
+                "bounds": t.bounds,
+            }),
+            bytes: t.bytes(4),
+            n_outputs: t.n_outputs,
+            wide: false,
+        }
+    }
+    fn wide(t: &WideTables<f64>) -> TablesView {
+        let w = t.n_params + 1;
+        TablesView {
+            tables: json!({
+                "index": "u32",
+                "root": t.root,
+                "nodes": t.nodes,
+                "laws": Value::Array(t.laws.chunks(t.n_outputs.max(1)).map(|r| json!(r)).collect()),
+                "rows": rows_value(&t.rows, w),
+                "hull": rows_value(&t.hull, w),
+                "theta_lb": t.theta_lb,
+                "theta_ub": t.theta_ub,
+                "bounds": t.bounds,
+            }),
+            bytes: t.bytes(4),
+            n_outputs: t.n_outputs,
+            wide: true,
+        }
+    }
 }
 
 /// [`solution_json`] with the compact layout added (one tree per output,
@@ -147,7 +230,12 @@ pub fn solution_json_with_compact(
     compact: &CompactController,
     include_regions: bool,
 ) -> String {
-    let mut o = solution_object(solution, controller, include_regions);
+    let mut o = solution_object(
+        solution,
+        &controller.stats,
+        TablesView::narrow(&controller.tables),
+        include_regions,
+    );
     let t: &CompactTables<f64> = &compact.tables;
     let w = t.n_params + 1;
     let per = |f: fn(&crate::tree::TreeStats) -> usize| -> Vec<usize> {
@@ -183,36 +271,32 @@ pub fn solution_json_with_compact(
 
 fn solution_object(
     solution: &MpqpSolution,
-    controller: &ExplicitController,
+    stats: &TreeStats,
+    view: TablesView,
     include_regions: bool,
 ) -> Object {
-    let t = &controller.tables;
-    let w = t.n_params + 1;
     let mut o = Object::new();
     o.insert("format".into(), FORMAT.into());
     o.insert("regions".into(), solution.regions.len().into());
-    o.insert(
-        "distinct_laws".into(),
-        controller.stats.distinct_laws.into(),
-    );
+    o.insert("distinct_laws".into(), stats.distinct_laws.into());
     o.insert("solve_seconds".into(), json!(solution.stats.solve_seconds));
-    o.insert(
-        "tree".into(),
-        json!({"depth": controller.stats.depth, "nodes": controller.stats.nodes,
-               "bytes": t.bytes(4)}),
-    );
+    let mut tree = json!({"depth": stats.depth, "nodes": stats.nodes, "bytes": view.bytes});
+    if view.wide {
+        tree["index_bytes"] = json!(4);
+    }
+    o.insert("tree".into(), tree);
     o.insert("n".into(), solution.n.into());
     o.insert("p".into(), solution.p.into());
-    o.insert("outputs".into(), t.n_outputs.into());
+    o.insert("outputs".into(), view.n_outputs.into());
     let s = &solution.stats;
     o.insert(
         "stats".into(),
         json!({"active_sets_tested": s.active_sets_tested, "discarded": s.discarded,
                "fallback_qps": s.fallback_qps, "lps": s.lps, "duplicate_rows": s.duplicate_rows,
-               "distinct_rows": controller.stats.distinct_rows,
-               "hyperplanes": controller.stats.hyperplanes,
-               "ambiguous_leaves": controller.stats.ambiguous_leaves,
-               "tree_build_seconds": controller.stats.build_seconds}),
+               "distinct_rows": stats.distinct_rows,
+               "hyperplanes": stats.hyperplanes,
+               "ambiguous_leaves": stats.ambiguous_leaves,
+               "tree_build_seconds": stats.build_seconds}),
     );
     if include_regions {
         let list: Vec<Value> = solution
@@ -226,36 +310,37 @@ fn solution_object(
             .collect();
         o.insert("region_list".into(), Value::Array(list));
     }
-    o.insert(
-        "tables".into(),
-        json!({
-            "root": t.root,
-            "nodes": t.nodes,
-            "laws": Value::Array(t.laws.chunks(t.n_outputs.max(1)).map(|r| json!(r)).collect()),
-            "rows": rows_value(&t.rows, w),
-            "hull": rows_value(&t.hull, w),
-            "theta_lb": t.theta_lb,
-            "theta_ub": t.theta_ub,
-            "bounds": t.bounds,
-        }),
-    );
+    o.insert("tables".into(), view.tables);
     o
 }
 
 fn index_rows(v: &Value, key: &str, width: usize) -> Result<Vec<Vec<u16>>, FormatError> {
+    Ok(wide_index_rows(v, key, width, 65535)?
+        .into_iter()
+        .map(|r| r.into_iter().map(|x| x as u16).collect())
+        .collect())
+}
+
+/// [`index_rows`] with indices up to `max` (`u32::MAX` for the wide layout).
+fn wide_index_rows(
+    v: &Value,
+    key: &str,
+    width: usize,
+    max: u32,
+) -> Result<Vec<Vec<u32>>, FormatError> {
     let m = json::matrix_value(v, key, None, Some(width))?;
     let mut out = Vec::with_capacity(m.nrows());
     for i in 0..m.nrows() {
         let mut r = Vec::with_capacity(width);
         for j in 0..width {
             let x = m[(i, j)];
-            if !(0.0..=65535.0).contains(&x) || x.fract() != 0.0 {
+            if !(0.0..=f64::from(max)).contains(&x) || x.fract() != 0.0 {
                 return Err(FormatError::invalid(
                     format!("{key}[{i}][{j}]"),
-                    format!("expected an integer index in 0..=65535, found {x}"),
+                    format!("expected an integer index in 0..={max}, found {x}"),
                 ));
             }
-            r.push(x as u16);
+            r.push(x as u32);
         }
         out.push(r);
     }
@@ -290,7 +375,13 @@ struct CommonTables {
     hull: Vec<f64>,
     theta_lb: Vec<f64>,
     theta_ub: Vec<f64>,
-    bounds: Vec<[u16; 2]>,
+    /// `u16` values unless read with `wide`.
+    bounds: Vec<[u32; 2]>,
+}
+
+/// The output bounds of a `u16` layout (read without `wide`: they fit).
+fn bounds16(bounds: &[[u32; 2]]) -> Vec<[u16; 2]> {
+    bounds.iter().map(|b| b.map(|x| x as u16)).collect()
 }
 
 /// The entry `key` of the tables object `prefix`.
@@ -301,7 +392,13 @@ fn entry_of<'a>(t: &'a Object, prefix: &str, key: &str) -> Result<&'a Value, For
     })
 }
 
-fn read_common(t: &Object, prefix: &str, p: usize, k: usize) -> Result<CommonTables, EmpcError> {
+fn read_common(
+    t: &Object,
+    prefix: &str,
+    p: usize,
+    k: usize,
+    wide: bool,
+) -> Result<CommonTables, EmpcError> {
     let w = p + 1;
     let flat = |key: &str| -> Result<Vec<f64>, FormatError> {
         let m = json::matrix_value(
@@ -319,7 +416,8 @@ fn read_common(t: &Object, prefix: &str, p: usize, k: usize) -> Result<CommonTab
         Ok(json::vector(t, key, Some(p))?.iter().copied().collect())
     };
     let key = format!("{prefix}.bounds");
-    let bounds: Vec<[u16; 2]> = index_rows(entry_of(t, prefix, "bounds")?, &key, 2)?
+    let max = if wide { u32::MAX } else { 65535 };
+    let bounds: Vec<[u32; 2]> = wide_index_rows(entry_of(t, prefix, "bounds")?, &key, 2, max)?
         .into_iter()
         .map(|r| [r[0], r[1]])
         .collect();
@@ -340,6 +438,13 @@ pub fn tables_from_json(text: &str) -> Result<OwnedTables<f64>, EmpcError> {
     let obj = json::parse_object(text)?;
     let (p, k) = read_sizes(&obj)?;
     let t = tables_object(&obj, "tables", "written by `kestrel empc solve`")?;
+    if is_wide(t)? {
+        return Err(FormatError::invalid(
+            "tables.index",
+            "these are wide (u32) tables: read them with any_tables_from_json",
+        )
+        .into());
+    }
     let root = json::number(t, "root")?;
     if !(0.0..=65535.0).contains(&root) || root.fract() != 0.0 {
         return Err(FormatError::invalid("tables.root", "expected an index in 0..=65535").into());
@@ -352,7 +457,7 @@ pub fn tables_from_json(text: &str) -> Result<OwnedTables<f64>, EmpcError> {
         .into_iter()
         .flatten()
         .collect();
-    let c = read_common(t, "tables", p, k)?;
+    let c = read_common(t, "tables", p, k, false)?;
     let tables = OwnedTables {
         n_params: p,
         n_outputs: k,
@@ -363,10 +468,64 @@ pub fn tables_from_json(text: &str) -> Result<OwnedTables<f64>, EmpcError> {
         hull: c.hull,
         theta_lb: c.theta_lb,
         theta_ub: c.theta_ub,
-        bounds: c.bounds,
+        bounds: bounds16(&c.bounds),
     };
     check_tables(&tables)?;
     Ok(tables)
+}
+
+/// Whether the tables object says `index: "u32"` (absent or `"u16"`: no).
+fn is_wide(t: &Object) -> Result<bool, EmpcError> {
+    match t.get("index") {
+        None => Ok(false),
+        Some(v) => match v.as_str() {
+            Some("u16") => Ok(false),
+            Some("u32") => Ok(true),
+            _ => Err(FormatError::invalid("tables.index", "expected \"u16\" or \"u32\"").into()),
+        },
+    }
+}
+
+/// Reads the tables of a solution file in either layout (`tables.index`
+/// `"u32"`: [`WideTables`], else [`OwnedTables`]) and checks every index.
+pub fn any_tables_from_json(text: &str) -> Result<AnyTables, EmpcError> {
+    let obj = json::parse_object(text)?;
+    let (p, k) = read_sizes(&obj)?;
+    let t = tables_object(&obj, "tables", "written by `kestrel empc solve`")?;
+    if !is_wide(t)? {
+        return Ok(AnyTables::Narrow(tables_from_json(text)?));
+    }
+    let root = json::number(t, "root")?;
+    if !(0.0..=f64::from(u32::MAX)).contains(&root) || root.fract() != 0.0 {
+        return Err(
+            FormatError::invalid("tables.root", "expected an index in 0..=4294967295").into(),
+        );
+    }
+    let nodes: Vec<[u32; 4]> =
+        wide_index_rows(entry_of(t, "tables", "nodes")?, "tables.nodes", 4, u32::MAX)?
+            .into_iter()
+            .map(|r| [r[0], r[1], r[2], r[3]])
+            .collect();
+    let laws: Vec<u32> =
+        wide_index_rows(entry_of(t, "tables", "laws")?, "tables.laws", k, u32::MAX)?
+            .into_iter()
+            .flatten()
+            .collect();
+    let c = read_common(t, "tables", p, k, true)?;
+    let tables = WideTables {
+        n_params: p,
+        n_outputs: k,
+        root: root as u32,
+        nodes,
+        laws,
+        rows: c.rows,
+        hull: c.hull,
+        theta_lb: c.theta_lb,
+        theta_ub: c.theta_ub,
+        bounds: c.bounds,
+    };
+    check_wide_tables(&tables)?;
+    Ok(AnyTables::Wide(tables))
 }
 
 /// Whether a solution file holds the compact layout (`compact_tables`,
@@ -418,7 +577,7 @@ pub fn compact_tables_from_json(text: &str) -> Result<CompactTables<f64>, EmpcEr
             children: [r[2], r[3]],
         });
     }
-    let c = read_common(t, pre, p, k)?;
+    let c = read_common(t, pre, p, k, false)?;
     let tables = CompactTables {
         n_params: p,
         n_outputs: k,
@@ -428,7 +587,7 @@ pub fn compact_tables_from_json(text: &str) -> Result<CompactTables<f64>, EmpcEr
         hull: c.hull,
         theta_lb: c.theta_lb,
         theta_ub: c.theta_ub,
-        bounds: c.bounds,
+        bounds: bounds16(&c.bounds),
     };
     check_compact_tables(&tables)?;
     Ok(tables)
@@ -475,52 +634,57 @@ pub fn check_compact_tables<S: Scalar>(t: &CompactTables<S>) -> Result<(), EmpcE
 }
 
 /// What [`check_tree`] checks of either layout.
-struct TreeShape<'a, I> {
+struct TreeShape<'a, I, X> {
     what: &'static str,
-    roots: &'a [u16],
+    roots: &'a [X],
     /// `[row a, row b (NO_ROW: none), child, child]`.
     nodes: I,
     n_nodes: usize,
     /// Leaf payloads must be below this (laws, or rows in the compact layout).
     n_leaves: usize,
     n_rows: usize,
-    bounds: &'a [[u16; 2]],
+    bounds: &'a [[X; 2]],
     /// `theta_lb <= theta_ub`.
     bounds_ok: bool,
 }
 
 /// Every root, node row, child and output bound inside its table, children
 /// after their parent (no cycles), the parameter box not empty.
-fn check_tree<I: Iterator<Item = [u16; 4]>>(t: TreeShape<'_, I>) -> Result<(), EmpcError> {
+fn check_tree<X: TreeIndex, I: Iterator<Item = [X; 4]>>(
+    t: TreeShape<'_, I, X>,
+) -> Result<(), EmpcError> {
     let (nr, nn, nl) = (t.n_rows, t.n_nodes, t.n_leaves);
     let bad = |what: String| Err(FormatError::invalid(t.what, what).into());
-    let child_ok = |c: u16| {
-        if c & LEAF != 0 {
-            ((c & !LEAF) as usize) < nl
+    let child_ok = |c: X| {
+        if c.is_leaf() {
+            c.payload().index() < nl
         } else {
-            (c as usize) < nn
+            c.index() < nn
         }
     };
     if let Some(r) = t.roots.iter().find(|&&r| !child_ok(r)) {
-        return bad(format!("root {r} points outside the tables"));
+        return bad(format!("root {r:?} points outside the tables"));
     }
     for (i, n) in t.nodes.enumerate() {
-        let row_ok = |r: u16| (r as usize) < nr;
-        if !row_ok(n[0]) || !(n[1] == NO_ROW || row_ok(n[1])) || !child_ok(n[2]) || !child_ok(n[3])
+        let row_ok = |r: X| r.index() < nr;
+        if !row_ok(n[0])
+            || !(n[1] == X::NO_ROW || row_ok(n[1]))
+            || !child_ok(n[2])
+            || !child_ok(n[3])
         {
             return bad(format!("node {i} {n:?} points outside the tables"));
         }
         // Children come after their parent: no cycles.
         for c in [n[2], n[3]] {
-            if c & LEAF == 0 && c as usize <= i {
-                return bad(format!("node {i} has a child {c} that is not after it"));
+            if !c.is_leaf() && c.index() <= i {
+                return bad(format!("node {i} has a child {c:?} that is not after it"));
             }
         }
     }
     for b in t.bounds {
         for &r in b {
-            if r != NO_ROW && r as usize >= nr {
-                return bad(format!("an output bound uses row {r} of {nr}"));
+            if r != X::NO_ROW && r.index() >= nr {
+                return bad(format!("an output bound uses row {r:?} of {nr}"));
             }
         }
     }
@@ -546,6 +710,83 @@ pub fn check_tables<S: Scalar>(t: &OwnedTables<S>) -> Result<(), EmpcError> {
         bounds: &t.bounds,
         bounds_ok: t.theta_lb.iter().zip(&t.theta_ub).all(|(l, u)| l <= u),
     })
+}
+
+/// Checks that every index of the wide tables points inside its table.
+pub fn check_wide_tables<S: Scalar>(t: &WideTables<S>) -> Result<(), EmpcError> {
+    let nr = t.rows.len() / (t.n_params + 1);
+    if let Some(l) = t.laws.iter().find(|&&r| r as usize >= nr) {
+        return Err(FormatError::invalid("tables", format!("a law uses row {l} of {nr}")).into());
+    }
+    check_tree(TreeShape {
+        what: "tables",
+        roots: &[t.root],
+        nodes: t.nodes.iter().copied(),
+        n_nodes: t.nodes.len(),
+        n_leaves: t.laws.len() / t.n_outputs.max(1),
+        n_rows: nr,
+        bounds: &t.bounds,
+        bounds_ok: t.theta_lb.iter().zip(&t.theta_ub).all(|(l, u)| l <= u),
+    })
+}
+
+/// Either layout as Rust source ([`rust_source`] or [`rust_source_wide`]).
+pub fn rust_source_any(t: &AnyTables, scalar: ExportScalar) -> Result<String, EmpcError> {
+    match t {
+        AnyTables::Narrow(t) => rust_source(t, scalar),
+        AnyTables::Wide(t) => rust_source_wide(t, scalar),
+    }
+}
+
+/// The wide tables as Rust source: as [`rust_source`] with `u32` index
+/// arrays (`NODES: [[u32; 4]; _]`, `LAWS: [u32; _]`, `BOUNDS: [[u32; 2]; k]`)
+/// and `pub static TABLES: kestrel_empc::eval::WideSliceTables<'static, S>`.
+pub fn rust_source_wide(t: &WideTables<f64>, scalar: ExportScalar) -> Result<String, EmpcError> {
+    check_wide_tables(t)?;
+    let ty = scalar.rust_type();
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "// Explicit MPC tables, wide layout (u32 indices), generated by `kestrel empc export`\n// ({} parameters, {} outputs, {} nodes, {} laws, {} bytes). Do not edit.",
+        t.n_params,
+        t.n_outputs,
+        t.nodes.len(),
+        t.laws.len() / t.n_outputs.max(1),
+        t.bytes(scalar.bytes())
+    );
+    let _ = writeln!(
+        s,
+        "/// Tree nodes `[row a, row b, child if a(theta) <= b(theta), child otherwise]`\n/// (0x80000000 | law: a leaf; 4294967295: no row)."
+    );
+    let mut nb = String::new();
+    for (i, n) in t.nodes.iter().enumerate() {
+        if i % 6 == 0 {
+            nb.push_str("\n    ");
+        }
+        let _ = write!(nb, "[{}, {}, {}, {}], ", n[0], n[1], n[2], n[3]);
+    }
+    let _ = writeln!(
+        s,
+        "pub static NODES: [[u32; 4]; {}] = [{nb}\n];",
+        t.nodes.len()
+    );
+    write_common(&mut s, &t.rows, &t.hull, &t.theta_lb, &t.theta_ub, scalar)?;
+    let laws: Vec<String> = t.laws.iter().map(|v| v.to_string()).collect();
+    let _ = writeln!(s, "/// Laws: one row index per output.");
+    let _ = writeln!(
+        s,
+        "pub static LAWS: [u32; {}] = [{}];",
+        laws.len(),
+        laws.join(", ")
+    );
+    write_bounds(&mut s, &t.bounds, "u32");
+    let _ = writeln!(s, "/// The tables for `kestrel_empc::evaluate`.");
+    let _ = writeln!(
+        s,
+        "pub static TABLES: kestrel_empc::eval::WideSliceTables<'static, {ty}> = kestrel_empc::eval::WideSliceTables {{\n    n_params: {},\n    n_outputs: {},\n    root: {},\n    nodes: &NODES,\n    laws: &LAWS,\n    rows: &ROWS,\n    hull: &HULL,\n    theta_lb: &THETA_LB,\n    theta_ub: &THETA_UB,\n    bounds: &BOUNDS,\n}};",
+        t.n_params, t.n_outputs, t.root
+    );
+    Ok(s)
 }
 
 /// The tables as Rust source: `static` arrays and a `pub static TABLES:
@@ -588,7 +829,7 @@ pub fn rust_source(t: &OwnedTables<f64>, scalar: ExportScalar) -> Result<String,
         laws.len(),
         laws.join(", ")
     );
-    write_bounds(&mut s, &t.bounds);
+    write_bounds(&mut s, &t.bounds, "u16");
     let _ = writeln!(s, "/// The tables for `kestrel_empc::evaluate`.");
     let _ = writeln!(
         s,
@@ -670,7 +911,7 @@ pub fn rust_source_compact(
         t.nodes.len()
     );
     write_common(&mut s, &t.rows, &t.hull, &t.theta_lb, &t.theta_ub, scalar)?;
-    write_bounds(&mut s, &t.bounds);
+    write_bounds(&mut s, &t.bounds, "u16");
     let _ = writeln!(s, "/// The tables for `kestrel_empc::evaluate`.");
     let _ = writeln!(
         s,

@@ -12,7 +12,10 @@
 #![allow(clippy::needless_range_loop)] // dense numerical kernels read best with indices
 
 use crate::error::EmpcError;
-use crate::eval::{CompactNode, ForestTables, LEAF, NO_ROW, NO_ROW8, SliceTables};
+use crate::eval::{
+    CompactNode, ForestTables, LEAF, NO_ROW, NO_ROW8, SliceTables, WIDE_LEAF, WIDE_NO_ROW,
+    WideSliceTables,
+};
 use crate::lp::{LpStatus, LpWorkspace, slack_start};
 use crate::mpqp::MpqpSolution;
 use kestrel_core::Scalar;
@@ -56,9 +59,30 @@ pub struct TreeSettings {
     /// `parallel` feature; ignored otherwise). The tree is the same.
     pub parallel: bool,
     /// Stop with [`EmpcError::TooLarge`] once the tree has this many nodes
-    /// (at most the 32767 the `u16` child codes address), instead of
-    /// building a tree the tables cannot hold ([`TreeMethod::Sampled`]).
+    /// ([`TreeMethod::Sampled`]), instead of running on for hours. The
+    /// default, [`DEFAULT_MAX_NODES`], allows wide trees; the `u16` layout
+    /// ([`build_controller`], [`TreeLayout::Narrow`]) stops at
+    /// [`MAX_NODES`] whatever this says, the wide layout at
+    /// [`WIDE_MAX_NODES`].
     pub max_nodes: usize,
+    /// The table layout [`build_any`] returns ([`TreeLayout::Auto`]: `u16`
+    /// when the tree fits, else `u32`). [`build_controller`] always builds
+    /// the `u16` layout.
+    pub layout: TreeLayout,
+}
+
+/// The index width of the tables ([`build_any`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum TreeLayout {
+    /// `u16` when the tree fits ([`MAX_NODES`] nodes, 65534 rows), else `u32`.
+    #[default]
+    Auto,
+    /// Always `u16` ([`OwnedTables`]): [`EmpcError::TooLarge`] beyond
+    /// [`MAX_NODES`] nodes.
+    Narrow,
+    /// Always `u32` ([`WideTables`]), even when the tree would fit `u16`
+    /// (the same tree, node for node).
+    Wide,
 }
 
 /// How the tree construction scores candidate hyperplanes at a node.
@@ -94,6 +118,14 @@ const SAMPLED_ATTEMPTS: usize = 6;
 /// Most nodes the `u16` child codes address (the [`LEAF`] bit marks leaves).
 pub const MAX_NODES: usize = LEAF as usize - 1;
 
+/// Most nodes the wide layout's `u32` child codes address ([`WIDE_LEAF`]).
+pub const WIDE_MAX_NODES: usize = WIDE_LEAF as usize - 1;
+
+/// The default [`TreeSettings::max_nodes`]: room for the wide trees of
+/// the Ns = 2 class problems (about 10^5 to 10^6 nodes) while a build
+/// that runs away still stops in reasonable time.
+pub const DEFAULT_MAX_NODES: usize = 2_000_000;
+
 impl Default for TreeSettings {
     fn default() -> Self {
         TreeSettings {
@@ -104,7 +136,8 @@ impl Default for TreeSettings {
             clipping: true,
             method: TreeMethod::Auto,
             parallel: true,
-            max_nodes: MAX_NODES,
+            max_nodes: DEFAULT_MAX_NODES,
+            layout: TreeLayout::Auto,
         }
     }
 }
@@ -209,6 +242,250 @@ pub struct ExplicitController {
     pub stats: TreeStats,
 }
 
+/// Owned tables of the wide layout (`u32` indices, [`WIDE_LEAF`] child
+/// codes, [`WIDE_NO_ROW`]) in scalar `S`: the layout of trees beyond the
+/// [`MAX_NODES`] the `u16` codes address, otherwise as [`OwnedTables`]
+/// (same fields, same meaning). Evaluated by [`crate::evaluate`] through
+/// [`WideTables::tables`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct WideTables<S> {
+    /// Number of parameters `p`.
+    pub n_params: usize,
+    /// Number of outputs `k`.
+    pub n_outputs: usize,
+    /// The root child code.
+    pub root: u32,
+    /// Tree nodes `[row a, row b, child if a <= b, child otherwise]`.
+    pub nodes: Vec<[u32; 4]>,
+    /// Laws, `k` row indices each.
+    pub laws: Vec<u32>,
+    /// Affine rows, `p + 1` entries each.
+    pub rows: Vec<S>,
+    /// Explored set rows, `p + 1` entries each.
+    pub hull: Vec<S>,
+    /// Parameter lower bounds.
+    pub theta_lb: Vec<S>,
+    /// Parameter upper bounds.
+    pub theta_ub: Vec<S>,
+    /// Per output: rows of the lower and upper bound ([`WIDE_NO_ROW`]: none).
+    pub bounds: Vec<[u32; 2]>,
+}
+
+/// A `u16` child code in the wide layout.
+fn widen_code(c: u16) -> u32 {
+    if c & LEAF != 0 {
+        WIDE_LEAF | u32::from(c & !LEAF)
+    } else {
+        u32::from(c)
+    }
+}
+
+/// A `u16` row index in the wide layout.
+fn widen_row(r: u16) -> u32 {
+    if r == NO_ROW {
+        WIDE_NO_ROW
+    } else {
+        u32::from(r)
+    }
+}
+
+/// A wide child code as `u16`, if it fits.
+fn narrow_code(c: u32) -> Option<u16> {
+    if c & WIDE_LEAF != 0 {
+        let v = u16::try_from(c & !WIDE_LEAF).ok()?;
+        (v & LEAF == 0).then_some(LEAF | v)
+    } else {
+        u16::try_from(c).ok().filter(|v| v & LEAF == 0)
+    }
+}
+
+/// A wide row index as `u16`, if it fits.
+fn narrow_row(r: u32) -> Option<u16> {
+    if r == WIDE_NO_ROW {
+        Some(NO_ROW)
+    } else {
+        u16::try_from(r).ok().filter(|&v| v != NO_ROW)
+    }
+}
+
+impl<S: Scalar> WideTables<S> {
+    /// Borrowed tables for [`crate::evaluate`].
+    pub fn tables(&self) -> WideSliceTables<'_, S> {
+        WideSliceTables {
+            n_params: self.n_params,
+            n_outputs: self.n_outputs,
+            root: self.root,
+            nodes: &self.nodes,
+            laws: &self.laws,
+            rows: &self.rows,
+            hull: &self.hull,
+            theta_lb: &self.theta_lb,
+            theta_ub: &self.theta_ub,
+            bounds: &self.bounds,
+        }
+    }
+    /// The same tables in another scalar (rounded through `f64`).
+    pub fn cast<T: Scalar>(&self) -> WideTables<T> {
+        let c = |v: &Vec<S>| v.iter().map(|x| T::from_f64(x.to_f64())).collect();
+        WideTables {
+            n_params: self.n_params,
+            n_outputs: self.n_outputs,
+            root: self.root,
+            nodes: self.nodes.clone(),
+            laws: self.laws.clone(),
+            rows: c(&self.rows),
+            hull: c(&self.hull),
+            theta_lb: c(&self.theta_lb),
+            theta_ub: c(&self.theta_ub),
+            bounds: self.bounds.clone(),
+        }
+    }
+    /// Storage in bytes with `scalar_bytes` per number and 4 per index.
+    pub fn bytes(&self, scalar_bytes: usize) -> usize {
+        let numbers = self.rows.len() + self.hull.len() + self.theta_lb.len() + self.theta_ub.len();
+        numbers * scalar_bytes
+            + 4 * (4 * self.nodes.len() + self.laws.len() + 2 * self.bounds.len())
+    }
+    /// The same tree in the `u16` layout, if every index fits (at most
+    /// [`MAX_NODES`] nodes, 32767 laws, 65534 rows); `None` otherwise.
+    pub fn narrow(&self) -> Option<OwnedTables<S>> {
+        let nodes = self
+            .nodes
+            .iter()
+            .map(|n| {
+                Some([
+                    narrow_row(n[0])?,
+                    narrow_row(n[1])?,
+                    narrow_code(n[2])?,
+                    narrow_code(n[3])?,
+                ])
+            })
+            .collect::<Option<Vec<_>>>()?;
+        let laws = self
+            .laws
+            .iter()
+            .map(|&r| narrow_row(r).filter(|&v| v != NO_ROW))
+            .collect::<Option<Vec<_>>>()?;
+        let bounds = self
+            .bounds
+            .iter()
+            .map(|b| Some([narrow_row(b[0])?, narrow_row(b[1])?]))
+            .collect::<Option<Vec<_>>>()?;
+        if nodes.len() > MAX_NODES || self.rows.len() / (self.n_params + 1) >= NO_ROW as usize {
+            return None;
+        }
+        Some(OwnedTables {
+            n_params: self.n_params,
+            n_outputs: self.n_outputs,
+            root: narrow_code(self.root)?,
+            nodes,
+            laws,
+            rows: self.rows.clone(),
+            hull: self.hull.clone(),
+            theta_lb: self.theta_lb.clone(),
+            theta_ub: self.theta_ub.clone(),
+            bounds,
+        })
+    }
+}
+
+impl<S: Scalar> OwnedTables<S> {
+    /// The same tree in the wide layout (`u32` indices).
+    pub fn widen(&self) -> WideTables<S> {
+        WideTables {
+            n_params: self.n_params,
+            n_outputs: self.n_outputs,
+            root: widen_code(self.root),
+            nodes: self
+                .nodes
+                .iter()
+                .map(|n| {
+                    [
+                        widen_row(n[0]),
+                        widen_row(n[1]),
+                        widen_code(n[2]),
+                        widen_code(n[3]),
+                    ]
+                })
+                .collect(),
+            laws: self.laws.iter().map(|&r| u32::from(r)).collect(),
+            rows: self.rows.clone(),
+            hull: self.hull.clone(),
+            theta_lb: self.theta_lb.clone(),
+            theta_ub: self.theta_ub.clone(),
+            bounds: self
+                .bounds
+                .iter()
+                .map(|b| [widen_row(b[0]), widen_row(b[1])])
+                .collect(),
+        }
+    }
+}
+
+/// The tables of [`build_any`]: the `u16` layout when the tree fits (or
+/// was asked for), else the wide `u32` layout.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AnyTables {
+    /// `u16` indices, flash-ready ([`OwnedTables`]).
+    Narrow(OwnedTables<f64>),
+    /// `u32` indices ([`WideTables`]).
+    Wide(WideTables<f64>),
+}
+
+impl AnyTables {
+    /// Whether these are the wide (`u32`) tables.
+    pub fn is_wide(&self) -> bool {
+        matches!(self, AnyTables::Wide(_))
+    }
+    /// Storage in bytes with `scalar_bytes` per number (2 or 4 per index).
+    pub fn bytes(&self, scalar_bytes: usize) -> usize {
+        match self {
+            AnyTables::Narrow(t) => t.bytes(scalar_bytes),
+            AnyTables::Wide(t) => t.bytes(scalar_bytes),
+        }
+    }
+    /// Tree nodes.
+    pub fn n_nodes(&self) -> usize {
+        match self {
+            AnyTables::Narrow(t) => t.nodes.len(),
+            AnyTables::Wide(t) => t.nodes.len(),
+        }
+    }
+    /// Evaluates either layout in `f64`, the law index as `u32`
+    /// (allocates a scratch vector: in a loop, borrow the tables and call
+    /// [`crate::evaluate`]).
+    pub fn evaluate_f64(
+        &self,
+        theta: &[f64],
+        z: &mut [f64],
+    ) -> Result<crate::Evaluation<u32>, kestrel_core::Error> {
+        let mut scratch = vec![0.0; theta.len()];
+        match self {
+            AnyTables::Narrow(t) => {
+                crate::evaluate_with(&t.tables(), theta, &mut scratch, z).map(|e| {
+                    crate::Evaluation {
+                        law: u32::from(e.law),
+                        outside: e.outside,
+                        steps: e.steps,
+                    }
+                })
+            }
+            AnyTables::Wide(t) => crate::evaluate_with(&t.tables(), theta, &mut scratch, z),
+        }
+    }
+}
+
+/// An explicit controller in either layout ([`build_any`]).
+#[derive(Clone, Debug)]
+pub struct AnyController {
+    /// The tables in `f64`.
+    pub tables: AnyTables,
+    /// Law index of every region of the solution.
+    pub region_law: Vec<u16>,
+    /// Tree statistics.
+    pub stats: TreeStats,
+}
+
 /// A polytope `a x <= b` (rows of `p`) with an interior point.
 type Piece = (Vec<f64>, Vec<f64>, Vec<f64>);
 
@@ -245,8 +522,10 @@ struct Builder<'a> {
     hp: Vec<(Vec<f64>, f64)>,
     side_cache: HashMap<(usize, usize), i8>,
     lp: LpWorkspace,
-    nodes: Vec<[u16; 4]>,
-    used_hp: HashMap<usize, u16>,
+    /// Nodes as built: `[hyperplane id, 0, child, child]`, child codes
+    /// with [`WIDE_LEAF`] (narrowed to `u16` when the tree fits).
+    nodes: Vec<[u32; 4]>,
+    used_hp: HashMap<usize, u32>,
     ambiguous: usize,
     depth: usize,
     max_candidates: usize,
@@ -345,8 +624,8 @@ struct RegionSplit {
 impl Builder<'_> {
     /// The node code of candidate hyperplane `h`: its index among the
     /// hyperplanes the tree uses, numbered in order of first use.
-    fn hyperplane_id(&mut self, h: usize) -> u16 {
-        let next = self.used_hp.len() as u16;
+    fn hyperplane_id(&mut self, h: usize) -> u32 {
+        let next = self.used_hp.len() as u32;
         *self.used_hp.entry(h).or_insert(next)
     }
 
@@ -692,23 +971,23 @@ impl Builder<'_> {
         depth: usize,
         mark: &mut Vec<u32>,
         stamp: &mut u32,
-    ) -> Result<u16, EmpcError> {
+    ) -> Result<u32, EmpcError> {
         self.depth = self.depth.max(depth);
         let first_law = set.first().map_or(0, |&r| self.law[r]);
         if set.iter().all(|&r| self.law[r] == first_law) || depth > 60 {
             if depth > 60 {
                 self.ambiguous += 1;
             }
-            return Ok(LEAF | first_law);
+            return Ok(WIDE_LEAF | u32::from(first_law));
         }
         if self.clipping
             && let Some(l) = self.serving_law(&set, cell)
         {
-            return Ok(LEAF | l);
+            return Ok(WIDE_LEAF | u32::from(l));
         }
         if self.nodes.len() >= self.max_nodes {
             return Err(EmpcError::TooLarge(format!(
-                "the search tree exceeds {} nodes (TreeSettings::max_nodes; the u16 child codes address {MAX_NODES})",
+                "the search tree exceeds {} nodes (TreeSettings::max_nodes; the u16 layout addresses {MAX_NODES}, the wide layout up to {WIDE_MAX_NODES})",
                 self.max_nodes
             )));
         }
@@ -772,7 +1051,7 @@ impl Builder<'_> {
             .or_else(|| (!tried.is_empty()).then_some(0))
         else {
             self.ambiguous += 1;
-            return Ok(LEAF | first_law);
+            return Ok(WIDE_LEAF | u32::from(first_law));
         };
         let (_, h, splits) = tried.swap_remove(pos);
         drop(tried);
@@ -813,7 +1092,7 @@ impl Builder<'_> {
         let rgt = rgt?;
         self.nodes[me][2] = l;
         self.nodes[me][3] = rgt;
-        Ok(me as u16)
+        Ok(me as u32)
     }
 }
 
@@ -1150,19 +1429,19 @@ impl Builder<'_> {
         wits: Vec<Ball>,
         cell: &mut Vec<(Vec<f64>, f64)>,
         depth: usize,
-    ) -> u16 {
+    ) -> u32 {
         self.depth = self.depth.max(depth);
         let first_law = set.first().map_or(0, |&r| self.law[r]);
         if set.iter().all(|&r| self.law[r] == first_law) || depth > 60 {
             if depth > 60 {
                 self.ambiguous += 1;
             }
-            return LEAF | first_law;
+            return WIDE_LEAF | u32::from(first_law);
         }
         if self.clipping
             && let Some(l) = self.serving_law(&set, cell)
         {
-            return LEAF | l;
+            return WIDE_LEAF | u32::from(l);
         }
         // Candidates: the most frequent facets of the regions in the set.
         let mut freq: HashMap<usize, usize> = HashMap::new();
@@ -1221,7 +1500,7 @@ impl Builder<'_> {
         let Some((h, _, _)) = best else {
             // No facet separates the laws: majority law.
             self.ambiguous += 1;
-            return LEAF | first_law;
+            return WIDE_LEAF | u32::from(first_law);
         };
         let (a, b) = self.hp[h].clone();
         let na: Vec<f64> = a.iter().map(|v| -v).collect();
@@ -1275,7 +1554,7 @@ impl Builder<'_> {
         cell.pop();
         self.nodes[me][2] = l;
         self.nodes[me][3] = rgt;
-        me as u16
+        me as u32
     }
 }
 
@@ -1325,6 +1604,74 @@ pub fn build_controller(
     build_for(problem, solution, settings, &outs)
 }
 
+/// Builds the explicit controller in the layout [`TreeSettings::layout`]
+/// asks for: as [`build_controller`] (the same tree, node for node), with
+/// the wide `u32` tables ([`WideTables`]) when the tree exceeds the
+/// [`MAX_NODES`] of the `u16` layout ([`TreeLayout::Auto`]) or always
+/// ([`TreeLayout::Wide`]), up to [`TreeSettings::max_nodes`].
+///
+/// ```
+/// use kestrel_empc::{solve, Settings};
+/// use kestrel_empc::tree::{build_any, AnyTables, TreeLayout, TreeSettings};
+/// # use kestrel_core::formats::MpqpProblem;
+/// # let problem = MpqpProblem::from_json_str(r#"{"format": "kestrel.mpqp.v1",
+/// #   "H": [[1, 0], [0, 1]], "F": [[1, 0], [0, 1]],
+/// #   "G": [[1, 0], [0, 1], [-1, 0], [0, -1]], "W": [1, 1, 1, 1],
+/// #   "E": [[0, 0], [0, 0], [0, 0], [0, 0]],
+/// #   "theta_lb": [-3, -3], "theta_ub": [3, 3]}"#).unwrap();
+/// let solution = solve(&problem, &Settings::default()).unwrap();
+/// let settings = TreeSettings { layout: TreeLayout::Wide, ..TreeSettings::default() };
+/// let c = build_any(&problem, &solution, &settings).unwrap();
+/// let AnyTables::Wide(t) = &c.tables else { unreachable!() };
+/// let mut z = [0.0; 2];
+/// kestrel_empc::evaluate(&t.tables(), &[0.5, -2.0], &mut z).unwrap();
+/// assert_eq!(z, [-0.5, 1.0]);
+/// ```
+pub fn build_any(
+    problem: &MpqpProblem,
+    solution: &MpqpSolution,
+    settings: &TreeSettings,
+) -> Result<AnyController, EmpcError> {
+    let k = kept_outputs(problem, solution, settings)?;
+    let outs: Vec<usize> = (0..k).collect();
+    let cap = match settings.layout {
+        TreeLayout::Narrow => settings.max_nodes.min(MAX_NODES),
+        TreeLayout::Auto | TreeLayout::Wide => settings.max_nodes.min(WIDE_MAX_NODES),
+    };
+    let w = build_wide_for(problem, solution, settings, &outs, cap)?;
+    let tables = match settings.layout {
+        TreeLayout::Wide => AnyTables::Wide(w.tables),
+        TreeLayout::Auto => match w.tables.narrow() {
+            Some(t) => AnyTables::Narrow(t),
+            None => AnyTables::Wide(w.tables),
+        },
+        TreeLayout::Narrow => {
+            AnyTables::Narrow(w.tables.narrow().ok_or_else(|| narrow_error(&w.tables))?)
+        }
+    };
+    Ok(AnyController {
+        tables,
+        region_law: w.region_law,
+        stats: w.stats,
+    })
+}
+
+/// The error for a tree that does not fit the `u16` layout.
+fn narrow_error(t: &WideTables<f64>) -> EmpcError {
+    EmpcError::TooLarge(format!(
+        "{} nodes, {} affine rows: beyond the u16 layout ({MAX_NODES} nodes, 65534 rows); build_any with TreeLayout::Auto or Wide gives u32 tables",
+        t.nodes.len(),
+        t.rows.len() / (t.n_params + 1)
+    ))
+}
+
+/// What [`build_wide_for`] found.
+struct WideBuild {
+    tables: WideTables<f64>,
+    region_law: Vec<u16>,
+    stats: TreeStats,
+}
+
 /// The number of kept outputs, after checking that problem and solution match.
 fn kept_outputs(
     problem: &MpqpProblem,
@@ -1357,6 +1704,29 @@ fn build_for(
     settings: &TreeSettings,
     outs: &[usize],
 ) -> Result<ExplicitController, EmpcError> {
+    let w = build_wide_for(
+        problem,
+        solution,
+        settings,
+        outs,
+        settings.max_nodes.min(MAX_NODES),
+    )?;
+    let tables = w.tables.narrow().ok_or_else(|| narrow_error(&w.tables))?;
+    Ok(ExplicitController {
+        tables,
+        region_law: w.region_law,
+        stats: w.stats,
+    })
+}
+
+/// The tree and tables in the wide layout, at most `max_nodes` nodes.
+fn build_wide_for(
+    problem: &MpqpProblem,
+    solution: &MpqpSolution,
+    settings: &TreeSettings,
+    outs: &[usize],
+    max_nodes: usize,
+) -> Result<WideBuild, EmpcError> {
     let start = std::time::Instant::now();
     let p = solution.p;
     let n = solution.n;
@@ -1491,7 +1861,7 @@ fn build_for(
         pool: Vec::new(),
         parallel: settings.parallel,
         n_laws_total: distinct_laws,
-        max_nodes: settings.max_nodes.min(MAX_NODES),
+        max_nodes,
     };
     let (lb, ub) = (
         solution.theta_lb.as_slice().to_vec(),
@@ -1508,7 +1878,7 @@ fn build_for(
         TreeMethod::Sampled => true,
     };
     let root = if all.is_empty() {
-        LEAF
+        WIDE_LEAF
     } else if sampled {
         builder.init_pool();
         let pts = builder
@@ -1525,11 +1895,10 @@ fn build_for(
             .collect();
         builder.build(all, wits, &mut cell, 0)
     };
-    if builder.nodes.len() >= LEAF as usize || builder.used_hp.len() >= u16::MAX as usize {
+    if builder.nodes.len() > WIDE_MAX_NODES {
         return Err(EmpcError::TooLarge(format!(
-            "{} nodes, {} hyperplanes",
+            "{} nodes (the wide layout addresses {WIDE_MAX_NODES})",
             builder.nodes.len(),
-            builder.used_hp.len()
         )));
     }
     // Each hyperplane a'theta <= b as two affine rows: r1(theta) <= r2(theta)
@@ -1568,8 +1937,8 @@ fn build_for(
             pair_index.entry(key).or_insert((r1, r2, nrm));
         }
     }
-    let mut hp_rows: Vec<[u16; 2]> = vec![[0, 0]; builder.used_hp.len()];
-    let mut used: Vec<(usize, u16)> = builder.used_hp.iter().map(|(&h, &i)| (h, i)).collect();
+    let mut hp_rows: Vec<[u32; 2]> = vec![[0, 0]; builder.used_hp.len()];
+    let mut used: Vec<(usize, u32)> = builder.used_hp.iter().map(|(&h, &i)| (h, i)).collect();
     used.sort_by_key(|x| x.1);
     for (h, i) in used {
         let (a, b) = builder.hp[h].clone();
@@ -1585,7 +1954,7 @@ fn build_for(
                 let want = if j == p { -b } else { a[j] };
                 (d - want).abs() <= 1e-11 * if j == p { scale } else { 1.0 }
             });
-            ok.then_some([r1 as u16, r2 as u16])
+            ok.then_some([r1 as u32, r2 as u32])
         });
         hp_rows[i as usize] = match exact {
             Some(pr) => pr,
@@ -1593,7 +1962,7 @@ fn build_for(
                 let r = rows.len() / w;
                 rows.extend_from_slice(&a);
                 rows.push(-b);
-                [r as u16, NO_ROW]
+                [r as u32, WIDE_NO_ROW]
             }
         };
     }
@@ -1603,7 +1972,7 @@ fn build_for(
         nd[0] = r1;
         nd[1] = r2;
     }
-    if rows.len() / w >= NO_ROW as usize {
+    if rows.len() / w >= WIDE_NO_ROW as usize {
         return Err(EmpcError::TooLarge(format!(
             "{} affine rows",
             rows.len() / w
@@ -1620,17 +1989,17 @@ fn build_for(
     } else {
         builder.depth
     };
-    let tables = OwnedTables {
+    let tables = WideTables {
         n_params: p,
         n_outputs: k,
         root,
         nodes,
-        laws,
+        laws: laws.iter().map(|&r| u32::from(r)).collect(),
         rows,
         hull,
         theta_lb: solution.theta_lb.iter().copied().collect(),
         theta_ub: solution.theta_ub.iter().copied().collect(),
-        bounds,
+        bounds: bounds.iter().map(|b| b.map(widen_row)).collect(),
     };
     let stats = TreeStats {
         regions: solution.regions.len(),
@@ -1642,7 +2011,7 @@ fn build_for(
         ambiguous_leaves: builder.ambiguous,
         build_seconds: start.elapsed().as_secs_f64(),
     };
-    Ok(ExplicitController {
+    Ok(WideBuild {
         tables,
         region_law,
         stats,
