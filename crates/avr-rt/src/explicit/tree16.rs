@@ -328,14 +328,23 @@ fn shr_var_steps(mut v: i32, s: u8) -> i32 {
     v
 }
 
+/// Bytes of the assembly walk's context at the start of [`Scratch`].
+const CTX_BYTES: usize = 40;
+#[cfg(target_arch = "avr")]
+const _: () = assert!(CTX_BYTES == super::walk_avr::THETA_AT);
+
 /// The law's RAM scratch, in the order the assembly walk addresses it:
-/// the quantised `theta` (`P` `i16`) directly followed by the row value
+/// its context, the quantised `theta` (`P` `i16`) directly followed by the row value
 /// cache, 5 bytes per row (the period stamp, then the `i32` value); for
 /// the wide layout the cache is direct-mapped (row `r` in entry
 /// `r mod R`) and `tags` holds each entry's row.
 #[repr(C)]
 #[derive(Clone, Debug)]
 struct Scratch<const P: usize, const R: usize> {
+    /// The assembly walk's context (`walk_avr::Ctx`, AVR only), directly
+    /// before `theta` so the routine reaches both from one pointer.
+    #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
+    ctx: [u8; CTX_BYTES],
     theta: [i16; P],
     cache: [[u8; 5]; R],
     tags: [u16; R],
@@ -444,6 +453,7 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
             at,
             row_bytes: l.row_bytes() as u16,
             scratch: Scratch {
+                ctx: [0; CTX_BYTES],
                 theta: [0; P],
                 cache: [[0; 5]; R],
                 tags: [0; R],
@@ -721,12 +731,20 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
             scratch: 0,
             out_shift,
         };
-        // SAFETY: `ctx` points at this law's scratch (theta directly
-        // before the cache, `repr(C)`), its parameter bytes, `z` (NU
-        // values) and the bits (P values); the routine writes only the
-        // scratch (row indices checked against `n_rows <= R`), `z` and
-        // `ctx`, and reads flash inside the table (indices checked).
-        let status = unsafe { super::walk_avr::kestrel_empc16_eval(&mut ctx) };
+        // SAFETY: the block is this law's scratch (`repr(C)`: the context,
+        // theta, then the cache), 40 bytes for the `Ctx` (alignment 1 on the
+        // AVR; written and read unaligned); `ctx` points at its parameter
+        // bytes, `z` (NU values) and the bits (P values); the routine
+        // writes only the scratch (row indices checked against
+        // `n_rows <= R`), `z` and the context, and reads flash inside the
+        // table (indices checked).
+        let block = self.scratch.ctx.as_mut_ptr().cast::<super::walk_avr::Ctx>();
+        let status = unsafe {
+            block.write_unaligned(ctx);
+            let status = super::walk_avr::kestrel_empc16_eval(block);
+            ctx = block.read_unaligned();
+            status
+        };
         if ctx.outside != 0 {
             self.outside = self.outside.saturating_add(1);
         }

@@ -118,17 +118,18 @@ macro_rules! round_shift {
 }
 
 /// One term of a row, `acc += c_k theta_k` (22 instructions, 32 cycles):
-/// the gain `c` by `ELPM Z+` into r20:r21, `theta_k` by `LD X+` into
-/// r22:r23, the 16 x 16-bit signed product from four hardware multiplies
-/// added into the 32-bit accumulator r16:r19 (r2 is zero). One text, used
-/// by the row loop and nine times by the unrolled nine-term row.
+/// the gain `c` by `ELPM Z+` into r20:r21, `theta_k` into r22:r23 by the
+/// two given loads (`LD X+` in the row loop, `LDD Y+q` in the unrolled
+/// row), the 16 x 16-bit signed product from four hardware multiplies
+/// added into the 32-bit accumulator r16:r19 (r2 is zero).
+#[rustfmt::skip]
 macro_rules! term {
-    () => {
+    ($lo:expr, $hi:expr) => {
         concat!(
             "elpm r20, Z+\n",
             "elpm r21, Z+\n",
-            "ld r22, X+\n",
-            "ld r23, X+\n",
+            $lo, "\n",
+            $hi, "\n",
             "mul r20, r22\n", // c_lo t_lo, byte 0
             "add r16, r0\n",
             "adc r17, r1\n",
@@ -151,11 +152,31 @@ macro_rules! term {
     };
 }
 
+/// Term `k` of the unrolled nine-term row: `theta_k` at `Y + 40 + 2k`.
+macro_rules! term_y {
+    ($lo:literal, $hi:literal) => {
+        term!(concat!("ldd r22, Y+", $lo), concat!("ldd r23, Y+", $hi))
+    };
+}
+
+/// Byte offset of `theta` in the scratch block the routine's Y points at
+/// (directly after the [`Ctx`]).
+pub(crate) const THETA_AT: usize = 40;
+const _: () = assert!(core::mem::size_of::<Ctx>() == THETA_AT);
+
 /// See the module docs. Returns 0, or 1 for a corrupted table.
 ///
+/// Registers during the walk: r2 zero, r3 the period stamp, r4:r5 the
+/// cache, r6 `n_rows`, r7:r9 the rows' flash address (r8 low, r9 high, r7
+/// the top byte), r10 node row `b` / leaf law row, r11 node left child /
+/// leaf output, r12:r13 node right child / leaf bounds, r14:r15 the child
+/// code / leaf law offset, r25 nodes visited (low byte; the high byte in
+/// the context), the T flag set for nine parameters (the unrolled rows).
+///
 /// # Safety
-/// `ctx` must describe the law's scratch, parameters, outputs and a
-/// table in flash as [`Ctx`] documents.
+/// `ctx` must be the start of the law's scratch block (the [`Ctx`], then
+/// `theta`, then the cache) and describe the law's parameters, outputs
+/// and a table in flash as [`Ctx`] documents.
 #[inline(never)]
 #[allow(named_asm_labels)] // one copy: the function is never inlined
 pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
@@ -167,13 +188,20 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         core::arch::asm!(
         "push r28",
         "push r29",
-        "movw r28, r30",          // Y = ctx
+        "movw r28, r30",          // Y = ctx (theta at Y+40)
         "clr r2",                 // zero
         "ldd r3, Y+33",           // period
         "ldd r4, Y+16",           // cache base
         "ldd r5, Y+17",
-        // ---- quantisation (skipped when q16 == 0)
-        "clr r7",                 // outside
+        "clt",                    // T: nine parameters
+        "ldd r24, Y+30",
+        "cpi r24, 9",
+        "brne 9f",
+        "set",
+        "9:",
+        // ---- quantisation (skipped when q16 == 0): X bits, Z parameters,
+        // r8:r9 where theta_j goes, r6 count, r7 outside
+        "clr r7",
         "ldd r26, Y+18",
         "ldd r27, Y+19",
         "mov r24, r26",
@@ -181,14 +209,13 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "brne 9f",
         "rjmp .Lke_walk",
         "9:",
-        "ldd r30, Y+20",          // Z = params (RAM)
+        "ldd r30, Y+20",
         "ldd r31, Y+21",
-        "ldd r6, Y+30",           // count = P
-        "movw r8, r4",            // theta = cache - 2P
-        "sub r8, r6",
-        "sbc r9, r2",
-        "sub r8, r6",
-        "sbc r9, r2",
+        "ldd r6, Y+30",
+        "movw r8, r28",
+        "ldi r24, 40",
+        "add r8, r24",
+        "adc r9, r2",
         ".Lke_q:",
         "ld r16, X+",
         "ld r17, X+",
@@ -226,96 +253,95 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "movw r16, r24",          // v > ub: ub
         "inc r7",
         ".Lke_qstore:",
-        "push r28",
-        "push r29",
-        "movw r28, r8",
-        "st Y+, r16",
-        "st Y+, r17",
-        "movw r8, r28",
-        "pop r29",
-        "pop r28",
+        "movw r10, r30",
+        "movw r30, r8",
+        "st Z+, r16",
+        "st Z+, r17",
+        "movw r8, r30",
+        "movw r30, r10",
         "dec r6",
         "breq 9f",
         "rjmp .Lke_q",
         "9:",
-        // ---- the walk: r14:r15 code, r12:r13 steps
+        // ---- the walk
         ".Lke_walk:",
         "std Y+36, r7",
-        "ldd r14, Y+24",
+        "ldd r6, Y+28",           // n_rows
+        "ldd r8, Y+4",            // rows
+        "ldd r9, Y+5",
+        "ldd r7, Y+6",
+        "ldd r14, Y+24",          // code
         "ldd r15, Y+25",
-        "clr r12",
-        "clr r13",
+        "clr r25",                // nodes visited
+        "std Y+35, r2",
         ".Lke_node:",
         "sbrc r15, 7",
         "rjmp .Lke_leaf",
-        "ldd r24, Y+26",
-        "ldd r25, Y+27",
-        "cp r14, r24",
-        "cpc r15, r25",
+        "ldd r16, Y+26",
+        "ldd r17, Y+27",
+        "cp r14, r16",
+        "cpc r15, r17",
         "brlo 9f",
-        "rjmp .Lke_err0",
+        "rjmp .Lke_err",
         "9:",
-        "movw r24, r14",          // r20:r25:r24 = 5 code (24 bits)
-        "clr r20",
-        "lsl r24",
-        "rol r25",
-        "rol r20",
-        "lsl r24",
-        "rol r25",
-        "rol r20",
-        "add r24, r14",
-        "adc r25, r15",
-        "adc r20, r2",
-        "ldd r30, Y+0",
-        "ldd r31, Y+1",
-        "ldd r21, Y+2",
-        "add r30, r24",
-        "adc r31, r25",
-        "adc r21, r20",
-        "out 0x3B, r21",
+        "movw r30, r14",          // Z = nodes + 5 code (new(): 5 n_nodes < 64 KiB)
+        "lsl r30",
+        "rol r31",
+        "lsl r30",
+        "rol r31",
+        "add r30, r14",
+        "adc r31, r15",
+        "ldd r16, Y+0",
+        "ldd r17, Y+1",
+        "ldd r18, Y+2",
+        "add r30, r16",
+        "adc r31, r17",
+        "adc r18, r2",
+        "out 0x3B, r18",
         "elpm r24, Z+",           // a
-        "elpm r8, Z+",            // b
-        "elpm r9, Z+",            // left
-        "elpm r10, Z+",           // right
-        "elpm r11, Z+",
-        "sec",                    // steps += 1
-        "adc r12, r2",
-        "adc r13, r2",
-        "rcall .Lke_row",
-        "brcc 9f",
-        "rjmp .Lke_err0",
+        "elpm r10, Z+",           // b
+        "elpm r11, Z+",           // left
+        "elpm r12, Z+",           // right
+        "elpm r13, Z+",
+        "inc r25",                // nodes visited
+        "brne 9f",
+        "ldd r16, Y+35",
+        "inc r16",
+        "std Y+35, r16",
         "9:",
-        "movw r6, r26",           // &a
-        "mov r24, r8",
+        "rcall .Lke_row",         // a
+        "brcc 9f",
+        "rjmp .Lke_err",
+        "9:",
+        "mov r24, r10",
         "cpi r24, 0xFF",
         "breq .Lke_zero",
-        "rcall .Lke_row",
+        "push r16",
+        "push r17",
+        "push r18",
+        "push r19",
+        "rcall .Lke_row",         // b
+        "pop r23",                // a
+        "pop r22",
+        "pop r21",
+        "pop r20",
         "brcc 9f",
-        "rjmp .Lke_err0",
-        "9:",
-        "ld r20, X+",
-        "ld r21, X+",
-        "ld r22, X+",
-        "ld r23, X",
-        "rjmp .Lke_cmp",
-        ".Lke_err0:",
         "rjmp .Lke_err",
-        ".Lke_zero:",
-        "clr r20",
-        "clr r21",
-        "movw r22, r20",
-        ".Lke_cmp:",
-        "movw r30, r6",
-        "ld r16, Z+",
-        "ld r17, Z+",
-        "ld r18, Z+",
-        "ld r19, Z",
-        "cp r20, r16",            // b - a
-        "cpc r21, r17",
-        "cpc r22, r18",
-        "cpc r23, r19",
+        "9:",
+        "cp r16, r20",            // b - a
+        "cpc r17, r21",
+        "cpc r18, r22",
+        "cpc r19, r23",
         "brlt .Lke_right",        // b < a
-        "mov r24, r9",            // a <= b: left
+        "rjmp .Lke_left",
+        ".Lke_zero:",
+        "cp r2, r16",             // 0 - a
+        "cpc r2, r17",
+        "cpc r2, r18",
+        "cpc r2, r19",
+        "brlt .Lke_right",
+        ".Lke_left:",             // a <= b
+        "mov r24, r11",
         "cpi r24, 0xFF",
         "brne .Lke_lleaf",
         "sec",                    // the next node
@@ -328,20 +354,18 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "mov r15, r24",
         "rjmp .Lke_leaf",
         ".Lke_right:",
-        "sbrc r11, 7",
+        "sbrc r13, 7",
         "rjmp .Lke_rgo",
-        "cp r14, r10",            // a node child must come after its node
-        "cpc r15, r11",
-        "brlo 9f",
-        "rjmp .Lke_err0",
-        "9:",
+        "cp r14, r12",            // a node child must come after its node
+        "cpc r15, r13",
+        "brlo .Lke_rgo",
+        "rjmp .Lke_err",
         ".Lke_rgo:",
-        "movw r14, r10",
+        "movw r14, r12",
         "rjmp .Lke_node",
-        // ---- the leaf: law r14 (checked), outputs o = r9 into *out (r6:r7)
+        // ---- the leaf: law r14 (checked), output r11 into *out
         ".Lke_leaf:",
-        "std Y+34, r12",
-        "std Y+35, r13",
+        "std Y+34, r25",
         "mov r24, r15",
         "andi r24, 0x7F",
         "breq 9f",
@@ -355,112 +379,99 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "std Y+37, r14",
         "ldd r24, Y+31",          // NU law
         "mul r14, r24",
-        "movw r10, r0",
-        "ldd r6, Y+22",
-        "ldd r7, Y+23",
-        "clr r9",
+        "movw r14, r0",
+        "clr r11",
         ".Lke_out:",
         "ldd r30, Y+8",           // the law's row for output o
         "ldd r31, Y+9",
-        "ldd r21, Y+10",
-        "add r30, r10",
-        "adc r31, r11",
-        "adc r21, r2",
-        "add r30, r9",
+        "ldd r16, Y+10",
+        "add r30, r14",
+        "adc r31, r15",
+        "adc r16, r2",
+        "add r30, r11",
         "adc r31, r2",
-        "adc r21, r2",
-        "out 0x3B, r21",
-        "elpm r8, Z",
+        "adc r16, r2",
+        "out 0x3B, r16",
+        "elpm r10, Z",
         "ldd r30, Y+12",          // its bounds' rows
         "ldd r31, Y+13",
-        "ldd r21, Y+14",
-        "add r30, r9",
+        "ldd r16, Y+14",
+        "add r30, r11",
         "adc r31, r2",
-        "adc r21, r2",
-        "add r30, r9",
+        "adc r16, r2",
+        "add r30, r11",
         "adc r31, r2",
-        "adc r21, r2",
-        "out 0x3B, r21",
-        "elpm r16, Z+",
-        "elpm r17, Z",
-        "std Y+38, r17",
-        "clr r12",                // &lo (0: none)
-        "clr r13",
-        "cpi r16, 0xFF",
-        "breq .Lke_hi",
-        "mov r24, r16",
+        "adc r16, r2",
+        "out 0x3B, r16",
+        "elpm r12, Z+",
+        "elpm r13, Z",
+        "mov r24, r10",           // v
         "rcall .Lke_row",
         "brcc 9f",
         "rjmp .Lke_err",
         "9:",
-        "movw r12, r26",
-        ".Lke_hi:",
-        "clr r14",                // &hi (0: none)
-        "clr r15",
-        "ldd r24, Y+38",
+        "mov r24, r12",           // lo
         "cpi r24, 0xFF",
-        "breq .Lke_law",
+        "breq .Lke_ohi",
+        "push r16",
+        "push r17",
+        "push r18",
+        "push r19",
         "rcall .Lke_row",
+        "pop r23",                // v
+        "pop r22",
+        "pop r21",
+        "pop r20",
         "brcc 9f",
         "rjmp .Lke_err",
         "9:",
-        "movw r14, r26",
-        ".Lke_law:",
-        "mov r24, r8",
-        "rcall .Lke_row",
-        "brcc 9f",
-        "rjmp .Lke_err",
-        "9:",
-        "ld r16, X+",
-        "ld r17, X+",
-        "ld r18, X+",
-        "ld r19, X",
-        "mov r24, r12",
-        "or r24, r13",
-        "breq .Lke_chi",
-        "movw r30, r12",
-        "ld r20, Z+",
-        "ld r21, Z+",
-        "ld r22, Z+",
-        "ld r23, Z",
-        "cp r16, r20",            // v - lo
-        "cpc r17, r21",
-        "cpc r18, r22",
-        "cpc r19, r23",
-        "brge .Lke_chi",
-        "movw r16, r20",
-        "movw r18, r22",
-        ".Lke_chi:",
-        "mov r24, r14",
-        "or r24, r15",
-        "breq .Lke_store",
-        "movw r30, r14",
-        "ld r20, Z+",
-        "ld r21, Z+",
-        "ld r22, Z+",
-        "ld r23, Z",
-        "cp r20, r16",            // hi - v
+        "cp r20, r16",            // v - lo
         "cpc r21, r17",
         "cpc r22, r18",
         "cpc r23, r19",
-        "brge .Lke_store",
+        "brlt .Lke_ohi",          // v < lo: lo
         "movw r16, r20",
         "movw r18, r22",
-        ".Lke_store:",
+        ".Lke_ohi:",
+        "mov r24, r13",           // hi
+        "cpi r24, 0xFF",
+        "breq .Lke_ost",
+        "push r16",
+        "push r17",
+        "push r18",
+        "push r19",
+        "rcall .Lke_row",
+        "pop r23",                // v
+        "pop r22",
+        "pop r21",
+        "pop r20",
+        "brcc 9f",
+        "rjmp .Lke_err",
+        "9:",
+        "cp r16, r20",            // hi - v
+        "cpc r17, r21",
+        "cpc r18, r22",
+        "cpc r19, r23",
+        "brlt .Lke_ost",          // hi < v: hi
+        "movw r16, r20",
+        "movw r18, r22",
+        ".Lke_ost:",
         "ldd r24, Y+39",          // v = round(v / 2^out_shift)
         "tst r24",
         "breq .Lke_st2",
         round_shift!("r24", "o"),
         ".Lke_st2:",
-        "movw r30, r6",
+        "ldd r30, Y+22",
+        "ldd r31, Y+23",
         "st Z+, r16",
         "st Z+, r17",
         "st Z+, r18",
         "st Z+, r19",
-        "movw r6, r30",
-        "inc r9",
+        "std Y+22, r30",
+        "std Y+23, r31",
+        "inc r11",
         "ldd r24, Y+31",
-        "cp r9, r24",
+        "cp r11, r24",
         "brsh 9f",
         "rjmp .Lke_out",
         "9:",
@@ -473,80 +484,90 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "pop r29",
         "pop r28",
         "rjmp .Lke_end",
-        // ---- row r24: X -> its cached value, C clear; C set for r24 >= n_rows.
-        // Clobbers r0, r1, r16-r25, X, Z.
+        // ---- row r24: its value in r16:r19, C clear; C set for r24 >=
+        // n_rows. Clobbers r0, r1, r16-r24, X, Z, RAMPZ.
         ".Lke_row:",
-        "ldd r25, Y+28",
-        "cp r24, r25",
+        "cp r24, r6",
         "brsh .Lke_rbad",
-        "ldi r25, 5",
-        "mul r24, r25",
+        "ldi r16, 5",             // X = the cache entry
+        "mul r24, r16",
         "movw r26, r4",
         "add r26, r0",
         "adc r27, r1",
-        "ld r25, X+",
-        "cp r25, r3",
+        "ld r16, X+",
+        "cp r16, r3",
         "brne .Lke_miss",
-        "clc",
+        "ld r16, X+",             // cached (C clear: equal)
+        "ld r17, X+",
+        "ld r18, X+",
+        "ld r19, X+",
         "ret",
         ".Lke_rbad:",
         "sec",
         "ret",
-        ".Lke_miss:",
-        "ldd r25, Y+32",          // Z:RAMPZ = rows + r rb
-        "mul r24, r25",
-        "ldd r30, Y+4",
-        "ldd r31, Y+5",
-        "ldd r25, Y+6",
-        "add r30, r0",
-        "adc r31, r1",
-        "adc r25, r2",
-        "out 0x3B, r25",
+        ".Lke_rgen:",             // n = P - start terms from theta + start
+        "ldd r24, Y+30",
+        "sub r24, r20",
+        "breq .Lke_rg0",
+        "brcs .Lke_rg0",
+        "push r26",
+        "push r27",
+        "movw r26, r28",
+        "adiw r26, 40",
+        "add r26, r20",
+        "adc r27, r2",
+        "add r26, r20",
+        "adc r27, r2",
+        ".Lke_term:",
+        term!("ld r22, X+", "ld r23, X+"),
+        "dec r24",
+        "brne .Lke_term",
+        "pop r27",
+        "pop r26",
+        ".Lke_rg0:",
+        "rjmp .Lke_rst",
+        ".Lke_miss:",             // X = the entry + 1
+        "ldd r16, Y+32",          // Z:RAMPZ = rows + r rb
+        "mul r24, r16",
+        "movw r30, r0",
+        "add r30, r8",
+        "adc r31, r9",
+        "mov r16, r7",
+        "adc r16, r2",
+        "out 0x3B, r16",
         "elpm r20, Z+",           // start
         "elpm r16, Z+",           // the constant
         "elpm r17, Z+",
         "elpm r18, Z+",
         "elpm r19, Z+",
-        "ldd r25, Y+30",          // n = P - start terms
-        "sub r25, r20",
-        "brcs .Lke_rnone",
-        "breq .Lke_rnone",
-        "movw r26, r4",           // X = theta + start = cache - 2 n
-        "sub r26, r25",
-        "sbc r27, r2",
-        "sub r26, r25",
-        "sbc r27, r2",
-        "cpi r25, 9",             // nine terms: unrolled (no loop counter)
-        "breq .Lke_nine",
-        ".Lke_term:",
-        term!(),
-        "dec r25",
-        "brne .Lke_term",
-        "rjmp .Lke_rstore",
-        ".Lke_rnone:",
-        "rjmp .Lke_rstore",
-        ".Lke_nine:",
-        term!(),
-        term!(),
-        term!(),
-        term!(),
-        term!(),
-        term!(),
-        term!(),
-        term!(),
-        term!(),
-        ".Lke_rstore:",
-        "ldi r25, 5",
-        "mul r24, r25",
-        "movw r26, r4",
-        "add r26, r0",
-        "adc r27, r1",
-        "st X+, r3",
+        "brtc .Lke_rgen",         // nine parameters: unrolled from 0 or 8
+        "tst r20",
+        "breq .Lke_t0",
+        "cpi r20, 8",
+        "brne 9f",
+        "rjmp .Lke_t8",
+        "9:",
+        "cpi r20, 9",
+        "brne .Lke_rgen",
+        "rjmp .Lke_rst",
+        ".Lke_t0:",
+        term_y!("40", "41"),
+        term_y!("42", "43"),
+        term_y!("44", "45"),
+        term_y!("46", "47"),
+        term_y!("48", "49"),
+        term_y!("50", "51"),
+        term_y!("52", "53"),
+        term_y!("54", "55"),
+        ".Lke_t8:",
+        term_y!("56", "57"),
+        ".Lke_rst:",
+        "st -X, r3",              // the stamp, then the value
+        "adiw r26, 1",
         "st X+, r16",
         "st X+, r17",
         "st X+, r18",
-        "st X, r19",
-        "sbiw r26, 3",
+        "st X+, r19",
         "clc",
         "ret",
         ".Lke_end:",
