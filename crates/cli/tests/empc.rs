@@ -364,3 +364,57 @@ fn tree_method_and_node_cap() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("--tree-method"), "{}", stderr(&o));
 }
+
+#[test]
+fn wide_layout_solve_eval_export() {
+    // --layout u32 forces the wide tables (what trees beyond 32767 nodes
+    // get with the default --layout auto): same answers as the u16 layout,
+    // `tables.index = "u32"`, u32 arrays in the exported source.
+    let thetas = file("wide.csv", "0.5,-0.25\n2,-3\n-1.5,0.75\n10,0\n0.1,2.5\n");
+    let narrow = solve_box("layout-u16", &["--no-clipping"]);
+    let wide = solve_box("layout-u32", &["--no-clipping", "--layout", "u32"]);
+    let read = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let (vn, vw) = (read(&narrow), read(&wide));
+    assert!(vn["tables"].get("index").is_none());
+    assert_eq!(vw["tables"]["index"], "u32");
+    assert_eq!(vw["tree"]["nodes"], vn["tree"]["nodes"]);
+    assert!(vw["tree"]["bytes"].as_u64() > vn["tree"]["bytes"].as_u64());
+    let on = eval(&narrow, &thetas, &[]);
+    let ow = eval(&wide, &thetas, &[]);
+    assert!(ow.status.success(), "{}", stderr(&ow));
+    assert_eq!(on.stdout, ow.stdout, "the same z, digit for digit");
+    assert_eq!(csv_rows(&ow)[0], vec![-0.5, 0.25]);
+    assert!(stderr(&ow).contains("1 of 5 parameters lie outside"));
+    let out = dir().join("wide-tables.rs");
+    let o = kestrel()
+        .args(["empc", "export", "--solution"])
+        .arg(&wide)
+        .args(["--scalar", "f32", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let src = std::fs::read_to_string(&out).unwrap();
+    assert!(src.contains("pub static NODES: [[u32; 4];"), "{src}");
+    assert!(src.contains("kestrel_empc::eval::WideSliceTables<'static, f32>"));
+    // --layout auto keeps u16 for a tree that fits; --compact needs u16.
+    let auto = solve_box("layout-auto", &["--no-clipping", "--layout", "auto"]);
+    assert!(read(&auto)["tables"].get("index").is_none());
+    let prob = file("wide-compact.json", BOX2);
+    let o = kestrel()
+        .args(["empc", "solve", "--layout", "u32", "--compact", "--problem"])
+        .arg(&prob)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--compact"), "{}", stderr(&o));
+    // A corrupted wide file: a clear error naming the key.
+    let mut v = vw.clone();
+    v["tables"]["nodes"][0][2] = serde_json::json!(-3);
+    let bad = file("wide-bad.json", &v.to_string());
+    let o = eval(&bad, &thetas, &[]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("tables.nodes[0][2]"), "{}", stderr(&o));
+}

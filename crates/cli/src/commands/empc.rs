@@ -2,10 +2,11 @@
 
 use crate::io;
 use anyhow::{Context, bail};
+use kestrel_empc::eval::{TreeIndex, TreeTables};
 use kestrel_empc::export::{self, ExportScalar};
+use kestrel_empc::tree::{AnyTables, TreeLayout, build_any};
 use kestrel_empc::{
-    Outputs, Settings, TreeSettings, TreeTables, build_compact, build_controller, evaluate_with,
-    solve,
+    ExplicitController, Outputs, Settings, TreeSettings, build_compact, evaluate_with, solve,
 };
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -31,7 +32,9 @@ enum Sub {
     /// distinct_laws, solve_seconds, tree {depth, nodes, bytes}), the region
     /// list (active set, half-spaces A theta <= b, law z = Fz theta + gz;
     /// leave out with --no-regions) and the evaluation tables that `eval`
-    /// and `export` read. A one-line summary goes to standard error.
+    /// and `export` read (u16 indices; trees beyond 32767 nodes in the wide
+    /// u32 layout, `tables.index = "u32"`, see --layout). A one-line
+    /// summary goes to standard error.
     /// Unbounded parameter sets, an indefinite H and an empty feasible set
     /// are errors.
     Solve(SolveArgs),
@@ -53,7 +56,9 @@ enum Sub {
     /// default standard output): Rust source defining `NODES`, `LAWS`,
     /// `ROWS`, `HULL`, `THETA_LB`, `THETA_UB`, `BOUNDS` (u16 indices, numbers
     /// in the chosen --scalar) and `TABLES: kestrel_empc::SliceTables`, to
-    /// evaluate with `kestrel_empc::evaluate` in no_std firmware. With
+    /// evaluate with `kestrel_empc::evaluate` in no_std firmware; a wide
+    /// solution (u32 layout) gives u32 `NODES`, `LAWS`, `BOUNDS` and
+    /// `TABLES: kestrel_empc::eval::WideSliceTables`. With
     /// --compact (a solution from `solve --compact`): the compact layout,
     /// `ROOTS`, `NODES: [kestrel_empc::CompactNode; _]` (u8 rows, u16
     /// children), `ROWS`, `HULL`, `THETA_LB`, `THETA_UB`, `BOUNDS` and
@@ -95,10 +100,14 @@ struct SolveArgs {
     /// `auto` (`lp` up to 400 regions). Both trees are exact.
     #[arg(long, value_enum, default_value = "auto")]
     tree_method: TreeMethodArg,
-    /// Stop with an error once the search tree has this many nodes (at
-    /// most 32767, what the u16 child codes address).
-    #[arg(long, value_name = "NODES", default_value_t = kestrel_empc::tree::MAX_NODES)]
+    /// Stop with an error once the search tree has this many nodes (the
+    /// u16 layout holds at most 32767; larger trees take the u32 layout).
+    #[arg(long, value_name = "NODES", default_value_t = kestrel_empc::tree::DEFAULT_MAX_NODES)]
     max_nodes: usize,
+    /// Index width of the tables: `auto` (u16 when the tree fits, else
+    /// u32), `u16` (an error beyond 32767 nodes) or `u32` (always wide).
+    #[arg(long, value_enum, default_value = "auto")]
+    layout: LayoutArg,
     /// Also build the compact layout (one search tree per output, 6-byte
     /// nodes): adds `tree_compact` (with its f32 `bytes`) and
     /// `compact_tables` to the solution file.
@@ -115,6 +124,17 @@ enum TreeMethodArg {
     Lp,
     /// Scores from sample points; LPs only for the chosen split.
     Sampled,
+}
+
+/// Table layout (`kestrel_empc::tree::TreeLayout`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum LayoutArg {
+    /// u16 indices when the tree fits, else u32.
+    Auto,
+    /// u16 indices (flash-ready), at most 32767 nodes.
+    U16,
+    /// u32 indices.
+    U32,
 }
 
 /// `kestrel empc eval`.
@@ -196,18 +216,38 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
             TreeMethodArg::Sampled => kestrel_empc::tree::TreeMethod::Sampled,
         },
         max_nodes: a.max_nodes,
+        layout: match a.layout {
+            LayoutArg::Auto => TreeLayout::Auto,
+            LayoutArg::U16 => TreeLayout::Narrow,
+            LayoutArg::U32 => TreeLayout::Wide,
+        },
         ..TreeSettings::default()
     };
-    let ctl = build_controller(&problem, &sol, &tree).with_context(|| name.clone())?;
+    let any = build_any(&problem, &sol, &tree).with_context(|| name.clone())?;
     eprintln!(
-        "{} regions, {} distinct laws, solved in {:.4} s; tree depth {}, {} nodes, {} bytes (f32)",
+        "{} regions, {} distinct laws, solved in {:.4} s; tree depth {}, {} nodes, {} bytes (f32, {} indices)",
         sol.regions.len(),
-        ctl.stats.distinct_laws,
+        any.stats.distinct_laws,
         sol.stats.solve_seconds,
-        ctl.stats.depth,
-        ctl.stats.nodes,
-        ctl.tables.bytes(4)
+        any.stats.depth,
+        any.stats.nodes,
+        any.tables.bytes(4),
+        if any.tables.is_wide() { "u32" } else { "u16" }
     );
+    let ctl = match any.tables {
+        AnyTables::Narrow(tables) => ExplicitController {
+            tables,
+            region_law: any.region_law,
+            stats: any.stats,
+        },
+        AnyTables::Wide(_) if a.compact => {
+            bail!("{name}: --compact needs a tree in the u16 layout (this one is wide)")
+        }
+        AnyTables::Wide(_) => {
+            let text = export::solution_json_any(&sol, &any, !a.no_regions);
+            return io::write_output(a.out.as_deref(), &text);
+        }
+    };
     let text = if a.compact {
         let compact = build_compact(&problem, &sol, &tree).with_context(|| name.clone())?;
         eprintln!(
@@ -227,8 +267,8 @@ fn read_text(path: &std::path::Path) -> anyhow::Result<String> {
     std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))
 }
 
-fn read_tables(path: &std::path::Path) -> anyhow::Result<kestrel_empc::OwnedTables<f64>> {
-    export::tables_from_json(&read_text(path)?).with_context(|| path.display().to_string())
+fn read_tables(path: &std::path::Path) -> anyhow::Result<AnyTables> {
+    export::any_tables_from_json(&read_text(path)?).with_context(|| path.display().to_string())
 }
 
 fn read_compact(path: &std::path::Path) -> anyhow::Result<kestrel_empc::CompactTables<f64>> {
@@ -240,12 +280,14 @@ fn run_eval(a: EvalArgs) -> anyhow::Result<()> {
         let tables = read_compact(&a.solution)?;
         eval_with(&a, &tables.tables())
     } else {
-        let tables = read_tables(&a.solution)?;
-        eval_with(&a, &tables.tables())
+        match read_tables(&a.solution)? {
+            AnyTables::Narrow(t) => eval_with(&a, &t.tables()),
+            AnyTables::Wide(t) => eval_with(&a, &t.tables()),
+        }
     }
 }
 
-fn eval_with<T: TreeTables<f64>>(a: &EvalArgs, t: &T) -> anyhow::Result<()> {
+fn eval_with<I: TreeIndex, T: TreeTables<f64, I>>(a: &EvalArgs, t: &T) -> anyhow::Result<()> {
     let p = t.n_params();
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
@@ -306,7 +348,7 @@ fn run_export(a: ExportArgs) -> anyhow::Result<()> {
     let src = if a.compact {
         export::rust_source_compact(&read_compact(&a.solution)?, scalar)
     } else {
-        export::rust_source(&read_tables(&a.solution)?, scalar)
+        export::rust_source_any(&read_tables(&a.solution)?, scalar)
     }
     .with_context(|| a.solution.display().to_string())?;
     io::write_output(a.out.as_deref(), &src)
