@@ -76,9 +76,12 @@ impl TreeIndex for u16 {
 impl TreeIndex for u32 {
     const LEAF: u32 = WIDE_LEAF;
     const NO_ROW: u32 = WIDE_NO_ROW;
+    /// On a 16-bit target an index beyond `usize` becomes `usize::MAX`,
+    /// which no table holds: the accessors return `None`, never a
+    /// truncated index.
     #[inline]
     fn index(self) -> usize {
-        self as usize
+        usize::try_from(self).unwrap_or(usize::MAX)
     }
     #[inline]
     fn is_leaf(self) -> bool {

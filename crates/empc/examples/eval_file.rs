@@ -1,0 +1,103 @@
+//! Host evaluation time of a solution file's tree (either layout), in CPU
+//! time of this thread (the machine is shared: wall time grows with the
+//! load, CPU time much less) and wall time:
+//!
+//! `cargo run --release -p kestrel-empc --example eval_file -- solution.json
+//! [samples] [passes]`
+//!
+//! `samples` (default 10^4) random parameters in the box, each pass
+//! evaluates all of them once (f64 tables, then f32); the best pass is
+//! reported per evaluation. The solution file comes from `kestrel empc
+//! solve` or the `whole_box` example.
+use kestrel_core::Scalar;
+use kestrel_empc::eval::{TreeIndex, TreeTables};
+use kestrel_empc::evaluate_with;
+use kestrel_empc::export::any_tables_from_json;
+use kestrel_empc::mpqp::Rng;
+use kestrel_empc::tree::AnyTables;
+
+/// CPU nanoseconds of this thread (`/proc/thread-self/schedstat`).
+fn thread_cpu_ns() -> f64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().and_then(|v| v.parse().ok()))
+        .unwrap_or(f64::NAN)
+}
+
+/// Best (CPU, wall) nanoseconds per evaluation over `passes` passes.
+fn time<S: Scalar, I: TreeIndex, T: TreeTables<S, I>>(
+    t: &T,
+    thetas: &[Vec<f64>],
+    passes: usize,
+) -> (f64, f64) {
+    let ths: Vec<Vec<S>> = thetas
+        .iter()
+        .map(|th| th.iter().map(|&v| S::from_f64(v)).collect())
+        .collect();
+    let mut z = vec![S::ZERO; t.n_outputs()];
+    let mut scratch = vec![S::ZERO; t.n_params()];
+    let (mut cpu, mut wall) = (f64::INFINITY, f64::INFINITY);
+    let n = ths.len().max(1) as f64;
+    for _ in 0..passes {
+        let (c0, w0) = (thread_cpu_ns(), std::time::Instant::now());
+        for th in &ths {
+            let e = evaluate_with(t, std::hint::black_box(th), &mut scratch, &mut z);
+            std::hint::black_box((&e, &z));
+        }
+        wall = wall.min(w0.elapsed().as_nanos() as f64 / n);
+        cpu = cpu.min((thread_cpu_ns() - c0) / n);
+    }
+    (cpu, wall)
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let path = args.next().expect("a solution file");
+    let samples: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(10_000);
+    let passes: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(5);
+    let text = std::fs::read_to_string(&path).expect("read the solution file");
+    let tables = any_tables_from_json(&text).expect("tables");
+    let (lb, ub) = match &tables {
+        AnyTables::Narrow(t) => (t.theta_lb.clone(), t.theta_ub.clone()),
+        AnyTables::Wide(t) => (t.theta_lb.clone(), t.theta_ub.clone()),
+    };
+    let mut rng = Rng::new(7);
+    let thetas: Vec<Vec<f64>> = (0..samples)
+        .map(|_| {
+            lb.iter()
+                .zip(&ub)
+                .map(|(lo, hi)| lo + (hi - lo) * 0.5 * (rng.sym() + 1.0))
+                .collect()
+        })
+        .collect();
+    let ((c64, w64), (c32, w32), steps) = match &tables {
+        AnyTables::Narrow(t) => (
+            time(&t.tables(), &thetas, passes),
+            time(&t.cast::<f32>().tables(), &thetas, passes),
+            mean_steps(&t.tables(), &thetas),
+        ),
+        AnyTables::Wide(t) => (
+            time(&t.tables(), &thetas, passes),
+            time(&t.cast::<f32>().tables(), &thetas, passes),
+            mean_steps(&t.tables(), &thetas),
+        ),
+    };
+    println!(
+        "{path}: {} layout, {} nodes, {} bytes (f32), mean path {steps:.1} nodes; per evaluation: f64 {c64:.0} ns CPU ({w64:.0} ns wall), f32 {c32:.0} ns CPU ({w32:.0} ns wall)",
+        if tables.is_wide() { "u32" } else { "u16" },
+        tables.n_nodes(),
+        tables.bytes(4)
+    );
+}
+
+/// The mean number of nodes visited.
+fn mean_steps<I: TreeIndex, T: TreeTables<f64, I>>(t: &T, thetas: &[Vec<f64>]) -> f64 {
+    let mut z = vec![0.0; t.n_outputs()];
+    let mut scratch = vec![0.0; t.n_params()];
+    let total: f64 = thetas
+        .iter()
+        .filter_map(|th| evaluate_with(t, th, &mut scratch, &mut z).ok())
+        .map(|e| f64::from(e.steps))
+        .sum();
+    total / thetas.len().max(1) as f64
+}
