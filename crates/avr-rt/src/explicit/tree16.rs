@@ -333,6 +333,15 @@ const CTX_BYTES: usize = 40;
 #[cfg(target_arch = "avr")]
 const _: () = assert!(CTX_BYTES == super::walk_avr::THETA_AT);
 
+/// The assembly walk's context ([`super::walk_avr`], AVR only) at the start
+/// of [`Scratch`]; elsewhere as many unused bytes.
+#[cfg(target_arch = "avr")]
+type CtxBlock = super::walk_avr::Ctx;
+/// The assembly walk's context (AVR only) at the start of [`Scratch`];
+/// here as many unused bytes.
+#[cfg(not(target_arch = "avr"))]
+type CtxBlock = [u8; CTX_BYTES];
+
 /// The law's RAM scratch, in the order the assembly walk addresses it:
 /// its context, the quantised `theta` (`P` `i16`) directly followed by the row value
 /// cache, 5 bytes per row (the period stamp, then the `i32` value); for
@@ -344,7 +353,7 @@ struct Scratch<const P: usize, const R: usize> {
     /// The assembly walk's context (`walk_avr::Ctx`, AVR only), directly
     /// before `theta` so the routine reaches both from one pointer.
     #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
-    ctx: [u8; CTX_BYTES],
+    ctx: CtxBlock,
     theta: [i16; P],
     cache: [[u8; 5]; R],
     tags: [u16; R],
@@ -375,6 +384,8 @@ pub struct Empc16Law<S, T, const P: usize, const NU: usize, const R: usize> {
     row_bytes: u16,
     scratch: Scratch<P, R>,
     period: u8,
+    /// The next cache entry [`Self::next_period`] clears.
+    sweep: usize,
     steps: u16,
     outside: u32,
     _s: core::marker::PhantomData<S>,
@@ -445,6 +456,7 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         }
         let [nodes_at, laws_at, bounds_at, rows_at, _] = l.offsets();
         let at = [nodes_at, laws_at, bounds_at, rows_at];
+        let ctx = ctx_block(&tree, &at, l.row_bytes() as u16);
         Ok(Empc16Law {
             tree,
             nx,
@@ -453,12 +465,13 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
             at,
             row_bytes: l.row_bytes() as u16,
             scratch: Scratch {
-                ctx: [0; CTX_BYTES],
+                ctx,
                 theta: [0; P],
                 cache: [[0; 5]; R],
                 tags: [0; R],
             },
             period: 0,
+            sweep: 0,
             steps: 0,
             outside: 0,
             _s: core::marker::PhantomData,
@@ -534,15 +547,26 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
             .count()
     }
 
-    /// A new period stamp for the value cache (0 is never used, so a
-    /// fresh cache is empty).
+    /// A new period stamp for the value cache (1 to 255: 0 is never used,
+    /// so a fresh cache is empty). A stamp comes back after 255 periods:
+    /// each period clears `ceil(R / 255)` entries in turn, so every entry
+    /// is cleared within 255 periods of its writing and an old value is
+    /// never taken for this period's (the same work every period, instead
+    /// of clearing the whole cache when the stamp wraps).
     fn next_period(&mut self) {
         self.period = self.period.wrapping_add(1);
         if self.period == 0 {
-            for e in self.scratch.cache.iter_mut() {
+            self.period = 1;
+        }
+        for _ in 0..R.div_ceil(255) {
+            if let Some(e) = self.scratch.cache.get_mut(self.sweep) {
                 e[0] = 0;
             }
-            self.period = 1;
+            self.sweep = if self.sweep + 1 >= R {
+                0
+            } else {
+                self.sweep + 1
+            };
         }
     }
 
@@ -698,65 +722,52 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         bits: Option<&[i32; P]>,
         out_shift: u8,
     ) -> Option<Result<Raw<NU>, Error>> {
-        if self.tree.layout.wide {
-            return None; // the assembly reads the narrow layout
-        }
-        let base = self.tree.table.flash_address()?;
-        let addr = |off: u32| {
-            let b = base.wrapping_add(off).to_le_bytes();
-            [b[0], b[1], b[2], 0]
-        };
-        let l = &self.tree.layout;
         let mut z = [0i32; NU];
-        let mut ctx = super::walk_avr::Ctx {
-            nodes: addr(self.at[0]),
-            rows: addr(self.at[3]),
-            laws: addr(self.at[1]),
-            bounds: addr(self.at[2]),
-            cache: self.scratch.cache.as_mut_ptr() as usize as u16,
-            q16: bits.map_or(0, |b| b.as_ptr() as usize as u16),
-            params: self.param_bytes.as_ptr() as usize as u16,
-            out: z.as_mut_ptr() as usize as u16,
-            root: l.root,
-            n_nodes: l.n_nodes as u16,
-            n_rows: l.n_rows as u8,
-            n_laws: l.n_laws as u8,
-            np: P as u8,
-            nu: NU as u8,
-            rb: self.row_bytes as u8,
-            period: self.period,
-            steps: 0,
-            outside: 0,
-            law: 0,
-            scratch: 0,
-            out_shift,
-        };
-        // SAFETY: the block is this law's scratch (`repr(C)`: the context,
-        // theta, then the cache), 40 bytes for the `Ctx` (alignment 1 on the
-        // AVR; written and read unaligned); `ctx` points at its parameter
-        // bytes, `z` (NU values) and the bits (P values); the routine
-        // writes only the scratch (row indices checked against
-        // `n_rows <= R`), `z` and the context, and reads flash inside the
-        // table (indices checked).
-        let block = self.scratch.ctx.as_mut_ptr().cast::<super::walk_avr::Ctx>();
-        let status = unsafe {
-            block.write_unaligned(ctx);
-            let status = super::walk_avr::kestrel_empc16_eval(block);
-            ctx = block.read_unaligned();
-            status
-        };
-        if ctx.outside != 0 {
-            self.outside = self.outside.saturating_add(1);
-        }
+        let status = self.run_asm(bits, out_shift, &mut z)?;
         Some(if status == 0 {
             Ok(Raw {
                 z,
-                law: u16::from(ctx.law),
-                steps: ctx.steps,
+                law: u16::from(self.scratch.ctx.law),
+                steps: self.scratch.ctx.steps,
             })
         } else {
             Err(Error::OutOfRange)
         })
+    }
+
+    /// One call of the assembly routine (`explicit/walk_avr.rs`) with the
+    /// outputs into `z`: its status (0, or 1 for a corrupted table), the
+    /// outside count updated; `None`: the table is not in flash or wide.
+    #[cfg(target_arch = "avr")]
+    #[inline(always)]
+    fn run_asm(&mut self, bits: Option<&[i32; P]>, out_shift: u8, z: &mut [i32; NU]) -> Option<u8> {
+        if self.tree.layout.wide {
+            return None; // the assembly reads the narrow layout
+        }
+        self.tree.table.flash_address()?;
+        // The context's constant fields were written by `new` (`ctx_block`);
+        // the pointers (the law may have moved since), the stamp and the
+        // output shift are this call's.
+        let cache = self.scratch.cache.as_mut_ptr() as usize as u16;
+        let params = self.param_bytes.as_ptr() as usize as u16;
+        let ctx = &mut self.scratch.ctx;
+        ctx.cache = cache;
+        ctx.q16 = bits.map_or(0, |b| b.as_ptr() as usize as u16);
+        ctx.params = params;
+        ctx.out = z.as_mut_ptr() as usize as u16;
+        ctx.period = self.period;
+        ctx.out_shift = out_shift;
+        // SAFETY: `ctx` is the start of this law's scratch (`repr(C)`: the
+        // context, theta, then the cache) and points at its parameter
+        // bytes, `z` (NU values) and the bits (P values); the routine
+        // writes only the scratch (row indices checked against
+        // `n_rows <= R`), `z` and the context, and reads flash inside the
+        // table (indices checked).
+        let status = unsafe { super::walk_avr::kestrel_empc16_eval(ctx) };
+        if self.scratch.ctx.outside != 0 {
+            self.outside = self.outside.saturating_add(1);
+        }
+        Some(status)
     }
 }
 
@@ -771,38 +782,59 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
                 return Err(Error::DimensionMismatch { expected, found });
             }
         }
-        // theta = [x; r] as Q15.16 bits, in one pass (no packed copy).
-        let mut bits = [0i32; P];
-        for (b, t) in bits.iter_mut().zip(x.iter().chain(r)) {
-            *b = t.to_q16().ok_or(Error::NonFinite)?;
-        }
-        self.solve(&bits, u)
+        self.solve(x, r, u)
     }
 }
 
 impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     Empc16Law<S, T, P, NU, R>
 {
-    /// One period from `theta`'s Q15.16 bits in one frame of its own
-    /// (quantisation, walk, outputs): inlined into the caller's large
-    /// frame, every local cost a long stack-pointer adjustment on the AVR.
+    /// One period from `theta = [x; r]` (checked lengths) in one frame of
+    /// its own (conversion to Q15.16, quantisation, walk, outputs): inlined
+    /// into the caller's large frame, every local costs a long
+    /// stack-pointer adjustment on the AVR.
     #[inline(never)]
-    fn solve(&mut self, bits: &[i32; P], u: &mut [S]) -> Result<(), Error> {
-        self.next_period();
-        let k = self.tree.layout.scale;
-        // On the AVR with the table in flash: quantisation, walk and the
-        // outputs in Q15.16 (k >= 16) in one assembly routine.
-        #[cfg(target_arch = "avr")]
-        if k >= 16 {
-            if let Some(r) = self.walk_asm(Some(bits), k - 16) {
-                let raw = r?;
-                self.steps = raw.steps;
-                for (ui, zi) in u.iter_mut().zip(raw.z) {
-                    *ui = S::from_q16(zi);
-                }
-                return Ok(());
-            }
+    fn solve(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
+        // theta = [x; r] as Q15.16 bits, in one pass.
+        let mut bits = [0i32; P];
+        for (b, t) in bits.iter_mut().zip(x.iter().chain(r)) {
+            *b = t.to_q16().ok_or(Error::NonFinite)?;
         }
+        self.next_period();
+        // On the AVR with the table in flash: quantisation, walk and the
+        // outputs in Q15.16 (scale >= 16) in one assembly routine.
+        #[cfg(target_arch = "avr")]
+        if let Some(r) = self.solve_asm(&bits, u) {
+            return r;
+        }
+        self.solve_rust(&bits, u)
+    }
+
+    /// [`Self::solve`] on the AVR's assembly routine (`None`: the table is
+    /// not in flash, wide, or has a scale below 16).
+    #[cfg(target_arch = "avr")]
+    #[inline(always)]
+    fn solve_asm(&mut self, bits: &[i32; P], u: &mut [S]) -> Option<Result<(), Error>> {
+        let k = self.tree.layout.scale;
+        if k < 16 {
+            return None;
+        }
+        let mut z = [0i32; NU];
+        let status = self.run_asm(Some(bits), k - 16, &mut z)?;
+        if status != 0 {
+            return Some(Err(Error::OutOfRange));
+        }
+        self.steps = self.scratch.ctx.steps;
+        for (ui, zi) in u.iter_mut().zip(z) {
+            *ui = S::from_q16(zi);
+        }
+        Some(Ok(()))
+    }
+
+    /// [`Self::solve`] in Rust (the host's path, and tables not in flash).
+    #[inline(never)]
+    fn solve_rust(&mut self, bits: &[i32; P], u: &mut [S]) -> Result<(), Error> {
+        let k = self.tree.layout.scale;
         let (q, outside) = self.quantize_bits(bits);
         self.scratch.theta = q;
         if outside {
@@ -820,6 +852,48 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         }
         Ok(())
     }
+}
+
+/// The assembly walk's context with the table's constant fields (flash
+/// addresses, counts); the pointers, the stamp and the output shift are
+/// set per call (`Empc16Law::walk_asm`).
+#[cfg(target_arch = "avr")]
+fn ctx_block<T: TableRead>(tree: &Tree16<T>, at: &[u32; 4], row_bytes: u16) -> CtxBlock {
+    let base = tree.table.flash_address().unwrap_or(0);
+    let addr = |off: u32| {
+        let b = base.wrapping_add(off).to_le_bytes();
+        [b[0], b[1], b[2], 0]
+    };
+    let l = &tree.layout;
+    super::walk_avr::Ctx {
+        nodes: addr(at[0]),
+        rows: addr(at[3]),
+        laws: addr(at[1]),
+        bounds: addr(at[2]),
+        cache: 0,
+        q16: 0,
+        params: 0,
+        out: 0,
+        root: l.root,
+        n_nodes: l.n_nodes as u16,
+        n_rows: l.n_rows as u8,
+        n_laws: l.n_laws as u8,
+        np: l.n_params as u8,
+        nu: l.n_outputs as u8,
+        rb: row_bytes as u8,
+        period: 0,
+        steps: 0,
+        outside: 0,
+        law: 0,
+        scratch: 0,
+        out_shift: 0,
+    }
+}
+
+/// The assembly walk's context (AVR only): unused bytes here.
+#[cfg(not(target_arch = "avr"))]
+fn ctx_block<T: TableRead>(_: &Tree16<T>, _: &[u32; 4], _: u16) -> CtxBlock {
+    [0; CTX_BYTES]
 }
 
 /// Outputs of a table with fewer than 16 fraction bits: `z 2^s`, saturated.
@@ -903,18 +977,51 @@ mod tests {
 
     #[test]
     fn the_value_cache_is_per_period() {
-        // Many periods (the u8 stamp wraps) give the same answers as fresh laws.
+        // Many periods (the u8 stamp wraps) give the same answers as fresh
+        // laws, with a cache swept one entry per period (R = 8) and two
+        // (R = 300), and with the same parameter every period (each row
+        // cached once and then only read: the sweep must clear it before
+        // its stamp comes back).
         let (b, l) = table();
         let mut law = law(&b, l);
+        let mut big: Empc16Law<f64, &[u8], 1, 1, 300> =
+            Empc16Law::new(Tree16::new(&b[..], l).unwrap(), 0).unwrap();
+        let mut same = self::law(&b, l);
         let mut u = [0.0];
-        for k in 0..600 {
+        let mut w = [0.0];
+        for k in 0..1200 {
             let th = ((k * 37) % 200) as f64 / 100.0 - 1.0;
             law.control(&[], &[th], &mut u).unwrap();
+            big.control(&[], &[th], &mut w).unwrap();
             let mut fresh = self::law(&b, l);
             let mut v = [0.0];
             fresh.control(&[], &[th], &mut v).unwrap();
             assert_eq!(u, v, "period {k}");
+            assert_eq!(w, v, "period {k}, R = 300");
+            // Alternate two parameters in `same` after a long run at one.
+            let th2 = if k < 600 { -0.5 } else { th };
+            same.control(&[], &[th2], &mut u).unwrap();
+            fresh.control(&[], &[th2], &mut v).unwrap();
+            assert_eq!(u, v, "period {k}, held parameter");
         }
+    }
+
+    #[test]
+    fn a_row_unused_for_255_periods_is_not_taken_from_the_cache() {
+        // Period 1 caches law 0's row (theta < 0); 254 periods on the other
+        // side leave it alone; period 256 has the stamp 1 again: the row
+        // must be evaluated anew (the sweep cleared it), not read back.
+        let (b, l) = table();
+        let mut law = law(&b, l);
+        let mut u = [0.0];
+        law.control(&[], &[-0.5], &mut u).unwrap();
+        assert!((u[0] - 0.5).abs() < 1e-4);
+        for _ in 0..254 {
+            law.control(&[], &[0.5], &mut u).unwrap();
+            assert_eq!(u, [0.0]);
+        }
+        law.control(&[], &[-0.6], &mut u).unwrap();
+        assert!((u[0] - 0.6).abs() < 1e-4, "{} (a stale 0.5?)", u[0]);
     }
 
     #[test]

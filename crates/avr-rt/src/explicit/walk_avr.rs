@@ -168,10 +168,12 @@ const _: () = assert!(core::mem::size_of::<Ctx>() == THETA_AT);
 ///
 /// Registers during the walk: r2 zero, r3 the period stamp, r4:r5 the
 /// cache, r6 `n_rows`, r7:r9 the rows' flash address (r8 low, r9 high, r7
-/// the top byte), r10 node row `b` / leaf law row, r11 node left child /
-/// leaf output, r12:r13 node right child / leaf bounds, r14:r15 the child
-/// code / leaf law offset, r25 nodes visited (low byte; the high byte in
-/// the context), the T flag set for nine parameters (the unrolled rows).
+/// the top byte), r10 node row `b`, r11 node left child, r12:r13 node
+/// right child, r14:r15 the child
+/// code, r25 nodes visited (low byte; the high byte in the context), the T
+/// flag set for nine parameters (the unrolled rows). In the leaf r12:r14
+/// and r10, r11, r15 are the 24-bit flash addresses of the next law row
+/// index and bound row indices, r25 the outputs left.
 ///
 /// # Safety
 /// `ctx` must be the start of the law's scratch block (the [`Ctx`], then
@@ -363,7 +365,8 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         ".Lke_rgo:",
         "movw r14, r12",
         "rjmp .Lke_node",
-        // ---- the leaf: law r14 (checked), output r11 into *out
+        // ---- the leaf: law r14 (checked); per output (r25 left) its law
+        // row clamped to its bound rows, rounded, into *out
         ".Lke_leaf:",
         "std Y+34, r25",
         "mov r24, r15",
@@ -377,40 +380,36 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "rjmp .Lke_err",
         "9:",
         "std Y+37, r14",
-        "ldd r24, Y+31",          // NU law
-        "mul r14, r24",
-        "movw r14, r0",
-        "clr r11",
+        "ldd r25, Y+31",          // outputs left
+        "tst r25",
+        "brne 9f",
+        "rjmp .Lke_done",
+        "9:",
+        "mul r14, r25",           // r12:r13:r14 = the law's row indices
+        "ldd r12, Y+8",
+        "ldd r13, Y+9",
+        "ldd r14, Y+10",
+        "add r12, r0",
+        "adc r13, r1",
+        "adc r14, r2",
+        "ldd r10, Y+12",          // r10:r11:r15 = the output bounds' rows
+        "ldd r11, Y+13",
+        "ldd r15, Y+14",
         ".Lke_out:",
-        "ldd r30, Y+8",           // the law's row for output o
-        "ldd r31, Y+9",
-        "ldd r16, Y+10",
-        "add r30, r14",
-        "adc r31, r15",
-        "adc r16, r2",
-        "add r30, r11",
-        "adc r31, r2",
-        "adc r16, r2",
-        "out 0x3B, r16",
-        "elpm r10, Z",
-        "ldd r30, Y+12",          // its bounds' rows
-        "ldd r31, Y+13",
-        "ldd r16, Y+14",
-        "add r30, r11",
-        "adc r31, r2",
-        "adc r16, r2",
-        "add r30, r11",
-        "adc r31, r2",
-        "adc r16, r2",
-        "out 0x3B, r16",
-        "elpm r12, Z+",
-        "elpm r13, Z",
-        "mov r24, r10",           // v
+        "movw r30, r12",          // v = the law's row (ELPM Z+ carries into RAMPZ)
+        "out 0x3B, r14",
+        "elpm r24, Z+",
+        "movw r12, r30",
+        "in r14, 0x3B",
         "rcall .Lke_row",
         "brcc 9f",
         "rjmp .Lke_err",
         "9:",
-        "mov r24, r12",           // lo
+        "movw r30, r10",          // lo
+        "out 0x3B, r15",
+        "elpm r24, Z+",
+        "movw r10, r30",
+        "in r15, 0x3B",
         "cpi r24, 0xFF",
         "breq .Lke_ohi",
         "push r16",
@@ -433,7 +432,11 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "movw r16, r20",
         "movw r18, r22",
         ".Lke_ohi:",
-        "mov r24, r13",           // hi
+        "movw r30, r10",          // hi
+        "out 0x3B, r15",
+        "elpm r24, Z+",
+        "movw r10, r30",
+        "in r15, 0x3B",
         "cpi r24, 0xFF",
         "breq .Lke_ost",
         "push r16",
@@ -457,6 +460,18 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "movw r18, r22",
         ".Lke_ost:",
         "ldd r24, Y+39",          // v = round(v / 2^out_shift)
+        "cpi r24, 1",
+        "brne .Lke_osh",
+        "asr r19",                // one bit (the tricopter's K = 17)
+        "ror r18",
+        "ror r17",
+        "ror r16",
+        "adc r16, r2",
+        "adc r17, r2",
+        "adc r18, r2",
+        "adc r19, r2",
+        "rjmp .Lke_st2",
+        ".Lke_osh:",
         "tst r24",
         "breq .Lke_st2",
         round_shift!("r24", "o"),
@@ -469,12 +484,10 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "st Z+, r19",
         "std Y+22, r30",
         "std Y+23, r31",
-        "inc r11",
-        "ldd r24, Y+31",
-        "cp r11, r24",
-        "brsh 9f",
+        "dec r25",
+        "breq .Lke_done",
         "rjmp .Lke_out",
-        "9:",
+        ".Lke_done:",
         "clr r24",
         "rjmp .Lke_ret",
         ".Lke_err:",
