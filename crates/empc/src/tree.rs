@@ -687,22 +687,22 @@ impl Builder<'_> {
         }
     }
 
-    /// The sampled split key of hyperplane `h` (distinct laws on the larger
-    /// side, then on both): a region counts on the sides its facets, box or
+    /// The sampled split key of a hyperplane (distinct laws on the larger
+    /// side, then on both) from how each region of the set lies
+    /// ([`Builder::lie`]): a region counts on the sides its facets, box or
     /// points show, on both when nothing shows. `None` if every region
     /// would stay on both sides. `mark` is a scratch law counter.
-    fn score_sampled(
+    fn score_lies(
         &self,
-        h: usize,
+        lies: &[Lie],
         set: &[usize],
-        pts: &[Vec<u32>],
         mark: &mut [u32],
         stamp: u32,
     ) -> Option<(usize, usize)> {
         let (mut nl, mut nr, mut ll, mut lr) = (0, 0, 0, 0);
         // mark bit 0: seen left, bit 1: seen right (with the stamp above).
-        for (i, &r) in set.iter().enumerate() {
-            let (inl, inr) = match self.lie(r, h, &pts[i]) {
+        for (&r, &lie) in set.iter().zip(lies) {
+            let (inl, inr) = match lie {
                 Lie::Left | Lie::PtsLeft => (true, false),
                 Lie::Right | Lie::PtsRight => (false, true),
                 Lie::Both | Lie::Unknown => (true, true),
@@ -841,36 +841,50 @@ impl Builder<'_> {
             .collect();
     }
 
-    /// Sampled scores of the candidates (in their order), on several threads
-    /// when the node is large.
+    /// How every region of the set lies relative to every candidate
+    /// (`[candidate][region]`), on several threads when the node is large.
+    fn lies_all(&self, cands: &[usize], set: &[usize], pts: &[Vec<u32>]) -> Vec<Vec<Lie>> {
+        let one = |h: usize| -> Vec<Lie> {
+            set.iter()
+                .zip(pts)
+                .map(|(&r, q)| self.lie(r, h, q))
+                .collect()
+        };
+        #[cfg(feature = "parallel")]
+        if self.parallel && set.len() * cands.len() > 2000 {
+            use rayon::prelude::*;
+            return cands.par_iter().map(|&h| one(h)).collect();
+        }
+        cands.iter().map(|&h| one(h)).collect()
+    }
+
+    /// Sampled scores of the candidates (in their order) from their lies.
     fn score_all(
         &self,
-        cands: &[usize],
+        lies: &[Vec<Lie>],
         set: &[usize],
-        pts: &[Vec<u32>],
         mark: &mut [u32],
         stamp: &mut u32,
     ) -> Vec<Option<(usize, usize)>> {
         #[cfg(feature = "parallel")]
-        if self.parallel && set.len() * cands.len() > 2000 {
+        if self.parallel && set.len() * lies.len() > 2000 {
             use rayon::prelude::*;
             let n = self.n_laws_total;
-            return cands
+            return lies
                 .par_iter()
                 .map_init(
                     || (vec![0u32; n], 0u32),
-                    |(m, st), &h| {
+                    |(m, st), l| {
                         *st += 1;
-                        self.score_sampled(h, set, pts, m, *st)
+                        self.score_lies(l, set, m, *st)
                     },
                 )
                 .collect();
         }
-        cands
-            .iter()
-            .map(|&h| {
+        lies.iter()
+            .map(|l| {
                 *stamp += 1;
-                self.score_sampled(h, set, pts, mark, *stamp)
+                self.score_lies(l, set, mark, *stamp)
             })
             .collect()
     }
@@ -914,9 +928,24 @@ impl Builder<'_> {
     /// Adds the interior points the split LPs found to the regions' pools,
     /// to the node's point lists (they lie in region and cell) and to the
     /// child lists of their side.
-    fn absorb(&mut self, set: &[usize], pts: &mut [Vec<u32>], splits: &mut [RegionSplit]) {
+    /// Returns the positions in `set` of the regions that got new points.
+    fn absorb(
+        &mut self,
+        set: &[usize],
+        pts: &mut [Vec<u32>],
+        splits: &mut [RegionSplit],
+    ) -> Vec<usize> {
         let p = self.p;
-        for ((&r, q), sp) in set.iter().zip(pts.iter_mut()).zip(splits.iter_mut()) {
+        let mut grown = Vec::new();
+        for (i, ((&r, q), sp)) in set
+            .iter()
+            .zip(pts.iter_mut())
+            .zip(splits.iter_mut())
+            .enumerate()
+        {
+            if sp.new_left.is_some() || sp.new_right.is_some() {
+                grown.push(i);
+            }
             for (new, side) in [
                 (sp.new_left.take(), &mut sp.left),
                 (sp.new_right.take(), &mut sp.right),
@@ -931,9 +960,10 @@ impl Builder<'_> {
                 }
             }
         }
+        grown
     }
 
-    /// The exact key of a split (as [`Builder::score_sampled`], from the
+    /// The exact key of a split (as [`Builder::score_lies`], from the
     /// regions each side really keeps).
     fn split_key(&self, set: &[usize], splits: &[RegionSplit]) -> (usize, usize, usize) {
         let (mut l, mut r): (Vec<u16>, Vec<u16>) = (Vec::new(), Vec::new());
@@ -1012,8 +1042,12 @@ impl Builder<'_> {
         // (exact key, candidate, splits) of the candidates split so far.
         let mut tried: Vec<Tried> = Vec::new();
         let progress = |k: &(usize, usize, usize)| k.0 < n_laws && k.2 > 0;
+        // How every region lies relative to every candidate; after a split
+        // only the regions that got new points are looked at again (a lie
+        // depends on the region, the hyperplane and the region's points).
+        let mut lies = self.lies_all(&cands, &set, &pts);
         loop {
-            let scores = self.score_all(&cands, &set, &pts, mark, stamp);
+            let scores = self.score_all(&lies, &set, mark, stamp);
             // Candidates by key; ties go to the more frequent facet.
             let mut order: Vec<((usize, usize), usize, usize)> = cands
                 .iter()
@@ -1037,7 +1071,12 @@ impl Builder<'_> {
                 break;
             };
             let mut splits = self.split_all(h, &set, &pts, cell);
-            self.absorb(&set, &mut pts, &mut splits);
+            let grown = self.absorb(&set, &mut pts, &mut splits);
+            for (l, &c) in lies.iter_mut().zip(&cands) {
+                for &i in &grown {
+                    l[i] = self.lie(set[i], c, &pts[i]);
+                }
+            }
             let key = self.split_key(&set, &splits);
             tried.push((key, h, splits));
         }

@@ -16,7 +16,7 @@
 
 mod common;
 
-use common::clarabel_qp;
+use common::{clarabel_qp, clarabel_qp_checked};
 use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::mpqp::Rng;
 use kestrel_empc::tree::{AnyTables, TreeMethod, build_any};
@@ -130,6 +130,7 @@ fn ns2_whole_box_wide_tree_is_exact() {
     let t = t.tables();
     let mut rng = Rng::new(99);
     let (mut z, mut scratch) = (vec![0.0; k], vec![0.0; p]);
+    let (mut compared, mut failed) = (0, 0);
     for i in 0..10_000 {
         let th: Vec<f64> = (0..p)
             .map(|j| {
@@ -144,11 +145,23 @@ fn ns2_whole_box_wide_tree_is_exact() {
         assert!(!e.outside);
         assert!(rel(&want, &z) <= 1e-9, "theta {i}: {z:?} vs {want:?}");
         if i % 50 == 0 {
-            let x = clarabel_qp(&prob, &th).expect("clarabel: the QP is feasible");
-            assert!(
-                rel(&x[..k], &z) <= 1e-8,
-                "theta {i}: {z:?} vs clarabel {x:?}"
-            );
+            // clarabel may stop short of its tight tolerances here
+            // (InsufficientProgress): counted, at most a few.
+            match clarabel_qp_checked(&prob, &th) {
+                Ok(x) => {
+                    let x = x.expect("clarabel: the QP is feasible");
+                    assert!(
+                        rel(&x[..k], &z) <= 1e-8,
+                        "theta {i}: {z:?} vs clarabel {x:?}"
+                    );
+                    compared += 1;
+                }
+                Err(_) => failed += 1,
+            }
         }
     }
+    assert!(
+        compared >= 190 && failed <= 10,
+        "{compared} compared, {failed} failed"
+    );
 }

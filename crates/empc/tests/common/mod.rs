@@ -9,7 +9,14 @@ use nalgebra::{DMatrix, DVector};
 
 /// clarabel's solution of the QP at `theta` (tight tolerances), `None` if
 /// infeasible; panics on any other non-solved status.
+#[allow(dead_code)] // not every test binary uses both
 pub fn clarabel_qp(prob: &MpqpProblem, theta: &[f64]) -> Option<Vec<f64>> {
+    clarabel_qp_checked(prob, theta).unwrap_or_else(|e| panic!("clarabel: {e}"))
+}
+
+/// [`clarabel_qp`] with any other status (e.g. `InsufficientProgress` at
+/// these tight tolerances) as an error, for long sweeps that count them.
+pub fn clarabel_qp_checked(prob: &MpqpProblem, theta: &[f64]) -> Result<Option<Vec<f64>>, String> {
     let n = prob.n();
     let th = DVector::from_column_slice(theta);
     let q = prob.linear_term(&th);
@@ -37,8 +44,8 @@ pub fn clarabel_qp(prob: &MpqpProblem, theta: &[f64]) -> Option<Vec<f64>> {
     let mut s = DefaultSolver::new(&pm, &qv, &am, &bv, &cones, settings).unwrap();
     s.solve();
     match s.solution.status {
-        SolverStatus::Solved | SolverStatus::AlmostSolved => Some(s.solution.x[..n].to_vec()),
-        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => None,
-        other => panic!("clarabel: {other:?}"),
+        SolverStatus::Solved | SolverStatus::AlmostSolved => Ok(Some(s.solution.x[..n].to_vec())),
+        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => Ok(None),
+        other => Err(format!("{other:?}")),
     }
 }
