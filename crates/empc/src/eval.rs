@@ -115,6 +115,15 @@ pub trait TreeTables<S: Scalar, I: TreeIndex = u16> {
     fn law(&self, law: usize, out: usize) -> Option<I>;
     /// Entry `j` of affine row `r`: gain for `j < p`, constant for `j == p`.
     fn row(&self, r: usize, j: usize) -> Option<S>;
+    /// The whole affine row `r` (`p + 1` entries) when the tables are in
+    /// addressable memory: the evaluation then reads it as a slice, with
+    /// the same arithmetic in the same order as through [`TreeTables::row`]
+    /// (bit-identical results). `None` (the default, e.g. tables served
+    /// from program memory): entry by entry through [`TreeTables::row`].
+    fn row_slice(&self, r: usize) -> Option<&[S]> {
+        let _ = r;
+        None
+    }
     /// Number of rows of the explored set.
     fn n_hull(&self) -> usize;
     /// Entry `j` of row `i` of the explored set (`a` then `b`).
@@ -162,6 +171,11 @@ macro_rules! shared_accessors {
         }
         fn row(&self, r: usize, j: usize) -> Option<S> {
             entry(self.rows, self.n_params + 1, r, j)
+        }
+        fn row_slice(&self, r: usize) -> Option<&[S]> {
+            let w = self.n_params + 1;
+            let start = r.checked_mul(w)?;
+            self.rows.get(start..start.checked_add(w)?)
         }
         fn n_hull(&self) -> usize {
             self.hull.len() / (self.n_params + 1)
@@ -363,6 +377,31 @@ fn affine<S: Scalar>(theta: &[S], get: impl Fn(usize) -> Option<S>) -> Result<S,
     Ok(acc)
 }
 
+/// Affine row `r` of the tables at `th` (`p` entries): through
+/// [`TreeTables::row_slice`] when the tables give it, else entry by entry;
+/// the same operations in the same order either way.
+#[inline]
+fn row_at<S: Scalar, I: TreeIndex, T: TreeTables<S, I> + ?Sized>(
+    tables: &T,
+    th: &[S],
+    r: usize,
+) -> Result<S, Error> {
+    match tables.row_slice(r) {
+        Some(row) => {
+            let p = th.len();
+            let (Some(gains), Some(&c)) = (row.get(..p), row.get(p)) else {
+                return Err(Error::OutOfRange);
+            };
+            let mut acc = c;
+            for (g, t) in gains.iter().zip(th) {
+                acc = acc.mul_add(*g, *t);
+            }
+            Ok(acc)
+        }
+        None => affine(th, |j| tables.row(r, j)),
+    }
+}
+
 /// Locates `theta` in the tree and writes the law's outputs into `z`.
 ///
 /// `P` is the number of parameters (it must match the tables); `z` must have
@@ -475,14 +514,14 @@ pub fn evaluate_with<S: Scalar, I: TreeIndex, T: TreeTables<S, I> + ?Sized>(
             l
         };
         let r = tables.law(l.index(), o).ok_or(Error::OutOfRange)?.index();
-        let mut v = affine(th, |j| tables.row(r, j))?;
+        let mut v = row_at(tables, th, r)?;
         let [lo, hi] = tables.output_bounds(o).ok_or(Error::OutOfRange)?;
         if lo != I::NO_ROW {
-            let l = affine(th, |j| tables.row(lo.index(), j))?;
+            let l = row_at(tables, th, lo.index())?;
             v = v.max(l);
         }
         if hi != I::NO_ROW {
-            let u = affine(th, |j| tables.row(hi.index(), j))?;
+            let u = row_at(tables, th, hi.index())?;
             v = v.min(u);
         }
         *zo = v;
@@ -509,11 +548,11 @@ fn locate<S: Scalar, I: TreeIndex, T: TreeTables<S, I> + ?Sized>(
             return Err(Error::OutOfRange); // a cycle: corrupted tables
         }
         let node = tables.node(code.index()).ok_or(Error::OutOfRange)?;
-        let a = affine(th, |j| tables.row(node[0].index(), j))?;
+        let a = row_at(tables, th, node[0].index())?;
         let b = if node[1] == I::NO_ROW {
             S::ZERO
         } else {
-            affine(th, |j| tables.row(node[1].index(), j))?
+            row_at(tables, th, node[1].index())?
         };
         code = if a <= b { node[2] } else { node[3] };
         steps = steps.saturating_add(1);

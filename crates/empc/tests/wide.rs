@@ -5,7 +5,7 @@
 //! codes evaluated against a closed form.
 
 use kestrel_core::formats::MpqpProblem;
-use kestrel_empc::eval::{WIDE_LEAF, WIDE_NO_ROW};
+use kestrel_empc::eval::{TreeTables, WIDE_LEAF, WIDE_NO_ROW};
 use kestrel_empc::export::{
     ExportScalar, any_tables_from_json, check_wide_tables, rust_source_wide, solution_json,
     solution_json_any, tables_from_json,
@@ -333,4 +333,82 @@ fn node_caps_hold_in_every_layout() {
     // The default cap allows wide trees, finitely.
     let d = TreeSettings::default().max_nodes;
     assert!(d > kestrel_empc::tree::MAX_NODES && d <= kestrel_empc::tree::WIDE_MAX_NODES);
+}
+
+/// Tables that hide [`TreeTables::row_slice`] (as a flash accessor does):
+/// the evaluation reads every entry through `row`.
+struct EntryOnly<T>(T);
+
+impl<S: kestrel_core::Scalar, I: kestrel_empc::eval::TreeIndex, T: TreeTables<S, I>>
+    TreeTables<S, I> for EntryOnly<T>
+{
+    fn n_params(&self) -> usize {
+        self.0.n_params()
+    }
+    fn n_outputs(&self) -> usize {
+        self.0.n_outputs()
+    }
+    fn n_nodes(&self) -> usize {
+        self.0.n_nodes()
+    }
+    fn root(&self) -> I {
+        self.0.root()
+    }
+    fn node(&self, i: usize) -> Option<[I; 4]> {
+        self.0.node(i)
+    }
+    fn law(&self, law: usize, out: usize) -> Option<I> {
+        self.0.law(law, out)
+    }
+    fn row(&self, r: usize, j: usize) -> Option<S> {
+        self.0.row(r, j)
+    }
+    fn n_hull(&self) -> usize {
+        self.0.n_hull()
+    }
+    fn hull(&self, i: usize, j: usize) -> Option<S> {
+        self.0.hull(i, j)
+    }
+    fn theta_bounds(&self, j: usize) -> Option<(S, S)> {
+        self.0.theta_bounds(j)
+    }
+    fn output_bounds(&self, out: usize) -> Option<[I; 2]> {
+        self.0.output_bounds(out)
+    }
+}
+
+#[test]
+fn row_slices_give_the_same_bits_as_entry_reads() {
+    use kestrel_core::{Q16, Scalar};
+    let prob = kestrel_empc::testing::thesis_sized(1);
+    let sol = solve(&prob, &Settings::default()).unwrap();
+    let s = TreeSettings {
+        outputs: Outputs::First(4),
+        ..TreeSettings::default()
+    };
+    let t = build_controller(&prob, &sol, &s).unwrap().tables;
+    let w = t.widen();
+    fn check<S: Scalar, I: kestrel_empc::eval::TreeIndex, T: TreeTables<S, I> + Copy>(
+        t: T,
+        ths: &[Vec<f64>],
+    ) {
+        let (mut a, mut b) = (vec![S::ZERO; t.n_outputs()], vec![S::ZERO; t.n_outputs()]);
+        let mut scratch = vec![S::ZERO; t.n_params()];
+        for th in ths {
+            let th: Vec<S> = th.iter().map(|&v| S::from_f64(v)).collect();
+            let ea = evaluate_with(&t, &th, &mut scratch, &mut a).unwrap();
+            let eb = evaluate_with(&EntryOnly(t), &th, &mut scratch, &mut b).unwrap();
+            assert_eq!(ea, eb);
+            assert!(
+                a.iter()
+                    .zip(&b)
+                    .all(|(x, y)| x.to_f64().to_bits() == y.to_f64().to_bits())
+            );
+        }
+    }
+    let ths = thetas(&prob, 3000, 1.2, 17);
+    check(t.tables(), &ths);
+    check(t.cast::<f32>().tables(), &ths);
+    check(t.cast::<Q16>().tables(), &ths);
+    check(w.tables(), &ths);
 }
