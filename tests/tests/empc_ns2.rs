@@ -2,9 +2,10 @@
 //! 8 variables) of the identified black-box model: the problem kestrel-mpc
 //! builds has the shape of the checked-in fixture
 //! `crates/empc/tests/data/thesis-ns2.json` (kestrel-empc's `tests/ns2.rs`
-//! checks its search trees, on a sub-box: the whole box needs more than the
-//! 32767 nodes of the `u16` child codes), and `EMPC_DUMP=dir` writes it
-//! again (for a re-identified model).
+//! checks its search trees on a sub-box in CI; the whole box needs more
+//! than the 32767 nodes of the `u16` child codes and builds in the wide
+//! `u32` layout in minutes: its `whole_box` example and ignored test), and
+//! `EMPC_DUMP=dir` writes it again (for a re-identified model).
 
 use kestrel_core::formats::{MpqpProblem, SsModel};
 use kestrel_mpc::{Blocking, MpcProblem, MpcSettings, default_weights, tricopter_trim};
