@@ -329,7 +329,7 @@ fn shr_var_steps(mut v: i32, s: u8) -> i32 {
 }
 
 /// Bytes of the assembly walk's context at the start of [`Scratch`].
-const CTX_BYTES: usize = 40;
+const CTX_BYTES: usize = 43;
 #[cfg(target_arch = "avr")]
 const _: () = assert!(CTX_BYTES == super::walk_avr::THETA_AT);
 
@@ -723,7 +723,7 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         out_shift: u8,
     ) -> Option<Result<Raw<NU>, Error>> {
         let mut z = [0i32; NU];
-        let status = self.run_asm(bits, out_shift, &mut z)?;
+        let status = self.run_asm(bits.map(|b| (&b[..], &[][..])), out_shift, &mut z)?;
         Some(if status == 0 {
             Ok(Raw {
                 z,
@@ -740,7 +740,12 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     /// outside count updated; `None`: the table is not in flash or wide.
     #[cfg(target_arch = "avr")]
     #[inline(always)]
-    fn run_asm(&mut self, bits: Option<&[i32; P]>, out_shift: u8, z: &mut [i32; NU]) -> Option<u8> {
+    fn run_asm(
+        &mut self,
+        bits: Option<(&[i32], &[i32])>,
+        out_shift: u8,
+        z: &mut [i32; NU],
+    ) -> Option<u8> {
         if self.tree.layout.wide {
             return None; // the assembly reads the narrow layout
         }
@@ -752,14 +757,23 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         let params = self.param_bytes.as_ptr() as usize as u16;
         let ctx = &mut self.scratch.ctx;
         ctx.cache = cache;
-        ctx.q16 = bits.map_or(0, |b| b.as_ptr() as usize as u16);
+        // The P values: q16's first nx, then q16b's (the caller checked
+        // that the two hold P).
+        let (first, rest) = bits.unwrap_or((&[], &[]));
+        ctx.q16 = if bits.is_some() {
+            first.as_ptr() as usize as u16
+        } else {
+            0
+        };
+        ctx.q16b = rest.as_ptr() as usize as u16;
+        ctx.nx = first.len() as u8;
         ctx.params = params;
         ctx.out = z.as_mut_ptr() as usize as u16;
         ctx.period = self.period;
         ctx.out_shift = out_shift;
         // SAFETY: `ctx` is the start of this law's scratch (`repr(C)`: the
         // context, theta, then the cache) and points at its parameter
-        // bytes, `z` (NU values) and the bits (P values); the routine
+        // bytes, `z` (NU values) and the bits (P values in two slices); the routine
         // writes only the scratch (row indices checked against
         // `n_rows <= R`), `z` and the context, and reads flash inside the
         // table (indices checked).
@@ -795,16 +809,23 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     /// stack-pointer adjustment on the AVR.
     #[inline(never)]
     fn solve(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
+        self.next_period();
+        // Scalars stored as Q15.16 bits: the routine reads them in place.
+        #[cfg(target_arch = "avr")]
+        if let (Some(xb), Some(rb)) = (S::as_q16_bits(x), S::as_q16_bits(r)) {
+            if let Some(res) = self.solve_asm((xb, rb), u) {
+                return res;
+            }
+        }
         // theta = [x; r] as Q15.16 bits, in one pass.
         let mut bits = [0i32; P];
         for (b, t) in bits.iter_mut().zip(x.iter().chain(r)) {
             *b = t.to_q16().ok_or(Error::NonFinite)?;
         }
-        self.next_period();
         // On the AVR with the table in flash: quantisation, walk and the
         // outputs in Q15.16 (scale >= 16) in one assembly routine.
         #[cfg(target_arch = "avr")]
-        if let Some(r) = self.solve_asm(&bits, u) {
+        if let Some(r) = self.solve_asm((&bits[..], &[]), u) {
             return r;
         }
         self.solve_rust(&bits, u)
@@ -814,7 +835,7 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     /// not in flash, wide, or has a scale below 16).
     #[cfg(target_arch = "avr")]
     #[inline(always)]
-    fn solve_asm(&mut self, bits: &[i32; P], u: &mut [S]) -> Option<Result<(), Error>> {
+    fn solve_asm(&mut self, bits: (&[i32], &[i32]), u: &mut [S]) -> Option<Result<(), Error>> {
         let k = self.tree.layout.scale;
         if k < 16 {
             return None;
@@ -887,6 +908,8 @@ fn ctx_block<T: TableRead>(tree: &Tree16<T>, at: &[u32; 4], row_bytes: u16) -> C
         law: 0,
         scratch: 0,
         out_shift: 0,
+        q16b: 0,
+        nx: 0,
     }
 }
 

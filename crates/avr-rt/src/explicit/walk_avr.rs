@@ -72,6 +72,10 @@ pub(crate) struct Ctx {
     /// 39: outputs are rounded and shifted right by this many bits
     /// (0: the raw row values).
     pub out_shift: u8,
+    /// 40: RAM address of the Q15.16 `theta` values after the first `nx`.
+    pub q16b: u16,
+    /// 42: how many values `q16` holds (then `q16b`).
+    pub nx: u8,
 }
 
 /// `r16:r19 = round(r16:r19 / 2^(n + 1))` (arithmetic, half up) for the
@@ -152,7 +156,7 @@ macro_rules! term {
     };
 }
 
-/// Term `k` of the unrolled nine-term row: `theta_k` at `Y + 40 + 2k`.
+/// Term `k` of the unrolled nine-term row: `theta_k` at `Y + 43 + 2k`.
 macro_rules! term_y {
     ($lo:literal, $hi:literal) => {
         term!(concat!("ldd r22, Y+", $lo), concat!("ldd r23, Y+", $hi))
@@ -161,7 +165,7 @@ macro_rules! term_y {
 
 /// Byte offset of `theta` in the scratch block the routine's Y points at
 /// (directly after the [`Ctx`]).
-pub(crate) const THETA_AT: usize = 40;
+pub(crate) const THETA_AT: usize = 43;
 const _: () = assert!(core::mem::size_of::<Ctx>() == THETA_AT);
 
 /// See the module docs. Returns 0, or 1 for a corrupted table.
@@ -190,7 +194,7 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         core::arch::asm!(
         "push r28",
         "push r29",
-        "movw r28, r30",          // Y = ctx (theta at Y+40)
+        "movw r28, r30",          // Y = ctx (theta at Y+43)
         "clr r2",                 // zero
         "ldd r3, Y+33",           // period
         "ldd r4, Y+16",           // cache base
@@ -201,8 +205,9 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "brne 9f",
         "set",
         "9:",
-        // ---- quantisation (skipped when q16 == 0): X bits, Z parameters,
-        // r8:r9 where theta_j goes, r6 count, r7 outside
+        // ---- quantisation (skipped when q16 == 0): X bits (q16, after nx
+        // values q16b), Z parameters, r8:r9 where theta_j goes, r11 values
+        // left from the current pointer, r6 from q16b after it, r7 outside
         "clr r7",
         "ldd r26, Y+18",
         "ldd r27, Y+19",
@@ -214,10 +219,15 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "ldd r30, Y+20",
         "ldd r31, Y+21",
         "ldd r6, Y+30",
+        "ldd r11, Y+42",          // r11 values from q16, then r6 from q16b
+        "sub r6, r11",
         "movw r8, r28",
-        "ldi r24, 40",
+        "ldi r24, 43",
         "add r8, r24",
         "adc r9, r2",
+        "tst r11",
+        "brne .Lke_q",
+        "rjmp .Lke_qb",
         ".Lke_q:",
         "ld r16, X+",
         "ld r17, X+",
@@ -255,16 +265,24 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "movw r16, r24",          // v > ub: ub
         "inc r7",
         ".Lke_qstore:",
-        "movw r10, r30",
+        "movw r12, r30",
         "movw r30, r8",
         "st Z+, r16",
         "st Z+, r17",
         "movw r8, r30",
-        "movw r30, r10",
-        "dec r6",
+        "movw r30, r12",
+        "dec r11",
         "breq 9f",
         "rjmp .Lke_q",
         "9:",
+        ".Lke_qb:",               // on from q16b (r6 values)
+        "tst r6",
+        "breq .Lke_walk",
+        "mov r11, r6",
+        "clr r6",
+        "ldd r26, Y+40",
+        "ldd r27, Y+41",
+        "rjmp .Lke_q",
         // ---- the walk
         ".Lke_walk:",
         "std Y+36, r7",
@@ -526,7 +544,7 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "push r26",
         "push r27",
         "movw r26, r28",
-        "adiw r26, 40",
+        "adiw r26, 43",
         "add r26, r20",
         "adc r27, r2",
         "add r26, r20",
@@ -564,16 +582,16 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "brne .Lke_rgen",
         "rjmp .Lke_rst",
         ".Lke_t0:",
-        term_y!("40", "41"),
-        term_y!("42", "43"),
-        term_y!("44", "45"),
-        term_y!("46", "47"),
-        term_y!("48", "49"),
-        term_y!("50", "51"),
-        term_y!("52", "53"),
-        term_y!("54", "55"),
+        term_y!("43", "44"),
+        term_y!("45", "46"),
+        term_y!("47", "48"),
+        term_y!("49", "50"),
+        term_y!("51", "52"),
+        term_y!("53", "54"),
+        term_y!("55", "56"),
+        term_y!("57", "58"),
         ".Lke_t8:",
-        term_y!("56", "57"),
+        term_y!("59", "60"),
         ".Lke_rst:",
         "st -X, r3",              // the stamp, then the value
         "adiw r26, 1",
