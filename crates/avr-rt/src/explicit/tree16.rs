@@ -456,6 +456,9 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         }
         let [nodes_at, laws_at, bounds_at, rows_at, _] = l.offsets();
         let at = [nodes_at, laws_at, bounds_at, rows_at];
+        if !l.wide {
+            validate_narrow(&tree).ok_or(Error::OutOfRange)?;
+        }
         let ctx = ctx_block(&tree, &at, l.row_bytes() as u16);
         Ok(Empc16Law {
             tree,
@@ -875,6 +878,52 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     }
 }
 
+/// Checks every index of a narrow table once (the assembly walk relies on
+/// it and reads them unchecked): the root; every node's rows (`b` may be
+/// [`NONE`]), its `a <= b` child (a law, or [`NONE`] for the next node,
+/// which must exist), its other child (a law, or a node after it); every
+/// law's rows; the output bounds' rows (or [`NONE`]). `None` for any index
+/// out of range (or a table read outside the table): then no walk can
+/// leave the table or loop.
+fn validate_narrow<T: TableRead>(tree: &Tree16<T>) -> Option<()> {
+    let l = &tree.layout;
+    let [nodes_at, laws_at, bounds_at, _, _] = l.offsets();
+    let row = |r: u8| usize::from(r) < l.n_rows;
+    let law = |c: u16| usize::from(c & !LEAF) < l.n_laws;
+    let ok = |c: bool| c.then_some(());
+    ok(if l.root & LEAF != 0 {
+        law(l.root)
+    } else {
+        usize::from(l.root) < l.n_nodes
+    })?;
+    for code in 0..l.n_nodes {
+        let n: [u8; 5] = tree
+            .table
+            .read_array(nodes_at + (Tree16Layout::NODE_BYTES * code) as u32)?;
+        ok(row(n[0]) && (n[1] == NONE || row(n[1])))?;
+        ok(if n[2] == NONE {
+            code + 1 < l.n_nodes
+        } else {
+            law(u16::from(n[2]))
+        })?;
+        let right = u16::from_le_bytes([n[3], n[4]]);
+        ok(if right & LEAF != 0 {
+            law(right)
+        } else {
+            code < usize::from(right) && usize::from(right) < l.n_nodes
+        })?;
+    }
+    for k in 0..l.n_laws * l.n_outputs {
+        let [r]: [u8; 1] = tree.table.read_array(laws_at + k as u32)?;
+        ok(row(r))?;
+    }
+    for k in 0..2 * l.n_outputs {
+        let [r]: [u8; 1] = tree.table.read_array(bounds_at + k as u32)?;
+        ok(r == NONE || row(r))?;
+    }
+    Some(())
+}
+
 /// The assembly walk's context with the table's constant fields (flash
 /// addresses, counts); the pointers, the stamp and the output shift are
 /// set per call (`Empc16Law::walk_asm`).
@@ -1081,19 +1130,30 @@ mod tests {
             if at == node + 3 {
                 bad[at + 1] = 0; // child node 5 of a 1-node tree
             }
-            let mut law = self::law(&bad, l);
+            // Found by the check of every index when the law is made.
             assert_eq!(
-                law.control(&[], &[-0.5], &mut u)
-                    .and(law.control(&[], &[0.5], &mut u)),
-                Err(Error::OutOfRange),
+                Empc16Law::<f64, _, 1, 1, 8>::new(Tree16::new(&bad[..], l).unwrap(), 0).err(),
+                Some(Error::OutOfRange),
                 "corrupted byte {at}"
             );
         }
         let mut cyc = b.clone();
         cyc[node + 3] = 0;
         cyc[node + 4] = 0; // theta > 0 loops back to node 0
-        let mut law = self::law(&cyc, l);
-        assert_eq!(law.control(&[], &[0.5], &mut u), Err(Error::OutOfRange));
+        assert_eq!(
+            Empc16Law::<f64, _, 1, 1, 8>::new(Tree16::new(&cyc[..], l).unwrap(), 0).err(),
+            Some(Error::OutOfRange)
+        );
+        // A law's row and an output bound's row past the rows.
+        for at in [l.laws_at(), l.bounds_at() + 1] {
+            let mut bad = b.clone();
+            bad[at] = 7;
+            assert_eq!(
+                Empc16Law::<f64, _, 1, 1, 8>::new(Tree16::new(&bad[..], l).unwrap(), 0).err(),
+                Some(Error::OutOfRange),
+                "corrupted byte {at}"
+            );
+        }
     }
 
     #[test]

@@ -5,24 +5,32 @@
 //! host's reference), in the same integer arithmetic:
 //!
 //! - quantisation: `q_j = clamp(round(bits_j / 2^s_j), lb_j, ub_j)`
-//!   (a byte move per 8 bits of the shift, then one 4-cycle pass per bit);
+//!   (a byte move per 8 bits of the shift, then one 4-cycle pass per bit),
+//!   read in place from two pointers (the state, then the references);
 //! - a row: the `i32` constant plus `sum c_k theta_k` over the stored
 //!   columns, each term a 16 x 16-bit product from four hardware
 //!   multiplies (`MUL`, `MULSU` twice, `MULS`) added into a 32-bit
-//!   accumulator held in registers, gains read with `ELPM Z+`, `theta`
-//!   with `LD X+` (32 cycles per term; rows of nine terms, the
-//!   tricopter's dense rows, unrolled, others in a 35-cycle loop);
-//! - a node: its 5 bytes by `ELPM Z+`, its rows through the cache (an
-//!   evaluated row costs a stamp compare), a signed 32-bit compare;
-//! - outputs: optionally rounded to Q15.16 (`out_shift`);
-//! - checks: every row index below `n_rows`, node index below `n_nodes`,
-//!   law below `n_laws`, and a right child after its node (so the walk
-//!   ends); any failure returns 1 (the law's [`kestrel_core::Error::OutOfRange`]).
+//!   accumulator held in registers, gains read with `ELPM Z+` (32 cycles
+//!   per term): with nine parameters (the tricopter) rows from column 0
+//!   unrolled with `theta_k` read by `LDD Y+q`, one-term rows (column 8)
+//!   the last of those terms, constant rows none; other rows in a loop
+//!   with `LD X+`. The value comes back in r16:r19 and into the cache
+//!   (the period stamp, then the value; a cached row costs a stamp
+//!   compare and four loads);
+//! - a node: its 5 bytes by `ELPM Z+`, its rows through the cache, a
+//!   signed 32-bit compare;
+//! - the leaf: per output its law row clamped to its bound rows, rounded
+//!   to Q15.16 (`out_shift`; one bit inline);
+//! - indices: [`super::tree16::Empc16Law::new`] checks every row, law and
+//!   node index of the table once (a right child after its node, so every
+//!   walk ends) and refuses a corrupted table with
+//!   [`kestrel_core::Error::OutOfRange`]; the routine reads them unchecked.
 //!
 //! The routine is one `asm!` block (the context pointer in Z, the status
 //! in r24, every other register declared clobbered; Y, the frame
 //! pointer, saved and restored by the block, r1 cleared) and keeps its
-//! context struct in Y. It leaves RAMPZ set (only `ELPM` reads it).
+//! context struct in Y, `theta` right after it (the law's scratch). It
+//! leaves RAMPZ set (only `ELPM` reads it).
 
 /// The routine's context (offsets are the assembly's `Y+q`).
 #[repr(C)]
@@ -168,10 +176,11 @@ macro_rules! term_y {
 pub(crate) const THETA_AT: usize = 43;
 const _: () = assert!(core::mem::size_of::<Ctx>() == THETA_AT);
 
-/// See the module docs. Returns 0, or 1 for a corrupted table.
+/// See the module docs. Returns 0 (the table's indices were checked by
+/// the law's `new`).
 ///
 /// Registers during the walk: r2 zero, r3 the period stamp, r4:r5 the
-/// cache, r6 `n_rows`, r7:r9 the rows' flash address (r8 low, r9 high, r7
+/// cache, r7:r9 the rows' flash address (r8 low, r9 high, r7
 /// the top byte), r10 node row `b`, r11 node left child, r12:r13 node
 /// right child, r14:r15 the child
 /// code, r25 nodes visited (low byte; the high byte in the context), the T
@@ -182,7 +191,8 @@ const _: () = assert!(core::mem::size_of::<Ctx>() == THETA_AT);
 /// # Safety
 /// `ctx` must be the start of the law's scratch block (the [`Ctx`], then
 /// `theta`, then the cache) and describe the law's parameters, outputs
-/// and a table in flash as [`Ctx`] documents.
+/// and a table in flash as [`Ctx`] documents, a table whose indices the
+/// law's `new` checked (the routine follows them unchecked).
 #[inline(never)]
 #[allow(named_asm_labels)] // one copy: the function is never inlined
 pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
@@ -286,7 +296,6 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         // ---- the walk
         ".Lke_walk:",
         "std Y+36, r7",
-        "ldd r6, Y+28",           // n_rows
         "ldd r8, Y+4",            // rows
         "ldd r9, Y+5",
         "ldd r7, Y+6",
@@ -297,13 +306,6 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         ".Lke_node:",
         "sbrc r15, 7",
         "rjmp .Lke_leaf",
-        "ldd r16, Y+26",
-        "ldd r17, Y+27",
-        "cp r14, r16",
-        "cpc r15, r17",
-        "brlo 9f",
-        "rjmp .Lke_err",
-        "9:",
         "movw r30, r14",          // Z = nodes + 5 code (new(): 5 n_nodes < 64 KiB)
         "lsl r30",
         "rol r31",
@@ -330,9 +332,6 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "std Y+35, r16",
         "9:",
         "rcall .Lke_row",         // a
-        "brcc 9f",
-        "rjmp .Lke_err",
-        "9:",
         "mov r24, r10",
         "cpi r24, 0xFF",
         "breq .Lke_zero",
@@ -345,9 +344,6 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "pop r22",
         "pop r21",
         "pop r20",
-        "brcc 9f",
-        "rjmp .Lke_err",
-        "9:",
         "cp r16, r20",            // b - a
         "cpc r17, r21",
         "cpc r18, r22",
@@ -374,29 +370,12 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "mov r15, r24",
         "rjmp .Lke_leaf",
         ".Lke_right:",
-        "sbrc r13, 7",
-        "rjmp .Lke_rgo",
-        "cp r14, r12",            // a node child must come after its node
-        "cpc r15, r13",
-        "brlo .Lke_rgo",
-        "rjmp .Lke_err",
-        ".Lke_rgo:",
         "movw r14, r12",
         "rjmp .Lke_node",
         // ---- the leaf: law r14 (checked); per output (r25 left) its law
         // row clamped to its bound rows, rounded, into *out
         ".Lke_leaf:",
         "std Y+34, r25",
-        "mov r24, r15",
-        "andi r24, 0x7F",
-        "breq 9f",
-        "rjmp .Lke_err",
-        "9:",
-        "ldd r24, Y+29",
-        "cp r14, r24",
-        "brlo 9f",
-        "rjmp .Lke_err",
-        "9:",
         "std Y+37, r14",
         "ldd r25, Y+31",          // outputs left
         "tst r25",
@@ -420,9 +399,6 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "movw r12, r30",
         "in r14, 0x3B",
         "rcall .Lke_row",
-        "brcc 9f",
-        "rjmp .Lke_err",
-        "9:",
         "movw r30, r10",          // lo
         "out 0x3B, r15",
         "elpm r24, Z+",
@@ -439,9 +415,6 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "pop r22",
         "pop r21",
         "pop r20",
-        "brcc 9f",
-        "rjmp .Lke_err",
-        "9:",
         "cp r20, r16",            // v - lo
         "cpc r21, r17",
         "cpc r22, r18",
@@ -466,9 +439,6 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "pop r22",
         "pop r21",
         "pop r20",
-        "brcc 9f",
-        "rjmp .Lke_err",
-        "9:",
         "cp r16, r20",            // hi - v
         "cpc r17, r21",
         "cpc r18, r22",
@@ -507,19 +477,13 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "rjmp .Lke_out",
         ".Lke_done:",
         "clr r24",
-        "rjmp .Lke_ret",
-        ".Lke_err:",
-        "ldi r24, 1",
-        ".Lke_ret:",
         "clr r1",
         "pop r29",
         "pop r28",
         "rjmp .Lke_end",
-        // ---- row r24: its value in r16:r19, C clear; C set for r24 >=
-        // n_rows. Clobbers r0, r1, r16-r24, X, Z, RAMPZ.
+        // ---- row r24 (checked by the law's new): its value in r16:r19.
+        // Clobbers r0, r1, r16-r24, X, Z, RAMPZ.
         ".Lke_row:",
-        "cp r24, r6",
-        "brsh .Lke_rbad",
         "ldi r16, 5",             // X = the cache entry
         "mul r24, r16",
         "movw r26, r4",
@@ -528,13 +492,10 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "ld r16, X+",
         "cp r16, r3",
         "brne .Lke_miss",
-        "ld r16, X+",             // cached (C clear: equal)
+        "ld r16, X+",             // cached
         "ld r17, X+",
         "ld r18, X+",
         "ld r19, X+",
-        "ret",
-        ".Lke_rbad:",
-        "sec",
         "ret",
         ".Lke_rgen:",             // n = P - start terms from theta + start
         "ldd r24, Y+30",
@@ -599,7 +560,6 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "st X+, r17",
         "st X+, r18",
         "st X+, r19",
-        "clc",
         "ret",
         ".Lke_end:",
         inout("Z") ctx => _,
