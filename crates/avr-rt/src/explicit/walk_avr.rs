@@ -180,7 +180,7 @@ const _: () = assert!(core::mem::size_of::<Ctx>() == THETA_AT);
 /// the law's `new`).
 ///
 /// Registers during the walk: r2 zero, r3 the period stamp, r4:r5 the
-/// cache, r7:r9 the rows' flash address (r8 low, r9 high, r7
+/// cache, r6 the bytes per row, r7:r9 the rows' flash address (r8 low, r9 high, r7
 /// the top byte), r10 node row `b`, r11 node left child, r12:r13 node
 /// right child, r14:r15 the child
 /// code, r25 nodes visited (low byte; the high byte in the context), the T
@@ -296,6 +296,7 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         // ---- the walk
         ".Lke_walk:",
         "std Y+36, r7",
+        "ldd r6, Y+32",           // bytes per row
         "ldd r8, Y+4",            // rows
         "ldd r9, Y+5",
         "ldd r7, Y+6",
@@ -519,8 +520,7 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         ".Lke_rg0:",
         "rjmp .Lke_rst",
         ".Lke_miss:",             // X = the entry + 1
-        "ldd r16, Y+32",          // Z:RAMPZ = rows + r rb
-        "mul r24, r16",
+        "mul r24, r6",            // Z:RAMPZ = rows + r rb
         "movw r30, r0",
         "add r30, r8",
         "adc r31, r9",
