@@ -20,14 +20,6 @@ use kestrel_empc::mpqp::Rng;
 use kestrel_empc::{Settings, solve};
 use nalgebra::DVector;
 
-/// Objective `1/2 z'Hz + (F'theta + f)'z` and the largest violation of
-/// `G z <= W + E theta`.
-fn judge(prob: &MpqpProblem, th: &DVector<f64>, z: &DVector<f64>) -> (f64, f64) {
-    let j = 0.5 * z.dot(&(&prob.h * z)) + prob.linear_term(th).dot(z);
-    let v = (&prob.g * z - prob.rhs(th)).max().max(0.0);
-    (j, v)
-}
-
 fn main() {
     let mut args = std::env::args().skip(1);
     let path = args.next().expect("a problem file");
@@ -69,13 +61,15 @@ fn main() {
             continue;
         }
         differ += 1;
-        let thv = DVector::from_column_slice(&th);
-        let ((jz, vz), (jx, vx)) = (judge(&prob, &thv, &z), judge(&prob, &thv, &x));
+        let ((jz, vz), (jx, vx)) = (
+            common::objective_and_violation(&prob, &th, z.as_slice()),
+            common::objective_and_violation(&prob, &th, x.as_slice()),
+        );
         worst_viol = worst_viol.max(vz);
         // Objective gap of the law over clarabel, relative to |J|.
         let gap = (jz - jx) / (1.0 + jx.abs());
         worst_gap = worst_gap.max(gap);
-        if vz <= 1e-9 * (1.0 + prob.rhs(&thv).amax()) && gap <= 1e-12 {
+        if common::law_at_least_as_good(&prob, &th, z.as_slice(), x.as_slice()) {
             law_better += 1;
         }
         println!(

@@ -49,3 +49,27 @@ pub fn clarabel_qp_checked(prob: &MpqpProblem, theta: &[f64]) -> Result<Option<V
         other => Err(format!("{other:?}")),
     }
 }
+
+/// The QP's objective `1/2 z'Hz + (F'theta + f)'z` at `z` and the largest
+/// violation of `G z <= W + E theta` (0 when feasible).
+#[allow(dead_code)] // not every test binary uses it
+pub fn objective_and_violation(prob: &MpqpProblem, theta: &[f64], z: &[f64]) -> (f64, f64) {
+    let th = DVector::from_column_slice(theta);
+    let z = DVector::from_column_slice(z);
+    let j = 0.5 * z.dot(&(&prob.h * &z)) + prob.linear_term(&th).dot(&z);
+    let v = (&prob.g * &z - prob.rhs(&th)).max().max(0.0);
+    (j, v)
+}
+
+/// Whether the full `z` of the explicit law is at least as good as
+/// clarabel's `x` at `theta`: feasible (to 1e-9 of the right-hand side's
+/// size) with an objective not above clarabel's (to 1e-12 relative). The
+/// QP is strictly convex, so this makes `z` the closer to the optimum
+/// where the two differ (clarabel stopping short of its tolerances).
+#[allow(dead_code)] // not every test binary uses it
+pub fn law_at_least_as_good(prob: &MpqpProblem, theta: &[f64], z: &[f64], x: &[f64]) -> bool {
+    let (jz, vz) = objective_and_violation(prob, theta, z);
+    let (jx, _) = objective_and_violation(prob, theta, x);
+    let rhs = prob.rhs(&DVector::from_column_slice(theta)).amax();
+    vz <= 1e-9 * (1.0 + rhs) && (jz - jx) / (1.0 + jx.abs()) <= 1e-12
+}
