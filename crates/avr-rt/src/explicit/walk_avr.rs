@@ -129,6 +129,44 @@ macro_rules! round_shift {
     };
 }
 
+/// The leaf's bound row r24 into r20:r23, the output's value kept in
+/// r16:r19: read straight from the cache when this period's (the common
+/// case: the walk's nodes compared it), else through the row routine
+/// (the value saved on the stack around it).
+#[rustfmt::skip]
+macro_rules! bound {
+    () => {
+        concat!(
+            "ldi r20, 5\n",
+            "mul r24, r20\n",
+            "movw r26, r4\n",
+            "add r26, r0\n",
+            "adc r27, r1\n",
+            "ld r20, X+\n",
+            "cp r20, r3\n",
+            "brne 7f\n",
+            "ld r20, X+\n",
+            "ld r21, X+\n",
+            "ld r22, X+\n",
+            "ld r23, X+\n",
+            "rjmp 6f\n",
+            "7:\n",
+            "push r16\n",
+            "push r17\n",
+            "push r18\n",
+            "push r19\n",
+            "rcall .Lke_row\n",
+            "movw r20, r16\n",
+            "movw r22, r18\n",
+            "pop r19\n",
+            "pop r18\n",
+            "pop r17\n",
+            "pop r16\n",
+            "6:",
+        )
+    };
+}
+
 /// One term of a row, `acc += c_k theta_k` (22 instructions, 32 cycles):
 /// the gain `c` by `ELPM Z+` into r20:r21, `theta_k` into r22:r23 by the
 /// two given loads (`LD X+` in the row loop, `LDD Y+q` in the unrolled
@@ -407,20 +445,12 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "in r15, 0x3B",
         "cpi r24, 0xFF",
         "breq .Lke_ohi",
-        "push r16",
-        "push r17",
-        "push r18",
-        "push r19",
-        "rcall .Lke_row",
-        "pop r23",                // v
-        "pop r22",
-        "pop r21",
-        "pop r20",
-        "cp r20, r16",            // v - lo
-        "cpc r21, r17",
-        "cpc r22, r18",
-        "cpc r23, r19",
-        "brlt .Lke_ohi",          // v < lo: lo
+        bound!(),
+        "cp r16, r20",            // v - lo
+        "cpc r17, r21",
+        "cpc r18, r22",
+        "cpc r19, r23",
+        "brge .Lke_ohi",          // v < lo: lo
         "movw r16, r20",
         "movw r18, r22",
         ".Lke_ohi:",
@@ -431,20 +461,12 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "in r15, 0x3B",
         "cpi r24, 0xFF",
         "breq .Lke_ost",
-        "push r16",
-        "push r17",
-        "push r18",
-        "push r19",
-        "rcall .Lke_row",
-        "pop r23",                // v
-        "pop r22",
-        "pop r21",
-        "pop r20",
-        "cp r16, r20",            // hi - v
-        "cpc r17, r21",
-        "cpc r18, r22",
-        "cpc r19, r23",
-        "brlt .Lke_ost",          // hi < v: hi
+        bound!(),
+        "cp r20, r16",            // hi - v
+        "cpc r21, r17",
+        "cpc r22, r18",
+        "cpc r23, r19",
+        "brge .Lke_ost",          // hi < v: hi
         "movw r16, r20",
         "movw r18, r22",
         ".Lke_ost:",
