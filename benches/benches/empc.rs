@@ -1,13 +1,18 @@
 //! Explicit MPC: the mpQP solve of a 9-parameter, 8-variable problem with
 //! about a thousand regions, and the tree evaluation of the thesis-sized
-//! controller (9 parameters, 4 outputs) in f64, f32 and Q16, in the default and
-//! the compact layout. The group `empc solve 9x8 cpu` measures the sequential
+//! controller (9 parameters, 4 outputs) in f64, f32 and Q16, in the default,
+//! the wide (u32) and the compact layout. The group `empc solve 9x8 cpu`
+//! measures the sequential solve in CPU time of the benchmarking thread
+//! (Linux; its tick-based resolution is too coarse for one evaluation:
+//! kestrel-empc's `eval_file` example times trees in CPU time over long
+//! passes). The group `empc solve 9x8 cpu` measures the sequential
 //! solve in CPU time of the benchmarking thread (Linux), which a loaded
 //! machine inflates far less than wall time.
 
 use criterion::measurement::{Measurement, ValueFormatter};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use kestrel_core::{Q16, Scalar};
+use kestrel_empc::eval::TreeIndex;
 use kestrel_empc::mpqp::Rng;
 use kestrel_empc::{
     Settings, TreeSettings, TreeTables, build_compact, build_controller, evaluate, solve, testing,
@@ -39,7 +44,12 @@ fn solve_bench(c: &mut Criterion) {
     g.finish();
 }
 
-fn eval_one<S: Scalar, T: TreeTables<S>>(c: &mut Criterion, name: &str, t: &T, thetas: &[[S; 9]]) {
+fn eval_one<S: Scalar, I: TreeIndex, T: TreeTables<S, I>>(
+    c: &mut Criterion,
+    name: &str,
+    t: &T,
+    thetas: &[[S; 9]],
+) {
     let mut z = [S::ZERO; 4];
     let mut i = 0;
     c.bench_function(&format!("empc eval thesis-sized {name}"), |b| {
@@ -80,6 +90,11 @@ fn eval_bench(c: &mut Criterion) {
     let tq = ctl.tables.cast::<Q16>();
     let thq: Vec<[Q16; 9]> = thetas.iter().map(|t| t.map(Q16::from_f64)).collect();
     eval_one(c, "q16", &tq.tables(), &thq);
+    // The same tree in the wide (u32) layout, what trees beyond 32767 nodes get.
+    let w = ctl.tables.widen();
+    eval_one(c, "wide f64", &w.tables(), &thetas);
+    let w32 = w.cast::<f32>();
+    eval_one(c, "wide f32", &w32.tables(), &cast(&thetas));
     // The compact layout (one tree per output) of the same controller.
     let compact = build_compact(&prob, &sol, &TreeSettings::default()).unwrap();
     eprintln!(
