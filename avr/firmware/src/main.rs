@@ -445,9 +445,12 @@ const EMPC_CHECK_SAMPLES: u16 = 200;
 /// `EMPC_CHECK_SAMPLES` pseudo-random parameters in the box and sends, per
 /// parameter, one Bench-kind frame of 30 bytes: index (u16), law (u16,
 /// 0xFFFF for an error), nodes (u16), cycles (u32), the 4 outputs (i32),
-/// then the cycles of the whole law (`ControlLaw::control`) there (u32),
-/// its nodes (u16) and the wrapping sum of its outputs' Q15.16 bits (u32).
+/// then the cycles of the whole law (`ControlLaw::control`) near there
+/// (u32; at `Empc16Law::check_bits`: on the grid, off it for odd samples,
+/// beyond the box for every fourth), its nodes (u16) and the wrapping sum
+/// of its outputs' Q15.16 bits (u32).
 #[cfg(feature = "empc-check")]
+#[inline(never)] // its own frame, not main's (the AVR's 8 kB of RAM)
 fn empc_check(law: &mut EmpcLaw16, clock: &Timer1Clock) {
     use kestrel_core::ControlLaw;
     let mut seed = 0x2545_f491u32;
@@ -457,11 +460,10 @@ fn empc_check(law: &mut EmpcLaw16, clock: &Timer1Clock) {
         let r = core::hint::black_box(law.evaluate_raw(core::hint::black_box(&q)));
         let cycles = clock.now().wrapping_sub(t0);
         // The whole law (theta as the loop's scalar, quantisation, walk,
-        // outputs) at the same parameter: theta_j = q_j 2^(s_j - 16).
-        let theta: [S; NP] = core::array::from_fn(|j| {
-            let s = law.param_shift(j);
-            S::from_q16(i32::from(q[j]) << s)
-        });
+        // outputs) near the same parameter: theta_j = q_j 2^(s_j - 16),
+        // off the grid or beyond the box for some samples (`check_bits`).
+        let bits = law.check_bits(&q, i);
+        let theta: [S; NP] = core::array::from_fn(|j| S::from_q16(bits[j]));
         let theta = core::hint::black_box(theta);
         let mut u = [S::ZERO; 4];
         let t1 = clock.now();

@@ -540,6 +540,37 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         q
     }
 
+    /// The whole law's parameter of the on-target check's sample `i` as
+    /// Q15.16 bits (test instrumentation, the same on every target):
+    /// `q` (from [`Self::box_sample`]) scaled back, for odd `i` moved off
+    /// the quantisation grid by up to a unit either way (the rounding),
+    /// and for every fourth `i` one parameter moved beyond its box by
+    /// 2^12 units (the projection).
+    #[doc(hidden)]
+    pub fn check_bits(&self, q: &[i16; P], i: u16) -> [i32; P] {
+        let mut bits = [0i32; P];
+        for (j, (b, (&qj, &(s, _, _)))) in
+            bits.iter_mut().zip(q.iter().zip(&self.params)).enumerate()
+        {
+            // 2^s by multiplication (s <= 16): no variable shift.
+            let unit = 2i32.pow(u32::from((s as u8).min(16)));
+            *b = i32::from(qj) * unit;
+            let h = u32::from(i)
+                .wrapping_mul(9)
+                .wrapping_add(j as u32)
+                .wrapping_mul(2_654_435_761);
+            if i % 2 == 1 {
+                // An offset in [-2^s, 2^s).
+                *b += ((h >> 8) as i32 & (2 * unit - 1)) - unit;
+            }
+            if i.is_multiple_of(4) && j == usize::from(i / 4) % P {
+                let far = unit * 4096;
+                *b += if h & 1 == 0 { far } else { -far };
+            }
+        }
+        bits
+    }
+
     /// Rows evaluated in the current period (test instrumentation).
     #[doc(hidden)]
     pub fn rows_evaluated(&self) -> usize {
