@@ -370,6 +370,9 @@ struct Flight {
     rates: Vec<[f64; 3]>,
     pwm_diff_max: u16,
     boot: Boot,
+    /// Periods whose parameter the host's explicit law found outside its
+    /// parameter box (and clamped); `None` for the fast gradient.
+    outside: Option<u32>,
 }
 
 fn read_frames(avr: &mut AvrTester, dec: &mut FrameDecoder) -> Vec<Frame> {
@@ -477,6 +480,7 @@ fn fly(elf: &Path, periods: usize, solver: Solver) -> Flight {
         rates,
         pwm_diff_max,
         boot,
+        outside: host_empc.as_ref().map(|h| h.law.outside()),
     }
 }
 
@@ -579,6 +583,15 @@ fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u
         worst,
         mean,
     );
+    if let Some(o) = fl.outside {
+        println!(
+            "{scalar} {solver_name}: parameter outside the explicit law's box (clamped, flagged) in {o} of {periods} periods"
+        );
+        // The step scenario stays inside the explicit laws' parameter boxes
+        // (also the halved box of the Ns = 2 design): the law is exact in
+        // every period, never the clamped fallback.
+        assert_eq!(o, 0, "parameter outside the explicit law's box");
+    }
 
     // Tables read back through ELPM/RAMPZ match the build.
     assert_eq!(
