@@ -19,8 +19,8 @@ pub mod testing;
 pub mod tree;
 
 pub use eval::{
-    CompactNode, Evaluation, ForestTables, LEAF, NO_ROW, NO_ROW8, SliceTables, TreeTables,
-    evaluate, evaluate_with,
+    CompactNode, Evaluation, ForestTables, LEAF, NO_ROW, NO_ROW8, SliceTables, TreeIndex,
+    TreeTables, WIDE_LEAF, WIDE_NO_ROW, WideSliceTables, evaluate, evaluate_with,
 };
 
 #[cfg(feature = "std")]
@@ -31,6 +31,7 @@ pub use mpqp::{
 };
 #[cfg(feature = "std")]
 pub use tree::{
-    CompactController, CompactTables, ExplicitController, Outputs, OwnedTables, TreeSettings,
-    TreeStats, build_compact, build_controller,
+    AnyController, AnyTables, CompactController, CompactTables, DEFAULT_MAX_NODES,
+    ExplicitController, Outputs, OwnedTables, TreeLayout, TreeSettings, TreeStats, WideTables,
+    build_any, build_compact, build_controller,
 };
