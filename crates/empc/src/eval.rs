@@ -241,18 +241,21 @@ impl<S: Scalar> TreeTables<S> for ForestTables<'_, S> {
 }
 
 /// Tables in slices (RAM or `static` arrays): what the exported source builds.
+///
+/// `I` is the index type: `u16` (the default, [`LEAF`], [`NO_ROW`]) or
+/// `u32` ([`WideSliceTables`]).
 #[derive(Clone, Copy, Debug)]
-pub struct SliceTables<'a, S> {
+pub struct SliceTables<'a, S, I = u16> {
     /// Number of parameters `p`.
     pub n_params: usize,
     /// Number of outputs `k`.
     pub n_outputs: usize,
     /// The root child code.
-    pub root: u16,
+    pub root: I,
     /// Tree nodes.
-    pub nodes: &'a [[u16; 4]],
+    pub nodes: &'a [[I; 4]],
     /// Laws, `k` row indices each.
-    pub laws: &'a [u16],
+    pub laws: &'a [I],
     /// Affine rows, `p + 1` entries each.
     pub rows: &'a [S],
     /// Explored set rows, `p + 1` entries each.
@@ -261,18 +264,18 @@ pub struct SliceTables<'a, S> {
     pub theta_lb: &'a [S],
     /// Parameter upper bounds.
     pub theta_ub: &'a [S],
-    /// Per output: rows of the lower and upper bound.
-    pub bounds: &'a [[u16; 2]],
+    /// Per output: rows of the lower and upper bound (`I::NO_ROW`: none).
+    pub bounds: &'a [[I; 2]],
 }
 
-impl<S: Scalar> TreeTables<S> for SliceTables<'_, S> {
-    fn root(&self) -> u16 {
+impl<S: Scalar, I: TreeIndex> TreeTables<S, I> for SliceTables<'_, S, I> {
+    fn root(&self) -> I {
         self.root
     }
-    fn node(&self, i: usize) -> Option<[u16; 4]> {
+    fn node(&self, i: usize) -> Option<[I; 4]> {
         self.nodes.get(i).copied()
     }
-    fn law(&self, law: usize, out: usize) -> Option<u16> {
+    fn law(&self, law: usize, out: usize) -> Option<I> {
         if out >= self.n_outputs {
             return None;
         }
@@ -280,13 +283,13 @@ impl<S: Scalar> TreeTables<S> for SliceTables<'_, S> {
             .get(law.checked_mul(self.n_outputs)?.checked_add(out)?)
             .copied()
     }
-    shared_accessors!(u16);
+    shared_accessors!(I);
 }
 
 /// Wide tables in slices (`u32` indices, [`WIDE_LEAF`] child codes,
 /// [`WIDE_NO_ROW`]): the layout of trees beyond the 32767 nodes the `u16`
-/// codes address, otherwise as [`SliceTables`]. Evaluated by the same
-/// [`evaluate`].
+/// codes address, otherwise as [`SliceTables`] (the same struct with index
+/// type `u32`). Evaluated by the same [`evaluate`].
 ///
 /// ```
 /// use kestrel_empc::evaluate;
@@ -304,47 +307,7 @@ impl<S: Scalar> TreeTables<S> for SliceTables<'_, S> {
 /// let e = evaluate(&T, &[-0.5], &mut z).unwrap();
 /// assert_eq!((z[0], e.law, e.outside), (0.5, 0_u32, false));
 /// ```
-#[derive(Clone, Copy, Debug)]
-pub struct WideSliceTables<'a, S> {
-    /// Number of parameters `p`.
-    pub n_params: usize,
-    /// Number of outputs `k`.
-    pub n_outputs: usize,
-    /// The root child code.
-    pub root: u32,
-    /// Tree nodes.
-    pub nodes: &'a [[u32; 4]],
-    /// Laws, `k` row indices each.
-    pub laws: &'a [u32],
-    /// Affine rows, `p + 1` entries each.
-    pub rows: &'a [S],
-    /// Explored set rows, `p + 1` entries each.
-    pub hull: &'a [S],
-    /// Parameter lower bounds.
-    pub theta_lb: &'a [S],
-    /// Parameter upper bounds.
-    pub theta_ub: &'a [S],
-    /// Per output: rows of the lower and upper bound ([`WIDE_NO_ROW`]: none).
-    pub bounds: &'a [[u32; 2]],
-}
-
-impl<S: Scalar> TreeTables<S, u32> for WideSliceTables<'_, S> {
-    fn root(&self) -> u32 {
-        self.root
-    }
-    fn node(&self, i: usize) -> Option<[u32; 4]> {
-        self.nodes.get(i).copied()
-    }
-    fn law(&self, law: usize, out: usize) -> Option<u32> {
-        if out >= self.n_outputs {
-            return None;
-        }
-        self.laws
-            .get(law.checked_mul(self.n_outputs)?.checked_add(out)?)
-            .copied()
-    }
-    shared_accessors!(u32);
-}
+pub type WideSliceTables<'a, S> = SliceTables<'a, S, u32>;
 
 #[inline]
 fn entry<S: Copy>(t: &[S], width: usize, i: usize, j: usize) -> Option<S> {

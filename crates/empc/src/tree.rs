@@ -13,8 +13,8 @@
 
 use crate::error::EmpcError;
 use crate::eval::{
-    CompactNode, ForestTables, LEAF, NO_ROW, NO_ROW8, SliceTables, WIDE_LEAF, WIDE_NO_ROW,
-    WideSliceTables,
+    CompactNode, ForestTables, LEAF, NO_ROW, NO_ROW8, SliceTables, TreeIndex, WIDE_LEAF,
+    WIDE_NO_ROW,
 };
 use crate::lp::{LpStatus, LpWorkspace, slack_start};
 use crate::mpqp::MpqpSolution;
@@ -166,19 +166,21 @@ pub struct TreeStats {
     pub build_seconds: f64,
 }
 
-/// Owned tables of an explicit controller, in scalar `S`.
+/// Owned tables of an explicit controller, in scalar `S`, with index type
+/// `X`: `u16` (the default, [`LEAF`] child codes, [`NO_ROW`]) or `u32`
+/// ([`WideTables`]).
 #[derive(Clone, Debug, PartialEq)]
-pub struct OwnedTables<S> {
+pub struct OwnedTables<S, X = u16> {
     /// Number of parameters `p`.
     pub n_params: usize,
     /// Number of outputs `k`.
     pub n_outputs: usize,
     /// The root child code.
-    pub root: u16,
-    /// Tree nodes.
-    pub nodes: Vec<[u16; 4]>,
+    pub root: X,
+    /// Tree nodes `[row a, row b, child if a <= b, child otherwise]`.
+    pub nodes: Vec<[X; 4]>,
     /// Laws, `k` row indices each.
-    pub laws: Vec<u16>,
+    pub laws: Vec<X>,
     /// Affine rows, `p + 1` entries each.
     pub rows: Vec<S>,
     /// Explored set rows, `p + 1` entries each.
@@ -187,13 +189,13 @@ pub struct OwnedTables<S> {
     pub theta_lb: Vec<S>,
     /// Parameter upper bounds.
     pub theta_ub: Vec<S>,
-    /// Per output: rows of the lower and upper bound.
-    pub bounds: Vec<[u16; 2]>,
+    /// Per output: rows of the lower and upper bound (`X::NO_ROW`: none).
+    pub bounds: Vec<[X; 2]>,
 }
 
-impl<S: Scalar> OwnedTables<S> {
+impl<S: Scalar, X: TreeIndex> OwnedTables<S, X> {
     /// Borrowed tables for [`crate::evaluate`].
-    pub fn tables(&self) -> SliceTables<'_, S> {
+    pub fn tables(&self) -> SliceTables<'_, S, X> {
         SliceTables {
             n_params: self.n_params,
             n_outputs: self.n_outputs,
@@ -208,7 +210,7 @@ impl<S: Scalar> OwnedTables<S> {
         }
     }
     /// The same tables in another scalar (rounded through `f64`).
-    pub fn cast<T: Scalar>(&self) -> OwnedTables<T> {
+    pub fn cast<T: Scalar>(&self) -> OwnedTables<T, X> {
         let c = |v: &Vec<S>| v.iter().map(|x| T::from_f64(x.to_f64())).collect();
         OwnedTables {
             n_params: self.n_params,
@@ -223,11 +225,13 @@ impl<S: Scalar> OwnedTables<S> {
             bounds: self.bounds.clone(),
         }
     }
-    /// Storage in bytes with `scalar_bytes` per number and 2 per index.
+    /// Storage in bytes with `scalar_bytes` per number and the index
+    /// type's size per index (2 for `u16`, 4 for `u32`).
     pub fn bytes(&self, scalar_bytes: usize) -> usize {
         let numbers = self.rows.len() + self.hull.len() + self.theta_lb.len() + self.theta_ub.len();
         numbers * scalar_bytes
-            + 2 * (4 * self.nodes.len() + self.laws.len() + 2 * self.bounds.len())
+            + core::mem::size_of::<X>()
+                * (4 * self.nodes.len() + self.laws.len() + 2 * self.bounds.len())
     }
 }
 
@@ -245,31 +249,9 @@ pub struct ExplicitController {
 /// Owned tables of the wide layout (`u32` indices, [`WIDE_LEAF`] child
 /// codes, [`WIDE_NO_ROW`]) in scalar `S`: the layout of trees beyond the
 /// [`MAX_NODES`] the `u16` codes address, otherwise as [`OwnedTables`]
-/// (same fields, same meaning). Evaluated by [`crate::evaluate`] through
-/// [`WideTables::tables`].
-#[derive(Clone, Debug, PartialEq)]
-pub struct WideTables<S> {
-    /// Number of parameters `p`.
-    pub n_params: usize,
-    /// Number of outputs `k`.
-    pub n_outputs: usize,
-    /// The root child code.
-    pub root: u32,
-    /// Tree nodes `[row a, row b, child if a <= b, child otherwise]`.
-    pub nodes: Vec<[u32; 4]>,
-    /// Laws, `k` row indices each.
-    pub laws: Vec<u32>,
-    /// Affine rows, `p + 1` entries each.
-    pub rows: Vec<S>,
-    /// Explored set rows, `p + 1` entries each.
-    pub hull: Vec<S>,
-    /// Parameter lower bounds.
-    pub theta_lb: Vec<S>,
-    /// Parameter upper bounds.
-    pub theta_ub: Vec<S>,
-    /// Per output: rows of the lower and upper bound ([`WIDE_NO_ROW`]: none).
-    pub bounds: Vec<[u32; 2]>,
-}
+/// (the same struct with index type `u32`). Evaluated by
+/// [`crate::evaluate`] through [`OwnedTables::tables`].
+pub type WideTables<S> = OwnedTables<S, u32>;
 
 /// A `u16` child code in the wide layout.
 fn widen_code(c: u16) -> u32 {
@@ -309,43 +291,6 @@ fn narrow_row(r: u32) -> Option<u16> {
 }
 
 impl<S: Scalar> WideTables<S> {
-    /// Borrowed tables for [`crate::evaluate`].
-    pub fn tables(&self) -> WideSliceTables<'_, S> {
-        WideSliceTables {
-            n_params: self.n_params,
-            n_outputs: self.n_outputs,
-            root: self.root,
-            nodes: &self.nodes,
-            laws: &self.laws,
-            rows: &self.rows,
-            hull: &self.hull,
-            theta_lb: &self.theta_lb,
-            theta_ub: &self.theta_ub,
-            bounds: &self.bounds,
-        }
-    }
-    /// The same tables in another scalar (rounded through `f64`).
-    pub fn cast<T: Scalar>(&self) -> WideTables<T> {
-        let c = |v: &Vec<S>| v.iter().map(|x| T::from_f64(x.to_f64())).collect();
-        WideTables {
-            n_params: self.n_params,
-            n_outputs: self.n_outputs,
-            root: self.root,
-            nodes: self.nodes.clone(),
-            laws: self.laws.clone(),
-            rows: c(&self.rows),
-            hull: c(&self.hull),
-            theta_lb: c(&self.theta_lb),
-            theta_ub: c(&self.theta_ub),
-            bounds: self.bounds.clone(),
-        }
-    }
-    /// Storage in bytes with `scalar_bytes` per number and 4 per index.
-    pub fn bytes(&self, scalar_bytes: usize) -> usize {
-        let numbers = self.rows.len() + self.hull.len() + self.theta_lb.len() + self.theta_ub.len();
-        numbers * scalar_bytes
-            + 4 * (4 * self.nodes.len() + self.laws.len() + 2 * self.bounds.len())
-    }
     /// The same tree in the `u16` layout, if every index fits (at most
     /// [`MAX_NODES`] nodes, 32767 laws, 65534 rows); `None` otherwise.
     pub fn narrow(&self) -> Option<OwnedTables<S>> {
