@@ -16,7 +16,6 @@
 mod common;
 
 use kestrel_core::formats::MpqpProblem;
-use kestrel_empc::mpqp::Rng;
 use kestrel_empc::{Settings, solve};
 use nalgebra::DVector;
 
@@ -28,26 +27,25 @@ fn main() {
     let every: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(50);
     let prob = MpqpProblem::read(std::path::Path::new(&path)).expect("problem");
     let sol = solve(&prob, &Settings::default()).expect("solve");
-    let p = prob.p();
-    let mut rng = Rng::new(2026); // the sequence of `whole_box`
+    // The sequence of `whole_box`.
+    let thetas = common::box_samples(
+        prob.theta_lb.as_slice(),
+        prob.theta_ub.as_slice(),
+        samples,
+        2026,
+    );
     let (mut n, mut differ, mut law_better, mut failed) = (0, 0, 0, 0);
     let (mut worst_gap, mut worst_viol) = (f64::NEG_INFINITY, 0.0_f64);
-    for i in 0..samples {
-        let th: Vec<f64> = (0..p)
-            .map(|j| {
-                let (lo, hi) = (prob.theta_lb[j], prob.theta_ub[j]);
-                lo + (hi - lo) * 0.5 * (rng.sym() + 1.0)
-            })
-            .collect();
+    for (i, th) in thetas.iter().enumerate() {
         if every == 0 || i % every != 0 {
             continue;
         }
         n += 1;
-        let Some(r) = sol.locate(&th, 1e-9) else {
+        let Some(r) = sol.locate(th, 1e-9) else {
             continue;
         };
-        let z = sol.regions[r].z(&th);
-        let x = match common::clarabel_qp_checked(&prob, &th) {
+        let z = sol.regions[r].z(th);
+        let x = match common::clarabel_qp_checked(&prob, th) {
             Ok(Some(x)) => DVector::from_vec(x),
             _ => {
                 failed += 1;
@@ -62,14 +60,14 @@ fn main() {
         }
         differ += 1;
         let ((jz, vz), (jx, vx)) = (
-            common::objective_and_violation(&prob, &th, z.as_slice()),
-            common::objective_and_violation(&prob, &th, x.as_slice()),
+            common::objective_and_violation(&prob, th, z.as_slice()),
+            common::objective_and_violation(&prob, th, x.as_slice()),
         );
         worst_viol = worst_viol.max(vz);
         // Objective gap of the law over clarabel, relative to |J|.
         let gap = (jz - jx) / (1.0 + jx.abs());
         worst_gap = worst_gap.max(gap);
-        if common::law_at_least_as_good(&prob, &th, z.as_slice(), x.as_slice()) {
+        if common::law_at_least_as_good(&prob, th, z.as_slice(), x.as_slice()) {
             law_better += 1;
         }
         println!(

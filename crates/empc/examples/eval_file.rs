@@ -12,12 +12,14 @@
 //! is long (10^4 x 50 evaluations, a few hundred ms) to make that
 //! granularity negligible. The solution file comes from `kestrel empc
 //! solve` or the `whole_box` example.
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 use kestrel_core::Scalar;
 use kestrel_empc::eval::{TreeIndex, TreeTables};
 use kestrel_empc::evaluate_with;
 use kestrel_empc::export::any_tables_from_json;
-use kestrel_empc::mpqp::Rng;
-use kestrel_empc::tree::AnyTables;
+use kestrel_empc::tree::{AnyTables, OwnedTables};
 
 /// CPU nanoseconds of this thread (`/proc/thread-self/schedstat`).
 fn thread_cpu_ns() -> f64 {
@@ -58,30 +60,13 @@ fn main() {
     let passes: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(50);
     let text = std::fs::read_to_string(&path).expect("read the solution file");
     let tables = any_tables_from_json(&text).expect("tables");
-    let (lb, ub) = match &tables {
-        AnyTables::Narrow(t) => (t.theta_lb.clone(), t.theta_ub.clone()),
-        AnyTables::Wide(t) => (t.theta_lb.clone(), t.theta_ub.clone()),
+    let thetas = match &tables {
+        AnyTables::Narrow(t) => common::box_samples(&t.theta_lb, &t.theta_ub, samples, 7),
+        AnyTables::Wide(t) => common::box_samples(&t.theta_lb, &t.theta_ub, samples, 7),
     };
-    let mut rng = Rng::new(7);
-    let thetas: Vec<Vec<f64>> = (0..samples)
-        .map(|_| {
-            lb.iter()
-                .zip(&ub)
-                .map(|(lo, hi)| lo + (hi - lo) * 0.5 * (rng.sym() + 1.0))
-                .collect()
-        })
-        .collect();
     let ((c64, w64), (c32, w32), steps) = match &tables {
-        AnyTables::Narrow(t) => (
-            time(&t.tables(), &thetas, passes),
-            time(&t.cast::<f32>().tables(), &thetas, passes),
-            mean_steps(&t.tables(), &thetas),
-        ),
-        AnyTables::Wide(t) => (
-            time(&t.tables(), &thetas, passes),
-            time(&t.cast::<f32>().tables(), &thetas, passes),
-            mean_steps(&t.tables(), &thetas),
-        ),
+        AnyTables::Narrow(t) => measure(t, &thetas, passes),
+        AnyTables::Wide(t) => measure(t, &thetas, passes),
     };
     println!(
         "{path}: {} layout, {} nodes, {} bytes (f32), mean path {steps:.1} nodes; per evaluation: f64 {c64:.0} ns CPU ({w64:.0} ns wall), f32 {c32:.0} ns CPU ({w32:.0} ns wall)",
@@ -89,6 +74,19 @@ fn main() {
         tables.n_nodes(),
         tables.bytes(4)
     );
+}
+
+/// [`time`] of the tables in f64 and f32, and the mean path length.
+fn measure<X: TreeIndex>(
+    t: &OwnedTables<f64, X>,
+    thetas: &[Vec<f64>],
+    passes: usize,
+) -> ((f64, f64), (f64, f64), f64) {
+    (
+        time(&t.tables(), thetas, passes),
+        time(&t.cast::<f32>().tables(), thetas, passes),
+        mean_steps(&t.tables(), thetas),
+    )
 }
 
 /// The mean number of nodes visited.

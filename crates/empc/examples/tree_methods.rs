@@ -11,48 +11,14 @@
 //! the tree's output equals the law of a region containing the parameter
 //! (the mpQP solution's own region lookup) to 1e-8 (relative to the
 //! output's size); every parameter must be covered by a region.
-use kestrel_core::Scalar;
+#[path = "../tests/common/mod.rs"]
+mod common;
+mod shared;
+
 use kestrel_core::formats::MpqpProblem;
-use kestrel_empc::eval::{TreeIndex, TreeTables};
-use kestrel_empc::tree::{AnyTables, TreeMethod, build_any};
-use kestrel_empc::{Outputs, Settings, TreeSettings, evaluate_with, solve};
-
-/// Mean seconds per evaluation of `tables` over `thetas` (three passes, the best).
-fn eval_time<S: Scalar, I: TreeIndex, T: TreeTables<S, I>>(
-    tables: &T,
-    thetas: &[Vec<f64>],
-    k: usize,
-) -> f64 {
-    let ths: Vec<Vec<S>> = thetas
-        .iter()
-        .map(|t| t.iter().map(|&v| S::from_f64(v)).collect())
-        .collect();
-    let mut z = vec![S::ZERO; k];
-    let mut scratch = vec![S::ZERO; tables.n_params()];
-    let mut best = f64::INFINITY;
-    for _ in 0..3 {
-        let t = std::time::Instant::now();
-        for th in &ths {
-            let e = evaluate_with(tables, std::hint::black_box(th), &mut scratch, &mut z);
-            std::hint::black_box((&e, &z));
-        }
-        best = best.min(t.elapsed().as_secs_f64() / ths.len().max(1) as f64);
-    }
-    best
-}
-
-/// CPU seconds of this process (user + system), from `/proc/self/stat`.
-fn cpu_seconds() -> f64 {
-    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let f: Vec<&str> = s
-        .rsplit(')')
-        .next()
-        .unwrap_or("")
-        .split_whitespace()
-        .collect();
-    let t = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
-    (t(11) + t(12)) / 100.0
-}
+use kestrel_empc::tree::{TreeMethod, build_any};
+use kestrel_empc::{Outputs, Settings, TreeSettings, solve};
+use shared::{cpu_seconds, eval_times};
 
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -82,21 +48,19 @@ fn main() {
         "sampled" => &[("sampled", TreeMethod::Sampled)],
         _ => &[("lp", TreeMethod::Lp), ("sampled", TreeMethod::Sampled)],
     };
-    let p = prob.p();
     let mut seed: u64 = 0x2545_F491_4F6C_DD1D;
-    let mut rnd = move || {
+    let xorshift = move || {
         seed ^= seed << 13;
         seed ^= seed >> 7;
         seed ^= seed << 17;
         (seed >> 11) as f64 / (1u64 << 53) as f64
     };
-    let thetas: Vec<Vec<f64>> = (0..samples)
-        .map(|_| {
-            (0..p)
-                .map(|j| sol.theta_lb[j] + rnd() * (sol.theta_ub[j] - sol.theta_lb[j]))
-                .collect()
-        })
-        .collect();
+    let thetas = common::box_samples_with(
+        sol.theta_lb.as_slice(),
+        sol.theta_ub.as_slice(),
+        samples,
+        xorshift,
+    );
     for &(name, method) in methods {
         let settings = TreeSettings {
             outputs: Outputs::First(k),
@@ -132,23 +96,13 @@ fn main() {
         );
         let (mut bad, mut uncovered, mut worst) = (0, 0, 0.0_f64);
         let mut z = vec![0.0; k];
-        let mut scratch = vec![0.0; p];
         for th in &thetas {
             let Some(want) = sol.first_outputs_at(th, k) else {
                 uncovered += 1;
                 continue;
             };
-            let ok = match &ctl.tables {
-                AnyTables::Narrow(t) => {
-                    evaluate_with(&t.tables(), th, &mut scratch, &mut z).is_ok()
-                }
-                AnyTables::Wide(t) => evaluate_with(&t.tables(), th, &mut scratch, &mut z).is_ok(),
-            };
-            let dev = want
-                .iter()
-                .zip(&z)
-                .map(|(a, b)| (a - b).abs() / (1.0 + a.abs()))
-                .fold(0.0, f64::max);
+            let ok = ctl.tables.evaluate_f64(th, &mut z).is_ok();
+            let dev = common::rel(&want, &z);
             worst = worst.max(dev);
             if !ok || dev > 1e-8 {
                 bad += 1;
@@ -157,16 +111,7 @@ fn main() {
         println!(
             "{name}: {samples} thetas, {bad} mismatches, {uncovered} uncovered, worst relative deviation {worst:.1e}"
         );
-        let (t64, t32) = match &ctl.tables {
-            AnyTables::Narrow(t) => (
-                eval_time(&t.tables(), &thetas, k),
-                eval_time(&t.cast::<f32>().tables(), &thetas, k),
-            ),
-            AnyTables::Wide(t) => (
-                eval_time(&t.tables(), &thetas, k),
-                eval_time(&t.cast::<f32>().tables(), &thetas, k),
-            ),
-        };
+        let (t64, t32) = eval_times(&ctl.tables, &thetas);
         println!(
             "{name}: evaluation {:.0} ns (f64), {:.0} ns (f32) per parameter (best of 3 passes over the {samples})",
             t64 * 1e9,

@@ -23,60 +23,12 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use kestrel_core::Scalar;
+mod shared;
+
 use kestrel_core::formats::MpqpProblem;
-use kestrel_empc::eval::{TreeIndex, TreeTables};
-use kestrel_empc::mpqp::Rng;
-use kestrel_empc::tree::{AnyTables, TreeMethod, build_any};
-use kestrel_empc::{Outputs, Settings, TreeSettings, evaluate_with, solve};
-
-/// CPU seconds of this process (user + system), from `/proc/self/stat`.
-fn cpu_seconds() -> f64 {
-    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let f: Vec<&str> = s
-        .rsplit(')')
-        .next()
-        .unwrap_or("")
-        .split_whitespace()
-        .collect();
-    let t = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
-    (t(11) + t(12)) / 100.0
-}
-
-/// Mean seconds per evaluation over `thetas` (best of three passes).
-fn eval_time<S: Scalar, I: TreeIndex, T: TreeTables<S, I>>(t: &T, thetas: &[Vec<f64>]) -> f64 {
-    let ths: Vec<Vec<S>> = thetas
-        .iter()
-        .map(|th| th.iter().map(|&v| S::from_f64(v)).collect())
-        .collect();
-    let mut z = vec![S::ZERO; t.n_outputs()];
-    let mut scratch = vec![S::ZERO; t.n_params()];
-    let mut best = f64::INFINITY;
-    for _ in 0..3 {
-        let w = std::time::Instant::now();
-        for th in &ths {
-            let e = evaluate_with(t, std::hint::black_box(th), &mut scratch, &mut z);
-            std::hint::black_box((&e, &z));
-        }
-        best = best.min(w.elapsed().as_secs_f64() / ths.len().max(1) as f64);
-    }
-    best
-}
-
-/// Evaluates either layout in f64.
-fn eval_any(t: &AnyTables, th: &[f64], scratch: &mut [f64], z: &mut [f64]) -> bool {
-    match t {
-        AnyTables::Narrow(t) => evaluate_with(&t.tables(), th, scratch, z).is_ok(),
-        AnyTables::Wide(t) => evaluate_with(&t.tables(), th, scratch, z).is_ok(),
-    }
-}
-
-fn rel(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs() / (1.0 + x.abs()))
-        .fold(0.0, f64::max)
-}
+use kestrel_empc::tree::{TreeMethod, build_any};
+use kestrel_empc::{Outputs, Settings, TreeSettings, solve};
+use shared::{cpu_seconds, eval_times};
 
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -116,29 +68,23 @@ fn main() {
         ctl.tables.bytes(4),
         s.ambiguous_leaves
     );
-    let p = prob.p();
-    let mut rng = Rng::new(2026);
-    let thetas: Vec<Vec<f64>> = (0..samples)
-        .map(|_| {
-            (0..p)
-                .map(|j| {
-                    let (lo, hi) = (prob.theta_lb[j], prob.theta_ub[j]);
-                    lo + (hi - lo) * 0.5 * (rng.sym() + 1.0)
-                })
-                .collect()
-        })
-        .collect();
+    let thetas = common::box_samples(
+        prob.theta_lb.as_slice(),
+        prob.theta_ub.as_slice(),
+        samples,
+        2026,
+    );
     let (mut bad, mut uncovered, mut worst) = (0, 0, 0.0_f64);
     let (mut cl_n, mut cl_bad, mut cl_worst, mut cl_failed) = (0, 0, 0.0_f64, 0);
     let mut cl_law_better = 0;
-    let (mut z, mut scratch) = (vec![0.0; k], vec![0.0; p]);
+    let mut z = vec![0.0; k];
     for (i, th) in thetas.iter().enumerate() {
-        let ok = eval_any(&ctl.tables, th, &mut scratch, &mut z);
+        let ok = ctl.tables.evaluate_f64(th, &mut z).is_ok();
         let Some(want) = sol.first_outputs_at(th, k) else {
             uncovered += 1;
             continue;
         };
-        let d = rel(&want, &z);
+        let d = common::rel(&want, &z);
         worst = worst.max(d);
         if !ok || d > 1e-9 {
             bad += 1;
@@ -147,7 +93,7 @@ fn main() {
             cl_n += 1;
             match common::clarabel_qp_checked(&prob, th) {
                 Ok(Some(x)) => {
-                    let dc = rel(&x[..k], &z);
+                    let dc = common::rel(&x[..k], &z);
                     cl_worst = cl_worst.max(dc);
                     if dc > 1e-8 {
                         // Which is the optimum: the law's full z (the
@@ -172,16 +118,7 @@ fn main() {
     println!(
         "exactness: {samples} parameters, {bad} mismatches (worst {worst:.1e}), {uncovered} uncovered; clarabel at {cl_n}: {cl_bad} beyond 1e-8 with the law not the better point, {cl_law_better} beyond 1e-8 where the law is feasible with a lower objective (clarabel short; worst difference {cl_worst:.1e}), {cl_failed} where clarabel did not converge"
     );
-    let (t64, t32) = match &ctl.tables {
-        AnyTables::Narrow(t) => (
-            eval_time(&t.tables(), &thetas),
-            eval_time(&t.cast::<f32>().tables(), &thetas),
-        ),
-        AnyTables::Wide(t) => (
-            eval_time(&t.tables(), &thetas),
-            eval_time(&t.cast::<f32>().tables(), &thetas),
-        ),
-    };
+    let (t64, t32) = eval_times(&ctl.tables, &thetas);
     println!(
         "evaluation: {:.0} ns (f64), {:.0} ns (f32) per parameter",
         t64 * 1e9,

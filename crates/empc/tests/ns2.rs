@@ -16,9 +16,8 @@
 
 mod common;
 
-use common::{clarabel_qp, clarabel_qp_checked, law_at_least_as_good};
+use common::{box_samples, clarabel_qp, clarabel_qp_checked, law_at_least_as_good, rel};
 use kestrel_core::formats::MpqpProblem;
-use kestrel_empc::mpqp::Rng;
 use kestrel_empc::tree::{AnyTables, TreeMethod, build_any};
 use kestrel_empc::{Outputs, Settings, TreeSettings, build_controller, evaluate_with, solve};
 
@@ -28,30 +27,18 @@ fn ns2_problem(shrink: f64) -> MpqpProblem {
     prob
 }
 
-fn rel(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs() / (1.0 + x.abs()))
-        .fold(0.0, f64::max)
-}
-
 #[test]
 fn ns2_first_move_trees_are_exact_on_a_sub_box() {
     let prob = ns2_problem(0.2);
     let sol = solve(&prob, &Settings::default()).unwrap();
     assert!(sol.regions.len() > 100, "{} regions", sol.regions.len());
     let (p, k) = (prob.p(), 4);
-    let mut rng = Rng::new(2026);
-    let thetas: Vec<Vec<f64>> = (0..10_000)
-        .map(|_| {
-            (0..p)
-                .map(|j| {
-                    let (lo, hi) = (prob.theta_lb[j], prob.theta_ub[j]);
-                    lo + (hi - lo) * 0.5 * (rng.sym() + 1.0)
-                })
-                .collect()
-        })
-        .collect();
+    let thetas = box_samples(
+        prob.theta_lb.as_slice(),
+        prob.theta_ub.as_slice(),
+        10_000,
+        2026,
+    );
     let reference: Vec<Vec<f64>> = thetas
         .iter()
         .map(|th| {
@@ -129,20 +116,19 @@ fn ns2_whole_box_wide_tree_is_exact() {
         );
     };
     let t = t.tables();
-    let mut rng = Rng::new(99);
+    let thetas = box_samples(
+        prob.theta_lb.as_slice(),
+        prob.theta_ub.as_slice(),
+        10_000,
+        99,
+    );
     let (mut z, mut scratch) = (vec![0.0; k], vec![0.0; p]);
     let (mut compared, mut failed) = (0, 0);
-    for i in 0..10_000 {
-        let th: Vec<f64> = (0..p)
-            .map(|j| {
-                let (lo, hi) = (prob.theta_lb[j], prob.theta_ub[j]);
-                lo + (hi - lo) * 0.5 * (rng.sym() + 1.0)
-            })
-            .collect();
+    for (i, th) in thetas.iter().enumerate() {
         let want = sol
-            .first_outputs_at(&th, k)
+            .first_outputs_at(th, k)
             .expect("every parameter is covered by a region");
-        let e = evaluate_with(&t, &th, &mut scratch, &mut z).unwrap();
+        let e = evaluate_with(&t, th, &mut scratch, &mut z).unwrap();
         assert!(!e.outside);
         assert!(rel(&want, &z) <= 1e-9, "theta {i}: {z:?} vs {want:?}");
         if i % 50 == 0 {
@@ -151,14 +137,14 @@ fn ns2_whole_box_wide_tree_is_exact() {
             // Where the two differ beyond 1e-8, the law must be the
             // better point: feasible with an objective not above
             // clarabel's (clarabel stops short on a few of these).
-            match clarabel_qp_checked(&prob, &th) {
+            match clarabel_qp_checked(&prob, th) {
                 Ok(x) => {
                     let x = x.expect("clarabel: the QP is feasible");
                     if rel(&x[..k], &z) > 1e-8 {
-                        let r = sol.locate(&th, 1e-9).unwrap();
-                        let full = sol.regions[r].z(&th);
+                        let r = sol.locate(th, 1e-9).unwrap();
+                        let full = sol.regions[r].z(th);
                         assert!(
-                            law_at_least_as_good(&prob, &th, full.as_slice(), &x),
+                            law_at_least_as_good(&prob, th, full.as_slice(), &x),
                             "theta {i}: {z:?} vs clarabel {x:?}"
                         );
                     }

@@ -15,12 +15,7 @@ use kestrel_empc::{
 use nalgebra::{DMatrix, DVector};
 
 fn sample(prob: &MpqpProblem, rng: &mut Rng) -> Vec<f64> {
-    (0..prob.p())
-        .map(|j| {
-            let (lo, hi) = (prob.theta_lb[j], prob.theta_ub[j]);
-            lo + (hi - lo) * 0.5 * (rng.sym() + 1.0)
-        })
-        .collect()
+    common::box_point(prob.theta_lb.as_slice(), prob.theta_ub.as_slice(), rng)
 }
 
 /// Solves, builds the tree and checks 10^4 random parameters against clarabel.

@@ -5,6 +5,7 @@ use clarabel::solver::{
     DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus,
 };
 use kestrel_core::formats::MpqpProblem;
+use kestrel_empc::mpqp::Rng;
 use nalgebra::{DMatrix, DVector};
 
 /// clarabel's solution of the QP at `theta` (tight tolerances), `None` if
@@ -16,6 +17,7 @@ pub fn clarabel_qp(prob: &MpqpProblem, theta: &[f64]) -> Option<Vec<f64>> {
 
 /// [`clarabel_qp`] with any other status (e.g. `InsufficientProgress` at
 /// these tight tolerances) as an error, for long sweeps that count them.
+#[allow(dead_code)] // not every binary uses it (the examples include this file)
 pub fn clarabel_qp_checked(prob: &MpqpProblem, theta: &[f64]) -> Result<Option<Vec<f64>>, String> {
     let n = prob.n();
     let th = DVector::from_column_slice(theta);
@@ -72,4 +74,48 @@ pub fn law_at_least_as_good(prob: &MpqpProblem, theta: &[f64], z: &[f64], x: &[f
     let (jx, _) = objective_and_violation(prob, theta, x);
     let rhs = prob.rhs(&DVector::from_column_slice(theta)).amax();
     vz <= 1e-9 * (1.0 + rhs) && (jz - jx) / (1.0 + jx.abs()) <= 1e-12
+}
+
+/// A point of the box `[lb, ub]`: `lb + (ub - lb) * unit()` per entry,
+/// `unit` uniform in `[0, 1)`.
+#[allow(dead_code)] // not every test binary uses it
+pub fn box_point_with(lb: &[f64], ub: &[f64], mut unit: impl FnMut() -> f64) -> Vec<f64> {
+    lb.iter()
+        .zip(ub)
+        .map(|(lo, hi)| lo + (hi - lo) * unit())
+        .collect()
+}
+
+/// [`box_point_with`] from `rng` (the sequence the tests and the examples
+/// sample with).
+#[allow(dead_code)] // not every test binary uses it
+pub fn box_point(lb: &[f64], ub: &[f64], rng: &mut Rng) -> Vec<f64> {
+    box_point_with(lb, ub, || 0.5 * (rng.sym() + 1.0))
+}
+
+/// `n` points of the box `[lb, ub]` ([`box_point_with`]).
+#[allow(dead_code)] // not every test binary uses it
+pub fn box_samples_with(
+    lb: &[f64],
+    ub: &[f64],
+    n: usize,
+    mut unit: impl FnMut() -> f64,
+) -> Vec<Vec<f64>> {
+    (0..n).map(|_| box_point_with(lb, ub, &mut unit)).collect()
+}
+
+/// `n` points of the box `[lb, ub]` ([`box_point`]) from `Rng::new(seed)`.
+#[allow(dead_code)] // not every test binary uses it
+pub fn box_samples(lb: &[f64], ub: &[f64], n: usize, seed: u64) -> Vec<Vec<f64>> {
+    let mut rng = Rng::new(seed);
+    (0..n).map(|_| box_point(lb, ub, &mut rng)).collect()
+}
+
+/// The largest relative difference `|a - b| / (1 + |a|)`.
+#[allow(dead_code)] // not every test binary uses it
+pub fn rel(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs() / (1.0 + x.abs()))
+        .fold(0.0, f64::max)
 }
