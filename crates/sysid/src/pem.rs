@@ -1208,37 +1208,84 @@ mod tests {
     use super::*;
     use crate::synthetic;
 
+    /// The set-up of the Jacobian checks: a random stable 3-state,
+    /// 2-input, 2-output model `m`, `samples` samples of its data (noise
+    /// seed `noise_seed`) merged twice into two experiments, `m` with a
+    /// feed-through `D` (`base`) and two predictor initial states.
+    struct JacobianFixture {
+        m: InnovationModel,
+        data: IoData,
+        series: Vec<Series>,
+        base: InnovationModel,
+        x0: Vec<DVector<f64>>,
+    }
+
+    fn jacobian_fixture(seed: u64, samples: usize, noise_seed: u64) -> JacobianFixture {
+        let m = synthetic::random_model(3, 2, 2, seed, 0.8);
+        let data = synthetic::simulate(&m, samples, 0.3, noise_seed).unwrap();
+        let sdata = IoData::merge(&[data.clone(), data.clone()]).unwrap();
+        let series = series_of(&sdata);
+        let mut base = m.clone();
+        base.d = DMatrix::from_fn(2, 2, |i, j| 0.1 * (i + 2 * j) as f64);
+        let x0 = vec![
+            DVector::from_vec(vec![0.3, -0.2, 0.1]),
+            DVector::from_vec(vec![0.0, 0.5, -0.4]),
+        ];
+        JacobianFixture {
+            m,
+            data,
+            series,
+            base,
+            x0,
+        }
+    }
+
+    /// The transposed Jacobian of `f` at `th` (a row per parameter) by
+    /// central differences of step `1e-6`.
+    fn central_differences(
+        th: &DVector<f64>,
+        f: impl Fn(&DVector<f64>) -> DVector<f64>,
+    ) -> DMatrix<f64> {
+        let eps = 1e-6;
+        let rows: Vec<_> = (0..th.len())
+            .map(|j| {
+                let mut tp = th.clone();
+                tp[j] += eps;
+                let mut tm = th.clone();
+                tm[j] -= eps;
+                ((f(&tp) - f(&tm)) / (2.0 * eps)).transpose()
+            })
+            .collect();
+        DMatrix::from_rows(&rows)
+    }
+
+    /// Every row of the exact transposed Jacobian `jt` agrees with that
+    /// of `fd` within `1e-6 (1 + |row|)`.
+    fn assert_rows_agree(jt: &DMatrix<f64>, fd: &DMatrix<f64>, label: &str) {
+        assert_eq!(jt.shape(), fd.shape(), "{label}");
+        for j in 0..jt.nrows() {
+            let an = jt.row(j);
+            let err = (fd.row(j) - an).norm();
+            assert!(err < 1e-6 * (1.0 + an.norm()), "{label}param {j}: {err}");
+        }
+    }
+
     #[test]
     fn jacobian_matches_central_differences() {
-        let m = synthetic::random_model(3, 2, 2, 21, 0.8);
-        let data = synthetic::simulate(&m, 60, 0.3, 5).unwrap();
-        let sdata = IoData::merge(&[data.clone(), data]).unwrap();
-        let series = series_of(&sdata);
+        let JacobianFixture {
+            series, base, x0, ..
+        } = jacobian_fixture(21, 60, 5);
         for (has_d, has_k) in [(true, true), (false, false)] {
             let lay = Layout::new(3, 2, 2, 2, has_d, has_k);
-            let mut base = m.clone();
-            base.d = DMatrix::from_fn(2, 2, |i, j| 0.1 * (i + 2 * j) as f64);
-            let x0 = vec![
-                DVector::from_vec(vec![0.3, -0.2, 0.1]),
-                DVector::from_vec(vec![0.0, 0.5, -0.4]),
-            ];
             let th = lay.pack(&base, &x0);
             let (mm, xx) = lay.unpack(&th, &base);
             let (r0, jt) = residuals_and_jacobian(&lay, &mm, &xx, &series, 1);
-            assert!((&r0 - residuals(&mm, &xx, &series)).norm() < 1e-12);
-            for j in 0..lay.p {
-                let h = 1e-6;
-                let mut tp = th.clone();
-                tp[j] += h;
-                let mut tm = th.clone();
-                tm[j] -= h;
-                let (mp, xp) = lay.unpack(&tp, &base);
-                let (mq, xq) = lay.unpack(&tm, &base);
-                let fd = (residuals(&mp, &xp, &series) - residuals(&mq, &xq, &series)) / (2.0 * h);
-                let an = jt.row(j).transpose();
-                let err = (&fd - &an).norm();
-                assert!(err < 1e-6 * (1.0 + an.norm()), "param {j}: {err}");
-            }
+            let res = |th: &DVector<f64>| {
+                let (mm, xx) = lay.unpack(th, &base);
+                residuals(&mm, &xx, &series)
+            };
+            assert!((&r0 - res(&th)).norm() < 1e-12);
+            assert_rows_agree(&jt, &central_differences(&th, res), "");
         }
     }
 
@@ -1248,16 +1295,13 @@ mod tests {
     /// differences.
     #[test]
     fn multistep_jacobian_matches_central_differences() {
-        let m = synthetic::random_model(3, 2, 2, 23, 0.8);
-        let data = synthetic::simulate(&m, 40, 0.3, 6).unwrap();
-        let sdata = IoData::merge(&[data.clone(), data.clone()]).unwrap();
-        let series = series_of(&sdata);
-        let x0 = vec![
-            DVector::from_vec(vec![0.3, -0.2, 0.1]),
-            DVector::from_vec(vec![0.0, 0.5, -0.4]),
-        ];
-        let mut base = m.clone();
-        base.d = DMatrix::from_fn(2, 2, |i, j| 0.1 * (i + 2 * j) as f64);
+        let JacobianFixture {
+            m,
+            data,
+            series,
+            base,
+            x0,
+        } = jacobian_fixture(23, 40, 6);
         let one = residuals(&base, &x0, &series);
         assert!((multistep_residuals(&base, &x0, &series, 1) - &one).norm() < 1e-12);
         // Step k of sample t against predict_k_step (the k-step
@@ -1280,22 +1324,12 @@ mod tests {
             let th = lay.pack(&base, &x0);
             let (mm, xx) = lay.unpack(&th, &base);
             let (r0, jt) = residuals_and_jacobian(&lay, &mm, &xx, &series, h);
-            assert!((&r0 - multistep_residuals(&mm, &xx, &series, h)).norm() < 1e-12);
-            for j in 0..lay.p {
-                let eps = 1e-6;
-                let mut tp = th.clone();
-                tp[j] += eps;
-                let mut tm = th.clone();
-                tm[j] -= eps;
-                let (mp, xp) = lay.unpack(&tp, &base);
-                let (mq, xq) = lay.unpack(&tm, &base);
-                let fd = (multistep_residuals(&mp, &xp, &series, h)
-                    - multistep_residuals(&mq, &xq, &series, h))
-                    / (2.0 * eps);
-                let an = jt.row(j).transpose();
-                let err = (&fd - &an).norm();
-                assert!(err < 1e-6 * (1.0 + an.norm()), "param {j}: {err}");
-            }
+            let res = |th: &DVector<f64>| {
+                let (mm, xx) = lay.unpack(th, &base);
+                multistep_residuals(&mm, &xx, &series, h)
+            };
+            assert!((&r0 - res(&th)).norm() < 1e-12);
+            assert_rows_agree(&jt, &central_differences(&th, res), "");
         }
         // The horizon is checked.
         for (focus, horizon) in [(Focus::Prediction, 0), (Focus::Simulation, 2)] {
@@ -1493,10 +1527,7 @@ mod tests {
         assert!(rms_fi < rms_tr - 0.01, "{rms_fi} vs {rms_tr}");
         assert!(trace_tr < trace_fi - 0.004, "{trace_tr} vs {trace_fi}");
         assert!((tr.cost - trace_tr / 2.0).abs() < 0.02 * tr.cost);
-        let mean_fit = |m: &InnovationModel| {
-            let f = crate::predict_fit(m, &data, 1).unwrap();
-            f.iter().sum::<f64>() / f.len() as f64
-        };
+        let mean_fit = |m: &InnovationModel| mean_one_step_fit(m, &data);
         assert!(mean_fit(&fi.model) > mean_fit(&tr.model) + 0.5);
         // With a horizon the groups are (step, output) and the search
         // still lowers the (reweighted) criterion from the start.
@@ -1581,20 +1612,17 @@ mod tests {
     /// prediction errors).
     #[test]
     fn simulation_term_jacobian_matches_central_differences() {
-        let m = synthetic::random_model(3, 2, 2, 41, 0.8);
-        let data = synthetic::simulate(&m, 30, 0.3, 7).unwrap();
-        let sdata = IoData::merge(&[data.clone(), data.clone()]).unwrap();
-        let series = series_of(&sdata);
-        let x0 = vec![
-            DVector::from_vec(vec![0.3, -0.2, 0.1]),
-            DVector::from_vec(vec![0.0, 0.5, -0.4]),
-        ];
+        let JacobianFixture {
+            data,
+            series,
+            base,
+            x0,
+            ..
+        } = jacobian_fixture(41, 30, 7);
         let xs = vec![
             DVector::from_vec(vec![-0.1, 0.4, 0.2]),
             DVector::from_vec(vec![0.6, -0.3, 0.0]),
         ];
-        let mut base = m.clone();
-        base.d = DMatrix::from_fn(2, 2, |i, j| 0.1 * (i + 2 * j) as f64);
         let e0 = &data.experiments()[0];
         let want = &e0.y - base.simulate(&e0.u, &xs[0]).unwrap();
         let got = residuals(&without_k(&base), &xs, &series);
@@ -1624,25 +1652,19 @@ mod tests {
             assert_eq!(jt.nrows(), lay.p);
             assert!((&r0 - all(&th)).norm() < 1e-12);
             let n_pred = r0.len() - 2 * 60;
+            let fd = central_differences(&th, all);
+            assert_rows_agree(&jt, &fd, &format!("h {h} "));
             for j in 0..lay.p {
-                let eps = 1e-6;
-                let mut tp = th.clone();
-                tp[j] += eps;
-                let mut tm = th.clone();
-                tm[j] -= eps;
-                let fd = (all(&tp) - all(&tm)) / (2.0 * eps);
-                let an = jt.row(j).transpose();
-                let err = (&fd - &an).norm();
-                assert!(err < 1e-6 * (1.0 + an.norm()), "h {h} param {j}: {err}");
+                let (an, fd) = (jt.row(j), fd.row(j));
                 // K and the predictor's x0 leave the simulation alone; the
                 // simulation x0 leaves the prediction alone.
                 if (lay.ok..lay.osx).contains(&j) {
-                    assert!(an.rows(n_pred, 120).amax() == 0.0);
-                    assert!(fd.rows(n_pred, 120).amax() < 1e-9);
+                    assert!(an.columns(n_pred, 120).amax() == 0.0);
+                    assert!(fd.columns(n_pred, 120).amax() < 1e-9);
                 }
                 if j >= lay.osx {
-                    assert!(an.rows(0, n_pred).amax() == 0.0);
-                    assert!(fd.rows(0, n_pred).amax() < 1e-9);
+                    assert!(an.columns(0, n_pred).amax() == 0.0);
+                    assert!(fd.columns(0, n_pred).amax() < 1e-9);
                 }
             }
         }
@@ -1688,12 +1710,25 @@ mod tests {
     /// too low an order: the search ends lower in its own criterion
     /// (evaluated independently of the search's weights) than it started,
     /// and the result is stable with its simulation `x0` reported.
-    #[test]
-    fn simulation_term_never_ends_worse_than_its_start() {
-        let truth = synthetic::random_model(4, 2, 2, 33, 0.9);
-        let data = synthetic::simulate(&truth, 800, 0.4, 9).unwrap();
+    /// Mean-free data of a random stable 4-state, 2-input, 2-output
+    /// model (`samples` samples, noise `noise` with seed `noise_seed`) and
+    /// the N4SID model of too low an order (3) from them.
+    fn low_order_start(
+        seed: u64,
+        samples: usize,
+        noise: f64,
+        noise_seed: u64,
+    ) -> (IoData, InnovationModel) {
+        let truth = synthetic::random_model(4, 2, 2, seed, 0.9);
+        let data = synthetic::simulate(&truth, samples, noise, noise_seed).unwrap();
         let (data, _) = data.remove_means().unwrap();
         let start = crate::n4sid::n4sid_of_order(&data, 3).model;
+        (data, start)
+    }
+
+    #[test]
+    fn simulation_term_never_ends_worse_than_its_start() {
+        let (data, start) = low_order_start(33, 800, 0.4, 9);
         for criterion in [Criterion::Trace, Criterion::Fit] {
             let settings = PemSettings {
                 criterion,
@@ -1730,6 +1765,12 @@ mod tests {
         assert!(plain.unwrap().simulation_x0.is_empty());
     }
 
+    /// Mean one-step prediction fit.
+    fn mean_one_step_fit(m: &InnovationModel, data: &IoData) -> f64 {
+        let f = crate::predict_fit(m, data, 1).unwrap();
+        f.iter().sum::<f64>() / f.len() as f64
+    }
+
     /// Mean simulation fit (compare, its own least-squares x0).
     fn mean_sim_fit(m: &InnovationModel, data: &IoData) -> f64 {
         let f = crate::compare(m, data).unwrap().fit;
@@ -1743,10 +1784,7 @@ mod tests {
     /// beats that of the simulation-focus model, whose `K` is 0).
     #[test]
     fn large_simulation_weight_approaches_the_simulation_focus() {
-        let truth = synthetic::random_model(4, 2, 2, 35, 0.9);
-        let data = synthetic::simulate(&truth, 1000, 0.5, 11).unwrap();
-        let (data, _) = data.remove_means().unwrap();
-        let start = crate::n4sid::n4sid_of_order(&data, 3).model;
+        let (data, start) = low_order_start(35, 1000, 0.5, 11);
         let run = |focus: Focus, simulation_weight: f64| {
             let s = PemSettings {
                 focus,
@@ -1764,10 +1802,7 @@ mod tests {
             mean_sim_fit(&heavy, &data),
             mean_sim_fit(&plain, &data),
         );
-        let one = |m: &InnovationModel| {
-            let f = crate::predict_fit(m, &data, 1).unwrap();
-            f.iter().sum::<f64>() / f.len() as f64
-        };
+        let one = |m: &InnovationModel| mean_one_step_fit(m, &data);
         eprintln!(
             "simulation fit: focus {fs:.3}, weight 1e4 {fh:.3}, plain {fp:.3}; one-step: focus {:.3}, weight 1e4 {:.3}",
             one(&sim),
