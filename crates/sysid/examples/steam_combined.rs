@@ -31,7 +31,7 @@
 mod steam;
 
 use kestrel_sysid::{Criterion, InnovationModel, IoData, N4sidSettings, PemSettings, Weighting};
-use steam::{dynamics, fits, halves, inner_halves, table, timed_pem};
+use steam::{choose, criterion, dynamics, fits, in_threads, list, table, timed_pem};
 
 /// Where the combined fit starts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -104,38 +104,25 @@ fn starts(est: &IoData, which: &[Start]) -> Result<Vec<(Start, InnovationModel)>
     Ok(out)
 }
 
-fn list<T>(var: &str, default: &str, parse: impl Fn(&str) -> Option<T>) -> Result<Vec<T>, String> {
-    std::env::var(var)
-        .unwrap_or_else(|_| default.into())
-        .split(',')
-        .filter(|s| !s.trim().is_empty())
-        .map(|s| parse(s.trim()).ok_or(format!("{var}: cannot read {s:?}")))
-        .collect()
-}
-
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let which = list("STEAM_STARTS", "n4sid,warm", |s| match s {
         "n4sid" => Some(Start::N4sid),
         "warm" => Some(Start::Warm),
         _ => None,
     })?;
-    let criteria = list("STEAM_CRITERIA", "fit,trace", |s| match s {
-        "trace" => Some(Criterion::Trace),
-        "fit" => Some(Criterion::Fit),
-        _ => None,
-    })?;
+    let criteria = list("STEAM_CRITERIA", "fit,trace", criterion)?;
     let step_sets: Vec<Vec<usize>> = list("STEAM_STEPS", "1+5", |s| {
         s.split('+').map(|k| k.parse::<usize>().ok()).collect()
     })?;
     let weights = list("STEAM_WEIGHTS", "0,0.25,1", |s| s.parse::<f64>().ok())?;
-    let refit = std::env::var("STEAM_REFIT").map_or(true, |v| v != "0");
-    let steam::Halves { est, val } = halves()?;
-
+    let refit = steam::refit();
     // Cross-validation inside the estimation half only.
-    let steam::Halves {
-        est: inner_est,
-        val: inner_val,
-    } = inner_halves(&est)?;
+    let steam::Split {
+        est,
+        val,
+        inner_est,
+        inner_val,
+    } = steam::split()?;
     let t = std::time::Instant::now();
     let inner_starts = starts(&inner_est, &which)?;
     let mut jobs: Vec<(Config, &InnovationModel)> = Vec::new();
@@ -155,31 +142,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     // Two worker threads take the jobs in turn.
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let results = std::sync::Mutex::new(Vec::new());
-    std::thread::scope(|s| {
-        for _ in 0..2 {
-            s.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                    let Some((c, start)) = jobs.get(i).cloned() else {
-                        break;
-                    };
-                    let r = timed_pem(&inner_est, start, &c.settings(), &format!("  {c:?}"))
-                        .and_then(|r| {
-                            Ok((fits(&r.model, &inner_val)?, fits(&r.model, &inner_est)?))
-                        });
-                    if let Ok(mut all) = results.lock() {
-                        match r {
-                            Ok(f) => all.push((c, f)),
-                            Err(e) => eprintln!("  {c:?}: {e}"),
-                        }
-                    }
-                }
-            });
-        }
-    });
-    let mut rows = results.into_inner().map_err(|_| "poisoned")?;
+    let mut rows = in_threads(
+        &jobs,
+        2,
+        |(c, _)| format!("  {c:?}"),
+        |(c, start)| {
+            let r = timed_pem(&inner_est, start, &c.settings(), &format!("  {c:?}"))?;
+            let f = (fits(&r.model, &inner_val)?, fits(&r.model, &inner_est)?);
+            Ok((c.clone(), f))
+        },
+    )?;
     rows.sort_by(|(a, _), (b, _)| {
         (format!("{:?}{:?}{:?}", a.start, a.criterion, a.steps))
             .cmp(&format!("{:?}{:?}{:?}", b.start, b.criterion, b.steps))
@@ -192,18 +164,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!(
         "| start | criterion | steps | simulation weight | simulation | 1-step | 5-step | score | simulation on the fitted 2/3 |\n|---|---|---|---|---|---|---|---|---|"
     );
-    let mut best: Option<(f64, Config)> = None;
-    for (c, (f, fe)) in &rows {
-        let score = f.score();
-        println!(
-            "| {:?} | {:?} | {:?} | {} | {:.2} | {:.2} | {:.2} | {score:.2} | {:.2} |",
-            c.start, c.criterion, c.steps, c.weight, f.sim, f.one, f.five, fe.sim
-        );
-        if score.is_finite() && best.as_ref().is_none_or(|(s, _)| score > *s) {
-            best = Some((score, c.clone()));
-        }
-    }
-    let (_, c) = best.ok_or("no configuration")?;
+    let (_, c) = choose(
+        &rows,
+        |(f, _)| f,
+        |c, (f, fe), score| {
+            format!(
+                "| {:?} | {:?} | {:?} | {} | {:.2} | {:.2} | {:.2} | {score:.2} | {:.2} |",
+                c.start, c.criterion, c.steps, c.weight, f.sim, f.one, f.five, fe.sim
+            )
+        },
+    )?;
     println!("chosen by the inner score: {c:?}");
     if !refit {
         return Ok(());

@@ -34,7 +34,7 @@
 mod steam;
 
 use kestrel_sysid::{Criterion, InnovationModel, IoData, N4sidSettings, PemSettings, Weighting};
-use steam::{fits, halves, inner_halves, table, timed_pem};
+use steam::{choose, criterion, fits, in_threads, list, table, timed_pem};
 
 /// A step set: all of `1..=h` (`steps` empty) or the selected steps.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -95,15 +95,6 @@ fn start(est: &IoData, i: usize) -> Result<InnovationModel, String> {
     .map_err(|e| e.to_string())
 }
 
-fn list<T>(var: &str, default: &str, parse: impl Fn(&str) -> Option<T>) -> Result<Vec<T>, String> {
-    std::env::var(var)
-        .unwrap_or_else(|_| default.into())
-        .split(',')
-        .filter(|s| !s.trim().is_empty())
-        .map(|s| parse(s.trim()).ok_or(format!("{var}: cannot read {s:?}")))
-        .collect()
-}
-
 fn parse_steps(s: &str) -> Option<Steps> {
     if let Some(h) = s.strip_prefix("1..") {
         let h = h.parse::<usize>().ok().filter(|&h| h > 0)?;
@@ -128,11 +119,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let starts = list("STEAM_STARTS", "moesp:10,moesp:20", |s| {
         s.strip_prefix("moesp:")?.parse::<usize>().ok()
     })?;
-    let criteria = list("STEAM_CRITERIA", "trace,fit", |s| match s {
-        "trace" => Some(Criterion::Trace),
-        "fit" => Some(Criterion::Fit),
-        _ => None,
-    })?;
+    let criteria = list("STEAM_CRITERIA", "trace,fit", criterion)?;
     let step_sets = list("STEAM_STEPS", "1..5,1..6,1..10,1+5", parse_steps)?;
     let weights = list("STEAM_WEIGHTS", "0.25", |s| {
         s.parse::<f64>().ok().filter(|w| *w > 0.0)
@@ -147,14 +134,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .and_then(|v| v.parse().ok())
         .unwrap_or(2)
         .max(1);
-    let refit = std::env::var("STEAM_REFIT").map_or(true, |v| v != "0");
-    let steam::Halves { est, val } = halves()?;
-
+    let refit = steam::refit();
     // Cross-validation inside the estimation half only.
-    let steam::Halves {
-        est: inner_est,
-        val: inner_val,
-    } = inner_halves(&est)?;
+    let steam::Split {
+        est,
+        val,
+        inner_est,
+        inner_val,
+    } = steam::split()?;
     let t = std::time::Instant::now();
     let inner_starts: Vec<(usize, InnovationModel)> = starts
         .iter()
@@ -186,43 +173,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The longest fits first, so that the workers finish together.
     jobs.sort_by(|(a, _), (b, _)| b.work().total_cmp(&a.work()));
     eprintln!("{} candidates, {threads} threads", jobs.len());
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let results = std::sync::Mutex::new(Vec::new());
-    std::thread::scope(|s| {
-        for _ in 0..threads {
-            s.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                    let Some((c, start)) = jobs.get(i).cloned() else {
-                        break;
-                    };
-                    let t = std::time::Instant::now();
-                    let r = timed_pem(
-                        &inner_est,
-                        start,
-                        &c.settings(max_iter),
-                        &format!("  {}", c.label()),
-                    )
-                    .and_then(|r| {
-                        Ok((
-                            fits(&r.model, &inner_val)?,
-                            fits(&r.model, &inner_est)?,
-                            r.iterations,
-                            r.stop,
-                            t.elapsed().as_secs_f64(),
-                        ))
-                    });
-                    if let Ok(mut all) = results.lock() {
-                        match r {
-                            Ok(f) => all.push((c, f)),
-                            Err(e) => eprintln!("  {}: {e}", c.label()),
-                        }
-                    }
-                }
-            });
-        }
-    });
-    let mut rows = results.into_inner().map_err(|_| "poisoned")?;
+    let mut rows = in_threads(
+        &jobs,
+        threads,
+        |(c, _)| format!("  {}", c.label()),
+        |(c, start)| {
+            let t = std::time::Instant::now();
+            let label = format!("  {}", c.label());
+            let r = timed_pem(&inner_est, start, &c.settings(max_iter), &label)?;
+            let f = (
+                fits(&r.model, &inner_val)?,
+                fits(&r.model, &inner_est)?,
+                r.iterations,
+                r.stop,
+                t.elapsed().as_secs_f64(),
+            );
+            Ok((c.clone(), f))
+        },
+    )?;
     rows.sort_by_key(|(c, _)| c.label());
     println!(
         "cross-validation inside the estimation half (fit on 2/3, score on 1/3; max {max_iter} iterations; {:.0} s):",
@@ -231,22 +199,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!(
         "| start | criterion | steps | simulation weight | iterations | stop | time (s) | simulation | 1-step | 5-step | score | simulation on the fitted 2/3 |\n|---|---|---|---|---|---|---|---|---|---|---|---|"
     );
-    let mut best: Option<(f64, Config)> = None;
-    for (c, (f, fe, its, stop, secs)) in &rows {
-        let score = f.score();
-        println!(
-            "| {} | {its} | {stop:?} | {secs:.0} | {:.2} | {:.2} | {:.2} | {score:.3} | {:.2} |",
-            c.label(),
-            f.sim,
-            f.one,
-            f.five,
-            fe.sim
-        );
-        if score.is_finite() && best.as_ref().is_none_or(|(s, _)| score > *s) {
-            best = Some((score, c.clone()));
-        }
-    }
-    let (score, c) = best.ok_or("no configuration")?;
+    let (score, c) = choose(
+        &rows,
+        |(f, ..)| f,
+        |c, (f, fe, its, stop, secs), score| {
+            format!(
+                "| {} | {its} | {stop:?} | {secs:.0} | {:.2} | {:.2} | {:.2} | {score:.3} | {:.2} |",
+                c.label(),
+                f.sim,
+                f.one,
+                f.five,
+                fe.sim
+            )
+        },
+    )?;
     println!("chosen by the inner score ({score:.3}): {}", c.label());
     if !refit {
         return Ok(());

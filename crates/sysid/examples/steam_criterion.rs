@@ -21,7 +21,7 @@ mod steam;
 use kestrel_sysid::{
     Criterion, InnovationModel, IoData, N4sidSettings, PemSettings, Weighting, pem,
 };
-use steam::{dynamics, fits, halves, inner_halves, table};
+use steam::{Fits, choose, criterion, dynamics, fits, in_threads, list, table};
 
 /// The N4SID start: weighting and horizon (block rows).
 #[derive(Clone, Copy, Debug)]
@@ -86,21 +86,9 @@ fn fit(
     Ok(out)
 }
 
-fn list<T>(var: &str, default: &str, parse: impl Fn(&str) -> Option<T>) -> Result<Vec<T>, String> {
-    std::env::var(var)
-        .unwrap_or_else(|_| default.into())
-        .split(',')
-        .filter(|s| !s.trim().is_empty())
-        .map(|s| parse(s.trim()).ok_or(format!("{var}: cannot read {s:?}")))
-        .collect()
-}
-
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let criteria = list("STEAM_CRITERIA", "trace,fit", |s| match s {
-        "trace" => Some(Criterion::Trace),
-        "fit" => Some(Criterion::Fit),
-        "det" => Some(Criterion::Determinant),
-        _ => None,
+    let criteria = list("STEAM_CRITERIA", "trace,fit", |s| {
+        criterion(s).or((s == "det").then_some(Criterion::Determinant))
     })?;
     let horizons = list("STEAM_HORIZONS", "1,6,10", |s| s.parse::<usize>().ok())?;
     let step_sets: Vec<Vec<usize>> = match std::env::var("STEAM_STEPS") {
@@ -122,14 +110,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             i: i.parse().ok()?,
         })
     })?;
-    let refit = std::env::var("STEAM_REFIT").map_or(true, |v| v != "0");
-    let steam::Halves { est, val } = halves()?;
-
+    let refit = steam::refit();
     // Cross-validation inside the estimation half only.
-    let steam::Halves {
-        est: inner_est,
-        val: inner_val,
-    } = inner_halves(&est)?;
+    let steam::Split {
+        est,
+        val,
+        inner_est,
+        inner_val,
+    } = steam::split()?;
     let mut jobs: Vec<(Start, Criterion, usize, Vec<usize>)> = Vec::new();
     for &st in &starts {
         for &c in &criteria {
@@ -143,47 +131,34 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     // Two worker threads take the jobs in turn.
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let results = std::sync::Mutex::new(Vec::new());
-    std::thread::scope(|s| {
-        for _ in 0..2 {
-            s.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                    let Some((st, c, h, steps)) = jobs.get(i).cloned() else {
-                        break;
-                    };
-                    // h = 1 with the one-step K refit is the same criterion twice.
-                    let with_k: &[bool] = if h == 1 { &[false] } else { &[false, true] };
-                    let r = fit(&inner_est, st, c, (h, &steps), with_k).and_then(|models| {
-                        models
-                            .into_iter()
-                            .map(|(k, m)| {
-                                let f = fits(&m, &inner_val)?;
-                                Ok((
-                                    Config {
-                                        start: st,
-                                        criterion: c,
-                                        h,
-                                        steps: steps.clone(),
-                                        refit_k: k,
-                                    },
-                                    f,
-                                ))
-                            })
-                            .collect::<Result<Vec<_>, String>>()
-                    });
-                    if let Ok(mut all) = results.lock() {
-                        match r {
-                            Ok(v) => all.extend(v),
-                            Err(e) => eprintln!("  {st:?} {c:?} h = {h}: {e}"),
-                        }
-                    }
-                }
-            });
-        }
-    });
-    let mut rows = results.into_inner().map_err(|_| "poisoned")?;
+    let results = in_threads(
+        &jobs,
+        2,
+        |(st, c, h, _)| format!("  {st:?} {c:?} h = {h}"),
+        |&(st, c, h, ref steps)| {
+            // h = 1 with the one-step K refit is the same criterion twice.
+            let with_k: &[bool] = if h == 1 { &[false] } else { &[false, true] };
+            fit(&inner_est, st, c, (h, steps), with_k).and_then(|models| {
+                models
+                    .into_iter()
+                    .map(|(k, m)| {
+                        let f = fits(&m, &inner_val)?;
+                        Ok((
+                            Config {
+                                start: st,
+                                criterion: c,
+                                h,
+                                steps: steps.clone(),
+                                refit_k: k,
+                            },
+                            f,
+                        ))
+                    })
+                    .collect::<Result<Vec<_>, String>>()
+            })
+        },
+    )?;
+    let mut rows: Vec<(Config, Fits)> = results.into_iter().flatten().collect();
     rows.sort_by_key(|(c, _)| {
         (
             format!("{:?}{:?}", c.start, c.criterion),
@@ -196,29 +171,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!(
         "| start | criterion | steps | K | simulation | 1-step | 5-step | score |\n|---|---|---|---|---|---|---|---|"
     );
-    let mut best: Option<(f64, Config)> = None;
-    for (c, f) in &rows {
-        let score = f.score();
-        println!(
-            "| {:?} i = {} | {:?} | {} | {} | {:.2} | {:.2} | {:.2} | {score:.2} |",
-            c.start.weighting,
-            c.start.i,
-            c.criterion,
-            if c.steps.is_empty() {
-                format!("1..{}", c.h)
-            } else {
-                format!("{:?}", c.steps)
-            },
-            if c.refit_k { "one-step" } else { "kept" },
-            f.sim,
-            f.one,
-            f.five
-        );
-        if score.is_finite() && best.as_ref().is_none_or(|(s, _)| score > *s) {
-            best = Some((score, c.clone()));
-        }
-    }
-    let (_, c) = best.ok_or("no configuration")?;
+    let (_, c) = choose(
+        &rows,
+        |f| f,
+        |c, f, score| {
+            format!(
+                "| {:?} i = {} | {:?} | {} | {} | {:.2} | {:.2} | {:.2} | {score:.2} |",
+                c.start.weighting,
+                c.start.i,
+                c.criterion,
+                if c.steps.is_empty() {
+                    format!("1..{}", c.h)
+                } else {
+                    format!("{:?}", c.steps)
+                },
+                if c.refit_k { "one-step" } else { "kept" },
+                f.sim,
+                f.one,
+                f.five
+            )
+        },
+    )?;
     println!("chosen by the inner score: {c:?}");
     if !refit {
         return Ok(());

@@ -15,7 +15,7 @@
 mod steam;
 
 use kestrel_sysid::{InnovationModel, IoData, PemSettings};
-use steam::{dynamics, fits, halves, inner_halves, table, timed_pem};
+use steam::{dynamics, fits, table, timed_pem};
 
 /// Dynamics horizons and noise-model horizons tried.
 const DYNAMICS_HORIZONS: [usize; 4] = [6, 8, 10, 12];
@@ -58,13 +58,13 @@ fn fit(
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let steam::Halves { est, val } = halves()?;
-
     // Cross-validation inside the estimation half only.
-    let steam::Halves {
-        est: inner_est,
-        val: inner_val,
-    } = inner_halves(&est)?;
+    let steam::Split {
+        est,
+        val,
+        inner_est,
+        inner_val,
+    } = steam::split()?;
     println!("cross-validation inside the estimation half (fit on 2/3, score on 1/3):");
     println!(
         "| D | h | K by | simulation | 1-step | 5-step | score |\n|---|---|---|---|---|---|---|"

@@ -1,16 +1,19 @@
 //! Set-up shared by the DaISy steam generator examples (`steam`,
-//! `steam_criterion`, `steam_focus`): the data file and its halves, the
-//! N4SID start of order 9, a timed PEM call, and the validation figures
-//! against the targets of the issue (simulation 74.4 %, 1-step 94.1 %,
-//! 5-step 88.9 %). Included by each example with `#[path]`; not an example
-//! of its own.
+//! `steam_criterion`, `steam_focus`, `steam_combined`,
+//! `steam_converged`): the data file and its halves, the N4SID start of
+//! order 9, a timed PEM call, and the validation figures against the
+//! targets of the issue (simulation 74.4 %, 1-step 94.1 %, 5-step
+//! 88.9 %); for the cross-validated grids, the grid's lists read from the
+//! environment, the worker threads that fit the candidates and the choice
+//! by the inner score. Included by each example with `#[path]`; not an
+//! example of its own.
 
 // Each example uses only part of this module.
 #![allow(dead_code)]
 
 use kestrel_sysid::{
-    CsvColumns, InnovationModel, IoData, N4sidSettings, PemResult, PemSettings, n4sid, pem,
-    validate,
+    Criterion, CsvColumns, InnovationModel, IoData, N4sidSettings, PemResult, PemSettings, n4sid,
+    pem, validate,
 };
 use std::path::PathBuf;
 
@@ -52,6 +55,116 @@ pub fn inner_halves(est: &IoData) -> Result<Halves, Box<dyn std::error::Error>> 
         est: inner_est,
         val: inner_val,
     })
+}
+
+/// The halves of [`halves`] and the inner split of the estimation half
+/// ([`inner_halves`]).
+pub struct Split {
+    /// The estimation half.
+    pub est: IoData,
+    /// The validation half.
+    pub val: IoData,
+    /// The first 2/3 of the estimation half (the inner fits).
+    pub inner_est: IoData,
+    /// The last 1/3 of the estimation half (the inner scores).
+    pub inner_val: IoData,
+}
+
+/// [`halves`], and the estimation half split by [`inner_halves`] for
+/// cross-validation inside it.
+pub fn split() -> Result<Split, Box<dyn std::error::Error>> {
+    let Halves { est, val } = halves()?;
+    let inner = inner_halves(&est)?;
+    Ok(Split {
+        est,
+        val,
+        inner_est: inner.est,
+        inner_val: inner.val,
+    })
+}
+
+/// The comma-separated list in the environment variable `var` (or
+/// `default` when it is not set), every entry read by `parse`.
+pub fn list<T>(
+    var: &str,
+    default: &str,
+    parse: impl Fn(&str) -> Option<T>,
+) -> Result<Vec<T>, String> {
+    std::env::var(var)
+        .unwrap_or_else(|_| default.into())
+        .split(',')
+        .filter(|s| !s.trim().is_empty())
+        .map(|s| parse(s.trim()).ok_or(format!("{var}: cannot read {s:?}")))
+        .collect()
+}
+
+/// A criterion of the grids: `trace` or `fit`.
+pub fn criterion(s: &str) -> Option<Criterion> {
+    match s {
+        "trace" => Some(Criterion::Trace),
+        "fit" => Some(Criterion::Fit),
+        _ => None,
+    }
+}
+
+/// Whether the chosen candidate is refitted and validated (`STEAM_REFIT=0`
+/// stops after the inner table).
+pub fn refit() -> bool {
+    std::env::var("STEAM_REFIT").map_or(true, |v| v != "0")
+}
+
+/// Runs `work` on every job on `threads` worker threads that take the
+/// jobs in turn, in the order given. Returns the results in the order the
+/// jobs finish; a job that fails is left out and its error printed to
+/// stderr after its `label`.
+pub fn in_threads<J: Sync, T: Send>(
+    jobs: &[J],
+    threads: usize,
+    label: impl Fn(&J) -> String + Sync,
+    work: impl Fn(&J) -> Result<T, String> + Sync,
+) -> Result<Vec<T>, &'static str> {
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results = std::sync::Mutex::new(Vec::new());
+    std::thread::scope(|s| {
+        for _ in 0..threads {
+            s.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                    let Some(job) = jobs.get(i) else {
+                        break;
+                    };
+                    let r = work(job);
+                    if let Ok(mut all) = results.lock() {
+                        match r {
+                            Ok(v) => all.push(v),
+                            Err(e) => eprintln!("{}: {e}", label(job)),
+                        }
+                    }
+                }
+            });
+        }
+    });
+    results.into_inner().map_err(|_| "poisoned")
+}
+
+/// Prints a line of the inner table for every candidate (`row`, given the
+/// candidate, its result and its score, the sum of the mean fits that
+/// `fits` takes from its result) and returns the best finite score with
+/// its candidate (the first of equal scores).
+pub fn choose<C, R>(
+    rows: &[(C, R)],
+    fits: impl Fn(&R) -> &Fits,
+    row: impl Fn(&C, &R, f64) -> String,
+) -> Result<(f64, &C), &'static str> {
+    let mut best: Option<(f64, &C)> = None;
+    for (c, r) in rows {
+        let score = fits(r).score();
+        println!("{}", row(c, r, score));
+        if score.is_finite() && best.is_none_or(|(s, _)| score > s) {
+            best = Some((score, c));
+        }
+    }
+    best.ok_or("no configuration")
 }
 
 /// Mean fits over the outputs, in percent.
