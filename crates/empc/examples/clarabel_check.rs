@@ -14,17 +14,21 @@
 
 #[path = "../tests/common/mod.rs"]
 mod common;
+mod shared;
 
 use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::{Settings, solve};
 use nalgebra::DVector;
+use shared::SweepArgs;
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    let path = args.next().expect("a problem file");
-    let k: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(4);
-    let samples: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(10_000);
-    let every: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(50);
+    let SweepArgs {
+        path,
+        first_move: k,
+        samples,
+        every,
+    } = SweepArgs::read(&mut args);
     let prob = MpqpProblem::read(std::path::Path::new(&path)).expect("problem");
     let sol = solve(&prob, &Settings::default()).expect("solve");
     // The sequence of `whole_box`.

@@ -14,6 +14,7 @@
 //! solve` or the `whole_box` example.
 #[path = "../tests/common/mod.rs"]
 mod common;
+mod shared;
 
 use kestrel_core::Scalar;
 use kestrel_empc::eval::{TreeIndex, TreeTables};
@@ -35,10 +36,7 @@ fn time<S: Scalar, I: TreeIndex, T: TreeTables<S, I>>(
     thetas: &[Vec<f64>],
     repeats: usize,
 ) -> (f64, f64) {
-    let ths: Vec<Vec<S>> = thetas
-        .iter()
-        .map(|th| th.iter().map(|&v| S::from_f64(v)).collect())
-        .collect();
+    let ths: Vec<Vec<S>> = shared::in_scalar(thetas);
     let mut z = vec![S::ZERO; t.n_outputs()];
     let mut scratch = vec![S::ZERO; t.n_params()];
     let n = (ths.len() * repeats).max(1) as f64;

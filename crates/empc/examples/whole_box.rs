@@ -28,14 +28,16 @@ mod shared;
 use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::tree::{TreeMethod, build_any};
 use kestrel_empc::{Outputs, Settings, TreeSettings, solve};
-use shared::{cpu_seconds, eval_times};
+use shared::{SweepArgs, cpu_seconds, eval_times};
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    let path = args.next().expect("a problem file");
-    let k: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(4);
-    let samples: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(10_000);
-    let every: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(50);
+    let SweepArgs {
+        path,
+        first_move: k,
+        samples,
+        every,
+    } = SweepArgs::read(&mut args);
     let out = args.next();
     let prob = MpqpProblem::read(std::path::Path::new(&path)).expect("problem");
     let (w0, c0) = (std::time::Instant::now(), cpu_seconds());

@@ -1,6 +1,8 @@
 //! The exported Rust source compiles (it is included here), is what the
 //! exporter writes today, and its `static` tables evaluate like the solution.
 
+mod common;
+
 use kestrel_core::formats::MpqpProblem;
 use kestrel_core::{Q16, Scalar};
 use kestrel_empc::export::{ExportScalar, rust_source};
@@ -203,14 +205,7 @@ fn corrupted_compact_tables_are_rejected() {
         ("bounds/0/0", serde_json::json!(999), "output bound"),
         ("theta_lb/0", serde_json::json!(9), "theta_lb exceeds"),
     ];
-    for (ptr, value, msg) in cases {
-        let mut v = good.clone();
-        *v["compact_tables"].pointer_mut(&format!("/{ptr}")).unwrap() = value;
-        let err = compact_tables_from_json(&v.to_string())
-            .unwrap_err()
-            .to_string();
-        assert!(err.contains(msg), "{ptr}: {err}");
-    }
+    common::assert_corruptions_rejected(&good, "compact_tables", cases, compact_tables_from_json);
     let mut v = good.clone();
     v.as_object_mut().unwrap().remove("compact_tables");
     let err = compact_tables_from_json(&v.to_string())

@@ -4,6 +4,8 @@
 //! wide tables rejected, and a tree beyond the 32767 nodes of the `u16`
 //! codes evaluated against a closed form.
 
+mod common;
+
 use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::eval::{TreeTables, WIDE_LEAF, WIDE_NO_ROW};
 use kestrel_empc::export::{
@@ -222,14 +224,7 @@ fn corrupted_wide_tables_are_rejected() {
         ("theta_lb/0", serde_json::json!(9), "theta_lb exceeds"),
         ("index", serde_json::json!("u64"), "tables.index"),
     ];
-    for (ptr, value, msg) in cases {
-        let mut v = good.clone();
-        *v["tables"].pointer_mut(&format!("/{ptr}")).unwrap() = value;
-        let err = any_tables_from_json(&v.to_string())
-            .unwrap_err()
-            .to_string();
-        assert!(err.contains(msg), "{ptr}: {err}");
-    }
+    common::assert_corruptions_rejected(&good, "tables", cases, any_tables_from_json);
 }
 
 /// A chain of `n` nodes over one parameter: node `i` sends theta <= c_i

@@ -119,3 +119,26 @@ pub fn rel(a: &[f64], b: &[f64]) -> f64 {
         .map(|(x, y)| (x - y).abs() / (1.0 + x.abs()))
         .fold(0.0, f64::max)
 }
+
+/// Every case `(pointer, value, message)`: the solution file `good` with
+/// the entry at the JSON `pointer` inside `good[key]` set to `value` is
+/// rejected by `read` with an error that contains `message`.
+#[allow(dead_code)] // not every test binary uses it
+pub fn assert_corruptions_rejected<T, E: std::fmt::Display>(
+    good: &serde_json::Value,
+    key: &str,
+    cases: Vec<(&str, serde_json::Value, &str)>,
+    read: impl Fn(&str) -> Result<T, E>,
+) {
+    for (ptr, value, msg) in cases {
+        let mut v = good.clone();
+        *v[key].pointer_mut(&format!("/{ptr}")).unwrap() = value;
+        match read(&v.to_string()) {
+            Ok(_) => panic!("{ptr}: accepted"),
+            Err(e) => {
+                let err = e.to_string();
+                assert!(err.contains(msg), "{ptr}: {err}");
+            }
+        }
+    }
+}
