@@ -157,7 +157,8 @@ pub struct CompactNode {
     pub children: [u16; 2],
 }
 
-/// The accessors both slice layouts implement alike (same field names).
+/// The accessors [`ForestTables`] and [`SliceTables`] (either index type)
+/// implement alike (same field names).
 macro_rules! shared_accessors {
     ($i:ty) => {
         fn n_params(&self) -> usize {
