@@ -463,6 +463,11 @@ fn empc_check(law: &mut EmpcLaw16, clock: &Timer1Clock) {
         // outputs) near the same parameter: theta_j = q_j 2^(s_j - 16),
         // off the grid or beyond the box for some samples (`check_bits`).
         let bits = law.check_bits(&q, i);
+        // f32 builds: the values with bits below Q15.16 flipped and some
+        // non-finite (`check_f32`), for the routine's own f32 conversion.
+        #[cfg(not(any(feature = "fixed", feature = "fixed-mac")))]
+        let theta: [S; NP] = law.check_f32(&bits, i);
+        #[cfg(any(feature = "fixed", feature = "fixed-mac"))]
         let theta: [S; NP] = core::array::from_fn(|j| S::from_q16(bits[j]));
         let theta = core::hint::black_box(theta);
         let mut u = [S::ZERO; 4];

@@ -354,11 +354,18 @@ fn with_q16<S: RtScalar, const N: usize>(v: &[S], f: impl FnOnce(&[i32; N])) -> 
         f(bits);
         return Ok(());
     }
-    let bits: [i32; N] = to_q16(v)?;
+    // Converted in place into the array `f` reads (no array returned
+    // through a `Result`: on the AVR that was a `memcpy`).
+    check_len(v, N)?;
+    let mut bits = [0i32; N];
+    S::to_q16_all(v, &mut bits).ok_or(Error::NonFinite)?;
     f(&bits);
     Ok(())
 }
 
+/// `v` as Q15.16 bits, value by value in Rust (the reset: with the
+/// loop's constant zero state inlined, this folds away; the assembly
+/// routine of [`RtScalar::to_q16_all`] would not).
 fn to_q16<S: RtScalar, const N: usize>(v: &[S]) -> Result<[i32; N], Error> {
     check_len(v, N)?;
     let mut out = [0i32; N];

@@ -1413,6 +1413,31 @@ pub fn self_test(seed: u32, n: u16) -> u16 {
         if dot_q16_i16(&x, &c) != want {
             bad += 1;
         }
+        // The f32 conversion routine of the f32 loop (`to_q16_all`) against
+        // `to_q16` value by value: random bits (any exponent, NaN and
+        // infinities), and exponents 100 to 150 (the rounding, shifting
+        // and saturating cases).
+        let f: [f32; 4] = core::array::from_fn(|i| {
+            let b = next() as u32;
+            let e = 100 + (next() as u32 >> 8) % 51;
+            f32::from_bits(if i == 3 && k % 2 == 0 {
+                b
+            } else {
+                (b & 0x807F_FFFF) | (e << 23)
+            })
+        });
+        let mut fast = [0i32; 4];
+        let all = <f32 as crate::output::RtScalar>::to_q16_all(&f, &mut fast);
+        let each: Option<[i32; 4]> = (|| {
+            let mut o = [0i32; 4];
+            for (o, x) in o.iter_mut().zip(&f) {
+                *o = crate::output::RtScalar::to_q16(*x)?;
+            }
+            Some(o)
+        })();
+        if all.is_some() != each.is_some() || each.is_some_and(|e| e != fast) {
+            bad += 1;
+        }
         // The saturating additions against core's.
         let (p, q) = (next(), next());
         if add_sat_i32(p, q) != p.saturating_add(q) || sub_sat_i32(p, q) != p.saturating_sub(q) {

@@ -47,6 +47,27 @@ pub trait RtScalar: Scalar {
         let _ = bits;
         None
     }
+    /// Every value's [`RtScalar::to_q16`] into `out` (as many as the
+    /// shorter of the two holds); `None` if one is not finite (`out` is
+    /// then partly written). For `f32` on the AVR one assembly routine
+    /// for all values (checked against `to_q16` on the target at boot by
+    /// `mac::self_test`).
+    #[inline]
+    fn to_q16_all(v: &[Self], out: &mut [i32]) -> Option<()> {
+        for (o, x) in out.iter_mut().zip(v) {
+            *o = x.to_q16()?;
+        }
+        Some(())
+    }
+    /// The values' IEEE single-precision bit patterns (as `i32` words)
+    /// without a copy, for `f32`; `None` (the default) for every other
+    /// scalar. Lets the explicit MPC's assembly convert `f32` parameters
+    /// itself, exactly as [`RtScalar::to_q16`] does.
+    #[inline]
+    fn as_f32_bits(v: &[Self]) -> Option<&[i32]> {
+        let _ = v;
+        None
+    }
 }
 
 /// `2^16` as f32 bits' exponent step.
@@ -88,6 +109,28 @@ impl RtScalar for f32 {
         }; // < 2^31
         Some(if neg { -q } else { q })
     }
+    #[inline]
+    fn to_q16_all(v: &[Self], out: &mut [i32]) -> Option<()> {
+        let n = v.len().min(out.len());
+        #[cfg(target_arch = "avr")]
+        if n <= 255 {
+            // SAFETY: `v` holds at least `n` values to read, `out` at
+            // least `n` to write.
+            let ok = unsafe { f32_to_q16_avr(v.as_ptr(), out.as_mut_ptr(), n as u8) };
+            return ok.then_some(());
+        }
+        for (o, x) in out.iter_mut().zip(v).take(n) {
+            *o = x.to_q16()?;
+        }
+        Some(())
+    }
+    #[inline]
+    fn as_f32_bits(v: &[Self]) -> Option<&[i32]> {
+        // SAFETY: `f32` and `i32` have the same size and alignment and
+        // every bit pattern is a valid `i32`: a slice of one has the
+        // layout of a slice of the other of the same length.
+        Some(unsafe { core::slice::from_raw_parts(v.as_ptr() as *const i32, v.len()) })
+    }
     /// avr-libc's conversion, then scales by `2^-16` through the exponent.
     #[inline]
     fn from_q16(bits: i32) -> Self {
@@ -108,6 +151,142 @@ impl RtScalar for f32 {
             (c - 0.5) as i32
         })
     }
+}
+
+/// `n` values of [`RtScalar::to_q16`] for `f32` in one assembly routine
+/// (the AVR has no barrel shifter; the Rust form's shifts and saturation
+/// cost about twice as much): per value the exponent `e` and the mantissa
+/// `m` with its implicit bit in registers; `e = 255` (not finite): stop,
+/// `false`; `e >= 142` (`|v| >= 2^15`): saturated; `e < 110`: 0;
+/// `e < 134`: `m` rounded half up by `134 - e` bits (byte moves, then
+/// one 4-cycle pass per bit, the last bit's carry added back); otherwise
+/// `m << (e - 134)`; then the sign. The same steps as the explicit MPC's
+/// quantisation of `f32` parameters (`explicit/walk_avr.rs`).
+///
+/// # Safety
+/// `src` must hold `n` readable values and `dst` `n` writable ones.
+#[cfg(target_arch = "avr")]
+#[inline(never)]
+#[allow(named_asm_labels)] // one copy: the function is never inlined
+unsafe fn f32_to_q16_avr(src: *const f32, dst: *mut i32, n: u8) -> bool {
+    if n == 0 {
+        return true;
+    }
+    let status: u8;
+    // SAFETY: the caller's contract; r2 is saved by the compiler (declared
+    // clobbered) and used as a zero register.
+    unsafe {
+        core::arch::asm!(
+            "clr r2",
+            ".Lkf_val:",
+            "ld r16, X+",
+            "ld r17, X+",
+            "ld r18, X+",
+            "ld r19, X+",
+            "mov r21, r18",
+            "lsl r21",                // C = e's low bit
+            "mov r21, r19",
+            "rol r21",                // r21 = e, C = the sign
+            "sbc r20, r20",           // r20 = 0xFF if negative
+            "cpi r21, 0xFF",
+            "brne .Lkf_fin",
+            "rjmp .Lkf_nonfinite",
+            ".Lkf_fin:",
+            "cpi r21, 142",           // |v| >= 2^15: saturated
+            "brlo .Lkf_ns",
+            "ldi r16, 0xFF",          // i32::MAX
+            "ldi r17, 0xFF",
+            "ldi r18, 0xFF",
+            "ldi r19, 0x7F",
+            "tst r20",
+            "breq .Lkf_st",
+            "ldi r16, 0",             // i32::MIN
+            "ldi r17, 0",
+            "ldi r18, 0",
+            "ldi r19, 0x80",
+            "rjmp .Lkf_st",
+            ".Lkf_ns:",
+            "cpi r21, 110",           // |v| < 2^-17 (and subnormals, zero): 0
+            "brsh .Lkf_nz",
+            "clr r16",
+            "clr r17",
+            "clr r18",
+            "clr r19",
+            "rjmp .Lkf_st",
+            ".Lkf_nz:",
+            "ori r18, 0x80",          // m
+            "clr r19",
+            "cpi r21, 134",
+            "brsh .Lkf_shl",
+            "ldi r22, 133",           // round(m / 2^(134 - e)): floor by 133 - e bits,
+            "sub r22, r21",           // then the last bit with its carry
+            ".Lkf_byte:",
+            "cpi r22, 8",
+            "brlo .Lkf_bits",
+            "mov r16, r17",
+            "mov r17, r18",
+            "clr r18",
+            "subi r22, 8",
+            "rjmp .Lkf_byte",
+            ".Lkf_bits:",
+            "tst r22",
+            "breq .Lkf_last",
+            ".Lkf_bit:",
+            "lsr r18",
+            "ror r17",
+            "ror r16",
+            "dec r22",
+            "brne .Lkf_bit",
+            ".Lkf_last:",
+            "lsr r18",
+            "ror r17",
+            "ror r16",
+            "adc r16, r2",
+            "adc r17, r2",
+            "adc r18, r2",
+            "rjmp .Lkf_sign",
+            ".Lkf_shl:",              // m 2^(e - 134), 0..=7 bits
+            "subi r21, 134",
+            "breq .Lkf_sign",
+            ".Lkf_shll:",
+            "lsl r16",
+            "rol r17",
+            "rol r18",
+            "rol r19",
+            "dec r21",
+            "brne .Lkf_shll",
+            ".Lkf_sign:",
+            "tst r20",
+            "breq .Lkf_st",
+            "com r19",                // -v
+            "com r18",
+            "com r17",
+            "neg r16",
+            "sbci r17, 0xFF",
+            "sbci r18, 0xFF",
+            "sbci r19, 0xFF",
+            ".Lkf_st:",
+            "st Z+, r16",
+            "st Z+, r17",
+            "st Z+, r18",
+            "st Z+, r19",
+            "dec r24",
+            "breq .Lkf_ok",
+            "rjmp .Lkf_val",
+            ".Lkf_ok:",
+            "ldi r24, 1",
+            "rjmp .Lkf_end",
+            ".Lkf_nonfinite:",
+            "clr r24",
+            ".Lkf_end:",
+            inout("X") src => _,
+            inout("Z") dst => _,
+            inout("r24") n => status,
+            out("r2") _, out("r16") _, out("r17") _, out("r18") _, out("r19") _,
+            out("r20") _, out("r21") _, out("r22") _,
+        );
+    }
+    status != 0
 }
 
 impl RtScalar for f64 {
@@ -505,6 +684,24 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn to_q16_all_is_to_q16_of_each(bits in proptest::array::uniform4(proptest::num::u32::ANY)) {
+            let v = bits.map(f32::from_bits);
+            let mut all = [0i32; 4];
+            let got = <f32 as RtScalar>::to_q16_all(&v, &mut all);
+            let each: Option<Vec<i32>> = v.iter().map(|x| x.to_q16()).collect();
+            prop_assert_eq!(got.is_some(), each.is_some());
+            if let Some(each) = each {
+                prop_assert_eq!(&all[..], &each[..]);
+            }
+            // As many as the shorter slice holds.
+            let mut two = [0i32; 2];
+            let _ = <f32 as RtScalar>::to_q16_all(&v, &mut two);
+            let mut five = [7i32; 5];
+            let _ = <f32 as RtScalar>::to_q16_all(&v, &mut five);
+            prop_assert_eq!(five[4], 7);
+        }
+
         #[test]
         fn f32_to_q16_is_exact(bits in proptest::num::u32::ANY) {
             let f = f32::from_bits(bits);

@@ -821,6 +821,12 @@ fn empc_on_target<T: kestrel_avr_rt::progmem::TableRead + Copy, const ROWS: usiz
         Empc16Law::<f64, _, { generated::NP }, 4, ROWS>::new(tree, generated::NX).unwrap();
     let mut whole =
         Empc16Law::<f64, _, { generated::NP }, 4, ROWS>::new(tree, generated::NX).unwrap();
+    // The f32 builds' whole law takes f32 parameters (`check_f32`): the
+    // host's f32 law (Rust: to_q16, quantisation, walk, outputs).
+    let f32_build = !features.iter().any(|f| f.starts_with("fixed"));
+    let mut whole32 =
+        Empc16Law::<f32, _, { generated::NP }, 4, ROWS>::new(tree, generated::NX).unwrap();
+    let mut non_finite = 0;
     use kestrel_core::ControlLaw as _;
     let mut seed = 0x2545_f491u32;
     let mut moved = 0;
@@ -836,17 +842,33 @@ fn empc_on_target<T: kestrel_avr_rt::progmem::TableRead + Copy, const ROWS: usiz
         // off it, or beyond the box): the host's whole law (Rust
         // quantisation, walk, outputs rounded to Q15.16) at the same bits.
         let bits = host.check_bits(&q, i as u16);
-        let theta: Vec<f64> = bits.iter().map(|&b| f64::from(b) / 65536.0).collect();
-        let mut u = [0.0f64; 4];
-        whole
-            .control(&theta[..generated::NX], &theta[generated::NX..], &mut u)
-            .unwrap();
-        let sum = u
-            .iter()
-            .fold(0u32, |a, &v| a.wrapping_add((v * 65536.0) as i32 as u32));
+        let (steps, sum) = if f32_build {
+            use kestrel_avr_rt::output::RtScalar as _;
+            let theta = whole32.check_f32(&bits, i as u16);
+            let mut u = [0.0f32; 4];
+            let r = whole32.control(&theta[..generated::NX], &theta[generated::NX..], &mut u);
+            if r.is_err() {
+                assert!(theta.iter().any(|t| !t.is_finite()), "{r:?} at {theta:?}");
+                non_finite += 1;
+            }
+            let sum = u
+                .iter()
+                .fold(0u32, |a, v| a.wrapping_add(v.to_q16().unwrap() as u32));
+            (kestrel_avr_rt::control::LawInfo::iterations(&whole32), sum)
+        } else {
+            let theta: Vec<f64> = bits.iter().map(|&b| f64::from(b) / 65536.0).collect();
+            let mut u = [0.0f64; 4];
+            whole
+                .control(&theta[..generated::NX], &theta[generated::NX..], &mut u)
+                .unwrap();
+            let sum = u
+                .iter()
+                .fold(0u32, |a, &v| a.wrapping_add((v * 65536.0) as i32 as u32));
+            (kestrel_avr_rt::control::LawInfo::iterations(&whole), sum)
+        };
         assert_eq!(
             (g.control_steps, g.control_sum),
-            (kestrel_avr_rt::control::LawInfo::iterations(&whole), sum),
+            (steps, sum),
             "sample {i}: the firmware's whole law differs from the host's at {bits:?}"
         );
         // (Not vacuous: the moved parameters change the outputs.)
@@ -865,7 +887,12 @@ fn empc_on_target<T: kestrel_avr_rt::progmem::TableRead + Copy, const ROWS: usiz
         moved >= n / 4,
         "only {moved} of {n} parameters off the grid or the box changed the law's outputs"
     );
-    assert!(whole.outside() > 0, "no parameter beyond the box");
+    if f32_build {
+        assert!(whole32.outside() > 0, "no parameter beyond the box");
+        assert!(non_finite > 0, "no non-finite parameter");
+    } else {
+        assert!(whole.outside() > 0, "no parameter beyond the box");
+    }
     got
 }
 
@@ -884,6 +911,26 @@ fn empc_on_target_equals_host_walk() {
     let nodes = got.iter().map(|g| g.steps as f64).sum::<f64>() / got.len() as f64;
     println!(
         "empc on target (N = 2, Ns = 1, 200 random parameters): walk {} cycles, whole law {} cycles, {nodes:.1} nodes",
+        min_mean_max(&s),
+        min_mean_max(&c),
+    );
+}
+
+/// The f32 firmware's explicit MPC (the routine converting the f32
+/// parameters itself) equals the host's f32 law bit for bit on 200
+/// parameters, some with bits below Q15.16's resolution, beyond the box or
+/// non-finite (`Empc16Law::check_f32`); prints its cycles.
+#[test]
+fn empc_f32_on_target_equals_host() {
+    let q = kestrel_avr_rt::explicit::quantize::quantize_tree(&empc().tables).unwrap();
+    let got = empc_on_target::<_, 256>(&["empc-check"], &q.bytes[..], q.layout, 200);
+    let (mut s, mut c) = (CycleStats::new(), CycleStats::new());
+    for g in &got {
+        s.add(g.cycles);
+        c.add(g.control_cycles);
+    }
+    println!(
+        "empc on target, f32 (200 parameters): walk {} cycles, whole law {} cycles",
         min_mean_max(&s),
         min_mean_max(&c),
     );

@@ -571,6 +571,32 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         bits
     }
 
+    /// The whole law's `f32` parameter of the on-target check's sample `i`
+    /// (test instrumentation, the same on every target): the values of
+    /// `bits` (from [`Self::check_bits`]) with up to the 8 low mantissa
+    /// bits flipped (bits below Q15.16's resolution, where the rounding
+    /// to Q15.16 happens; zero becomes a subnormal), and for every 16th
+    /// `i` (`i % 16 == 5`) one value non-finite (a NaN or an infinity).
+    #[doc(hidden)]
+    pub fn check_f32(&self, bits: &[i32; P], i: u16) -> [f32; P] {
+        let mut v = [0f32; P];
+        for (j, (vj, &b)) in v.iter_mut().zip(bits).enumerate() {
+            let h = u32::from(i)
+                .wrapping_mul(9)
+                .wrapping_add(j as u32)
+                .wrapping_mul(2_246_822_519);
+            let f = <f32 as RtScalar>::from_q16(b);
+            let mut v = f.to_bits() ^ ((h >> 20) & 0xFF);
+            if i % 16 == 5 && j == usize::from(i / 16) % P {
+                // The exponent all ones: an infinity (mantissa 0) or a
+                // NaN, either sign.
+                v = (v & 0x8000_0000) | 0x7F80_0000 | (h & 0x40_0000);
+            }
+            *vj = f32::from_bits(v);
+        }
+        v
+    }
+
     /// Rows evaluated in the current period (test instrumentation).
     #[doc(hidden)]
     pub fn rows_evaluated(&self) -> usize {
@@ -757,7 +783,7 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         out_shift: u8,
     ) -> Option<Result<Raw<NU>, Error>> {
         let mut z = [0i32; NU];
-        let status = self.run_asm(bits.map(|b| (&b[..], &[][..])), out_shift, &mut z)?;
+        let status = self.run_asm(bits.map(|b| (&b[..], &[][..])), false, out_shift, &mut z)?;
         Some(if status == 0 {
             Ok(Raw {
                 z,
@@ -770,13 +796,16 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     }
 
     /// One call of the assembly routine (`explicit/walk_avr.rs`) with the
-    /// outputs into `z`: its status (0, or 1 for a corrupted table), the
-    /// outside count updated; `None`: the table is not in flash or wide.
+    /// outputs into `z`: its status (0; 2 for a non-finite `f32` value),
+    /// the outside count updated; `None`: the table is not in flash or
+    /// wide. `bits` are Q15.16 values, or with `f32_theta` `f32` bit
+    /// patterns.
     #[cfg(target_arch = "avr")]
     #[inline(always)]
     fn run_asm(
         &mut self,
         bits: Option<(&[i32], &[i32])>,
+        f32_theta: bool,
         out_shift: u8,
         z: &mut [i32; NU],
     ) -> Option<u8> {
@@ -805,6 +834,7 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         ctx.out = z.as_mut_ptr() as usize as u16;
         ctx.period = self.period;
         ctx.out_shift = out_shift;
+        ctx.f32_theta = u8::from(f32_theta);
         // SAFETY: `ctx` is the start of this law's scratch (`repr(C)`: the
         // context, theta, then the cache) and points at its parameter
         // bytes, `z` (NU values) and the bits (P values in two slices); the routine
@@ -844,10 +874,16 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     #[inline(never)]
     fn solve(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
         self.next_period();
-        // Scalars stored as Q15.16 bits: the routine reads them in place.
+        // Scalars stored as Q15.16 bits: the routine reads them in place;
+        // f32: the routine reads their bits in place and converts them
+        // itself (exactly as `to_q16`), no Q15.16 copy.
         #[cfg(target_arch = "avr")]
         if let (Some(xb), Some(rb)) = (S::as_q16_bits(x), S::as_q16_bits(r)) {
-            if let Some(res) = self.solve_asm((xb, rb), u) {
+            if let Some(res) = self.solve_asm((xb, rb), false, u) {
+                return res;
+            }
+        } else if let (Some(xb), Some(rb)) = (S::as_f32_bits(x), S::as_f32_bits(r)) {
+            if let Some(res) = self.solve_asm((xb, rb), true, u) {
                 return res;
             }
         }
@@ -859,7 +895,7 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
         // On the AVR with the table in flash: quantisation, walk and the
         // outputs in Q15.16 (scale >= 16) in one assembly routine.
         #[cfg(target_arch = "avr")]
-        if let Some(r) = self.solve_asm((&bits[..], &[]), u) {
+        if let Some(r) = self.solve_asm((&bits[..], &[]), false, u) {
             return r;
         }
         self.solve_rust(&bits, u)
@@ -869,15 +905,22 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     /// not in flash, wide, or has a scale below 16).
     #[cfg(target_arch = "avr")]
     #[inline(always)]
-    fn solve_asm(&mut self, bits: (&[i32], &[i32]), u: &mut [S]) -> Option<Result<(), Error>> {
+    fn solve_asm(
+        &mut self,
+        bits: (&[i32], &[i32]),
+        f32_theta: bool,
+        u: &mut [S],
+    ) -> Option<Result<(), Error>> {
         let k = self.tree.layout.scale;
         if k < 16 {
             return None;
         }
         let mut z = [0i32; NU];
-        let status = self.run_asm(Some(bits), k - 16, &mut z)?;
-        if status != 0 {
-            return Some(Err(Error::OutOfRange));
+        let status = self.run_asm(Some(bits), f32_theta, k - 16, &mut z)?;
+        match status {
+            0 => {}
+            2 => return Some(Err(Error::NonFinite)),
+            _ => return Some(Err(Error::OutOfRange)),
         }
         self.steps = self.scratch.ctx.steps;
         for (ui, zi) in u.iter_mut().zip(z) {
@@ -916,6 +959,14 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
 /// law's rows; the output bounds' rows (or [`NONE`]). `None` for any index
 /// out of range (or a table read outside the table): then no walk can
 /// leave the table or loop.
+///
+/// Never inlined: inlined into the firmware's large `main` frame, the
+/// compiler's 24-bit flash address sums (`FarTable` reads) took the carry
+/// into `RAMPZ` the wrong way (an `SBCI` after the frame pointer's SREG
+/// save and restore), so a table straddling 64 kB was read at `RAMPZ`
+/// 0xFF and crashed simavr (seen in the f32 `empc-check` firmware; in a
+/// frame of its own the sums are plain `ADD`/`ADC`).
+#[inline(never)]
 fn validate_narrow<T: TableRead>(tree: &Tree16<T>) -> Option<()> {
     let l = &tree.layout;
     let [nodes_at, laws_at, bounds_at, _, _] = l.offsets();
@@ -986,7 +1037,7 @@ fn ctx_block<T: TableRead>(tree: &Tree16<T>, at: &[u32; 4], row_bytes: u16) -> C
         steps: 0,
         outside: 0,
         law: 0,
-        scratch: 0,
+        f32_theta: 0,
         out_shift: 0,
         q16b: 0,
         nx: 0,

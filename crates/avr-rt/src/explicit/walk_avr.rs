@@ -7,6 +7,11 @@
 //! - quantisation: `q_j = clamp(round(bits_j / 2^s_j), lb_j, ub_j)`
 //!   (a byte move per 8 bits of the shift, then one 4-cycle pass per bit),
 //!   read in place from two pointers (the state, then the references);
+//!   with `f32` parameters (`Ctx::f32_theta`) each value's Q15.16 `bits_j`
+//!   comes first from its exponent and mantissa in registers (the
+//!   mantissa rounded half away from zero by `134 - exponent` bits, or
+//!   shifted left, or saturated: `RtScalar::to_q16` for `f32`, bit for
+//!   bit), with no Q15.16 copy in RAM;
 //! - a row: the `i32` constant plus `sum c_k theta_k` over the stored
 //!   columns, each term a 16 x 16-bit product from four hardware
 //!   multiplies (`MUL`, `MULSU` twice, `MULS`) added into a 32-bit
@@ -75,8 +80,11 @@ pub(crate) struct Ctx {
     pub outside: u8,
     /// 37: out: the leaf's law.
     pub law: u8,
-    /// 38: the routine's scratch byte.
-    pub scratch: u8,
+    /// 38: non-zero: the values at `q16` and `q16b` are `f32` bit
+    /// patterns, converted to Q15.16 by the routine exactly as
+    /// `RtScalar::to_q16` for `f32` does (then quantised as Q15.16 values
+    /// are); a non-finite one ends the routine with status 2.
+    pub f32_theta: u8,
     /// 39: outputs are rounded and shifted right by this many bits
     /// (0: the raw row values).
     pub out_shift: u8,
@@ -214,8 +222,8 @@ macro_rules! term_y {
 pub(crate) const THETA_AT: usize = 43;
 const _: () = assert!(core::mem::size_of::<Ctx>() == THETA_AT);
 
-/// See the module docs. Returns 0 (the table's indices were checked by
-/// the law's `new`).
+/// See the module docs. Returns 0, or 2 for a non-finite `f32` value
+/// (the table's indices were checked by the law's `new`).
 ///
 /// Registers during the walk: r2 zero, r3 the period stamp, r4:r5 the
 /// cache, r6 the bytes per row, r7:r9 the rows' flash address (r8 low, r9 high, r7
@@ -269,6 +277,7 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "ldd r6, Y+30",
         "ldd r11, Y+42",          // r11 values from q16, then r6 from q16b
         "sub r6, r11",
+        "ldd r15, Y+38",          // f32 values
         "movw r8, r28",
         "ldi r24, 43",
         "add r8, r24",
@@ -281,6 +290,9 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "ld r17, X+",
         "ld r18, X+",
         "ld r19, X+",
+        "sbrc r15, 0",            // f32 bits: converted first (.Lke_fcv)
+        "rjmp .Lke_fcv",
+        ".Lke_qp:",
         "ld r20, Z+",             // s
         "ld r22, Z+",             // lb
         "ld r23, Z+",
@@ -500,6 +512,79 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "rjmp .Lke_out",
         ".Lke_done:",
         "clr r24",
+        "clr r1",
+        "pop r29",
+        "pop r28",
+        "rjmp .Lke_end",
+        // f32 bits to Q15.16 (RtScalar::to_q16 for f32): e the exponent,
+        // m the mantissa with its implicit bit, sign mask r10
+        ".Lke_fcv:",
+        "mov r21, r18",
+        "lsl r21",                // C = e's low bit
+        "mov r21, r19",
+        "rol r21",                // r21 = e, C = the sign
+        "sbc r10, r10",
+        "cpi r21, 0xFF",
+        "brne .Lke_ffin",
+        "rjmp .Lke_nonfinite",
+        ".Lke_ffin:",
+        "cpi r21, 142",           // |v| >= 2^15: saturated
+        "brlo .Lke_fns",
+        "ldi r16, 0xFF",          // i32::MAX
+        "ldi r17, 0xFF",
+        "ldi r18, 0xFF",
+        "ldi r19, 0x7F",
+        "tst r10",
+        "brne .Lke_fsmin",
+        "rjmp .Lke_qp",
+        ".Lke_fsmin:",
+        "ldi r16, 0",             // i32::MIN
+        "ldi r17, 0",
+        "ldi r18, 0",
+        "ldi r19, 0x80",
+        "rjmp .Lke_qp",
+        ".Lke_fns:",
+        "cpi r21, 110",           // |v| < 2^-17 (and subnormals, zero): 0
+        "brsh .Lke_fnz",
+        "clr r16",
+        "clr r17",
+        "clr r18",
+        "clr r19",
+        "rjmp .Lke_qp",
+        ".Lke_fnz:",
+        "ori r18, 0x80",          // m
+        "clr r19",
+        "cpi r21, 134",
+        "brsh .Lke_fshl",
+        "ldi r20, 134",           // round(m / 2^(134 - e)), 1..=24 bits
+        "sub r20, r21",
+        round_shift!("r20", "f"),
+        "rjmp .Lke_fsign",
+        ".Lke_fshl:",             // m 2^(e - 134), 0..=7 bits
+        "subi r21, 134",
+        "breq .Lke_fsign",
+        ".Lke_fshll:",
+        "lsl r16",
+        "rol r17",
+        "rol r18",
+        "rol r19",
+        "dec r21",
+        "brne .Lke_fshll",
+        ".Lke_fsign:",
+        "tst r10",
+        "breq 9f",
+        "com r19",                // -v
+        "com r18",
+        "com r17",
+        "neg r16",
+        "sbci r17, 0xFF",
+        "sbci r18, 0xFF",
+        "sbci r19, 0xFF",
+        "9:",
+        "rjmp .Lke_qp",
+        ".Lke_nonfinite:",        // a non-finite f32 value: status 2
+        "std Y+36, r2",
+        "ldi r24, 2",
         "clr r1",
         "pop r29",
         "pop r28",
