@@ -2,6 +2,10 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![cfg_attr(target_arch = "avr", feature(asm_experimental_arch))]
 
+// Assembly text (macros) for the AVR routines; first, so they are in scope below.
+#[cfg(target_arch = "avr")]
+#[macro_use]
+mod avr_asm;
 pub mod control;
 pub mod crc;
 pub mod cycles;

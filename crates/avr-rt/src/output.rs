@@ -155,13 +155,11 @@ impl RtScalar for f32 {
 
 /// `n` values of [`RtScalar::to_q16`] for `f32` in one assembly routine
 /// (the AVR has no barrel shifter; the Rust form's shifts and saturation
-/// cost about twice as much): per value the exponent `e` and the mantissa
-/// `m` with its implicit bit in registers; `e = 255` (not finite): stop,
-/// `false`; `e >= 142` (`|v| >= 2^15`): saturated; `e < 110`: 0;
-/// `e < 134`: `m` rounded half up by `134 - e` bits (byte moves, then
-/// one 4-cycle pass per bit, the last bit's carry added back); otherwise
-/// `m << (e - 134)`; then the sign. The same steps as the explicit MPC's
-/// quantisation of `f32` parameters (`explicit/walk_avr.rs`).
+/// cost about twice as much): per value the assembly text `f32_to_q16!`
+/// (`src/avr_asm.rs`: exponent and mantissa in registers, saturation,
+/// rounding shift, sign), the same text as the explicit MPC's
+/// quantisation of `f32` parameters (`explicit/walk_avr.rs`); a value
+/// that is not finite stops the conversion with `false`.
 ///
 /// # Safety
 /// `src` must hold `n` readable values and `dst` `n` writable ones.
@@ -183,89 +181,7 @@ unsafe fn f32_to_q16_avr(src: *const f32, dst: *mut i32, n: u8) -> bool {
             "ld r17, X+",
             "ld r18, X+",
             "ld r19, X+",
-            "mov r21, r18",
-            "lsl r21",                // C = e's low bit
-            "mov r21, r19",
-            "rol r21",                // r21 = e, C = the sign
-            "sbc r20, r20",           // r20 = 0xFF if negative
-            "cpi r21, 0xFF",
-            "brne .Lkf_fin",
-            "rjmp .Lkf_nonfinite",
-            ".Lkf_fin:",
-            "cpi r21, 142",           // |v| >= 2^15: saturated
-            "brlo .Lkf_ns",
-            "ldi r16, 0xFF",          // i32::MAX
-            "ldi r17, 0xFF",
-            "ldi r18, 0xFF",
-            "ldi r19, 0x7F",
-            "tst r20",
-            "breq .Lkf_st",
-            "ldi r16, 0",             // i32::MIN
-            "ldi r17, 0",
-            "ldi r18, 0",
-            "ldi r19, 0x80",
-            "rjmp .Lkf_st",
-            ".Lkf_ns:",
-            "cpi r21, 110",           // |v| < 2^-17 (and subnormals, zero): 0
-            "brsh .Lkf_nz",
-            "clr r16",
-            "clr r17",
-            "clr r18",
-            "clr r19",
-            "rjmp .Lkf_st",
-            ".Lkf_nz:",
-            "ori r18, 0x80",          // m
-            "clr r19",
-            "cpi r21, 134",
-            "brsh .Lkf_shl",
-            "ldi r22, 133",           // round(m / 2^(134 - e)): floor by 133 - e bits,
-            "sub r22, r21",           // then the last bit with its carry
-            ".Lkf_byte:",
-            "cpi r22, 8",
-            "brlo .Lkf_bits",
-            "mov r16, r17",
-            "mov r17, r18",
-            "clr r18",
-            "subi r22, 8",
-            "rjmp .Lkf_byte",
-            ".Lkf_bits:",
-            "tst r22",
-            "breq .Lkf_last",
-            ".Lkf_bit:",
-            "lsr r18",
-            "ror r17",
-            "ror r16",
-            "dec r22",
-            "brne .Lkf_bit",
-            ".Lkf_last:",
-            "lsr r18",
-            "ror r17",
-            "ror r16",
-            "adc r16, r2",
-            "adc r17, r2",
-            "adc r18, r2",
-            "rjmp .Lkf_sign",
-            ".Lkf_shl:",              // m 2^(e - 134), 0..=7 bits
-            "subi r21, 134",
-            "breq .Lkf_sign",
-            ".Lkf_shll:",
-            "lsl r16",
-            "rol r17",
-            "rol r18",
-            "rol r19",
-            "dec r21",
-            "brne .Lkf_shll",
-            ".Lkf_sign:",
-            "tst r20",
-            "breq .Lkf_st",
-            "com r19",                // -v
-            "com r18",
-            "com r17",
-            "neg r16",
-            "sbci r17, 0xFF",
-            "sbci r18, 0xFF",
-            "sbci r19, 0xFF",
-            ".Lkf_st:",
+            f32_to_q16!(".Lkf_", "q", "r20", "r22", ".Lkf_nonfinite"),
             "st Z+, r16",
             "st Z+, r17",
             "st Z+, r18",

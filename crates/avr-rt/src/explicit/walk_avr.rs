@@ -94,49 +94,6 @@ pub(crate) struct Ctx {
     pub nx: u8,
 }
 
-/// `r16:r19 = round(r16:r19 / 2^(n + 1))` (arithmetic, half up) for the
-/// counter register `n` (clobbered; r2 is zero): a byte move per 8 bits of
-/// the shift, then one 4-cycle pass per bit, the last bit's carry added
-/// back. `l` makes the local labels (`.Lke_{l}byte`, ...) unique. One text,
-/// used for the parameters' quantisation and the outputs' rounding.
-#[rustfmt::skip]
-macro_rules! round_shift {
-    ($n:literal, $l:literal) => {
-        concat!(
-            "dec ", $n, "\n",
-            ".Lke_", $l, "byte:\n",
-            "cpi ", $n, ", 8\n",
-            "brlo .Lke_", $l, "bits\n",
-            "mov r16, r17\n",
-            "mov r17, r18\n",
-            "mov r18, r19\n",
-            "lsl r19\n",
-            "sbc r19, r19\n",
-            "subi ", $n, ", 8\n",
-            "rjmp .Lke_", $l, "byte\n",
-            ".Lke_", $l, "bits:\n",
-            "tst ", $n, "\n",
-            "breq .Lke_", $l, "last\n",
-            ".Lke_", $l, "bit:\n",
-            "asr r19\n",
-            "ror r18\n",
-            "ror r17\n",
-            "ror r16\n",
-            "dec ", $n, "\n",
-            "brne .Lke_", $l, "bit\n",
-            ".Lke_", $l, "last:\n",
-            "asr r19\n",
-            "ror r18\n",
-            "ror r17\n",
-            "ror r16\n",
-            "adc r16, r2\n",
-            "adc r17, r2\n",
-            "adc r18, r2\n",
-            "adc r19, r2",
-        )
-    };
-}
-
 /// The leaf's bound row r24 into r20:r23, the output's value kept in
 /// r16:r19: read straight from the cache when this period's (the common
 /// case: the walk's nodes compared it), else through the row routine
@@ -300,7 +257,7 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         "ld r25, Z+",
         "tst r20",
         "breq .Lke_qclamp",
-        round_shift!("r20", "q"),
+        round_shift!(".Lke_", "r20", "q"),
         ".Lke_qclamp:",
         "mov r21, r23",           // lb's sign byte
         "lsl r21",
@@ -497,7 +454,7 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         ".Lke_osh:",
         "tst r24",
         "breq .Lke_st2",
-        round_shift!("r24", "o"),
+        round_shift!(".Lke_", "r24", "o"),
         ".Lke_st2:",
         "ldd r30, Y+22",
         "ldd r31, Y+23",
@@ -519,68 +476,7 @@ pub(crate) unsafe fn kestrel_empc16_eval(ctx: *mut Ctx) -> u8 {
         // f32 bits to Q15.16 (RtScalar::to_q16 for f32): e the exponent,
         // m the mantissa with its implicit bit, sign mask r10
         ".Lke_fcv:",
-        "mov r21, r18",
-        "lsl r21",                // C = e's low bit
-        "mov r21, r19",
-        "rol r21",                // r21 = e, C = the sign
-        "sbc r10, r10",
-        "cpi r21, 0xFF",
-        "brne .Lke_ffin",
-        "rjmp .Lke_nonfinite",
-        ".Lke_ffin:",
-        "cpi r21, 142",           // |v| >= 2^15: saturated
-        "brlo .Lke_fns",
-        "ldi r16, 0xFF",          // i32::MAX
-        "ldi r17, 0xFF",
-        "ldi r18, 0xFF",
-        "ldi r19, 0x7F",
-        "tst r10",
-        "brne .Lke_fsmin",
-        "rjmp .Lke_qp",
-        ".Lke_fsmin:",
-        "ldi r16, 0",             // i32::MIN
-        "ldi r17, 0",
-        "ldi r18, 0",
-        "ldi r19, 0x80",
-        "rjmp .Lke_qp",
-        ".Lke_fns:",
-        "cpi r21, 110",           // |v| < 2^-17 (and subnormals, zero): 0
-        "brsh .Lke_fnz",
-        "clr r16",
-        "clr r17",
-        "clr r18",
-        "clr r19",
-        "rjmp .Lke_qp",
-        ".Lke_fnz:",
-        "ori r18, 0x80",          // m
-        "clr r19",
-        "cpi r21, 134",
-        "brsh .Lke_fshl",
-        "ldi r20, 134",           // round(m / 2^(134 - e)), 1..=24 bits
-        "sub r20, r21",
-        round_shift!("r20", "f"),
-        "rjmp .Lke_fsign",
-        ".Lke_fshl:",             // m 2^(e - 134), 0..=7 bits
-        "subi r21, 134",
-        "breq .Lke_fsign",
-        ".Lke_fshll:",
-        "lsl r16",
-        "rol r17",
-        "rol r18",
-        "rol r19",
-        "dec r21",
-        "brne .Lke_fshll",
-        ".Lke_fsign:",
-        "tst r10",
-        "breq 9f",
-        "com r19",                // -v
-        "com r18",
-        "com r17",
-        "neg r16",
-        "sbci r17, 0xFF",
-        "sbci r18, 0xFF",
-        "sbci r19, 0xFF",
-        "9:",
+        f32_to_q16!(".Lke_", "f", "r10", "r20", ".Lke_nonfinite"),
         "rjmp .Lke_qp",
         ".Lke_nonfinite:",        // a non-finite f32 value: status 2
         "std Y+36, r2",
