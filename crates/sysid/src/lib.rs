@@ -39,7 +39,7 @@ pub use filter::{Biquad, Butterworth, Periodogram, periodogram};
 #[cfg(feature = "std")]
 pub use model::{InnovationModel, OneStepPrediction};
 #[cfg(feature = "std")]
-pub use n4sid::{N4sidResult, N4sidSettings, Weighting, n4sid, suggest_order};
+pub use n4sid::{MatrixEstimate, N4sidResult, N4sidSettings, Weighting, n4sid, suggest_order};
 #[cfg(feature = "std")]
 pub use pem::{Criterion, Focus, Identified, PemResult, PemSettings, StopReason, pem, pem_n4sid};
 #[cfg(feature = "std")]

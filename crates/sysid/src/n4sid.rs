@@ -4,6 +4,7 @@ use crate::data::IoData;
 use crate::error::{Result, SysidError};
 use crate::linalg::{self, inv_sqrt_spd, lstsq, pinv, r_factor, spectral_radius};
 use crate::model::InnovationModel;
+use crate::validate::estimate_x0_simulation;
 use nalgebra::{DMatrix, DVector};
 
 /// The weighting of the oblique projection before the SVD.
@@ -21,6 +22,26 @@ pub enum Weighting {
     Unweighted,
 }
 
+/// How [`n4sid`] estimates the system matrices once the SVD has given the
+/// extended observability matrix `Gamma`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum MatrixEstimate {
+    /// `A`, `C` from the shift invariance of `Gamma`; `B`, `D` and the
+    /// initial states by output-error least squares with `A`, `C` fixed
+    /// (the simulation error is linear in them); `K` from the residuals of
+    /// the state sequence with these matrices.
+    #[default]
+    OutputError,
+    /// `A`, `B`, `C`, `D` together by least squares on the state sequence
+    /// `Gamma^+ O_i` and its shift (Van Overschee and De Moor's
+    /// algorithm 2, as SIPPY and nfoursid do), and `K` from the residual
+    /// covariances of that same regression (a Riccati equation): one
+    /// consistent fit of the one-step predictor rather than of the
+    /// simulation. The initial states are then least squares with the
+    /// matrices fixed.
+    StateRegression,
+}
+
 /// Settings of [`n4sid`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct N4sidSettings {
@@ -28,15 +49,23 @@ pub struct N4sidSettings {
     pub order: Option<usize>,
     /// Largest order considered when suggesting one.
     pub max_order: usize,
-    /// Number of block rows `i` of the past and the future; `None`
-    /// chooses `max(10, ceil((n_max + 1) / ny) + 1)`.
+    /// Number of block rows `i` of the future (and of the past unless
+    /// [`past_horizon`](Self::past_horizon) is set); `None` chooses
+    /// `max(10, ceil((n_max + 1) / ny) + 1)`.
     pub horizon: Option<usize>,
+    /// Number of block rows `p` of the past when it differs from the
+    /// future's; `None` takes the future horizon. A past longer than the
+    /// future brings the state estimates closer to a stationary Kalman
+    /// filter's (Jansson; Chiuso), which helps the noise model `K`.
+    pub past_horizon: Option<usize>,
     /// The weighting.
     pub weighting: Weighting,
     /// Estimate a feed-through `D` (otherwise `D = 0`).
     pub feedthrough: bool,
     /// Estimate the innovation gain `K` (otherwise `K = 0`).
     pub estimate_k: bool,
+    /// How the system matrices follow from `Gamma`.
+    pub matrices: MatrixEstimate,
 }
 
 impl Default for N4sidSettings {
@@ -45,9 +74,11 @@ impl Default for N4sidSettings {
             order: None,
             max_order: 10,
             horizon: None,
+            past_horizon: None,
             weighting: Weighting::default(),
             feedthrough: false,
             estimate_k: true,
+            matrices: MatrixEstimate::default(),
         }
     }
 }
@@ -160,40 +191,50 @@ pub fn n4sid(data: &IoData, settings: &N4sidSettings) -> Result<N4sidResult> {
             "horizon {i} too short for order {nmax} with {ny} outputs (need i * ny > order)"
         )));
     }
+    let p = settings.past_horizon.unwrap_or(i);
+    if p == 0 {
+        return Err(SysidError::invalid("past horizon must be >= 1"));
+    }
     if settings.order == Some(0) {
         return Err(SysidError::invalid("model order must be >= 1"));
     }
-    let rows = 2 * i * (nu + ny);
+    let rows = (i + p) * (nu + ny);
     let cols: usize = sdata
         .experiments()
         .iter()
-        .map(|e| (e.len() + 1).saturating_sub(2 * i))
+        .map(|e| (e.len() + 1).saturating_sub(i + p))
         .sum();
     if cols < rows {
-        let needed = rows + 2 * i - 1;
+        let needed = rows + i + p - 1;
         return Err(SysidError::TooFewSamples {
-            what: format!("N4SID of order {nmax} with horizon {i} ({rows} Hankel rows)"),
+            what: format!("N4SID of order {nmax} with horizons {i}/{p} ({rows} Hankel rows)"),
             needed,
             found: data.n_samples(),
         });
     }
     // Ht: one row per Hankel column, columns ordered [Uf, Up, Yp, Yf].
-    let (m1, m2, m3) = (i * nu, i * (nu + ny), i * ny);
+    let (m1, m2, m3) = (i * nu, p * (nu + ny), i * ny);
     let mut ht = DMatrix::<f64>::zeros(cols, rows);
     let mut col0 = 0;
     let mut spans = Vec::new();
     for e in sdata.experiments() {
-        let j = (e.len() + 1).saturating_sub(2 * i);
+        let j = (e.len() + 1).saturating_sub(i + p);
         for c in 0..j {
             let r = col0 + c;
             for b in 0..i {
                 for q in 0..nu {
-                    ht[(r, b * nu + q)] = e.u[(c + i + b, q)];
+                    ht[(r, b * nu + q)] = e.u[(c + p + b, q)];
+                }
+                for q in 0..ny {
+                    ht[(r, m1 + m2 + b * ny + q)] = e.y[(c + p + b, q)];
+                }
+            }
+            for b in 0..p {
+                for q in 0..nu {
                     ht[(r, m1 + b * nu + q)] = e.u[(c + b, q)];
                 }
                 for q in 0..ny {
-                    ht[(r, m1 + i * nu + b * ny + q)] = e.y[(c + b, q)];
-                    ht[(r, m1 + m2 + b * ny + q)] = e.y[(c + i + b, q)];
+                    ht[(r, m1 + p * nu + b * ny + q)] = e.y[(c + b, q)];
                 }
             }
         }
@@ -253,48 +294,60 @@ pub fn n4sid(data: &IoData, settings: &N4sidSettings) -> Result<N4sidResult> {
     if let Some(winv) = &w1inv {
         gamma = winv * gamma;
     }
-    let c_mat = gamma.rows(0, ny).into_owned();
+    let c_gamma = gamma.rows(0, ny).into_owned();
     let g_up = gamma.rows(0, m3 - ny).into_owned();
     let g_dn = gamma.rows(ny, m3 - ny).into_owned();
-    let mut a = lstsq(&g_up, &g_dn);
-    if spectral_radius(&a) >= 1.0 {
+    let mut a_gamma = lstsq(&g_up, &g_dn);
+    if spectral_radius(&a_gamma) >= 1.0 {
         // Maciejowski's stabilising estimate: shift with a zero block appended.
         let mut g_dn0 = DMatrix::zeros(m3, n);
         g_dn0.rows_mut(0, m3 - ny).copy_from(&g_dn);
-        a = lstsq(&gamma, &g_dn0);
+        a_gamma = lstsq(&gamma, &g_dn0);
     }
-    // B, D, x0 by output-error least squares with A, C fixed.
-    let BdX0 { b, d, x0: x0s } = fit_bd_x0(&a, &c_mat, &sdata, settings.feedthrough)?;
-    // State sequence and K.
-    let k = if settings.estimate_k {
-        let xs = pinv(&gamma) * &lwp * wp_t.transpose(); // n x J
-        let mut wres = Vec::new();
-        let mut vres = Vec::new();
-        for (e, &(c0, j)) in sdata.experiments().iter().zip(&spans) {
-            for c in 0..j.saturating_sub(1) {
-                let x = xs.column(c0 + c);
-                let xn = xs.column(c0 + c + 1);
-                let ut = e.u.row(c + i).transpose();
-                let yt = e.y.row(c + i).transpose();
-                let v = &yt - &c_mat * x - &d * &ut;
-                let w = xn - &a * x - &b * &ut;
-                vres.push(v);
-                wres.push(w);
-            }
+    // The state sequence (one column per Hankel column) and, per
+    // experiment, its consecutive pairs with the input and output between.
+    let states = || StateSequence {
+        xs: pinv(&gamma) * &lwp * wp_t.transpose(),
+        spans: &spans,
+        data: &sdata,
+        past: p,
+    };
+    let (a, b, c_mat, d, x0s, seq) = match settings.matrices {
+        MatrixEstimate::OutputError => {
+            // B, D, x0 by output-error least squares with A, C fixed.
+            let BdX0 { b, d, x0 } = fit_bd_x0(&a_gamma, &c_gamma, &sdata, settings.feedthrough)?;
+            let seq = settings.estimate_k.then(states);
+            (a_gamma, b, c_gamma, d, x0, seq)
         }
-        let vm = DMatrix::from_columns(&vres);
-        let wm = DMatrix::from_columns(&wres);
-        let nn = vm.ncols().max(1) as f64;
-        let q = &wm * wm.transpose() / nn;
-        let s = &wm * vm.transpose() / nn;
-        let r = &vm * vm.transpose() / nn;
-        let kk = match linalg::kalman_gain(&a, &c_mat, &q, &s, &r) {
-            Ok(k) => k,
-            Err(_) => &s * pinv(&r),
-        };
-        stabilise_k(&a, &c_mat, kk)
-    } else {
-        DMatrix::zeros(n, ny)
+        MatrixEstimate::StateRegression => {
+            let seq = states();
+            let Abcd { a, b, c, d } = seq.regress(&a_gamma, settings.feedthrough);
+            let trial = InnovationModel::new(
+                data.ts(),
+                a.clone(),
+                b.clone(),
+                c.clone(),
+                d.clone(),
+                DMatrix::zeros(n, ny),
+            )?;
+            let x0 = sdata
+                .experiments()
+                .iter()
+                .map(|e| estimate_x0_simulation(&trial, &e.u, &e.y))
+                .collect::<Result<Vec<_>>>()?;
+            (a, b, c, d, x0, settings.estimate_k.then_some(seq))
+        }
+    };
+    let k = match seq {
+        Some(seq) => {
+            let (q, s, r) = seq.residual_covariances(&a, &b, &c_mat, &d);
+            let kk = match linalg::kalman_gain(&a, &c_mat, &q, &s, &r) {
+                Ok(k) => k,
+                Err(_) => &s * pinv(&r),
+            };
+            stabilise_k(&a, &c_mat, kk)
+        }
+        None => DMatrix::zeros(n, ny),
     };
     let scaled = InnovationModel::new(data.ts(), a, b, c_mat, d, k)?;
     let model = scaling.unscale(&scaled);
@@ -307,6 +360,100 @@ pub fn n4sid(data: &IoData, settings: &N4sidSettings) -> Result<N4sidResult> {
         order: n,
         horizon: i,
     })
+}
+
+/// The estimated state sequence of [`n4sid`]: column `c0 + c` of `xs`
+/// is the state at sample `c + past` of the experiment whose columns
+/// start at `c0`.
+struct StateSequence<'a> {
+    xs: DMatrix<f64>,
+    spans: &'a [(usize, usize)],
+    data: &'a IoData,
+    past: usize,
+}
+
+/// System matrices of a state-sequence regression.
+struct Abcd {
+    a: DMatrix<f64>,
+    b: DMatrix<f64>,
+    c: DMatrix<f64>,
+    d: DMatrix<f64>,
+}
+
+impl StateSequence<'_> {
+    /// Every consecutive pair of states with the input and output at the
+    /// first: `(x_t, x_{t+1}, u_t, y_t)` as columns.
+    fn pairs(&self) -> [DMatrix<f64>; 4] {
+        let mut cols: [Vec<DVector<f64>>; 4] = Default::default();
+        for (e, &(c0, j)) in self.data.experiments().iter().zip(self.spans) {
+            for c in 0..j.saturating_sub(1) {
+                cols[0].push(self.xs.column(c0 + c).into_owned());
+                cols[1].push(self.xs.column(c0 + c + 1).into_owned());
+                cols[2].push(e.u.row(c + self.past).transpose());
+                cols[3].push(e.y.row(c + self.past).transpose());
+            }
+        }
+        cols.map(|c| DMatrix::from_columns(&c))
+    }
+
+    /// `[x+; y] = [A B; C D] [x; u]` by least squares (`D = 0` without
+    /// feed-through). An unstable `A` is replaced by `a_stable` with `B`
+    /// refitted for it.
+    fn regress(&self, a_stable: &DMatrix<f64>, feedthrough: bool) -> Abcd {
+        let [x, xn, u, y] = self.pairs();
+        let (n, nu, ny) = (x.nrows(), u.nrows(), y.nrows());
+        let xu = stack_rows(&x, &u);
+        let ab = lstsq(&xu.transpose(), &xn.transpose()).transpose();
+        let (mut a, mut b) = (
+            ab.columns(0, n).into_owned(),
+            ab.columns(n, nu).into_owned(),
+        );
+        if spectral_radius(&a) >= 1.0 {
+            a = a_stable.clone();
+            b = lstsq(&u.transpose(), &(&xn - &a * &x).transpose()).transpose();
+        }
+        let (c, d) = if feedthrough {
+            let cd = lstsq(&xu.transpose(), &y.transpose()).transpose();
+            (
+                cd.columns(0, n).into_owned(),
+                cd.columns(n, nu).into_owned(),
+            )
+        } else {
+            (
+                lstsq(&x.transpose(), &y.transpose()).transpose(),
+                DMatrix::zeros(ny, nu),
+            )
+        };
+        Abcd { a, b, c, d }
+    }
+
+    /// The covariances `Q`, `S`, `R` of the state and output residuals
+    /// of the sequence under the given matrices.
+    fn residual_covariances(
+        &self,
+        a: &DMatrix<f64>,
+        b: &DMatrix<f64>,
+        c: &DMatrix<f64>,
+        d: &DMatrix<f64>,
+    ) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+        let [x, xn, u, y] = self.pairs();
+        let w = xn - a * &x - b * &u;
+        let v = y - c * &x - d * &u;
+        let nn = v.ncols().max(1) as f64;
+        (
+            &w * w.transpose() / nn,
+            &w * v.transpose() / nn,
+            &v * v.transpose() / nn,
+        )
+    }
+}
+
+/// `[top; bottom]`.
+fn stack_rows(top: &DMatrix<f64>, bottom: &DMatrix<f64>) -> DMatrix<f64> {
+    let mut m = DMatrix::zeros(top.nrows() + bottom.nrows(), top.ncols());
+    m.rows_mut(0, top.nrows()).copy_from(top);
+    m.rows_mut(top.nrows(), bottom.nrows()).copy_from(bottom);
+    m
 }
 
 /// Shrinks `K` until `A - K C` is stable (spectral radius below 0.999).
@@ -458,6 +605,74 @@ mod tests {
     }
 
     #[test]
+    fn state_regression_and_a_longer_past_recover_noise_free_systems() {
+        let truth = synthetic::random_model(4, 2, 2, 11, 0.85);
+        let mut det = truth.clone();
+        det.k.fill(0.0);
+        let data = synthetic::simulate(&det, 600, 0.0, 2).unwrap();
+        for w in [Weighting::Moesp, Weighting::Cva, Weighting::Unweighted] {
+            for (matrices, past) in [
+                (MatrixEstimate::StateRegression, None),
+                (MatrixEstimate::StateRegression, Some(15)),
+                (MatrixEstimate::OutputError, Some(15)),
+            ] {
+                let r = n4sid(
+                    &data,
+                    &N4sidSettings {
+                        weighting: w,
+                        max_order: 8,
+                        past_horizon: past,
+                        matrices,
+                        ..Default::default()
+                    },
+                )
+                .unwrap();
+                assert_eq!(r.suggested_order, 4, "{w:?} {matrices:?} {past:?}");
+                let err = max_tf_error(&r.model, &det);
+                assert!(err < 1e-6, "{w:?} {matrices:?} {past:?}: {err}");
+            }
+        }
+    }
+
+    /// One-step prediction error variance of `m` on `data`, from the
+    /// predictor's least-squares initial state.
+    fn one_step_mse(m: &InnovationModel, data: &IoData) -> f64 {
+        let e = &data.experiments()[0];
+        let x0 = crate::validate::estimate_x0_predictor(m, &e.u, &e.y).unwrap();
+        let r = m.predict_one_step(&e.u, &e.y, &x0).unwrap().residuals;
+        r.norm_squared() / r.len() as f64
+    }
+
+    #[test]
+    fn state_regression_estimates_the_noise_model() {
+        // Coloured noise (a large K): the state-sequence regression gives
+        // both the dynamics and a one-step predictor close to the true
+        // Kalman predictor's on fresh data.
+        let mut truth = synthetic::random_model(3, 2, 2, 5, 0.9);
+        truth.k *= 3.0;
+        assert!(truth.radius_predictor() < 1.0);
+        let data = synthetic::simulate(&truth, 5000, 0.3, 9).unwrap();
+        let fresh = synthetic::simulate(&truth, 5000, 0.3, 10).unwrap();
+        let best = one_step_mse(&truth, &fresh);
+        for past in [None, Some(20)] {
+            let r = n4sid(
+                &data,
+                &N4sidSettings {
+                    order: Some(3),
+                    past_horizon: past,
+                    matrices: MatrixEstimate::StateRegression,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            assert!(max_tf_error(&r.model, &truth) < 0.1, "{past:?}");
+            assert!(r.model.radius_predictor() < 1.0);
+            let mse = one_step_mse(&r.model, &fresh);
+            assert!(mse < 1.03 * best, "{past:?}: {mse} vs {best}");
+        }
+    }
+
+    #[test]
     fn noisy_data_give_a_close_model_with_a_stable_predictor() {
         let truth = synthetic::random_model(3, 2, 2, 5, 0.9);
         let data = synthetic::simulate(&truth, 5000, 0.2, 9).unwrap();
@@ -498,6 +713,24 @@ mod tests {
             )
             .is_err()
         );
+        let past0 = N4sidSettings {
+            order: Some(3),
+            past_horizon: Some(0),
+            ..Default::default()
+        };
+        assert!(matches!(
+            n4sid(&data, &past0),
+            Err(SysidError::InvalidArgument(_))
+        ));
+        let long_past = N4sidSettings {
+            order: Some(2),
+            max_order: 2,
+            horizon: Some(3),
+            past_horizon: Some(20),
+            ..Default::default()
+        };
+        let e = n4sid(&data, &long_past).unwrap_err();
+        assert!(matches!(e, SysidError::TooFewSamples { .. }), "{e}");
         assert!(
             n4sid(
                 &data,

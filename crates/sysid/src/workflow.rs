@@ -514,9 +514,11 @@ pub fn identify(data: &IoData, spec: &IdentifySpec) -> Result<IdentifyReport> {
         order: spec.order,
         max_order: spec.order.unwrap_or(10).max(10),
         horizon: spec.horizon,
+        past_horizon: None,
         weighting: spec.weighting,
         feedthrough: spec.feedthrough,
         estimate_k: true,
+        matrices: Default::default(),
     };
     let start = n4sid(&est, &n4)?;
     let n4sid_summary = N4sidSummary {
