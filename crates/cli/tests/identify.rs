@@ -257,6 +257,46 @@ fn criterion_flag() {
     assert!(err.contains("determinant") && err.contains("fit"), "{err}");
 }
 
+/// `--n4sid-matrices state-regression` takes the N4SID matrices from the
+/// state sequence: a different subspace model from the output-error
+/// default; an unknown value is refused with the choices.
+#[test]
+fn n4sid_matrices_flag() {
+    let d = dir("n4sid-matrices");
+    let log = d.join("log.csv");
+    write_log(&log, 1000, |_, _| {});
+    let run = |matrices: &str| {
+        let l = log.display().to_string();
+        kestrel(&[
+            "--data",
+            &l,
+            "--inputs",
+            "a,b",
+            "--outputs",
+            "p",
+            "--order",
+            "1",
+            "--method",
+            "n4sid",
+            "--n4sid-matrices",
+            matrices,
+        ])
+    };
+    let model = |o: std::process::Output| {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        SsModel::from_json_str(&String::from_utf8_lossy(&o.stdout)).unwrap()
+    };
+    let (sr, oe) = (model(run("state-regression")), model(run("output-error")));
+    assert_eq!((sr.nx(), sr.nu(), sr.ny()), (1, 2, 1));
+    let gain = |m: &SsModel| m.c[(0, 0)] * m.b[(0, 0)] / (1.0 - m.a[(0, 0)]);
+    assert!((gain(&sr) - gain(&oe)).abs() > 1e-9);
+    assert!((gain(&sr) - gain(&oe)).abs() < 0.1 * gain(&oe).abs());
+    let o = run("both");
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("state-regression"), "{err}");
+}
+
 #[test]
 fn bad_logs_give_clear_errors() {
     let d = dir("bad");

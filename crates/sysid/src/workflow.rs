@@ -7,7 +7,7 @@ use crate::data::{IoData, Offsets, SignalSelection, TimeInterval};
 use crate::error::{Result, SysidError};
 use crate::filter::Butterworth;
 use crate::model::InnovationModel;
-use crate::n4sid::{N4sidSettings, Weighting, n4sid};
+use crate::n4sid::{MatrixEstimate, N4sidSettings, Weighting, n4sid};
 use crate::pem::{Criterion, Focus, PemSettings, StopReason, pem};
 use crate::reduce::{BalredSettings, ReductionMethod, Zero, balred, transmission_zeros};
 use crate::validate::{ValidationReport, validate};
@@ -235,6 +235,9 @@ pub struct IdentifySpec {
     pub weighting: Weighting,
     /// N4SID horizon (block rows); `None`: chosen from the order.
     pub horizon: Option<usize>,
+    /// How N4SID estimates the system matrices (output-error least
+    /// squares, the default, or the state-sequence regression).
+    pub n4sid_matrices: MatrixEstimate,
     /// PEM focus.
     pub focus: PemFocus,
     /// Prediction horizon of every one-step (prediction-focus) PEM stage:
@@ -274,6 +277,7 @@ impl Default for IdentifySpec {
             method: Method::Pem,
             weighting: Weighting::Moesp,
             horizon: None,
+            n4sid_matrices: MatrixEstimate::OutputError,
             focus: PemFocus::Prediction,
             pem_horizon: 1,
             criterion: Criterion::Trace,
@@ -518,7 +522,7 @@ pub fn identify(data: &IoData, spec: &IdentifySpec) -> Result<IdentifyReport> {
         weighting: spec.weighting,
         feedthrough: spec.feedthrough,
         estimate_k: true,
-        matrices: Default::default(),
+        matrices: spec.n4sid_matrices,
     };
     let start = n4sid(&est, &n4)?;
     let n4sid_summary = N4sidSummary {

@@ -5,7 +5,7 @@ use anyhow::{Context, bail};
 use kestrel_sysid::workflow::{
     self, AfterReduction, IdentifySpec, InputMap, Lowpass, PemFocus, Segment,
 };
-use kestrel_sysid::{Criterion, CsvColumns, IoData, Weighting};
+use kestrel_sysid::{Criterion, CsvColumns, IoData, MatrixEstimate, Weighting};
 use std::path::PathBuf;
 
 /// Identification method.
@@ -24,6 +24,16 @@ pub enum WeightingArg {
     Moesp,
     /// Canonical variate analysis.
     Cva,
+}
+
+/// How N4SID estimates the system matrices.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum N4sidMatricesArg {
+    /// A, C from the observability matrix; B, D by output-error least squares.
+    OutputError,
+    /// A, B, C, D by least squares on the estimated state sequence, K from
+    /// its residuals.
+    StateRegression,
 }
 
 /// PEM criterion focus.
@@ -113,6 +123,9 @@ pub struct Args {
     /// N4SID horizon (block rows); default chosen from the order.
     #[arg(long)]
     pub horizon: Option<usize>,
+    /// How N4SID estimates the system matrices.
+    #[arg(long, value_enum, default_value_t = N4sidMatricesArg::OutputError)]
+    pub n4sid_matrices: N4sidMatricesArg,
     /// PEM focus.
     #[arg(long, value_enum, default_value_t = FocusArg::Prediction)]
     pub focus: FocusArg,
@@ -221,6 +234,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             WeightingArg::Cva => Weighting::Cva,
         },
         horizon: args.horizon,
+        n4sid_matrices: match args.n4sid_matrices {
+            N4sidMatricesArg::OutputError => MatrixEstimate::OutputError,
+            N4sidMatricesArg::StateRegression => MatrixEstimate::StateRegression,
+        },
         focus: match args.focus {
             FocusArg::Prediction => PemFocus::Prediction,
             FocusArg::Simulation => PemFocus::Simulation,
