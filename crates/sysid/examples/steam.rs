@@ -1,5 +1,6 @@
 //! Identification of the DaISy steam generator (estimate on the first
-//! half, validate on the second, order 9): N4SID, PEM with prediction
+//! half, validate on the second, order 9): N4SID (its matrices by
+//! output-error least squares and by state-sequence regression), PEM with prediction
 //! focus, PEM with a multi-step focus (1..5 steps), and PEM with
 //! simulation focus followed by the noise model, each
 //! with its validation table (simulation, 1-step and 5-step fits, the
@@ -15,7 +16,7 @@
 #[path = "common/steam.rs"]
 mod steam;
 
-use kestrel_sysid::{Focus, N4sidSettings, PemSettings, n4sid, pem};
+use kestrel_sysid::{Focus, MatrixEstimate, N4sidSettings, PemSettings, n4sid, pem};
 use steam::{ORDER, halves, table};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -32,6 +33,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     table(
         &format!("N4SID (MOESP, i = {}, {n4_time:.2} s)", start.horizon),
         &start.model,
+        &val,
+    )?;
+    let sr = n4sid(
+        &est,
+        &N4sidSettings {
+            order: Some(ORDER),
+            matrices: MatrixEstimate::StateRegression,
+            ..Default::default()
+        },
+    )?;
+    table(
+        &format!(
+            "N4SID (MOESP, i = {}), matrices by state-sequence regression",
+            sr.horizon
+        ),
+        &sr.model,
         &val,
     )?;
     let t = std::time::Instant::now();
