@@ -1,6 +1,7 @@
 //! Set-up shared by the DaISy steam generator examples (`steam`,
 //! `steam_criterion`, `steam_focus`, `steam_combined`,
-//! `steam_converged`): the data file and its halves, the N4SID start of
+//! `steam_converged`, `steam_subspace`, `steam_regression`): the data
+//! file and its halves, the folds of the blocked cross-validation, the N4SID start of
 //! order 9, a timed PEM call, and the validation figures against the
 //! targets of the issue (simulation 74.4 %, 1-step 94.1 %, 5-step
 //! 88.9 %); for the cross-validated grids, the grid's lists read from the
@@ -55,6 +56,34 @@ pub fn inner_halves(est: &IoData) -> Result<Halves, Box<dyn std::error::Error>> 
         est: inner_est,
         val: inner_val,
     })
+}
+
+/// Blocked cross-validation inside the estimation half: `est` cut into
+/// `k` consecutive blocks; fold `j` fits on every block but the `j`-th
+/// (each block its own experiment, their common means removed) and
+/// scores on block `j` (the same offsets subtracted).
+pub fn folds(est: &IoData, k: usize) -> Result<Vec<Halves>, Box<dyn std::error::Error>> {
+    let mut blocks = Vec::with_capacity(k);
+    let mut rest = est.clone();
+    for j in 0..k.saturating_sub(1) {
+        let (b, r) = rest.split(1.0 / (k - j) as f64)?;
+        blocks.push(b);
+        rest = r;
+    }
+    blocks.push(rest);
+    (0..blocks.len())
+        .map(|j| {
+            let others: Vec<IoData> = (0..blocks.len())
+                .filter(|&o| o != j)
+                .map(|o| blocks[o].clone())
+                .collect();
+            let (fit, off) = IoData::merge(&others)?.remove_means()?;
+            Ok(Halves {
+                est: fit,
+                val: blocks[j].subtract(&off)?,
+            })
+        })
+        .collect()
 }
 
 /// The halves of [`halves`] and the inner split of the estimation half
