@@ -39,6 +39,30 @@ fn kestrel(args: &[&str]) -> std::process::Output {
         .unwrap()
 }
 
+/// `kestrel identify` on the log written by [`write_log`] (inputs `a`,
+/// `b`, output `p`, order 1) with the `extra` flags.
+fn identify_order_one(log: &Path, extra: &[&str]) -> std::process::Output {
+    let l = log.display().to_string();
+    let mut args = vec![
+        "--data",
+        &l,
+        "--inputs",
+        "a,b",
+        "--outputs",
+        "p",
+        "--order",
+        "1",
+    ];
+    args.extend_from_slice(extra);
+    kestrel(&args)
+}
+
+/// The model a successful run printed on stdout.
+fn printed_model(o: &std::process::Output) -> SsModel {
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    SsModel::from_json_str(&String::from_utf8_lossy(&o.stdout)).unwrap()
+}
+
 #[test]
 fn identifies_and_writes_ss_v1_with_offsets() {
     let d = dir("good");
@@ -226,29 +250,19 @@ fn criterion_flag() {
     let log = d.join("log.csv");
     write_log(&log, 1000, |_, _| {});
     let run = |criterion: &str| {
-        let l = log.display().to_string();
-        kestrel(&[
-            "--data",
-            &l,
-            "--inputs",
-            "a,b",
-            "--outputs",
-            "p",
-            "--order",
-            "1",
-            "--focus",
-            "multi-step-then-noise",
-            "--dynamics-horizon",
-            "4",
-            "--criterion",
-            criterion,
-        ])
+        identify_order_one(
+            &log,
+            &[
+                "--focus",
+                "multi-step-then-noise",
+                "--dynamics-horizon",
+                "4",
+                "--criterion",
+                criterion,
+            ],
+        )
     };
-    let model = |o: std::process::Output| {
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        SsModel::from_json_str(&String::from_utf8_lossy(&o.stdout)).unwrap()
-    };
-    let (fit, trace) = (model(run("fit")), model(run("trace")));
+    let (fit, trace) = (printed_model(&run("fit")), printed_model(&run("trace")));
     assert_eq!((fit.nx(), fit.nu(), fit.ny()), (1, 2, 1));
     assert!((fit.a[(0, 0)] - trace.a[(0, 0)]).abs() > 1e-9);
     let o = run("median");
@@ -266,27 +280,10 @@ fn n4sid_matrices_flag() {
     let log = d.join("log.csv");
     write_log(&log, 1000, |_, _| {});
     let run = |matrices: &str| {
-        let l = log.display().to_string();
-        kestrel(&[
-            "--data",
-            &l,
-            "--inputs",
-            "a,b",
-            "--outputs",
-            "p",
-            "--order",
-            "1",
-            "--method",
-            "n4sid",
-            "--n4sid-matrices",
-            matrices,
-        ])
+        identify_order_one(&log, &["--method", "n4sid", "--n4sid-matrices", matrices])
     };
-    let model = |o: std::process::Output| {
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        SsModel::from_json_str(&String::from_utf8_lossy(&o.stdout)).unwrap()
-    };
-    let (sr, oe) = (model(run("state-regression")), model(run("output-error")));
+    let sr = printed_model(&run("state-regression"));
+    let oe = printed_model(&run("output-error"));
     assert_eq!((sr.nx(), sr.nu(), sr.ny()), (1, 2, 1));
     let gain = |m: &SsModel| m.c[(0, 0)] * m.b[(0, 0)] / (1.0 - m.a[(0, 0)]);
     assert!((gain(&sr) - gain(&oe)).abs() > 1e-9);

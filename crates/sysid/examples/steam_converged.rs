@@ -34,7 +34,7 @@
 mod steam;
 
 use kestrel_sysid::{Criterion, InnovationModel, IoData, N4sidSettings, PemSettings, Weighting};
-use steam::{choose, criterion, fits, in_threads, list, table, timed_pem};
+use steam::{choose, criterion, fits, in_threads, list, timed_pem};
 
 /// A step set: all of `1..=h` (`steps` empty) or the selected steps.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -222,22 +222,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // convergence, validated once.
     let t = std::time::Instant::now();
     let st = start(&est, c.i)?;
-    let r = timed_pem(
-        &est,
-        &st,
-        &c.settings(max_iter),
-        &format!("refit {}", c.label()),
-    )?;
-    table(
-        &format!(
-            "{} ({} iterations, stop {:?}, {:.1} s)",
-            c.label(),
-            r.iterations,
-            r.stop,
-            t.elapsed().as_secs_f64()
-        ),
-        &r.model,
-        &val,
-    )?;
+    steam::refit_and_validate(&est, &val, &st, &c.settings(max_iter), &c.label(), t)?;
     Ok(())
 }

@@ -98,17 +98,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         _ => Vec::new(),
     };
     let starts = list("STEAM_STARTS", "moesp:10", |s| {
-        let (w, i) = s.split_once(':')?;
-        let weighting = match w {
-            "moesp" => Weighting::Moesp,
-            "cva" => Weighting::Cva,
-            "unweighted" => Weighting::Unweighted,
-            _ => return None,
-        };
-        Some(Start {
-            weighting,
-            i: i.parse().ok()?,
-        })
+        let (weighting, i) = steam::weighting_start(s)?;
+        Some(Start { weighting, i })
     })?;
     let refit = steam::refit();
     // Cross-validation inside the estimation half only.

@@ -77,17 +77,6 @@ impl Config {
     }
 }
 
-fn parse_start(s: &str) -> Option<(Weighting, usize)> {
-    let (w, i) = s.split_once(':')?;
-    let w = match w {
-        "moesp" => Weighting::Moesp,
-        "cva" => Weighting::Cva,
-        "unweighted" => Weighting::Unweighted,
-        _ => return None,
-    };
-    Some((w, i.parse().ok()?))
-}
-
 fn parse_steps(s: &str) -> Option<Vec<usize>> {
     s.split('+')
         .map(|k| k.parse::<usize>().ok().filter(|&k| k > 0))
@@ -105,7 +94,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let starts = list(
         "STEAM_STARTS",
         "moesp:5,moesp:8,moesp:10,cva:8,unweighted:5",
-        parse_start,
+        steam::weighting_start,
     )?;
     let step_sets = list("STEAM_STEPS", "1+5,1+5+10", parse_steps)?;
     let n_folds = env_number("STEAM_FOLDS", 3).max(2);
@@ -206,22 +195,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &start,
         &val,
     )?;
-    let r = timed_pem(
+    steam::refit_and_validate(
         &est,
+        &val,
         &start,
         &chosen.settings(max_iter),
-        &format!("refit {}", chosen.label()),
-    )?;
-    table(
-        &format!(
-            "{} ({} iterations, stop {:?}, {:.1} s)",
-            chosen.label(),
-            r.iterations,
-            r.stop,
-            t.elapsed().as_secs_f64()
-        ),
-        &r.model,
-        &val,
+        &chosen.label(),
+        t,
     )?;
     Ok(())
 }

@@ -583,35 +583,14 @@ mod tests {
     }
 
     #[test]
-    fn noise_free_data_recover_the_system_for_every_weighting() {
-        let truth = synthetic::random_model(4, 2, 2, 11, 0.85);
-        let mut det = truth.clone();
-        det.k.fill(0.0);
-        let data = synthetic::simulate(&det, 600, 0.0, 2).unwrap();
-        for w in [Weighting::Moesp, Weighting::Cva, Weighting::Unweighted] {
-            let r = n4sid(
-                &data,
-                &N4sidSettings {
-                    weighting: w,
-                    max_order: 8,
-                    ..Default::default()
-                },
-            )
-            .unwrap();
-            assert_eq!(r.suggested_order, 4, "{w:?}: {:?}", r.singular_values);
-            let err = max_tf_error(&r.model, &det);
-            assert!(err < 1e-6, "{w:?}: {err}");
-        }
-    }
-
-    #[test]
-    fn state_regression_and_a_longer_past_recover_noise_free_systems() {
+    fn noise_free_data_recover_the_system_for_every_weighting_estimate_and_past() {
         let truth = synthetic::random_model(4, 2, 2, 11, 0.85);
         let mut det = truth.clone();
         det.k.fill(0.0);
         let data = synthetic::simulate(&det, 600, 0.0, 2).unwrap();
         for w in [Weighting::Moesp, Weighting::Cva, Weighting::Unweighted] {
             for (matrices, past) in [
+                (MatrixEstimate::OutputError, None),
                 (MatrixEstimate::StateRegression, None),
                 (MatrixEstimate::StateRegression, Some(15)),
                 (MatrixEstimate::OutputError, Some(15)),
@@ -627,7 +606,11 @@ mod tests {
                     },
                 )
                 .unwrap();
-                assert_eq!(r.suggested_order, 4, "{w:?} {matrices:?} {past:?}");
+                assert_eq!(
+                    r.suggested_order, 4,
+                    "{w:?} {matrices:?} {past:?}: {:?}",
+                    r.singular_values
+                );
                 let err = max_tf_error(&r.model, &det);
                 assert!(err < 1e-6, "{w:?} {matrices:?} {past:?}: {err}");
             }

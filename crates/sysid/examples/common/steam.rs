@@ -13,8 +13,8 @@
 #![allow(dead_code)]
 
 use kestrel_sysid::{
-    Criterion, CsvColumns, InnovationModel, IoData, N4sidSettings, PemResult, PemSettings, n4sid,
-    pem, validate,
+    Criterion, CsvColumns, InnovationModel, IoData, N4sidSettings, PemResult, PemSettings,
+    Weighting, n4sid, pem, validate,
 };
 use std::path::PathBuf;
 
@@ -134,6 +134,19 @@ pub fn criterion(s: &str) -> Option<Criterion> {
         "fit" => Some(Criterion::Fit),
         _ => None,
     }
+}
+
+/// An N4SID start of the grids written `weighting:i`: `moesp:10`,
+/// `cva:20`, `unweighted:5`.
+pub fn weighting_start(s: &str) -> Option<(Weighting, usize)> {
+    let (w, i) = s.split_once(':')?;
+    let weighting = match w {
+        "moesp" => Weighting::Moesp,
+        "cva" => Weighting::Cva,
+        "unweighted" => Weighting::Unweighted,
+        _ => return None,
+    };
+    Some((weighting, i.parse().ok()?))
 }
 
 /// Whether the chosen candidate is refitted and validated (`STEAM_REFIT=0`
@@ -259,6 +272,31 @@ pub fn timed_pem(
         t.elapsed().as_secs_f64()
     );
     Ok(r)
+}
+
+/// The chosen configuration's refit: [`timed_pem`] from `start` on the
+/// whole estimation half `est` (labelled `refit <label>`), validated once
+/// on `val` by [`table`] with its iterations, stop reason and the time
+/// since `since`.
+pub fn refit_and_validate(
+    est: &IoData,
+    val: &IoData,
+    start: &InnovationModel,
+    settings: &PemSettings,
+    label: &str,
+    since: std::time::Instant,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let r = timed_pem(est, start, settings, &format!("refit {label}"))?;
+    table(
+        &format!(
+            "{label} ({} iterations, stop {:?}, {:.1} s)",
+            r.iterations,
+            r.stop,
+            since.elapsed().as_secs_f64()
+        ),
+        &r.model,
+        val,
+    )
 }
 
 /// The dynamics fit: N4SID of order [`ORDER`] with `start` (its
