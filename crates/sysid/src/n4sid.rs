@@ -56,7 +56,8 @@ pub struct N4sidSettings {
     /// Number of block rows `p` of the past when it differs from the
     /// future's; `None` takes the future horizon. A past longer than the
     /// future brings the state estimates closer to a stationary Kalman
-    /// filter's (Jansson; Chiuso), which helps the noise model `K`.
+    /// filter's (Jansson; Chiuso); on the DaISy steam generator it did
+    /// not improve the model.
     pub past_horizon: Option<usize>,
     /// The weighting.
     pub weighting: Weighting,
@@ -156,17 +157,21 @@ pub fn suggest_order(sv: &[f64], max_order: usize) -> usize {
 /// `x+ = A x + B u + K e`, `y = C x + D u + e`.
 ///
 /// Steps (Van Overschee and De Moor; Verhaegen's MOESP; Larimore's CVA):
-/// every signal is scaled to unit variance; block Hankel matrices of `i`
-/// past and `i` future block rows are built per experiment and placed
-/// side by side (experiments are never joined); an LQ factorisation gives
-/// the oblique projection of the future outputs onto the past along the
-/// future inputs; its weighted SVD gives the extended observability matrix
-/// `Gamma`, from which `C` (first block row) and `A` (shift invariance, with
-/// a stabilising fallback) follow. `B`, `D` and the initial states then
-/// solve a linear least-squares output-error problem with `A`, `C` fixed,
-/// and `K` is the regression of the state residuals on the output
-/// residuals of the state sequence `Gamma^+ O_i` (shrunk if `A - K C`
-/// would be unstable).
+/// every signal is scaled to unit variance; block Hankel matrices of `p`
+/// past and `i` future block rows (`p = i` unless
+/// [`N4sidSettings::past_horizon`] is set) are built per experiment and
+/// placed side by side (experiments are never joined); an LQ
+/// factorisation gives the oblique projection of the future outputs onto
+/// the past along the future inputs; its weighted SVD gives the extended
+/// observability matrix `Gamma`. With [`MatrixEstimate::OutputError`] (the
+/// default) `C` (first block row) and `A` (shift invariance, with a
+/// stabilising fallback) follow from `Gamma`, and `B`, `D` and the initial
+/// states solve a linear least-squares output-error problem with `A`, `C`
+/// fixed; with [`MatrixEstimate::StateRegression`] all four come from a
+/// least-squares regression on the state sequence `Gamma^+ O_i` and its
+/// shift. `K` is the stationary Kalman gain of the covariances of the
+/// state and output residuals of that sequence under the chosen
+/// matrices (shrunk if `A - K C` would be unstable).
 ///
 /// ```
 /// use kestrel_sysid::{n4sid, synthetic, N4sidSettings};
