@@ -311,12 +311,8 @@ pub fn n4sid(data: &IoData, settings: &N4sidSettings) -> Result<N4sidResult> {
     }
     // The state sequence (one column per Hankel column) and, per
     // experiment, its consecutive pairs with the input and output between.
-    let states = || StateSequence {
-        xs: pinv(&gamma) * &lwp * wp_t.transpose(),
-        spans: &spans,
-        data: &sdata,
-        past: p,
-    };
+    let states =
+        || StateSequence::new(&(pinv(&gamma) * &lwp * wp_t.transpose()), &spans, &sdata, p);
     let (a, b, c_mat, d, x0s, seq) = match settings.matrices {
         MatrixEstimate::OutputError => {
             // B, D, x0 by output-error least squares with A, C fixed.
@@ -356,10 +352,9 @@ pub fn n4sid(data: &IoData, settings: &N4sidSettings) -> Result<N4sidResult> {
     };
     let scaled = InnovationModel::new(data.ts(), a, b, c_mat, d, k)?;
     let model = scaling.unscale(&scaled);
-    let x0 = x0s;
     Ok(N4sidResult {
         model,
-        x0,
+        x0: x0s,
         singular_values: sv,
         suggested_order: suggested,
         order: n,
@@ -367,14 +362,14 @@ pub fn n4sid(data: &IoData, settings: &N4sidSettings) -> Result<N4sidResult> {
     })
 }
 
-/// The estimated state sequence of [`n4sid`]: column `c0 + c` of `xs`
-/// is the state at sample `c + past` of the experiment whose columns
-/// start at `c0`.
-struct StateSequence<'a> {
-    xs: DMatrix<f64>,
-    spans: &'a [(usize, usize)],
-    data: &'a IoData,
-    past: usize,
+/// Consecutive pairs of the estimated state sequence of [`n4sid`] with
+/// the input and output at the first of each pair: column `t` of `x`,
+/// `xn`, `u`, `y` holds `x_t`, `x_{t+1}`, `u_t`, `y_t`.
+struct StateSequence {
+    x: DMatrix<f64>,
+    xn: DMatrix<f64>,
+    u: DMatrix<f64>,
+    y: DMatrix<f64>,
 }
 
 /// System matrices of a state-sequence regression.
@@ -385,29 +380,32 @@ struct Abcd {
     d: DMatrix<f64>,
 }
 
-impl StateSequence<'_> {
-    /// Every consecutive pair of states with the input and output at the
-    /// first: `(x_t, x_{t+1}, u_t, y_t)` as columns.
-    fn pairs(&self) -> [DMatrix<f64>; 4] {
+impl StateSequence {
+    /// The pairs of `xs`, whose column `c0 + c` is the state at sample
+    /// `c + past` of the experiment of `data` whose columns `spans`
+    /// start at `c0`.
+    fn new(xs: &DMatrix<f64>, spans: &[(usize, usize)], data: &IoData, past: usize) -> Self {
         let mut cols: [Vec<DVector<f64>>; 4] = Default::default();
-        for (e, &(c0, j)) in self.data.experiments().iter().zip(self.spans) {
+        for (e, &(c0, j)) in data.experiments().iter().zip(spans) {
             for c in 0..j.saturating_sub(1) {
-                cols[0].push(self.xs.column(c0 + c).into_owned());
-                cols[1].push(self.xs.column(c0 + c + 1).into_owned());
-                cols[2].push(e.u.row(c + self.past).transpose());
-                cols[3].push(e.y.row(c + self.past).transpose());
+                cols[0].push(xs.column(c0 + c).into_owned());
+                cols[1].push(xs.column(c0 + c + 1).into_owned());
+                cols[2].push(e.u.row(c + past).transpose());
+                cols[3].push(e.y.row(c + past).transpose());
             }
         }
-        cols.map(|c| DMatrix::from_columns(&c))
+        let [x, xn, u, y] = cols.map(|c| DMatrix::from_columns(&c));
+        StateSequence { x, xn, u, y }
     }
 
     /// `[x+; y] = [A B; C D] [x; u]` by least squares (`D = 0` without
     /// feed-through). An unstable `A` is replaced by `a_stable` with `B`
     /// refitted for it.
     fn regress(&self, a_stable: &DMatrix<f64>, feedthrough: bool) -> Abcd {
-        let [x, xn, u, y] = self.pairs();
+        let StateSequence { x, xn, u, y } = self;
         let (n, nu, ny) = (x.nrows(), u.nrows(), y.nrows());
-        let xu = stack_rows(&x, &u);
+        let mut xu = x.clone().resize_vertically(n + nu, 0.0);
+        xu.rows_mut(n, nu).copy_from(u);
         let ab = lstsq(&xu.transpose(), &xn.transpose()).transpose();
         let (mut a, mut b) = (
             ab.columns(0, n).into_owned(),
@@ -415,7 +413,7 @@ impl StateSequence<'_> {
         );
         if spectral_radius(&a) >= 1.0 {
             a = a_stable.clone();
-            b = lstsq(&u.transpose(), &(&xn - &a * &x).transpose()).transpose();
+            b = lstsq(&u.transpose(), &(xn - &a * x).transpose()).transpose();
         }
         let (c, d) = if feedthrough {
             let cd = lstsq(&xu.transpose(), &y.transpose()).transpose();
@@ -441,9 +439,8 @@ impl StateSequence<'_> {
         c: &DMatrix<f64>,
         d: &DMatrix<f64>,
     ) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
-        let [x, xn, u, y] = self.pairs();
-        let w = xn - a * &x - b * &u;
-        let v = y - c * &x - d * &u;
+        let w = &self.xn - a * &self.x - b * &self.u;
+        let v = &self.y - c * &self.x - d * &self.u;
         let nn = v.ncols().max(1) as f64;
         (
             &w * w.transpose() / nn,
@@ -451,14 +448,6 @@ impl StateSequence<'_> {
             &v * v.transpose() / nn,
         )
     }
-}
-
-/// `[top; bottom]`.
-fn stack_rows(top: &DMatrix<f64>, bottom: &DMatrix<f64>) -> DMatrix<f64> {
-    let mut m = DMatrix::zeros(top.nrows() + bottom.nrows(), top.ncols());
-    m.rows_mut(0, top.nrows()).copy_from(top);
-    m.rows_mut(top.nrows(), bottom.nrows()).copy_from(bottom);
-    m
 }
 
 /// Shrinks `K` until `A - K C` is stable (spectral radius below 0.999).
