@@ -31,7 +31,7 @@
 mod steam;
 
 use kestrel_sysid::{Criterion, InnovationModel, IoData, N4sidSettings, PemSettings, Weighting};
-use steam::{choose, criterion, dynamics, fits, in_threads, list, table, timed_pem};
+use steam::{choose, criterion, dynamics, fits, in_threads, list, timed_pem};
 
 /// Where the combined fit starts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -182,12 +182,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The chosen configuration on the whole estimation half, validated once.
     let t = std::time::Instant::now();
     let (_, start) = starts(&est, &[c.start])?.pop().ok_or("no start model")?;
-    let r = timed_pem(&est, &start, &c.settings(), &format!("refit {c:?}"))?;
-    table(
-        &format!("{c:?} ({:.1} s)", t.elapsed().as_secs_f64()),
-        &r.model,
-        &val,
-    )?;
+    steam::refit_and_validate(&est, &val, &start, &c.settings(), &format!("{c:?}"), t)?;
     if std::env::var("STEAM_VALIDATE_ALL").is_ok_and(|v| v == "1") {
         // For information only: what the other candidates would have
         // given. Looking at these is not a way to choose.

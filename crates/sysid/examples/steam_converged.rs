@@ -104,10 +104,7 @@ fn parse_steps(s: &str) -> Option<Steps> {
             name: s.into(),
         });
     }
-    let steps: Vec<usize> = s
-        .split('+')
-        .map(|k| k.parse::<usize>().ok().filter(|&k| k > 0))
-        .collect::<Option<_>>()?;
+    let steps = steam::step_list(s)?;
     Some(Steps {
         h: steps.iter().copied().max()?,
         steps,
@@ -125,15 +122,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         s.parse::<f64>().ok().filter(|w| *w > 0.0)
     })?;
     let weighted = list("STEAM_WEIGHTED_STEPS", "1+5", parse_steps)?;
-    let max_iter: usize = std::env::var("STEAM_MAX_ITER")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(200);
-    let threads: usize = std::env::var("STEAM_THREADS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(2)
-        .max(1);
+    let max_iter = steam::env_number("STEAM_MAX_ITER", 200);
+    let threads = steam::env_number("STEAM_THREADS", 2).max(1);
     let refit = steam::refit();
     // Cross-validation inside the estimation half only.
     let steam::Split {

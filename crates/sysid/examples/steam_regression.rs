@@ -77,29 +77,16 @@ impl Config {
     }
 }
 
-fn parse_steps(s: &str) -> Option<Vec<usize>> {
-    s.split('+')
-        .map(|k| k.parse::<usize>().ok().filter(|&k| k > 0))
-        .collect()
-}
-
-fn env_number(var: &str, default: usize) -> usize {
-    std::env::var(var)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let starts = list(
         "STEAM_STARTS",
         "moesp:5,moesp:8,moesp:10,cva:8,unweighted:5",
         steam::weighting_start,
     )?;
-    let step_sets = list("STEAM_STEPS", "1+5,1+5+10", parse_steps)?;
-    let n_folds = env_number("STEAM_FOLDS", 3).max(2);
-    let max_iter = env_number("STEAM_MAX_ITER", 200);
-    let threads = env_number("STEAM_THREADS", 2).max(1);
+    let step_sets = list("STEAM_STEPS", "1+5,1+5+10", steam::step_list)?;
+    let n_folds = steam::env_number("STEAM_FOLDS", 3).max(2);
+    let max_iter = steam::env_number("STEAM_MAX_ITER", 200);
+    let threads = steam::env_number("STEAM_THREADS", 2).max(1);
     let steam::Halves { est, val } = steam::halves()?;
     let folds = steam::folds(&est, n_folds)?;
     let mut configs = Vec::new();

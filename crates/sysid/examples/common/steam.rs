@@ -149,6 +149,23 @@ pub fn weighting_start(s: &str) -> Option<(Weighting, usize)> {
     Some((weighting, i.parse().ok()?))
 }
 
+/// Prediction steps written `a+b+...` (each at least 1): `1+5`,
+/// `1+5+10`.
+pub fn step_list(s: &str) -> Option<Vec<usize>> {
+    s.split('+')
+        .map(|k| k.parse::<usize>().ok().filter(|&k| k > 0))
+        .collect()
+}
+
+/// The number in the environment variable `var`, or `default` when it
+/// is not set or not a number.
+pub fn env_number(var: &str, default: usize) -> usize {
+    std::env::var(var)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
 /// Whether the chosen candidate is refitted and validated (`STEAM_REFIT=0`
 /// stops after the inner table).
 pub fn refit() -> bool {
