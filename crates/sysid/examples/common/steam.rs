@@ -1,6 +1,7 @@
 //! Set-up shared by the DaISy steam generator examples (`steam`,
 //! `steam_criterion`, `steam_focus`, `steam_combined`,
-//! `steam_converged`, `steam_subspace`, `steam_regression`): the data
+//! `steam_converged`, `steam_subspace`, `steam_regression`,
+//! `steam_multistart`): the data
 //! file and its halves, the folds of the blocked cross-validation, the N4SID start of
 //! order 9, a timed PEM call, and the validation figures against the
 //! targets of the issue (simulation 74.4 %, 1-step 94.1 %, 5-step
