@@ -11,7 +11,8 @@
 //! half. The validation half is also scored with its own means removed
 //! and with its own straight lines removed, to show how much the
 //! offset protocol matters. `STEAM_SHOW_ALL=1` validates every search
-//! (exploration, not a choice):
+//! (exploration, not a choice); `STEAM_ORDER` (default 9, the issue's
+//! order) sets the model order, to see what one more state buys:
 //!
 //! `cargo run --release -p kestrel-sysid --example steam_multistart [path]`
 //! (about 6 minutes on 2 cores).
@@ -35,6 +36,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .ok_or("STEAM_STEPS: no step list")?;
     let threads = steam::env_number("STEAM_THREADS", 2).max(1);
     let show_all = std::env::var("STEAM_SHOW_ALL").is_ok_and(|v| v == "1");
+    let order = steam::env_number("STEAM_ORDER", ORDER);
     let steam::Halves { est, val } = steam::halves()?;
     let settings = PemSettings {
         criterion: Criterion::Fit,
@@ -57,7 +59,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let start = n4sid(
                 &est,
                 &N4sidSettings {
-                    order: Some(ORDER),
+                    order: Some(order),
                     horizon: Some(i),
                     weighting,
                     feedthrough: true,
@@ -78,7 +80,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let criterion = |f: &Fits| f.one + f.five;
     done.sort_by(|a, b| criterion(&b.2).total_cmp(&criterion(&a.2)));
     println!(
-        "{} searches from {} starts ({:.0} s), best in-sample criterion first:",
+        "order {order}: {} searches from {} starts ({:.0} s), best in-sample criterion first:",
         done.len(),
         starts.len(),
         t.elapsed().as_secs_f64()
@@ -102,7 +104,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let (w, i, _, best) = done.first().ok_or("no search succeeded")?;
     table(
-        &format!("the best optimum of the criterion ({w:?} i = {i})"),
+        &format!("order {order}, the best optimum of the criterion ({w:?} i = {i})"),
         &best.model,
         &val,
     )?;
