@@ -20,10 +20,7 @@
 #[path = "common/steam.rs"]
 mod steam;
 
-use kestrel_sysid::{
-    Criterion, CsvColumns, IoData, MatrixEstimate, N4sidSettings, PemSettings, Weighting, n4sid,
-    pem,
-};
+use kestrel_sysid::{Criterion, MatrixEstimate, N4sidSettings, PemSettings, Weighting, n4sid, pem};
 use steam::{Fits, ORDER, fits, in_threads, list, table};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -109,11 +106,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &val,
     )?;
     // The same model on the validation half with its own offsets.
-    let path = std::env::args()
-        .nth(1)
-        .unwrap_or_else(|| "../shared/data/daisy/steam_generator.csv".into());
-    let cols = CsvColumns::new(&["u1", "u2", "u3", "u4"], &["y1", "y2", "y3", "y4"]);
-    let (_, second) = IoData::read_csv(path.as_ref(), &cols)?.split(0.5)?;
+    let (_, second) = steam::record()?.split(0.5)?;
     for (label, data) in [
         ("its own means removed", second.remove_means()?.0),
         ("its own straight lines removed", second.detrend()),

@@ -32,16 +32,20 @@ pub struct Halves {
 }
 
 /// Reads the steam generator CSV (the first command-line argument, or the
-/// shared DaISy file) and splits it in halves: estimate on the first,
-/// validate on the second.
-pub fn halves() -> Result<Halves, Box<dyn std::error::Error>> {
+/// shared DaISy file), raw.
+pub fn record() -> Result<IoData, Box<dyn std::error::Error>> {
     let path = std::env::args()
         .nth(1)
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from("../shared/data/daisy/steam_generator.csv"));
     let cols = CsvColumns::new(&["u1", "u2", "u3", "u4"], &["y1", "y2", "y3", "y4"]);
-    let data = IoData::read_csv(&path, &cols)?;
-    let (est, val) = data.split(0.5)?;
+    Ok(IoData::read_csv(&path, &cols)?)
+}
+
+/// The record of [`record`] split in halves: estimate on the first,
+/// validate on the second.
+pub fn halves() -> Result<Halves, Box<dyn std::error::Error>> {
+    let (est, val) = record()?.split(0.5)?;
     let (est, off) = est.remove_means()?;
     let val = val.subtract(&off)?;
     Ok(Halves { est, val })
