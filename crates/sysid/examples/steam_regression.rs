@@ -1,6 +1,6 @@
 //! The DaISy steam generator from the state-regression subspace start:
 //! N4SID of order 9 with `A, B, C, D` from the state sequence and `K`
-//! from its residual covariances ([`MatrixEstimate::StateRegression`]),
+//! from its residual covariances ([`kestrel_sysid::MatrixEstimate::StateRegression`]),
 //! a feed-through `D`, then PEM with the fit criterion over selected
 //! prediction steps (`K` and `D` estimated), every search to
 //! convergence. The start (weighting and block rows `i`) and the step set
@@ -22,9 +22,7 @@
 #[path = "common/steam.rs"]
 mod steam;
 
-use kestrel_sysid::{
-    Criterion, InnovationModel, IoData, MatrixEstimate, N4sidSettings, PemSettings, Weighting,
-};
+use kestrel_sysid::{Criterion, InnovationModel, IoData, PemSettings, Weighting};
 use steam::{Fits, choose, fits, in_threads, list, table, timed_pem};
 
 /// A candidate of the grid.
@@ -61,19 +59,7 @@ impl Config {
 
     /// The state-regression N4SID start of order 9 with feed-through.
     fn start(&self, est: &IoData) -> Result<InnovationModel, String> {
-        kestrel_sysid::n4sid(
-            est,
-            &N4sidSettings {
-                order: Some(steam::ORDER),
-                horizon: Some(self.i),
-                weighting: self.weighting,
-                feedthrough: true,
-                matrices: MatrixEstimate::StateRegression,
-                ..Default::default()
-            },
-        )
-        .map(|r| r.model)
-        .map_err(|e| e.to_string())
+        steam::regression_start(est, steam::ORDER, self.weighting, self.i)
     }
 }
 

@@ -1,9 +1,8 @@
 //! Set-up shared by the DaISy steam generator examples (`steam`,
 //! `steam_criterion`, `steam_focus`, `steam_combined`,
 //! `steam_converged`, `steam_subspace`, `steam_regression`,
-//! `steam_multistart`): the data
-//! file and its halves, the folds of the blocked cross-validation, the N4SID start of
-//! order 9, a timed PEM call, and the validation figures against the
+//! `steam_multistart`): the data file and its halves, the folds of the
+//! blocked cross-validation, the N4SID starts of order 9, a timed PEM call, and the validation figures against the
 //! targets of the issue (simulation 74.4 %, 1-step 94.1 %, 5-step
 //! 88.9 %); for the cross-validated grids, the grid's lists read from the
 //! environment, the worker threads that fit the candidates and the choice
@@ -14,8 +13,8 @@
 #![allow(dead_code)]
 
 use kestrel_sysid::{
-    Criterion, CsvColumns, InnovationModel, IoData, N4sidSettings, PemResult, PemSettings,
-    Weighting, n4sid, pem, validate,
+    Criterion, CsvColumns, InnovationModel, IoData, MatrixEstimate, N4sidSettings, PemResult,
+    PemSettings, Weighting, n4sid, pem, validate,
 };
 use std::path::PathBuf;
 
@@ -32,20 +31,16 @@ pub struct Halves {
 }
 
 /// Reads the steam generator CSV (the first command-line argument, or the
-/// shared DaISy file), raw.
-pub fn record() -> Result<IoData, Box<dyn std::error::Error>> {
+/// shared DaISy file) and splits it in halves: estimate on the first,
+/// validate on the second.
+pub fn halves() -> Result<Halves, Box<dyn std::error::Error>> {
     let path = std::env::args()
         .nth(1)
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from("../shared/data/daisy/steam_generator.csv"));
     let cols = CsvColumns::new(&["u1", "u2", "u3", "u4"], &["y1", "y2", "y3", "y4"]);
-    Ok(IoData::read_csv(&path, &cols)?)
-}
-
-/// The record of [`record`] split in halves: estimate on the first,
-/// validate on the second.
-pub fn halves() -> Result<Halves, Box<dyn std::error::Error>> {
-    let (est, val) = record()?.split(0.5)?;
+    let data = IoData::read_csv(&path, &cols)?;
+    let (est, val) = data.split(0.5)?;
     let (est, off) = est.remove_means()?;
     let val = val.subtract(&off)?;
     Ok(Halves { est, val })
@@ -319,6 +314,29 @@ pub fn refit_and_validate(
         &r.model,
         val,
     )
+}
+
+/// The state-regression N4SID start ([`MatrixEstimate::StateRegression`])
+/// of `order` with feed-through, `weighting` and `i` block rows.
+pub fn regression_start(
+    est: &IoData,
+    order: usize,
+    weighting: Weighting,
+    i: usize,
+) -> Result<InnovationModel, String> {
+    n4sid(
+        est,
+        &N4sidSettings {
+            order: Some(order),
+            horizon: Some(i),
+            weighting,
+            feedthrough: true,
+            matrices: MatrixEstimate::StateRegression,
+            ..Default::default()
+        },
+    )
+    .map(|r| r.model)
+    .map_err(|e| e.to_string())
 }
 
 /// The dynamics fit: N4SID of order [`ORDER`] with `start` (its
