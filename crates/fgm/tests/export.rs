@@ -1,7 +1,8 @@
 //! The exported firmware tables compile and equal the design's tables:
-//! `tests/data/fgm_q16.rs` is written by `export_rust` (regenerate with
-//! `KESTREL_REGENERATE=1 cargo test -p kestrel-fgm --test export`) and
-//! included here as code.
+//! `tests/data/fgm_q16.rs` is `export_rust` of the problem
+//! `tests/data/fgm_problem.json` (written by `kestrel codegen`, which
+//! kestrel-tricopter's `codegen::golden::fgm_file` does with the same
+//! settings) and included here as code.
 
 use kestrel_core::formats::MpqpProblem;
 use kestrel_core::{Q16, Scalar};
@@ -14,11 +15,8 @@ mod generated {
     include!("data/fgm_q16.rs");
 }
 
-const PROBLEM: &str = r#"{"format": "kestrel.mpqp.v1",
-  "H": [[4, 1], [1, 2]], "F": [[3, -1], [0, 0]],
-  "G": [[1, 0], [-1, 0], [0, 2], [0, -1]], "W": [1, 1, 4, 2],
-  "E": [[0, 1], [0, -1], [0, 0], [0, 0]],
-  "theta_lb": [-2, 0], "theta_ub": [2, 0.5]}"#;
+/// The problem of the golden table (`kestrel codegen` reads the same file).
+const PROBLEM: &str = include_str!("data/fgm_problem.json");
 
 fn design() -> FgmDesign {
     let prob = MpqpProblem::from_json_str(PROBLEM).unwrap();
@@ -36,14 +34,10 @@ fn exported_static_equals_the_design_tables() {
     let cert = d.certify(1e-6).unwrap();
     let data = d.data::<Q16>(&cert, None).unwrap();
     let text = export_rust("FGM", &data, ExportScalar::Q16);
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/fgm_q16.rs");
-    if std::env::var_os("KESTREL_REGENERATE").is_some() {
-        std::fs::write(path, &text).unwrap();
-    }
     assert_eq!(
-        std::fs::read_to_string(path).unwrap(),
+        include_str!("data/fgm_q16.rs"),
         text,
-        "regenerate the golden file"
+        "tests/data/fgm_q16.rs is stale: run `kestrel codegen`"
     );
     let tables = d.tables::<Q16, 2, 2, 1>(&cert, None).unwrap();
     assert_eq!(generated::FGM, tables);
