@@ -1,5 +1,8 @@
 //! The exported Rust source compiles (it is included here), is what the
 //! exporter writes today, and its `static` tables evaluate like the solution.
+//! The golden files `tests/generated/box2_*.rs` are written by `kestrel
+//! codegen` (kestrel-tricopter's `codegen::golden::empc_files`, the same
+//! export of the same problem); this test only compares.
 
 mod common;
 
@@ -33,7 +36,7 @@ fn exported_tables_are_current_and_evaluate_like_the_solution() {
     assert_eq!(
         rust_source(&ctl.tables, ExportScalar::F32).unwrap(),
         include_str!("generated/box2_f32.rs"),
-        "regenerate with `cargo run -p kestrel-empc --example golden`"
+        "the golden file is stale: run `kestrel codegen`"
     );
     assert_eq!(
         rust_source(&ctl.tables, ExportScalar::Q16).unwrap(),
@@ -135,7 +138,7 @@ fn exported_compact_tables_are_current_round_trip_and_equal_the_default_tree() {
         assert_eq!(
             rust_source_compact(&compact.tables, scalar).unwrap(),
             golden,
-            "regenerate with `cargo run -p kestrel-empc --example golden`"
+            "the golden file is stale: run `kestrel codegen`"
         );
     }
     // Solution file -> compact tables -> source: the same tables, bit for bit.

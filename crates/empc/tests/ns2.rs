@@ -1,6 +1,6 @@
 //! The thesis problem with `Ns = 2` free moves (`tests/data/thesis-ns2.json`:
-//! N = 2, blocks [1, 1], 8 variables, 9 parameters; written by
-//! `EMPC_DUMP=dir cargo test -p kestrel-tests --test empc_ns2`).
+//! N = 2, blocks [1, 1], 8 variables, 9 parameters, of the design model
+//! `models/tricopter-blackbox-5.json`; written by `kestrel codegen`).
 //!
 //! The whole parameter box (1545 regions, 1221 first-move laws) gives a
 //! first-move search tree beyond the 32767 nodes of the `u16` child codes:

@@ -163,7 +163,7 @@ fn wide_solution_file_round_trips_and_the_exported_source_evaluates_alike() {
         assert_eq!(
             rust_source_wide(w, scalar).unwrap(),
             golden,
-            "regenerate with `cargo run -p kestrel-empc --example golden`"
+            "the golden file is stale: run `kestrel codegen`"
         );
     }
     // Solution file: the wide tables come back bit for bit, marked u32;
