@@ -12,19 +12,9 @@
 
 use crate::cycles::CycleClock;
 use crate::frame::{Command, status};
+pub use crate::law::LawInfo;
 use crate::output::{Decision, Failsafe, FailsafeReason, PwmLimits, RtScalar, SafeOutput};
 use kestrel_core::{ControlLaw, Error, Matrix, StateEstimator};
-
-/// What a control law reports beyond [`ControlLaw`]: its work count and a
-/// restart hook for recovery after a failsafe.
-pub trait LawInfo {
-    /// Iterations (fast gradient) or nodes visited (explicit MPC) in the last call.
-    fn iterations(&self) -> u16 {
-        0
-    }
-    /// Clears internal memory (warm starts, integrators) after a failsafe.
-    fn restart(&mut self) {}
-}
 
 /// Maps the law's output `u` and the throttle to the four pulses:
 /// `pwm = offset + m u + throttle_gain * throttle`.

@@ -10,7 +10,7 @@
 //! bounds (`2 x u16` per output), then the numbers (4 bytes each: `f32`,
 //! or the raw bits of a Q15.16): affine rows (`p + 1` each), the explored
 //! set's rows (`p + 1` each), the parameter lower bounds, the upper bounds.
-//! [`crate::design::empc_table_bytes`] writes it.
+//! The firmware design (kestrel-tricopter) writes it.
 //!
 //! ```
 //! use kestrel_avr_rt::explicit::{FlashTree, TreeLayout};
@@ -37,7 +37,7 @@ pub mod tree16;
 #[cfg(target_arch = "avr")]
 mod walk_avr;
 
-use crate::control::LawInfo;
+use crate::law::LawInfo;
 use crate::law::pack_theta;
 use crate::progmem::TableRead;
 use kestrel_core::{ControlLaw, Error, Scalar};

@@ -14,7 +14,7 @@
 //! - [`PiRateLaw`]: per-axis proportional-integral rate law giving virtual
 //!   torques, with a clamped integrator (anti-windup).
 
-use crate::control::LawInfo;
+use crate::law::LawInfo;
 use kestrel_core::{ControlLaw, Error, Scalar, StateEstimator, all_finite, check_len};
 
 /// Constant-gain rate observer (interim stand-in for the stationary Kalman step).

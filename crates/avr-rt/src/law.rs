@@ -1,14 +1,25 @@
-//! Control laws for the [`RateLoop`](crate::control::RateLoop) built from the
-//! no_std parts of the solver crates.
+//! Control laws for the rate loop (`control::RateLoop`) built from the
+//! no_std parts of the solver crates, and [`LawInfo`], what the loop asks
+//! of a law beyond [`ControlLaw`].
 //!
 //! [`FgmLaw`]: kestrel-fgm's fast gradient method on the condensed MPC
 //! problem, `theta = [x; r; throttle]` (kestrel-mpc's layout), applying the
 //! first `NU` entries of the solution (the first input move, a deviation
 //! from the trim).
 
-use crate::control::LawInfo;
 use kestrel_core::{ControlLaw, Error, Scalar, all_finite, check_len};
 use kestrel_fgm::{FgmTables, FgmWorkspace, Start};
+
+/// What a control law reports beyond [`ControlLaw`]: its work count and a
+/// restart hook for recovery after a failsafe.
+pub trait LawInfo {
+    /// Iterations (fast gradient) or nodes visited (explicit MPC) in the last call.
+    fn iterations(&self) -> u16 {
+        0
+    }
+    /// Clears internal memory (warm starts, integrators) after a failsafe.
+    fn restart(&mut self) {}
+}
 
 /// How each period's solve starts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -9,8 +9,6 @@ mod avr_asm;
 pub mod control;
 pub mod crc;
 pub mod cycles;
-#[cfg(feature = "std")]
-pub mod design;
 pub mod explicit;
 pub mod fgm16;
 pub mod frame;
@@ -20,5 +18,6 @@ pub mod law;
 pub mod mac;
 pub mod output;
 pub mod progmem;
+mod shift;
 
 pub use crc::crc16;

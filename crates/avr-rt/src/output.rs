@@ -105,7 +105,7 @@ impl RtScalar for f32 {
             // whole bytes then bits (the AVR has no barrel shifter: LLVM
             // shifts one bit per pass, and `1 << (s - 1)` is another loop).
             let s = (-k) as u8; // 1..=24
-            (crate::explicit::tree16::shr_var(m as i32, s - 1) + 1) >> 1
+            (crate::shift::shr_var(m as i32, s - 1) + 1) >> 1
         }; // < 2^31
         Some(if neg { -q } else { q })
     }

@@ -1,5 +1,5 @@
 //! Design time (`std`): kestrel-empc's explicit controller as the 16-bit
-//! table of [`super::tree16`], and its check against the f64 evaluation.
+//! table of [`Tree16`], and its check against the f64 evaluation.
 //!
 //! Scaling (all powers of two, so the hyperplane tests `a(theta) <= b(theta)`
 //! need no shift at run time):
@@ -17,7 +17,6 @@
 //! [`check_tree16`] measures the evaluation against kestrel-empc's f64 one.
 
 use super::tree16::{Empc16Law, LEAF, NONE, NONE16, Tree16, Tree16Layout};
-use crate::design::DesignError;
 use kestrel_empc::{NO_ROW, OwnedTables};
 use std::fmt::Write as _;
 
@@ -26,7 +25,7 @@ use std::fmt::Write as _;
 pub struct Tree16Tables {
     /// Counts and scale.
     pub layout: Tree16Layout,
-    /// The table's bytes ([`super::tree16`]'s layout).
+    /// The table's bytes ([`Tree16`]'s layout).
     pub bytes: Vec<u8>,
     /// Fraction bits `e_j` of every parameter.
     pub param_bits: Vec<i32>,
@@ -40,8 +39,41 @@ pub struct Tree16Tables {
     pub depth: usize,
 }
 
-fn unsupported(what: impl Into<String>) -> DesignError {
-    DesignError::Unsupported(what.into())
+/// Why an explicit controller has no 16-bit table (the firmware design
+/// maps it into its own error).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum QuantizeError {
+    /// A table's size is not what it must be.
+    Dimension {
+        /// What was checked.
+        what: &'static str,
+        /// What the 16-bit table needs.
+        expected: String,
+        /// What was given.
+        found: String,
+    },
+    /// The controller holds something the 16-bit table cannot (see
+    /// [`quantize_tree`]), or an argument is out of range.
+    Unsupported(String),
+}
+
+impl core::fmt::Display for QuantizeError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            QuantizeError::Dimension {
+                what,
+                expected,
+                found,
+            } => write!(f, "{what}: expected {expected}, found {found}"),
+            QuantizeError::Unsupported(what) => write!(f, "unsupported design: {what}"),
+        }
+    }
+}
+
+impl std::error::Error for QuantizeError {}
+
+fn unsupported(what: impl Into<String>) -> QuantizeError {
+    QuantizeError::Unsupported(what.into())
 }
 
 /// Largest move of a tree hyperplane by rounding, as a fraction of the
@@ -104,10 +136,10 @@ impl Enc<'_> {
 }
 
 /// Quantises an explicit controller's tables (kestrel-empc's shared-tree
-/// layout, [`kestrel_empc::build_controller`]) for [`super::tree16`].
+/// layout, [`kestrel_empc::build_controller`]) for [`Tree16`].
 ///
 /// # Errors
-/// [`DesignError::Unsupported`] for an explored set other than the box
+/// [`QuantizeError::Unsupported`] for an explored set other than the box
 /// (hull rows), more than 254 rows or laws, 32767 nodes, a non-finite or
 /// inconsistent table, an unbounded parameter, or rows too large for a
 /// scale of at least `2^0`.
@@ -115,7 +147,7 @@ impl Enc<'_> {
 /// Hyperplanes get rows of their own (see [`quantize_tree_with`]) up to 32,
 /// as many as keep the table under [`TABLE_BUDGET`] bytes (all 32 if even
 /// none does).
-pub fn quantize_tree(t: &OwnedTables<f64>) -> Result<Tree16Tables, DesignError> {
+pub fn quantize_tree(t: &OwnedTables<f64>) -> Result<Tree16Tables, QuantizeError> {
     let most = quantize_tree_with(t, MAX_OWN_ROWS)?;
     if most.bytes.len() < TABLE_BUDGET {
         return Ok(most);
@@ -148,7 +180,7 @@ pub const MAX_OWN_ROWS: usize = 32;
 pub fn quantize_tree_with(
     t: &OwnedTables<f64>,
     max_own_rows: usize,
-) -> Result<Tree16Tables, DesignError> {
+) -> Result<Tree16Tables, QuantizeError> {
     let k = t.n_outputs.max(1);
     let w = t.n_params + 1;
     let wide =
@@ -162,7 +194,7 @@ pub fn quantize_tree_layout(
     t: &OwnedTables<f64>,
     max_own_rows: usize,
     wide: bool,
-) -> Result<Tree16Tables, DesignError> {
+) -> Result<Tree16Tables, QuantizeError> {
     let max_index: usize = if wide { NONE16 as usize } else { NONE as usize };
     let p = t.n_params;
     let k = t.n_outputs;
@@ -331,7 +363,7 @@ pub fn quantize_tree_layout(
     // Logical nodes [a, b, left, right] with NONE16 for none, encoded in
     // the layout's width below.
     let mut nodes: Vec<[u16; 4]> = Vec::new();
-    let row_ix = |i: u16| -> Result<u16, DesignError> {
+    let row_ix = |i: u16| -> Result<u16, QuantizeError> {
         if i == NO_ROW {
             Ok(NONE16)
         } else if (i as usize) < n_rows {
@@ -359,7 +391,7 @@ pub fn quantize_tree_layout(
         if let Some(at) = patch {
             nodes[at][3] = me as u16;
         }
-        let leaf = |c: u16| -> Result<u16, DesignError> {
+        let leaf = |c: u16| -> Result<u16, QuantizeError> {
             let l = c & !LEAF;
             if (l as usize) < n_laws {
                 Ok(l)
@@ -431,7 +463,7 @@ pub fn quantize_tree_layout(
     }
     bytes.extend(rows_bytes);
     if bytes.len() != layout.bytes() {
-        return Err(DesignError::Dimension {
+        return Err(QuantizeError::Dimension {
             what: "16-bit explicit MPC table",
             expected: layout.bytes().to_string(),
             found: bytes.len().to_string(),
@@ -464,22 +496,22 @@ pub struct Tree16Check {
     pub mean_steps: f64,
 }
 
-/// Evaluates the 16-bit table (the run-time code of [`super::tree16`],
+/// Evaluates the 16-bit table (the run-time code of [`Tree16`],
 /// reading `q.bytes`) and kestrel-empc's f64 tree at every `theta` (which
 /// must lie in the box) and compares laws and outputs.
 ///
 /// # Errors
-/// [`DesignError::Dimension`] if `P`, `NU` are not the tables'; an error of
-/// either evaluation as [`DesignError::Unsupported`].
+/// [`QuantizeError::Dimension`] if `P`, `NU` are not the tables'; an error of
+/// either evaluation as [`QuantizeError::Unsupported`].
 pub fn check_tree16<const P: usize, const NU: usize>(
     q: &Tree16Tables,
     reference: &OwnedTables<f64>,
     thetas: &[[f64; P]],
-) -> Result<Tree16Check, DesignError> {
+) -> Result<Tree16Check, QuantizeError> {
     if (q.layout.n_params, q.layout.n_outputs) != (P, NU)
         || (reference.n_params, reference.n_outputs) != (P, NU)
     {
-        return Err(DesignError::Dimension {
+        return Err(QuantizeError::Dimension {
             what: "check_tree16 (parameters, outputs)",
             expected: format!("({P}, {NU})"),
             found: format!("({}, {})", q.layout.n_params, q.layout.n_outputs),
@@ -587,14 +619,14 @@ fn byte_rows_source(s: &mut String, bytes: &[u8]) {
 /// `what` (one line) says which controller it is, in the header.
 ///
 /// # Errors
-/// [`DesignError::Unsupported`] for `chunk_bits` outside `8..=14` (chunks
+/// [`QuantizeError::Unsupported`] for `chunk_bits` outside `8..=14` (chunks
 /// of 256 B to 16 kB) or a name that is not an upper-case identifier.
 pub fn tree16_chunked_source(
     q: &Tree16Tables,
     name: &str,
     chunk_bits: u8,
     what: &str,
-) -> Result<String, DesignError> {
+) -> Result<String, QuantizeError> {
     if !(8..=14).contains(&chunk_bits) {
         return Err(unsupported(format!("chunks of 2^{chunk_bits} bytes")));
     }

@@ -1,4 +1,4 @@
-//! The AVR assembly of [`super::tree16::Empc16Law`]'s period: one routine,
+//! The AVR assembly of the 16-bit explicit law's period (`tree16::Empc16Law`): one routine,
 //! `kestrel_empc16_eval`, that quantises `theta` from Q15.16, walks the
 //! tree in flash and evaluates the leaf's clamped outputs, with the row
 //! value cache in RAM. It does exactly what the law's Rust path does (the
@@ -26,7 +26,7 @@
 //!   signed 32-bit compare;
 //! - the leaf: per output its law row clamped to its bound rows, rounded
 //!   to Q15.16 (`out_shift`; one bit inline);
-//! - indices: [`super::tree16::Empc16Law::new`] checks every row, law and
+//! - indices: `Empc16Law::new` checks every row, law and
 //!   node index of the table once (a right child after its node, so every
 //!   walk ends) and refuses a corrupted table with
 //!   [`kestrel_core::Error::OutOfRange`]; the routine reads them unchecked.
