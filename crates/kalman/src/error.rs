@@ -89,6 +89,19 @@ pub enum KalmanError {
         /// Relative residual of the best iterate.
         residual: f64,
     },
+    /// The disturbance states of an augmented model cannot be estimated:
+    /// `rank [A - I, Bd; C, Cd] < nx + nd` (at steady state a disturbance
+    /// cannot be told from a state; for instance an output offset on a
+    /// plant with an integrator, or more disturbances than outputs).
+    #[error(
+        "the disturbance model is not detectable: rank [A - I, Bd; C, Cd] = {rank} < nx + nd = {required}"
+    )]
+    DisturbanceNotDetectable {
+        /// The numerical rank found.
+        rank: usize,
+        /// `nx + nd`.
+        required: usize,
+    },
     /// A parameter is outside its documented range.
     #[error("invalid argument {name}: {reason}")]
     InvalidArgument {

@@ -4,6 +4,8 @@
 mod stationary;
 
 #[cfg(feature = "std")]
+pub mod augment;
+#[cfg(feature = "std")]
 mod dare;
 #[cfg(feature = "std")]
 mod design;
@@ -19,6 +21,8 @@ mod tv;
 pub use stationary::{FilterStatus, StationaryFilter, StationaryGains};
 
 #[cfg(feature = "std")]
+pub use augment::{AugmentedModel, Disturbance, DisturbanceDesign, DisturbanceNoise};
+#[cfg(feature = "std")]
 pub use dare::{DareSettings, DareSolution, DetectabilityCheck, dare, dare_with};
 #[cfg(feature = "std")]
 pub use design::{KalmanDesign, NoiseModel};
@@ -29,6 +33,8 @@ pub use lqr::{Dlqe, Lqr, dlqe, dlqe_with, dlqr, dlqr_with};
 #[cfg(feature = "std")]
 pub use tv::TimeVaryingFilter;
 
+#[cfg(test)]
+mod augment_tests;
 #[cfg(test)]
 mod dare_tests;
 #[cfg(test)]
