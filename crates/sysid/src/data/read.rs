@@ -1,0 +1,174 @@
+//! CSV logs: column selection, the time column's sample time and the
+//! experiment column.
+
+use super::{CsvColumns, Experiment, IoData};
+use crate::error::{Result, SysidError};
+use nalgebra::DMatrix;
+use std::path::Path;
+
+/// The nominal sample time behind a measured step: time columns written
+/// with a few decimals (or accumulated in floating point) give steps like
+/// `0.019999999999999574`; the step is rounded to 6 significant digits,
+/// which is far finer than any clock jitter the 1 % uniformity check lets
+/// through, so `0.02` comes back as `0.02` exactly.
+pub(super) fn snap_sample_time(step: f64) -> f64 {
+    if !(step.is_finite() && step > 0.0) {
+        return step;
+    }
+    let scale = 10f64.powi(5 - step.log10().floor() as i32);
+    let snapped = (step * scale).round() / scale;
+    if snapped > 0.0 { snapped } else { step }
+}
+
+impl IoData {
+    /// Reads a CSV log (one header row) with the given columns. A time
+    /// column, when present, gives the sample time (median step; sampling
+    /// must be uniform within 1 %); without one, times are row indices and
+    /// the sample time is `columns.ts` (default 1). An experiment column,
+    /// when present, splits the rows into experiments (consecutive rows
+    /// with the same value).
+    pub fn read_csv(path: &Path, columns: &CsvColumns) -> Result<IoData> {
+        let file = std::fs::File::open(path).map_err(|e| SysidError::Csv {
+            path: path.display().to_string(),
+            reason: e.to_string(),
+        })?;
+        IoData::from_csv_reader(file, columns, &path.display().to_string())
+    }
+
+    /// As [`IoData::read_csv`] from any reader; `label` names the source in errors.
+    pub fn from_csv_reader<R: std::io::Read>(
+        reader: R,
+        columns: &CsvColumns,
+        label: &str,
+    ) -> Result<IoData> {
+        let err = |reason: String| SysidError::Csv {
+            path: label.to_string(),
+            reason,
+        };
+        let mut rdr = csv::ReaderBuilder::new()
+            .trim(csv::Trim::All)
+            .from_reader(reader);
+        let headers = rdr
+            .headers()
+            .map_err(|e| err(format!("header: {e}")))?
+            .clone();
+        let find = |name: &str| headers.iter().position(|h| h == name);
+        let pick = |names: &[String]| -> Result<Vec<usize>> {
+            names
+                .iter()
+                .map(|n| {
+                    find(n).ok_or_else(|| {
+                        err(format!(
+                            "no column \"{n}\" (columns: {})",
+                            headers.iter().collect::<Vec<_>>().join(", ")
+                        ))
+                    })
+                })
+                .collect()
+        };
+        if columns.outputs.is_empty() {
+            return Err(SysidError::invalid("select at least one output column"));
+        }
+        let ui = pick(&columns.inputs)?;
+        let yi = pick(&columns.outputs)?;
+        let ti = find(&columns.time);
+        let ei = find(&columns.experiment);
+        let mut rows: Vec<(f64, f64, Vec<f64>, Vec<f64>)> = Vec::new();
+        for (r, rec) in rdr.records().enumerate() {
+            let line = r + 2;
+            let rec = rec.map_err(|e| err(format!("line {line}: {e}")))?;
+            let get = |i: usize, name: &str| -> Result<f64> {
+                let s = rec
+                    .get(i)
+                    .ok_or_else(|| err(format!("line {line}: missing column \"{name}\"")))?;
+                let v: f64 = s.parse().map_err(|_| {
+                    err(format!(
+                        "line {line}, column \"{name}\": \"{s}\" is not a number"
+                    ))
+                })?;
+                if !v.is_finite() {
+                    return Err(err(format!(
+                        "line {line}, column \"{name}\": non-finite value \"{s}\""
+                    )));
+                }
+                Ok(v)
+            };
+            let t = match ti {
+                Some(i) => get(i, &columns.time)?,
+                None => r as f64,
+            };
+            let ex = match ei {
+                Some(i) => get(i, &columns.experiment)?,
+                None => 0.0,
+            };
+            let u = ui
+                .iter()
+                .zip(&columns.inputs)
+                .map(|(&i, n)| get(i, n))
+                .collect::<Result<Vec<_>>>()?;
+            let y = yi
+                .iter()
+                .zip(&columns.outputs)
+                .map(|(&i, n)| get(i, n))
+                .collect::<Result<Vec<_>>>()?;
+            rows.push((t, ex, u, y));
+        }
+        if rows.is_empty() {
+            return Err(err("no data rows".into()));
+        }
+        // Split into experiments.
+        let mut groups: Vec<Vec<usize>> = Vec::new();
+        for (i, r) in rows.iter().enumerate() {
+            match groups.last_mut() {
+                Some(g) if rows[g[0]].1 == r.1 => g.push(i),
+                _ => groups.push(vec![i]),
+            }
+        }
+        let ts = if ti.is_some() {
+            let mut steps = Vec::new();
+            for g in &groups {
+                for w in g.windows(2) {
+                    let d = rows[w[1]].0 - rows[w[0]].0;
+                    if d <= 0.0 {
+                        return Err(err(format!(
+                            "line {}: time does not increase ({} after {})",
+                            w[1] + 2,
+                            rows[w[1]].0,
+                            rows[w[0]].0
+                        )));
+                    }
+                    steps.push(d);
+                }
+            }
+            if steps.is_empty() {
+                return Err(err(
+                    "need at least two samples to find the sample time".into()
+                ));
+            }
+            steps.sort_by(f64::total_cmp);
+            let median = steps[steps.len() / 2];
+            if let Some(bad) = steps.iter().find(|d| ((*d - median) / median).abs() > 0.01) {
+                return Err(err(format!(
+                    "non-uniform sampling: step {bad} differs from the median {median} by more than 1 %"
+                )));
+            }
+            snap_sample_time(median)
+        } else {
+            columns.ts.unwrap_or(1.0)
+        };
+        let experiments = groups
+            .iter()
+            .map(|g| Experiment {
+                t: g.iter().map(|&i| rows[i].0).collect(),
+                u: DMatrix::from_fn(g.len(), ui.len(), |r, c| rows[g[r]].2[c]),
+                y: DMatrix::from_fn(g.len(), yi.len(), |r, c| rows[g[r]].3[c]),
+            })
+            .collect();
+        IoData::from_experiments(
+            ts,
+            columns.inputs.clone(),
+            columns.outputs.clone(),
+            experiments,
+        )
+    }
+}

@@ -1,0 +1,24 @@
+//! Prediction-error identification of innovation-form models with a
+//! Levenberg-Marquardt search on exact gradients.
+//!
+//! One file per part: the [`settings`] and the [`result`], the parameter
+//! [`layout`], the data as [`series`], the [`residuals`] of a trial step,
+//! their exact [`jacobian`], the [`criterion`] as residual weights, the
+//! [`search`] loop and the N4SID [`start`] wrapper.
+
+mod criterion;
+mod jacobian;
+mod layout;
+mod residuals;
+mod result;
+mod search;
+mod series;
+mod settings;
+mod start;
+#[cfg(test)]
+mod tests;
+
+pub use result::{PemResult, StopReason};
+pub use search::pem;
+pub use settings::{Criterion, Focus, PemSettings};
+pub use start::{Identified, pem_n4sid};

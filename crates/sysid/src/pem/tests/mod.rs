@@ -1,0 +1,4 @@
+//! Tests of the prediction-error method.
+
+mod jacobian;
+mod search;
