@@ -1,6 +1,6 @@
 //! The condensed parametric QP (6.19)-(6.26) with the errata applied.
 
-use crate::design::{InputBounds, MpcSettings, Terminal, check_psd};
+use crate::design::{InputBounds, MpcSettings, Terminal, check_hessian, check_psd};
 use crate::error::MpcError;
 use kestrel_core::formats::MpqpProblem;
 use kestrel_core::{DiscreteLinearModel, Scalar};
@@ -448,24 +448,6 @@ impl MpcProblem {
     }
 }
 
-/// Checks that the condensed Hessian is positive definite.
-pub(crate) fn check_hessian(h: &DMatrix<f64>) -> Result<(), MpcError> {
-    if h.iter().any(|v| !v.is_finite()) {
-        return Err(MpcError::NonFinite("H".into()));
-    }
-    let eig = h.clone().symmetric_eigenvalues();
-    let (min, max) = (eig.min(), eig.max());
-    let floor = 1e-12 * max.abs().max(f64::MIN_POSITIVE);
-    if min.is_nan() || min <= floor || max <= 0.0 {
-        return Err(MpcError::NotPositiveDefinite {
-            what: "the condensed Hessian H (add input weight Q2 or output weight Q1 on every input direction)".into(),
-            kind: "",
-            min_eigenvalue: min,
-        });
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
@@ -828,7 +810,15 @@ pub(crate) mod tests {
         let mut rng = Rng::new(3);
         let m = random_model(&mut rng, 5, 4, 3);
         let u0 = [15.63, 0.85, -16.01, -32.3];
-        let bounds = InputBounds::tricopter_pwm(&u0).unwrap();
+        let bounds = InputBounds::new(
+            DVector::from_fn(4, |i, _| if i < 3 { 1000.0 } else { -300.0 } - u0[i]),
+            DVector::from_fn(4, |i, _| if i < 3 { 2000.0 } else { 300.0 } - u0[i]),
+        )
+        .with_throttle(
+            DVector::from_column_slice(&[-1.0, -1.0, -1.0, 0.0]),
+            1000.0,
+            2000.0,
+        );
         let settings = MpcSettings {
             horizon: 3,
             blocking: Some(Blocking::new(vec![1, 2]).unwrap()),

@@ -46,6 +46,24 @@ impl Weight {
     }
 }
 
+/// Checks that the condensed Hessian is positive definite.
+pub(crate) fn check_hessian(h: &DMatrix<f64>) -> Result<(), MpcError> {
+    if h.iter().any(|v| !v.is_finite()) {
+        return Err(MpcError::NonFinite("H".into()));
+    }
+    let eig = h.clone().symmetric_eigenvalues();
+    let (min, max) = (eig.min(), eig.max());
+    let floor = 1e-12 * max.abs().max(f64::MIN_POSITIVE);
+    if min.is_nan() || min <= floor || max <= 0.0 {
+        return Err(MpcError::NotPositiveDefinite {
+            what: "the condensed Hessian H (add input weight Q2 or output weight Q1 on every input direction)".into(),
+            kind: "",
+            min_eigenvalue: min,
+        });
+    }
+    Ok(())
+}
+
 /// Checks that `m` is finite, symmetric and positive semidefinite.
 pub(crate) fn check_psd(m: &DMatrix<f64>, what: &str) -> Result<(), MpcError> {
     if m.iter().any(|v| !v.is_finite()) {
@@ -95,8 +113,9 @@ pub enum Terminal {
 /// `lower_i + coupling_i t <= u_i - u0_i <= upper_i + coupling_i t`, (6.7).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ThrottleParameter {
-    /// Shift of each input's bounds per unit of throttle (`-1` for the
-    /// tricopter's motors, `0` for its servo), `nu` entries.
+    /// Shift of each input's bounds per unit of throttle (e.g. `-1` for a
+    /// motor whose pulse is the throttle plus the input, `0` for an input
+    /// the throttle does not move), `nu` entries.
     pub coupling: DVector<f64>,
     /// Smallest throttle (parameter box).
     pub min: f64,
@@ -117,18 +136,6 @@ pub struct InputBounds {
     pub throttle: Option<ThrottleParameter>,
 }
 
-/// The tricopter's PWM limits (thesis section 6.1.1, (6.5)-(6.6)), in microseconds.
-pub mod pwm {
-    /// Lowest ESC command.
-    pub const MOTOR_MIN: f64 = 1000.0;
-    /// Highest ESC command.
-    pub const MOTOR_MAX: f64 = 2000.0;
-    /// Servo command at the centre.
-    pub const SERVO_CENTER: f64 = 1500.0;
-    /// Servo travel either side of the centre.
-    pub const SERVO_TRAVEL: f64 = 300.0;
-}
-
 impl InputBounds {
     /// Fixed bounds (no throttle parameter), as deviations from the trim.
     pub fn new(lower: DVector<f64>, upper: DVector<f64>) -> Self {
@@ -137,56 +144,6 @@ impl InputBounds {
             upper,
             throttle: None,
         }
-    }
-
-    /// The tricopter's bounds (6.5)-(6.7) around the trim `u0` of a
-    /// 4-input model whose inputs are `[motor 1, motor 2, motor 3, servo]`
-    /// in PWM microseconds, the motors relative to the common throttle and
-    /// the servo relative to its centre: `1000 <= u_i + throttle <= 2000`
-    /// for the motors and `-300 <= u_4 <= 300` for the servo, so in
-    /// deviations `z = u - u0`:
-    /// `1000 - u0_i - throttle <= z_i <= 2000 - u0_i - throttle`,
-    /// `-300 - u0_4 <= z_4 <= 300 - u0_4`. The throttle ranges over `[1000, 2000]`.
-    ///
-    /// ```
-    /// use kestrel_mpc::InputBounds;
-    /// let b = InputBounds::tricopter_pwm(&[15.63, 0.85, -16.01, 0.0]).unwrap();
-    /// let at = b.at(1500.0);
-    /// assert!((at.upper[0] - (2000.0 - 15.63 - 1500.0)).abs() < 1e-12);
-    /// assert_eq!(at.lower[3], -300.0);
-    /// ```
-    pub fn tricopter_pwm(u0: &[f64]) -> Result<Self, MpcError> {
-        if u0.len() != 4 {
-            return Err(MpcError::dim(
-                "tricopter trim u0",
-                "4 entries [motor 1, motor 2, motor 3, servo]",
-                format!("{} entries", u0.len()),
-            ));
-        }
-        if u0.iter().any(|v| !v.is_finite()) {
-            return Err(MpcError::NonFinite("tricopter trim u0".into()));
-        }
-        let raw_lo = [
-            pwm::MOTOR_MIN,
-            pwm::MOTOR_MIN,
-            pwm::MOTOR_MIN,
-            -pwm::SERVO_TRAVEL,
-        ];
-        let raw_hi = [
-            pwm::MOTOR_MAX,
-            pwm::MOTOR_MAX,
-            pwm::MOTOR_MAX,
-            pwm::SERVO_TRAVEL,
-        ];
-        Ok(InputBounds {
-            lower: DVector::from_fn(4, |i, _| raw_lo[i] - u0[i]),
-            upper: DVector::from_fn(4, |i, _| raw_hi[i] - u0[i]),
-            throttle: Some(ThrottleParameter {
-                coupling: DVector::from_column_slice(&[-1.0, -1.0, -1.0, 0.0]),
-                min: pwm::MOTOR_MIN,
-                max: pwm::MOTOR_MAX,
-            }),
-        })
     }
 
     /// Adds a throttle parameter to fixed bounds.
@@ -373,29 +330,6 @@ impl Default for MpcSettings {
 }
 
 impl MpcSettings {
-    /// The thesis-sized problem (section 7.6): `N = 2`, `N_s = 1` (one
-    /// block of two steps), LQ terminal weight, with the given weights.
-    pub fn thesis(q1: Weight, q2: Weight) -> Self {
-        MpcSettings {
-            horizon: 2,
-            blocking: Some(Blocking(vec![2])),
-            q1,
-            q2,
-            terminal: Terminal::Lq,
-            ..MpcSettings::default()
-        }
-    }
-    /// The larger problem: `N = 10`, blocks `[1, 1, 2, 6]`, LQ terminal weight.
-    pub fn larger(q1: Weight, q2: Weight) -> Self {
-        MpcSettings {
-            horizon: 10,
-            blocking: Some(Blocking(vec![1, 1, 2, 6])),
-            q1,
-            q2,
-            terminal: Terminal::Lq,
-            ..MpcSettings::default()
-        }
-    }
     /// The blocking in force (one block per step when unset).
     pub fn blocking(&self) -> Blocking {
         self.blocking

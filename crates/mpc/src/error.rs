@@ -76,7 +76,8 @@ pub enum MpcError {
     /// The reference solver stopped without a solution.
     #[error("QP solver stopped with status {0}")]
     Solver(String),
-    /// The explicit (kestrel-empc) or fast-gradient (kestrel-fgm) solver
+    /// A solver of another crate plugged into the MPC law (the explicit
+    /// solver of kestrel-empc, the fast gradient method of kestrel-fgm)
     /// refused the problem or failed.
     #[error("{solver}: {reason}")]
     ExternalSolver {

@@ -10,9 +10,10 @@ use nalgebra::DVector;
 /// A solver of the parametric QP `min 1/2 z'Hz + theta'F z s.t. G z <= W + E theta`.
 ///
 /// This is the slot through which the solvers plug into [`MpcLaw`] and the
-/// closed-loop simulator: the clarabel [`ReferenceSolver`] here, the
-/// explicit (kestrel-empc) and fast-gradient (kestrel-fgm) solvers in
-/// their crates.
+/// closed-loop simulators: the clarabel [`ReferenceSolver`] here, the
+/// explicit solver of kestrel-empc (`kestrel_empc::ExplicitSolver`) and the
+/// fast-gradient solver of kestrel-fgm (`kestrel_fgm::FastGradientSolver`)
+/// in their crates.
 pub trait ParametricQpSolver {
     /// Number of decision variables `n`.
     fn n(&self) -> usize;
@@ -23,14 +24,30 @@ pub trait ParametricQpSolver {
 }
 
 impl From<MpcError> for Error {
+    /// The run-time error closest to each design-time error; the text of
+    /// the design-time error (names, values) is lost, its kind is kept.
     fn from(e: MpcError) -> Self {
         match e {
-            MpcError::Infeasible => Error::Infeasible,
-            MpcError::NonFinite(_) => Error::NonFinite,
             MpcError::Dimension { .. } => Error::InvalidArgument("dimension mismatch"),
+            MpcError::NonFinite(_) => Error::NonFinite,
+            MpcError::InvalidSetting { .. } => Error::InvalidArgument("invalid MPC setting"),
+            MpcError::InfeasibleBounds { .. } | MpcError::Infeasible => Error::Infeasible,
+            MpcError::NotSymmetric { .. } => {
+                Error::InvalidArgument("a weight or the Hessian is not symmetric")
+            }
             MpcError::NotPositiveDefinite { .. } => Error::NotPositiveDefinite,
+            MpcError::FeedThrough { .. } => {
+                Error::InvalidArgument("the model has a non-zero feed-through D")
+            }
+            // The Riccati iteration of the LQ terminal weight failed.
+            MpcError::Terminal(_) => Error::NotConverged,
+            // The interior-point method stopped without a solution.
+            MpcError::Solver(_) => Error::NotConverged,
+            MpcError::ExternalSolver { .. } => {
+                Error::InvalidArgument("the explicit or fast-gradient solver refused the problem")
+            }
+            MpcError::Format(_) => Error::InvalidArgument("malformed interchange file"),
             MpcError::Core(e) => e,
-            _ => Error::NotConverged,
         }
     }
 }
@@ -88,41 +105,6 @@ impl MpcLaw<ReferenceSolver> {
     /// The MPC law of `problem` solved exactly by clarabel.
     pub fn clarabel(problem: &MpcProblem, settings: QpSettings) -> Result<Self, MpcError> {
         let solver = ReferenceSolver::new(&problem.to_mpqp(), settings)?;
-        MpcLaw::new(problem, solver)
-    }
-}
-
-/// The MPC law with the explicit solution of kestrel-empc (feature `empc`).
-#[cfg(feature = "empc")]
-pub type ExplicitMpc = MpcLaw<crate::solvers::ExplicitSolver>;
-
-#[cfg(feature = "empc")]
-impl MpcLaw<crate::solvers::ExplicitSolver> {
-    /// The explicit MPC law of `problem`: solved multi-parametrically by
-    /// kestrel-empc, evaluated by point location in its search tree.
-    pub fn explicit(
-        problem: &MpcProblem,
-        settings: &kestrel_empc::Settings,
-    ) -> Result<Self, MpcError> {
-        let solver = crate::solvers::ExplicitSolver::build(&problem.to_mpqp(), settings)?;
-        MpcLaw::new(problem, solver)
-    }
-}
-
-/// The MPC law with kestrel-fgm's fast gradient method (feature `fgm`).
-#[cfg(feature = "fgm")]
-pub type FgmMpc = MpcLaw<crate::solvers::FastGradientSolver>;
-
-#[cfg(feature = "fgm")]
-impl MpcLaw<crate::solvers::FastGradientSolver> {
-    /// The fast-gradient MPC law of `problem` with a fixed iteration count;
-    /// [`crate::FgmStart::WarmShifted`] shifts by one input move (`nu`).
-    pub fn fast_gradient(
-        problem: &MpcProblem,
-        options: &crate::solvers::FgmOptions,
-    ) -> Result<Self, MpcError> {
-        let solver = crate::solvers::FastGradientSolver::new(&problem.to_mpqp(), options)?
-            .with_shift(problem.nu);
         MpcLaw::new(problem, solver)
     }
 }

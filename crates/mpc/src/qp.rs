@@ -2,6 +2,7 @@
 //! residuals that certify a solution.
 
 use crate::error::MpcError;
+use crate::polish::Qp;
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
 use kestrel_core::formats::MpqpProblem;
@@ -14,7 +15,8 @@ pub struct QpSettings {
     pub max_iter: u32,
     /// Absolute and relative duality-gap and feasibility tolerance.
     pub tolerance: f64,
-    /// Accept clarabel's reduced-accuracy `AlmostSolved`.
+    /// Accept clarabel's reduced-accuracy `AlmostSolved` even when the
+    /// polish does not verify it (a verified polish is always accepted).
     pub accept_almost_solved: bool,
     /// Print clarabel's iteration log.
     pub verbose: bool,
@@ -22,10 +24,20 @@ pub struct QpSettings {
     /// ([`KktResiduals::relative`]) and a solution above this relative
     /// tolerance is refused with [`MpcError::Solver`].
     pub kkt_tolerance: Option<f64>,
+    /// Refine clarabel's solution by an active-set polish: the active
+    /// constraints read off clarabel's solution, the KKT system of that
+    /// set solved exactly and checked for primal feasibility and
+    /// non-negative multipliers (the set corrected and the system solved
+    /// again a bounded number of times). A verified polish is the optimum
+    /// to rounding (about `1e-12` relative on well-conditioned problems);
+    /// [`QpSolution::polished`] says whether it succeeded, and if not the
+    /// solution is clarabel's.
+    pub polish: bool,
 }
 
 impl Default for QpSettings {
-    /// 200 iterations, tolerance `1e-9`, no reduced accuracy, quiet.
+    /// 200 iterations, tolerance `1e-9`, no reduced accuracy, quiet,
+    /// polished.
     fn default() -> Self {
         QpSettings {
             max_iter: 200,
@@ -33,6 +45,7 @@ impl Default for QpSettings {
             accept_almost_solved: false,
             verbose: false,
             kkt_tolerance: None,
+            polish: true,
         }
     }
 }
@@ -62,8 +75,15 @@ pub struct QpSolution {
     pub objective: f64,
     /// Interior-point iterations.
     pub iterations: u32,
-    /// Whether clarabel reported only reduced accuracy.
+    /// Whether clarabel stopped short of its tolerance (`AlmostSolved`, or
+    /// out of progress, iterations or time; the solution is exact anyway
+    /// when [`QpSolution::polished`]).
     pub reduced_accuracy: bool,
+    /// Whether the active-set polish ([`QpSettings::polish`]) verified
+    /// this solution as the exact optimum of its active set; `false` when
+    /// the polish was off or failed (the solution is then clarabel's, to
+    /// its tolerance).
+    pub polished: bool,
 }
 
 /// The KKT residuals of a primal-dual pair, all in the infinity norm.
@@ -165,7 +185,13 @@ fn status_error(status: SolverStatus) -> MpcError {
 }
 
 /// The clarabel reference solver of a parametric QP, set up once and then
-/// solved at any parameter (only `q` and `b` change between solves).
+/// solved at any parameter (only `q` and `b` change between solves), its
+/// solution refined by an active-set polish ([`QpSettings::polish`]) to
+/// the exact optimum.
+///
+/// This is the reference other solvers are checked against (kestrel-fgm's
+/// certificates, kestrel-empc's explicit laws); a box-constrained QP is
+/// the special case `G = [I; -I]`.
 ///
 /// ```
 /// use kestrel_core::formats::MpqpProblem;
@@ -176,8 +202,11 @@ fn status_error(status: SolverStatus) -> MpcError {
 ///   "H": [[1]], "F": [[1]], "G": [[1], [-1]], "W": [1, 1], "E": [[0], [0]],
 ///   "theta_lb": [-5], "theta_ub": [5]}"#).unwrap();
 /// let mut s = ReferenceSolver::new(&p, QpSettings::default()).unwrap();
-/// assert!((s.solve(&dvector![0.5]).unwrap().z[0] + 0.5).abs() < 1e-7);
-/// assert!((s.solve(&dvector![-3.0]).unwrap().z[0] - 1.0).abs() < 1e-7); // bound active
+/// let free = s.solve(&dvector![0.5]).unwrap();
+/// assert!(free.polished && (free.z[0] + 0.5).abs() < 1e-12);
+/// let bound = s.solve(&dvector![-3.0]).unwrap(); // z <= 1 active
+/// assert!(bound.polished && (bound.z[0] - 1.0).abs() < 1e-12);
+/// assert!((bound.lambda[0] - 2.0).abs() < 1e-12 && bound.lambda[1] == 0.0);
 /// ```
 pub struct ReferenceSolver {
     problem: MpqpProblem,
@@ -201,7 +230,7 @@ impl ReferenceSolver {
     /// positive definite.
     pub fn new(problem: &MpqpProblem, settings: QpSettings) -> Result<Self, MpcError> {
         problem.validate()?;
-        crate::condense::check_hessian(&problem.h)?;
+        crate::design::check_hessian(&problem.h)?;
         let theta = (&problem.theta_lb + &problem.theta_ub) * 0.5;
         let solver = Self::make(problem, &settings, &theta)?;
         Ok(ReferenceSolver {
@@ -258,13 +287,41 @@ impl ReferenceSolver {
         }
         self.solver.solve();
         let sol = &self.solver.solution;
+        // Stopped short of the tolerance: the iterate may still polish to
+        // a verified optimum.
         let reduced = match sol.status {
             SolverStatus::Solved => false,
-            SolverStatus::AlmostSolved if self.settings.accept_almost_solved => true,
+            SolverStatus::AlmostSolved
+            | SolverStatus::InsufficientProgress
+            | SolverStatus::MaxIterations
+            | SolverStatus::MaxTime => true,
             other => return Err(status_error(other)),
         };
-        let z = DVector::from_column_slice(&sol.x);
-        let lambda = DVector::from_column_slice(&sol.z);
+        let status = sol.status;
+        let mut z = DVector::from_column_slice(&sol.x);
+        let mut lambda = DVector::from_column_slice(&sol.z);
+        let iterations = sol.iterations;
+        let mut polished = false;
+        if self.settings.polish {
+            let qp = Qp {
+                h: &self.problem.h,
+                q: &q,
+                g: &self.problem.g,
+                b: &b,
+            };
+            let steps = self.problem.m() + self.problem.n() + 10;
+            if let Some(p) = qp.polish(&z, &lambda, steps) {
+                z = p.z;
+                lambda = p.lambda;
+                polished = true;
+            }
+        }
+        // A reduced-accuracy solution is refused unless the polish
+        // verified it or the settings accept an `AlmostSolved`.
+        let accepted = status == SolverStatus::AlmostSolved && self.settings.accept_almost_solved;
+        if reduced && !polished && !accepted {
+            return Err(status_error(status));
+        }
         if let Some(tol) = self.settings.kkt_tolerance {
             let kkt = kkt_residuals(&self.problem, theta, &z, &lambda);
             if kkt.relative().is_nan() || kkt.relative() > tol {
@@ -279,8 +336,9 @@ impl ReferenceSolver {
             lambda,
             z,
             objective,
-            iterations: sol.iterations,
+            iterations,
             reduced_accuracy: reduced,
+            polished,
         })
     }
 }
