@@ -14,6 +14,8 @@ pub mod mpqp;
 #[cfg(feature = "std")]
 mod qp;
 #[cfg(feature = "std")]
+mod rng;
+#[cfg(feature = "std")]
 pub mod testing;
 #[cfg(feature = "std")]
 pub mod tree;

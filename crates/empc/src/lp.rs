@@ -468,7 +468,7 @@ mod tests {
     /// optimum itself.
     #[test]
     fn until_decides_like_the_full_solve() {
-        let mut rng = crate::mpqp::Rng::new(9);
+        let mut rng = crate::rng::Rng::new(9);
         let mut ws = LpWorkspace::default();
         let d = 6;
         let (mut beyond, mut below) = (0, 0);
@@ -524,7 +524,7 @@ mod tests {
     /// certificate in 6-D: the value equals b'y for the recovered dual.
     #[test]
     fn random_lps_match_vertex_enumeration() {
-        let mut rng = crate::mpqp::Rng::new(5);
+        let mut rng = crate::rng::Rng::new(5);
         let mut ws = LpWorkspace::default();
         for _ in 0..300 {
             let m = 3 + (rng.next_u64() % 12) as usize;

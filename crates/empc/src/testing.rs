@@ -8,7 +8,7 @@
 //! as in the thesis's (6.26b), which produces exactly coincident rows.
 #![allow(clippy::needless_range_loop)] // dense numerical kernels read best with indices
 
-use crate::mpqp::Rng;
+pub use crate::rng::Rng;
 use kestrel_core::formats::MpqpProblem;
 use nalgebra::{DMatrix, DVector};
 
