@@ -1,4 +1,4 @@
-//! What [`pem`](super::search::pem) returns.
+//! What [`pem`](crate::pem()) returns.
 
 #[cfg(doc)]
 use super::settings::{Criterion, PemSettings};
@@ -21,7 +21,7 @@ pub enum StopReason {
     NoProgress,
 }
 
-/// Result of [`pem`].
+/// Result of [`pem`](crate::pem()).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PemResult {
     /// The estimated model, in the units of the data.

@@ -1,4 +1,4 @@
-//! What [`pem`](super::search::pem) fits and how: the focus, the
+//! What [`pem`](crate::pem()) fits and how: the focus, the
 //! criterion and the search settings.
 
 /// What the criterion measures.
@@ -36,7 +36,7 @@ pub enum Criterion {
     Fit,
 }
 
-/// Settings of [`pem`].
+/// Settings of [`pem`](crate::pem()).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PemSettings {
     /// Prediction or simulation focus.

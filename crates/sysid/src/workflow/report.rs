@@ -1,4 +1,4 @@
-//! What [`identify`](super::run::identify) returns, and the text
+//! What [`identify`](crate::workflow::identify()) returns, and the text
 //! `kestrel identify` prints.
 
 #[cfg(doc)]
@@ -51,7 +51,7 @@ pub struct ReductionSummary {
     pub error_bound: f64,
 }
 
-/// Everything [`identify`] produced.
+/// Everything [`identify`](crate::workflow::identify()) produced.
 #[derive(Clone, Debug)]
 pub struct IdentifyReport {
     /// Estimation samples (all experiments).

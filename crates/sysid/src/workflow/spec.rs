@@ -1,4 +1,4 @@
-//! What [`identify`](super::run::identify) does: the library form of
+//! What [`identify`](crate::workflow::identify()) does: the library form of
 //! `kestrel identify`'s flags.
 
 use super::segment::Segment;

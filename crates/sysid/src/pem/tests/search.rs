@@ -12,7 +12,7 @@ use crate::error::SysidError;
 use crate::model::InnovationModel;
 use crate::n4sid::{N4sidSettings, Scaling};
 use crate::synthetic;
-use crate::validate::{estimate_x0_predictor, estimate_x0_simulation};
+use crate::validate::{compare, estimate_x0_predictor, estimate_x0_simulation, predict_fit};
 use nalgebra::{DMatrix, DVector};
 
 /// With the true dynamics fixed and `K = 0` at the start, the
@@ -41,8 +41,8 @@ fn fixed_dynamics_estimates_the_true_kalman_gain() {
     assert!(r.cost < r.initial_cost);
     let k_err = (&r.model.k - &truth.k).norm() / truth.k.norm();
     assert!(k_err < 0.1, "relative K error {k_err}");
-    let ft = crate::predict_fit(&truth, &val, 1).unwrap();
-    let fm = crate::predict_fit(&r.model, &val, 1).unwrap();
+    let ft = predict_fit(&truth, &val, 1).unwrap();
+    let fm = predict_fit(&r.model, &val, 1).unwrap();
     for (t, m) in ft.iter().zip(&fm) {
         assert!(t - m < 0.2, "one-step fit {m} vs true {t}");
     }
@@ -76,8 +76,8 @@ fn synthetic_fifth_order_model_is_recovered() {
     .unwrap();
     let m = &r.pem.model;
     assert!(r.pem.cost < r.pem.initial_cost);
-    let fit_true = crate::predict_fit(&truth, &val, 1).unwrap();
-    let fit_pem = crate::predict_fit(m, &val, 1).unwrap();
+    let fit_true = predict_fit(&truth, &val, 1).unwrap();
+    let fit_pem = predict_fit(m, &val, 1).unwrap();
     for (t, p) in fit_true.iter().zip(&fit_pem) {
         assert!(t - p < 0.2, "one-step fit {p} vs true {t}");
     }
@@ -243,10 +243,6 @@ fn combined_criterion(
     }
 }
 
-/// PEM with a simulation term, trace and fit, from an N4SID start of
-/// too low an order: the search ends lower in its own criterion
-/// (evaluated independently of the search's weights) than it started,
-/// and the result is stable with its simulation `x0` reported.
 /// Mean-free data of a random stable 4-state, 2-input, 2-output
 /// model (`samples` samples, noise `noise` with seed `noise_seed`) and
 /// the N4SID model of too low an order (3) from them.
@@ -263,6 +259,10 @@ fn low_order_start(
     (data, start)
 }
 
+/// PEM with a simulation term, trace and fit, from an N4SID start of
+/// too low an order: the search ends lower in its own criterion
+/// (evaluated independently of the search's weights) than it started,
+/// and the result is stable with its simulation `x0` reported.
 #[test]
 fn simulation_term_never_ends_worse_than_its_start() {
     let (data, start) = low_order_start(33, 800, 0.4, 9);
@@ -304,13 +304,13 @@ fn simulation_term_never_ends_worse_than_its_start() {
 
 /// Mean one-step prediction fit.
 fn mean_one_step_fit(m: &InnovationModel, data: &IoData) -> f64 {
-    let f = crate::predict_fit(m, data, 1).unwrap();
+    let f = predict_fit(m, data, 1).unwrap();
     f.iter().sum::<f64>() / f.len() as f64
 }
 
 /// Mean simulation fit (compare, its own least-squares x0).
 fn mean_sim_fit(m: &InnovationModel, data: &IoData) -> f64 {
-    let f = crate::compare(m, data).unwrap().fit;
+    let f = compare(m, data).unwrap().fit;
     f.iter().sum::<f64>() / f.len() as f64
 }
 
