@@ -40,9 +40,10 @@
 //! assert_eq!(u[0], 1.0); // the box
 //! ```
 
-use crate::kalman16::{Row16, mul_q15};
+use crate::kalman16::mul_q15;
 use crate::law::LawInfo;
 use crate::law::pack_theta;
+use crate::mac::Row16;
 use crate::output::RtScalar;
 use kestrel_core::{ControlLaw, Error, all_finite};
 use kestrel_fgm::FgmTables;
