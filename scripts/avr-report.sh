@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The AVR cycle report: flies the example firmware hardware-in-the-loop in
-# simavr (crates/avr-rt/tests/hil.rs) for every configuration, prints the
+# simavr (crates/tricopter/tests/hil.rs) for every configuration, prints the
 # per-stage cycles and sizes, and ends with one JSON line:
 #   {"hil_passed": true, "configs": [{"scalar": ..., "solver": ..., "kalman_cycles": {...}, ...}, ...]}
 # Usage: bash scripts/avr-report.sh   (from any directory)
@@ -10,7 +10,7 @@ cd "$root"
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$root/target}"
 log="$(mktemp)"
 trap 'rm -f "$log"' EXIT
-KESTREL_HIL_REPORT=1 cargo test -p kestrel-avr-rt --test hil -- \
+KESTREL_HIL_REPORT=1 cargo test -p kestrel-tricopter --test hil -- \
   --nocapture --test-threads 2 2>&1 | tee "$log"
 status=${PIPESTATUS[0]}
 passed=false

@@ -10,8 +10,6 @@ mod error;
 #[cfg(feature = "std")]
 mod filter;
 #[cfg(feature = "std")]
-pub mod greybox;
-#[cfg(feature = "std")]
 pub mod linalg;
 #[cfg(feature = "std")]
 mod model;
@@ -23,8 +21,6 @@ mod pem;
 mod reduce;
 #[cfg(feature = "std")]
 pub mod synthetic;
-#[cfg(feature = "std")]
-pub mod tricopter;
 #[cfg(feature = "std")]
 mod validate;
 #[cfg(feature = "std")]

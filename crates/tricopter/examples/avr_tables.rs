@@ -1,15 +1,15 @@
 //! Host-side table generator for the example firmware (design time, f64).
 //!
 //! ```sh
-//! cargo run -p kestrel-avr-rt --example avr_tables   # writes avr/firmware/src/generated.rs
+//! cargo run -p kestrel-tricopter --example avr_tables   # writes avr/firmware/src/generated.rs
 //! ```
 //!
 //! Designs from the identified 5-state black-box model
 //! `models/tricopter-blackbox-5.json` (kestrel-sysid, see models/README.md)
-//! with [`kestrel_avr_rt::design::FirmwareDesign::from_model`]: the
-//! stationary Kalman filter of kestrel-kalman (kestrel-mpc's noise design:
+//! with [`kestrel_tricopter::firmware::FirmwareDesign::from_model`]: the
+//! stationary Kalman filter of kestrel-kalman (kestrel-tricopter's noise design:
 //! `G = [B, C']`, thesis gyro covariance (7.6) and bias (7.5)), the
-//! thesis-sized MPC problem of kestrel-mpc (N = 2, Ns = 1, 4 inputs, PWM
+//! thesis-sized MPC problem of kestrel-tricopter (N = 2, Ns = 1, 4 inputs, PWM
 //! bounds around `u0`), and kestrel-fgm's preconditioned certificate for
 //! the eps that keeps every input within 1 us of the optimum, folded for
 //! f32 and Q16. `kestrel export --model models/tricopter-blackbox-5.json
@@ -19,8 +19,8 @@
 //! committed `generated.rs` is what this design produces, and flies the
 //! firmware against the host f64 filter and solver.
 
-use kestrel_avr_rt::design::{DesignSettings, FirmwareDesign, generate_tables};
 use kestrel_core::formats::SsModel;
+use kestrel_tricopter::firmware::{DesignSettings, FirmwareDesign, generate_tables};
 use std::path::{Path, PathBuf};
 
 /// The design model: the identified fixture.

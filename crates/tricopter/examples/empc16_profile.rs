@@ -2,9 +2,9 @@
 //! the AVR walk, what decides its cycles):
 //!
 //! ```sh
-//! cargo run --release -p kestrel-avr-rt --example empc16_profile
-//! TREE=sampled cargo run --release -p kestrel-avr-rt --example empc16_profile   # or noclip, sampled-noclip
-//! THETAS=thetas.txt cargo run --release -p kestrel-avr-rt --example empc16_profile
+//! cargo run --release -p kestrel-tricopter --example empc16_profile
+//! TREE=sampled cargo run --release -p kestrel-tricopter --example empc16_profile   # or noclip, sampled-noclip
+//! THETAS=thetas.txt cargo run --release -p kestrel-tricopter --example empc16_profile
 //! ```
 //!
 //! Builds the design's explicit controller (the identified model, N = 2,
@@ -18,11 +18,11 @@
 //! dense row costs about 350 cycles, a node about 85 besides its rows, a
 //! cached row about 30 (crates/avr-rt/README.md).
 
-use kestrel_avr_rt::design::{DesignSettings, FirmwareDesign};
 use kestrel_avr_rt::explicit::quantize::quantize_tree;
 use kestrel_avr_rt::explicit::tree16::{Empc16Law, LEAF, NONE, Tree16};
 use kestrel_core::formats::SsModel;
 use kestrel_empc::tree::TreeMethod;
+use kestrel_tricopter::firmware::{DesignSettings, FirmwareDesign};
 use std::collections::BTreeMap;
 use std::path::Path;
 

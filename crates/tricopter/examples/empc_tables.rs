@@ -1,8 +1,8 @@
 //! Host-side explicit-MPC table generator for the example firmware.
 //!
 //! ```sh
-//! cargo run --release -p kestrel-avr-rt --example empc_tables        # thesis-sized (N = 2, Ns = 1)
-//! cargo run --release -p kestrel-avr-rt --example empc_tables -- ns2 # N = 2, Ns = 2 (report only)
+//! cargo run --release -p kestrel-tricopter --example empc_tables        # thesis-sized (N = 2, Ns = 1)
+//! cargo run --release -p kestrel-tricopter --example empc_tables -- ns2 # N = 2, Ns = 2 (report only)
 //! ```
 //!
 //! Solves the MPC problem of the firmware design (the identified model in
@@ -11,10 +11,10 @@
 //! `avr/firmware/src/generated_empc.rs` (thesis-sized) or prints the Ns = 2
 //! tree's size.
 
-use kestrel_avr_rt::design::{
+use kestrel_core::formats::SsModel;
+use kestrel_tricopter::firmware::{
     DesignSettings, FirmwareDesign, empc_controller, generate_empc_tables, ns2_problem,
 };
-use kestrel_core::formats::SsModel;
 use std::path::Path;
 
 fn main() {

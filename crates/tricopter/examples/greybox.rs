@@ -3,14 +3,14 @@
 //! validation intervals), started from the thesis's Table 7.1 guess, and
 //! its fit table next to the black-box model of section 7.4.
 //!
-//! `cargo run --release -p kestrel-sysid --example greybox [-- seconds seed]`
+//! `cargo run --release -p kestrel-tricopter --example greybox [-- seconds seed]`
 
-use kestrel_sysid::greybox::{GreyBoxSpec, estimate_grey_box, grey_box_model};
-use kestrel_sysid::tricopter::{
-    ESTIMATE, ModelKind, VALIDATE, identify_thesis_model, simulated_flights,
-};
 use kestrel_sysid::workflow::{Segment, select_segments};
 use kestrel_sysid::{ValidationReport, validate};
+use kestrel_tricopter::ident::greybox::{GreyBoxSpec, estimate_grey_box, grey_box_model};
+use kestrel_tricopter::ident::{
+    ESTIMATE, ModelKind, VALIDATE, identify_thesis_model, simulated_flights,
+};
 use kestrel_tricopter_model::{Experiment, GreyBoxParams, SimSettings};
 use std::time::Instant;
 
@@ -100,7 +100,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 }
 
 /// The parameter table and the well-determined combinations.
-fn table(report: &kestrel_sysid::greybox::GreyBoxReport, truth: &GreyBoxParams) {
+fn table(report: &kestrel_tricopter::ident::greybox::GreyBoxReport, truth: &GreyBoxParams) {
     println!(
         "{:<11}{:>12}{:>12}{:>12}{:>9}{:>12}",
         "parameter", "truth", "initial", "estimate", "error %", "std error"

@@ -3,10 +3,10 @@
 //! from flights no. 2 and 3, with the fit, 5-step and residual tables, and
 //! the plain prediction-focus PEM beside them.
 //!
-//! `cargo run --release -p kestrel-sysid --example tricopter [seconds] [seed]`
+//! `cargo run --release -p kestrel-tricopter --example identify [seconds] [seed]`
 
-use kestrel_sysid::tricopter::{ModelKind, prediction_spec, simulated_flights, thesis_spec};
 use kestrel_sysid::workflow::{Segment, identify};
+use kestrel_tricopter::ident::{ModelKind, prediction_spec, simulated_flights, thesis_spec};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -30,9 +30,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let mut thesis_virtual = thesis_spec(ModelKind::Virtual);
     thesis_virtual.estimate =
-        Segment::parse_list(kestrel_sysid::tricopter::VIRTUAL_ESTIMATE_THESIS)?;
+        Segment::parse_list(kestrel_tricopter::ident::VIRTUAL_ESTIMATE_THESIS)?;
     thesis_virtual.validate =
-        Segment::parse_list(kestrel_sysid::tricopter::VIRTUAL_VALIDATE_THESIS)?;
+        Segment::parse_list(kestrel_tricopter::ident::VIRTUAL_VALIDATE_THESIS)?;
     let r = identify(&flights, &thesis_virtual)?;
     println!(
         "--- black-box virtual on the thesis's flight-2-only sets:\n{}",

@@ -3,12 +3,16 @@
 //! problem, plain and offset-free, clarabel QP) against the baseline PI,
 //! quiet and noisy, as a Markdown table (the README's).
 //!
-//! `cargo run --release -p kestrel-mpc --example step_comparison`
+//! `cargo run --release -p kestrel-tricopter --example step_comparison`
 
-use kestrel_mpc::sim::{RunResult, RunSettings, fly_mpc, fly_offset_free, fly_pi};
-use kestrel_mpc::{
-    DisturbanceModel, MpcError, MpcLaw, MpcProblem, ProblemSize, QpSettings, default_weights,
-    identified_model, tricopter_problem, tricopter_trim,
+use kestrel_mpc::{DisturbanceModel, MpcLaw, MpcProblem, QpSettings};
+use kestrel_tricopter::closed_loop::{
+    RunResult, RunSettings, fly_mpc, fly_offset_free, fly_pi, kalman_design,
+    kalman_design_with_disturbance,
+};
+use kestrel_tricopter::{
+    ProblemSize, TricopterError, default_weights, identified_model, tricopter_problem,
+    tricopter_trim,
 };
 
 fn row(name: &str, run: &str, r: &RunResult) {
@@ -41,8 +45,9 @@ fn row(name: &str, run: &str, r: &RunResult) {
     );
 }
 
-fn main() -> Result<(), MpcError> {
+fn main() -> Result<(), TricopterError> {
     let model = identified_model()?;
+    let kalman = kalman_design(&model)?;
     let (q1, q2) = default_weights();
     let trim = tricopter_trim(&model)?;
     println!(
@@ -60,7 +65,11 @@ fn main() -> Result<(), MpcError> {
         ] {
             let problem = tricopter_problem(&model, size, q1.clone(), q2.clone())?;
             let mut law = MpcLaw::clarabel(&problem, QpSettings::default())?;
-            row(name, run, &fly_mpc(&model, &problem, &mut law, &settings)?);
+            row(
+                name,
+                run,
+                &fly_mpc(&model, &problem, &mut law, &kalman, &settings)?,
+            );
             let design = MpcProblem::build_offset_free(
                 &model,
                 &trim.bounds(),
@@ -68,10 +77,11 @@ fn main() -> Result<(), MpcError> {
                 &DisturbanceModel::OutputStates,
             )?;
             let mut law = MpcLaw::clarabel(&design.problem, QpSettings::default())?;
+            let kalman_of = kalman_design_with_disturbance(&design.augmented, design.nd)?;
             row(
                 &format!("{name} offset-free"),
                 run,
-                &fly_offset_free(&design, &mut law, &settings)?,
+                &fly_offset_free(&design, &mut law, &kalman_of, &settings)?,
             );
         }
     }

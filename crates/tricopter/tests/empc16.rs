@@ -6,14 +6,13 @@
 //! within the design's proved bound where the law agrees, no overflow of
 //! the 32-bit sum at any corner of the box, and the table under 8 kB.
 
-use kestrel_avr_rt::design::{DesignSettings, FirmwareDesign};
 use kestrel_avr_rt::explicit::quantize::{check_tree16, quantize_tree};
 use kestrel_avr_rt::explicit::tree16::Tree16Layout;
 use kestrel_core::formats::SsModel;
 use kestrel_empc::{
     ExplicitController, MpqpSolution, Outputs, Settings, TreeSettings, build_controller,
 };
-use std::path::Path;
+use kestrel_tricopter::firmware::{DesignSettings, FirmwareDesign};
 
 const P: usize = 9;
 const NU: usize = 4;
@@ -23,9 +22,7 @@ const NU: usize = 4;
 fn controller() -> &'static (ExplicitController, MpqpSolution) {
     static C: std::sync::OnceLock<(ExplicitController, MpqpSolution)> = std::sync::OnceLock::new();
     C.get_or_init(|| {
-        let path =
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/tricopter-blackbox-5.json");
-        let model = SsModel::read(&path).unwrap();
+        let model = SsModel::from_json_str(kestrel_tricopter::IDENTIFIED_MODEL_JSON).unwrap();
         let d = FirmwareDesign::from_model(&model, &DesignSettings::default()).unwrap();
         let solution = kestrel_empc::solve(&d.problem, &Settings::default()).unwrap();
         let tree = TreeSettings {

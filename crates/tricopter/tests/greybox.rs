@@ -3,12 +3,12 @@
 //! noiseless data, the analytic gradient against finite differences of
 //! the cost, bad input.
 
-use kestrel_sysid::greybox::{
-    GreyBoxFocus, GreyBoxSpec, Stage, cost_gradient, estimate_grey_box, grey_box_model,
-};
-use kestrel_sysid::tricopter::{ESTIMATE, ModelKind, VALIDATE, identify_thesis_model};
 use kestrel_sysid::workflow::{Segment, select_segments};
 use kestrel_sysid::{Experiment, IoData, StopReason, SysidError};
+use kestrel_tricopter::ident::greybox::{
+    GreyBoxFocus, GreyBoxSpec, Stage, cost_gradient, estimate_grey_box, grey_box_model,
+};
+use kestrel_tricopter::ident::{ESTIMATE, ModelKind, VALIDATE, identify_thesis_model};
 use kestrel_tricopter_model::{
     Experiment as Flight, GreyBoxParams, Params, RateInputs, RateModelKind, SimSettings, simulate,
 };
@@ -321,7 +321,7 @@ fn thrust_and_drag_from_the_exact_trim() {
         .unwrap()
         .trim_hover()
         .unwrap();
-    let g = kestrel_sysid::greybox::thrust_and_drag_from_trim(
+    let g = kestrel_tricopter::ident::greybox::thrust_and_drag_from_trim(
         &p,
         &GreyBoxParams::thesis_initial_guess(),
         &trim.input,
@@ -330,7 +330,7 @@ fn thrust_and_drag_from_the_exact_trim() {
     assert!((g.k_t / p.k_t - 1.0).abs() < 1e-6, "{g:?}");
     assert!((g.k_tau / p.k_tau - 1.0).abs() < 1e-6, "{g:?}");
     assert!(
-        kestrel_sysid::greybox::thrust_and_drag_from_trim(
+        kestrel_tricopter::ident::greybox::thrust_and_drag_from_trim(
             &p,
             &GreyBoxParams::thesis_initial_guess(),
             &[900.0, 900.0, 900.0, 1500.0]
@@ -344,12 +344,12 @@ fn thrust_and_drag_from_the_exact_trim() {
 /// validation set at least the black-box model's minus 2 points, the
 /// simulation fit at least the true linearised model's minus 2 points. Slow in
 /// debug (two 250-s flights and the black-box identification): run with
-/// `cargo test --release -p kestrel-sysid --test greybox -- --ignored`
+/// `cargo test --release -p kestrel-tricopter --test greybox -- --ignored`
 /// or see the example `greybox`.
 #[test]
 #[ignore]
 fn thesis_flights_recover_the_simulator_parameters() {
-    let flights = kestrel_sysid::tricopter::simulated_flights(250.0, 1).unwrap();
+    let flights = kestrel_tricopter::ident::simulated_flights(250.0, 1).unwrap();
     let est = select_segments(&flights, &Segment::parse_list(ESTIMATE).unwrap()).unwrap();
     let val = select_segments(&flights, &Segment::parse_list(VALIDATE).unwrap()).unwrap();
     let off = est.means();

@@ -6,13 +6,13 @@
 //!
 //! The plant is kestrel-tricopter-model's nonlinear aircraft (RK4 at 1 kHz,
 //! light gusts, the gyro model with the thesis's bias (7.5) and covariance
-//! (7.6)) through kestrel-mpc's `NonlinearPlant`. The controller is the
+//! (7.6)) through kestrel-tricopter's `closed_loop::NonlinearPlant`. The controller is the
 //! stationary Kalman filter of kestrel-kalman (`Kalman16`) and the fast
 //! gradient method of kestrel-fgm (`Fgm16Law`, certified iteration count)
-//! on the thesis-sized MPC problem of kestrel-mpc, designed from the
+//! on the thesis-sized MPC problem of kestrel-tricopter, designed from the
 //! identified model `models/tricopter-blackbox-5.json`, with the tables of
 //! `avr/firmware/src/generated.rs` (written by `cargo run -p
-//! kestrel-avr-rt --example avr_tables`; this test checks the committed
+//! kestrel-tricopter --example avr_tables`; this test checks the committed
 //! file is what that design produces). The firmware's PWMs are compared
 //! with the same composition run on the host in f64 from the f64 design
 //! (kestrel-kalman's `StationaryFilter`, kestrel-fgm's `FgmLaw`).
@@ -28,9 +28,6 @@
 use avr_tester::AvrTester;
 use kestrel_avr_rt::control::{Mixer, RateLoop};
 use kestrel_avr_rt::cycles::{CycleClock, CycleStats};
-use kestrel_avr_rt::design::{
-    FirmwareDesign, empc_controller, generate_empc_tables, generate_tables, ns2_problem,
-};
 use kestrel_avr_rt::explicit::EmpcLaw;
 use kestrel_avr_rt::frame::{
     Bench, Boot, Command, Frame, FrameDecoder, Kind, MAX_FRAME, Reply, status,
@@ -40,7 +37,10 @@ use kestrel_avr_rt::output::{PwmLimits, SafeOutput};
 use kestrel_core::Matrix;
 use kestrel_empc::{ExplicitController, SliceTables};
 use kestrel_kalman::StationaryFilter;
-use kestrel_mpc::sim::{NonlinearPlant, RatePlant};
+use kestrel_tricopter::closed_loop::{NonlinearPlant, RatePlant};
+use kestrel_tricopter::firmware::{
+    FirmwareDesign, empc_controller, generate_empc_tables, generate_tables, ns2_problem,
+};
 use kestrel_tricopter_model::PlantConfig;
 use std::path::{Path, PathBuf};
 use std::process::Command as Process;

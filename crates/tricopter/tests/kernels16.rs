@@ -8,7 +8,6 @@
 //!   optimum of the QP (clarabel, kestrel-fgm's `ReferenceSolver`) over
 //!   random parameters: every input within 1 us.
 
-use kestrel_avr_rt::design::{DesignSettings, FirmwareDesign};
 use kestrel_avr_rt::fgm16::Fgm16Law;
 use kestrel_avr_rt::kalman16::{Kalman16, Kalman16Tables, Row16};
 use kestrel_avr_rt::mac::Q16Mac;
@@ -18,8 +17,8 @@ use kestrel_core::formats::SsModel;
 use kestrel_fgm::FgmData;
 use kestrel_fgm::reference::ReferenceSolver;
 use kestrel_kalman::StationaryFilter;
+use kestrel_tricopter::firmware::{DesignSettings, FirmwareDesign};
 use nalgebra::DVector;
-use std::path::Path;
 
 const NX: usize = 5;
 const NZ: usize = 4;
@@ -28,9 +27,7 @@ const NP: usize = 9;
 fn design() -> &'static FirmwareDesign {
     static D: std::sync::OnceLock<FirmwareDesign> = std::sync::OnceLock::new();
     D.get_or_init(|| {
-        let path =
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/tricopter-blackbox-5.json");
-        let model = SsModel::read(&path).unwrap();
+        let model = SsModel::from_json_str(kestrel_tricopter::IDENTIFIED_MODEL_JSON).unwrap();
         FirmwareDesign::from_model(&model, &DesignSettings::default()).unwrap()
     })
 }
@@ -47,7 +44,7 @@ impl Lcg {
     }
 }
 
-fn row<const N: usize>(r: &kestrel_avr_rt::design::QuantRow, from: usize) -> Row16<N> {
+fn row<const N: usize>(r: &kestrel_tricopter::firmware::QuantRow, from: usize) -> Row16<N> {
     Row16::new(
         core::array::from_fn(|j| r.c[from + j]),
         r.shift,
@@ -136,7 +133,7 @@ fn law<S: RtScalar>(data: &FgmData<S>) -> Fgm16Law<S, NZ, NP, 1, NZ> {
 fn worst_input_error<S: RtScalar>(data: &FgmData<S>, samples: usize) -> f64 {
     let d = design();
     let mut fast = law(data);
-    let reference = ReferenceSolver::new(&d.qp);
+    let mut reference = ReferenceSolver::new(&d.qp).unwrap();
     let (lb, ub) = (&d.problem.theta_lb, &d.problem.theta_ub);
     let mut rng = Lcg(11);
     let mut worst = 0.0f64;
@@ -155,7 +152,7 @@ fn worst_input_error<S: RtScalar>(data: &FgmData<S>, samples: usize) -> f64 {
         if b.lo.iter().zip(b.hi.iter()).any(|(l, h)| l > h) {
             continue;
         }
-        let exact = reference.solve(&d.qp, &tv).unwrap();
+        let exact = reference.solve(&tv).unwrap();
         let z = fast.solve(&theta.map(S::from_f64)).unwrap();
         for (a, b) in z.iter().zip(exact.z.iter()) {
             worst = worst.max((a.to_f64() - b).abs());

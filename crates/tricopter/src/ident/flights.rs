@@ -2,9 +2,11 @@
 //! black-box virtual rate models from flights no. 2 and 3 of
 //! `kestrel-tricopter-model`, on the thesis's estimation and validation sets.
 
-use crate::data::{Experiment, IoData};
-use crate::error::{Result, SysidError};
-use crate::workflow::{IdentifyReport, IdentifySpec, InputMap, PemFocus, Segment, identify};
+use crate::error::sysid_invalid;
+use kestrel_sysid::workflow::{
+    IdentifyReport, IdentifySpec, InputMap, PemFocus, Segment, identify,
+};
+use kestrel_sysid::{Experiment, IoData, Result};
 use kestrel_tricopter_model::{Experiment as Flight, SimSettings, simulate};
 use nalgebra::DMatrix;
 
@@ -41,7 +43,7 @@ pub fn simulated_flights(seconds: f64, seed: u64) -> Result<IoData> {
     let mut exps = Vec::with_capacity(2);
     for flight in [Flight::Decoupled, Flight::Coupled] {
         let log = simulate(&SimSettings::new(flight, seconds, seed))
-            .map_err(|e| SysidError::invalid(format!("simulating {}: {e}", flight.name())))?;
+            .map_err(|e| sysid_invalid(format!("simulating {}: {e}", flight.name())))?;
         let n = log.rows.len();
         exps.push(Experiment {
             t: log.rows.iter().map(|r| r.t).collect(),
@@ -95,7 +97,7 @@ pub fn thesis_spec(kind: ModelKind) -> IdentifySpec {
 /// [`thesis_spec`] run on [`simulated_flights`].
 ///
 /// ```no_run
-/// use kestrel_sysid::tricopter::{identify_thesis_model, ModelKind};
+/// use kestrel_tricopter::ident::{identify_thesis_model, ModelKind};
 /// let report = identify_thesis_model(ModelKind::BlackBox, 250.0, 1).unwrap();
 /// println!("{report}");
 /// ```

@@ -1,0 +1,189 @@
+//! The explicit MPC tables of `avr/firmware/src/generated_empc.rs`.
+
+use crate::firmware::error::{DesignError, dim};
+use crate::firmware::settings::NU;
+use crate::problems::{ProblemSize, default_weights, tricopter_trim};
+use kestrel_core::formats::{MpqpProblem, SsModel};
+use kestrel_core::{Q16, Scalar};
+use kestrel_mpc::{Blocking, MpcProblem, MpcSettings};
+use std::fmt::Write as _;
+
+/// The explicit MPC problem with `Ns = 2` free moves (`N = 2`, blocks
+/// `[1, 1]`, 8 variables) on `model` in the firmware's coordinates, with
+/// kestrel-mpc's tricopter bounds and default weights.
+///
+/// # Errors
+/// kestrel-mpc's errors (e.g. a model without 4 inputs).
+pub fn ns2_problem(model: &SsModel) -> Result<MpqpProblem, DesignError> {
+    let (q1, q2) = default_weights();
+    let settings = MpcSettings {
+        blocking: Some(Blocking::thesis(2, 2)?),
+        ..ProblemSize::Thesis.settings(q1, q2)
+    };
+    let trim = tricopter_trim(model)?;
+    Ok(MpcProblem::build(model, &trim.bounds(), &settings)?.to_mpqp())
+}
+
+/// The explicit controller of an MPC problem for the firmware: kestrel-empc's
+/// exact mpQP solution, the first move kept (`NU` outputs), its search tree.
+///
+/// # Errors
+/// [`DesignError::Dimension`] for fewer than `NU` variables; kestrel-empc's errors.
+pub fn empc_controller(
+    problem: &MpqpProblem,
+) -> Result<kestrel_empc::ExplicitController, DesignError> {
+    if problem.n() < NU {
+        return Err(dim(
+            "MPC problem variables",
+            format!("at least {NU}"),
+            problem.n(),
+        ));
+    }
+    let solution = kestrel_empc::solve(problem, &kestrel_empc::Settings::default())?;
+    let tree = kestrel_empc::TreeSettings {
+        outputs: kestrel_empc::Outputs::First(NU),
+        ..Default::default()
+    };
+    Ok(kestrel_empc::build_controller(problem, &solution, &tree)?)
+}
+
+/// The [`kestrel_avr_rt::explicit::TreeLayout`] of tables.
+pub fn empc_layout(
+    t: &kestrel_empc::OwnedTables<f64>,
+) -> Result<kestrel_avr_rt::explicit::TreeLayout, DesignError> {
+    let w = t.n_params + 1;
+    let l = kestrel_avr_rt::explicit::TreeLayout {
+        n_params: t.n_params,
+        n_outputs: t.n_outputs,
+        root: t.root,
+        n_nodes: t.nodes.len(),
+        n_laws: t.laws.len() / t.n_outputs.max(1),
+        n_rows: t.rows.len() / w,
+        n_hull: t.hull.len() / w,
+    };
+    if l.n_laws * t.n_outputs != t.laws.len()
+        || l.n_rows * w != t.rows.len()
+        || l.n_hull * w != t.hull.len()
+        || t.theta_lb.len() != t.n_params
+        || t.theta_ub.len() != t.n_params
+        || t.bounds.len() != t.n_outputs
+    {
+        return Err(DesignError::Unsupported(
+            "explicit MPC tables with inconsistent lengths".into(),
+        ));
+    }
+    Ok(l)
+}
+
+/// The tables as the flat bytes [`kestrel_avr_rt::explicit::FlashTree`] reads:
+/// numbers in f32, or with `fixed` the raw bits of Q15.16.
+///
+/// # Errors
+/// [`DesignError::Unsupported`] for inconsistent tables, or (with `fixed`)
+/// a non-finite number or one that does not fit Q15.16.
+pub fn empc_table_bytes(
+    t: &kestrel_empc::OwnedTables<f64>,
+    fixed: bool,
+) -> Result<Vec<u8>, DesignError> {
+    let l = empc_layout(t)?;
+    let mut b = Vec::with_capacity(l.bytes(4));
+    for v in t
+        .nodes
+        .iter()
+        .flatten()
+        .chain(&t.laws)
+        .chain(t.bounds.iter().flatten())
+    {
+        b.extend(v.to_le_bytes());
+    }
+    for &v in t
+        .rows
+        .iter()
+        .chain(&t.hull)
+        .chain(&t.theta_lb)
+        .chain(&t.theta_ub)
+    {
+        if fixed {
+            if !v.is_finite() || v.abs() >= 32768.0 {
+                return Err(DesignError::Unsupported(format!(
+                    "explicit MPC table value {v} does not fit Q15.16"
+                )));
+            }
+            b.extend(Q16::from_f64(v).0.to_le_bytes());
+        } else {
+            b.extend((v as f32).to_le_bytes());
+        }
+    }
+    debug_assert_eq!(b.len(), l.bytes(4));
+    Ok(b)
+}
+
+/// The Rust source of `avr/firmware/src/generated_empc.rs`: the layout
+/// (`EMPC_LAYOUT`) and the explicit controller's flat table in f32
+/// (`EMPC_F32`) and Q15.16 (`EMPC_Q16`), `EMPC_BYTES` each (kestrel-empc's
+/// generic evaluation through [`kestrel_avr_rt::explicit::FlashTree`]); then the
+/// same tree with 16-bit rows for [`kestrel_avr_rt::explicit::tree16`] (`EMPC16`,
+/// `EMPC16_LAYOUT`: what the firmware flies).
+///
+/// # Errors
+/// As [`empc_table_bytes`] and [`kestrel_avr_rt::explicit::quantize::quantize_tree`].
+pub fn generate_empc_tables(
+    c: &kestrel_empc::ExplicitController,
+    what: &str,
+) -> Result<String, DesignError> {
+    let l = empc_layout(&c.tables)?;
+    let f = empc_table_bytes(&c.tables, false)?;
+    let q = empc_table_bytes(&c.tables, true)?;
+    let st = &c.stats;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "// @generated by kestrel_avr_rt::design::generate_empc_tables; do not edit.\n\
+         //\n\
+         // Explicit MPC ({what}), kestrel-empc: {} regions, {} distinct laws,\n\
+         // {} affine rows, tree of {} nodes, depth {}, {} explored-set rows; {} bytes.\n",
+        st.regions,
+        st.distinct_laws,
+        l.n_rows,
+        st.nodes,
+        st.depth,
+        l.n_hull,
+        f.len()
+    );
+    let _ = writeln!(
+        s,
+        "/// Tree depth (most nodes on a root-to-leaf path).\npub const EMPC_DEPTH: usize = {};\n\
+         /// Bytes of the table.\npub const EMPC_BYTES: usize = {};\n\
+         /// Layout of the table.\npub const EMPC_LAYOUT: kestrel_avr_rt::explicit::TreeLayout = kestrel_avr_rt::explicit::TreeLayout {{\n    \
+         n_params: {}, n_outputs: {}, root: {}, n_nodes: {}, n_laws: {}, n_rows: {}, n_hull: {},\n}};",
+        st.depth,
+        f.len(),
+        l.n_params,
+        l.n_outputs,
+        l.root,
+        l.n_nodes,
+        l.n_laws,
+        l.n_rows,
+        l.n_hull
+    );
+    for (name, bytes) in [("EMPC_F32", &f), ("EMPC_Q16", &q)] {
+        let _ = writeln!(
+            s,
+            "/// The table ({}).\n#[rustfmt::skip]\npub const {name}: [u8; EMPC_BYTES] = [",
+            if name == "EMPC_F32" {
+                "f32 numbers"
+            } else {
+                "Q15.16 numbers"
+            }
+        );
+        for ch in bytes.chunks(24) {
+            let line: Vec<String> = ch.iter().map(|v| v.to_string()).collect();
+            let _ = writeln!(s, "    {},", line.join(", "));
+        }
+        let _ = writeln!(s, "];");
+    }
+    // The firmware's fast path: the same tree with 16-bit rows.
+    let q = kestrel_avr_rt::explicit::quantize::quantize_tree(&c.tables)?;
+    s.push_str(&kestrel_avr_rt::explicit::quantize::tree16_source(&q));
+    Ok(s)
+}
