@@ -430,26 +430,20 @@ fn hqr(a: &mut Mat1) -> Option<(Vec<f64>, Vec<f64>)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_distr::StandardNormal;
+    use rand_xoshiro::SplitMix64;
     use std::vec::Vec;
 
-    /// A small xorshift generator (the tests need no rand crate).
-    struct Rng(u64);
+    /// Random test matrices: standard normal entries (`rand_distr`) from
+    /// the workspace's seeded generator (`rand_xoshiro::SplitMix64`).
+    struct Rng(SplitMix64);
     impl Rng {
         fn new(seed: u64) -> Self {
-            Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
-        }
-        fn uniform(&mut self) -> f64 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            let v = self.0.wrapping_mul(0x2545_F491_4F6C_DD1D);
-            ((v >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            Rng(SplitMix64::seed_from_u64(seed))
         }
         fn matrix(&mut self, r: usize, c: usize) -> DMatrix<f64> {
-            DMatrix::from_fn(r, c, |_, _| {
-                let (u1, u2) = (self.uniform(), self.uniform());
-                (-2.0 * u1.ln()).sqrt() * (2.0 * core::f64::consts::PI * u2).cos()
-            })
+            DMatrix::from_fn(r, c, |_, _| self.0.sample(StandardNormal))
         }
     }
 

@@ -7,24 +7,20 @@
 //! summing the squared series.
 
 use nalgebra::{DMatrix, DVector};
+use rand::{RngExt, SeedableRng};
+use rand_distr::StandardNormal;
+use rand_xoshiro::SplitMix64;
 
-/// A deterministic generator (xorshift64*) with normal deviates.
-pub struct Rng(u64);
+/// Random test data from the workspace's seeded generator
+/// (`rand_xoshiro::SplitMix64`) with normal deviates (`rand_distr`).
+pub struct Rng(SplitMix64);
 
 impl Rng {
     pub fn new(seed: u64) -> Self {
-        Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
-    }
-    pub fn uniform(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        let v = self.0.wrapping_mul(0x2545_F491_4F6C_DD1D);
-        ((v >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        Rng(SplitMix64::seed_from_u64(seed))
     }
     pub fn normal(&mut self) -> f64 {
-        let (u1, u2) = (self.uniform(), self.uniform());
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+        self.0.sample(StandardNormal)
     }
     pub fn matrix(&mut self, r: usize, c: usize) -> DMatrix<f64> {
         DMatrix::from_fn(r, c, |_, _| self.normal())
