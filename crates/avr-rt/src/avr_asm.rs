@@ -1,4 +1,4 @@
-//! Assembly text shared by the AVR routines (`explicit/walk_avr.rs`, the
+//! Assembly text shared by the AVR routines (`explicit/tree16/walk_avr.rs`, the
 //! `f32` conversions of `output.rs`): one text per operation, made unique
 //! in each routine by a label prefix and tag.
 

@@ -34,8 +34,6 @@
 #[cfg(feature = "std")]
 pub mod quantize;
 pub mod tree16;
-#[cfg(target_arch = "avr")]
-mod walk_avr;
 
 use crate::law::LawInfo;
 use crate::law::pack_theta;

@@ -158,7 +158,7 @@ impl RtScalar for f32 {
 /// cost about twice as much): per value the assembly text `f32_to_q16!`
 /// (`src/avr_asm.rs`: exponent and mantissa in registers, saturation,
 /// rounding shift, sign), the same text as the explicit MPC's
-/// quantisation of `f32` parameters (`explicit/walk_avr.rs`); a value
+/// quantisation of `f32` parameters (`explicit/tree16/walk_avr.rs`); a value
 /// that is not finite stops the conversion with `false`.
 ///
 /// # Safety
