@@ -1,24 +1,17 @@
-//! Set-up shared by the DaISy steam generator examples (`steam`,
-//! `steam_criterion`, `steam_focus`, `steam_combined`,
-//! `steam_converged`, `steam_subspace`, `steam_regression`,
-//! `steam_multistart`): the data file and its halves, the folds of the
-//! blocked cross-validation, the N4SID starts of order 9, a timed PEM call, and the validation figures against the
-//! targets of the issue (simulation 74.4 %, 1-step 94.1 %, 5-step
-//! 88.9 %); for the cross-validated grids, the grid's lists read from the
-//! environment, the worker threads that fit the candidates and the choice
-//! by the inner score. Included by each example with `#[path]`; not an
-//! example of its own.
-
-// Each example uses only part of this module.
-#![allow(dead_code)]
+//! The set-up of the steam generator example: the data file and its
+//! halves, the folds of the blocked cross-validation, the state-regression
+//! N4SID start of order 9, a timed PEM call, the validation figures
+//! against the targets of the issue (simulation 74.4 %, 1-step 94.1 %,
+//! 5-step 88.9 %), the grid's lists read from the environment, the worker
+//! threads that fit the candidates and the choice by the inner score.
 
 use kestrel_sysid::{
-    Criterion, CsvColumns, InnovationModel, IoData, MatrixEstimate, N4sidSettings, PemResult,
-    PemSettings, Weighting, n4sid, pem, validate,
+    CsvColumns, InnovationModel, IoData, MatrixEstimate, N4sidSettings, PemResult, PemSettings,
+    Weighting, n4sid, pem, validate,
 };
 use std::path::PathBuf;
 
-/// The model order of all steam examples.
+/// The model order (as in issue 4).
 pub const ORDER: usize = 9;
 
 /// The estimation half (its means removed) and the validation half (the
@@ -31,31 +24,23 @@ pub struct Halves {
 }
 
 /// Reads the steam generator CSV (the first command-line argument, or the
-/// shared DaISy file) and splits it in halves: estimate on the first,
+/// shared DaISy file `../shared/data/daisy/steam_generator.csv` beside the
+/// repository) and splits it in halves: estimate on the first,
 /// validate on the second.
 pub fn halves() -> Result<Halves, Box<dyn std::error::Error>> {
     let path = std::env::args()
         .nth(1)
         .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from("../shared/data/daisy/steam_generator.csv"));
+        .unwrap_or_else(|| {
+            PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("../../../shared/data/daisy/steam_generator.csv")
+        });
     let cols = CsvColumns::new(&["u1", "u2", "u3", "u4"], &["y1", "y2", "y3", "y4"]);
     let data = IoData::read_csv(&path, &cols)?;
     let (est, val) = data.split(0.5)?;
     let (est, off) = est.remove_means()?;
     let val = val.subtract(&off)?;
     Ok(Halves { est, val })
-}
-
-/// The inner split for cross-validation inside the estimation half: fit
-/// on its first 2/3 (means removed), score on its last 1/3.
-pub fn inner_halves(est: &IoData) -> Result<Halves, Box<dyn std::error::Error>> {
-    let (inner_est, inner_val) = est.split(2.0 / 3.0)?;
-    let (inner_est, inner_off) = inner_est.remove_means()?;
-    let inner_val = inner_val.subtract(&inner_off)?;
-    Ok(Halves {
-        est: inner_est,
-        val: inner_val,
-    })
 }
 
 /// Blocked cross-validation inside the estimation half: `est` cut into
@@ -86,32 +71,6 @@ pub fn folds(est: &IoData, k: usize) -> Result<Vec<Halves>, Box<dyn std::error::
         .collect()
 }
 
-/// The halves of [`halves`] and the inner split of the estimation half
-/// ([`inner_halves`]).
-pub struct Split {
-    /// The estimation half.
-    pub est: IoData,
-    /// The validation half.
-    pub val: IoData,
-    /// The first 2/3 of the estimation half (the inner fits).
-    pub inner_est: IoData,
-    /// The last 1/3 of the estimation half (the inner scores).
-    pub inner_val: IoData,
-}
-
-/// [`halves`], and the estimation half split by [`inner_halves`] for
-/// cross-validation inside it.
-pub fn split() -> Result<Split, Box<dyn std::error::Error>> {
-    let Halves { est, val } = halves()?;
-    let inner = inner_halves(&est)?;
-    Ok(Split {
-        est,
-        val,
-        inner_est: inner.est,
-        inner_val: inner.val,
-    })
-}
-
 /// The comma-separated list in the environment variable `var` (or
 /// `default` when it is not set), every entry read by `parse`.
 pub fn list<T>(
@@ -125,15 +84,6 @@ pub fn list<T>(
         .filter(|s| !s.trim().is_empty())
         .map(|s| parse(s.trim()).ok_or(format!("{var}: cannot read {s:?}")))
         .collect()
-}
-
-/// A criterion of the grids: `trace` or `fit`.
-pub fn criterion(s: &str) -> Option<Criterion> {
-    match s {
-        "trace" => Some(Criterion::Trace),
-        "fit" => Some(Criterion::Fit),
-        _ => None,
-    }
 }
 
 /// An N4SID start of the grids written `weighting:i`: `moesp:10`,
@@ -337,24 +287,4 @@ pub fn regression_start(
     )
     .map(|r| r.model)
     .map_err(|e| e.to_string())
-}
-
-/// The dynamics fit: N4SID of order [`ORDER`] with `start` (its
-/// feed-through taken from `settings`), then [`timed_pem`] from it.
-pub fn dynamics(
-    est: &IoData,
-    start: N4sidSettings,
-    settings: &PemSettings,
-    label: &str,
-) -> Result<PemResult, String> {
-    let start = n4sid(
-        est,
-        &N4sidSettings {
-            order: Some(ORDER),
-            feedthrough: settings.feedthrough,
-            ..start
-        },
-    )
-    .map_err(|e| e.to_string())?;
-    timed_pem(est, &start.model, settings, label)
 }

@@ -19,7 +19,6 @@
 //! `STEAM_THREADS` (default 2) set the grid; `STEAM_REFIT=0` stops after
 //! the cross-validation table.
 
-#[path = "common/steam.rs"]
 mod steam;
 
 use kestrel_sysid::{Criterion, InnovationModel, IoData, PemSettings, Weighting};
