@@ -40,7 +40,8 @@ pub enum PemFocus {
     /// that of the multi-step dynamics (it does not depend on `K`); the
     /// second stage tunes the short-range predictions. On the DaISy steam
     /// generator it comes closest to the open-source subspace targets
-    /// with one model, without meeting all three (see the crate README).
+    /// with one model, without meeting all three (see `docs/sysid.md` in the
+    /// repository).
     MultiStepThenNoise {
         /// Prediction horizon `h >= 1` of the dynamics stage.
         horizon: usize,
