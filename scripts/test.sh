@@ -17,6 +17,8 @@ echo "== cargo fmt --all --check"
 cargo fmt --all --check
 echo "== cargo clippy --workspace --all-targets -- -D warnings"
 cargo clippy --workspace --all-targets -- -D warnings
+echo "== kestrel codegen --check (generated tables and golden files up to date)"
+cargo run --quiet -p kestrel-tools -- codegen --check
 echo "== cargo test --workspace (unit, integration and doc tests)"
 cargo test --workspace
 echo "== AVR builds"

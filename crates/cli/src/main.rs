@@ -42,6 +42,8 @@ enum Command {
     Pipeline(commands::pipeline::Args),
     /// Firmware tables from design files: model (+ Kalman filter, MPC problem) to `generated.rs`.
     Export(commands::export::Args),
+    /// Write every generated file (firmware tables, golden files) from its inputs; `--check` compares only.
+    Codegen(commands::codegen::Args),
 }
 
 fn main() -> ExitCode {
@@ -57,6 +59,7 @@ fn main() -> ExitCode {
         Command::Kalman(args) => commands::kalman::run(args),
         Command::Pipeline(args) => commands::pipeline::run(args),
         Command::Export(args) => commands::export::run(args),
+        Command::Codegen(args) => commands::codegen::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

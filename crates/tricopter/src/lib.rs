@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 pub mod closed_loop;
+pub mod codegen;
 pub mod constants;
 mod error;
 pub mod firmware;

@@ -2,6 +2,7 @@
 
 pub mod c2d;
 pub mod closed_loop;
+pub mod codegen;
 pub mod empc;
 pub mod export;
 pub mod fgm;
