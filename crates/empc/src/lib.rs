@@ -10,6 +10,8 @@ pub mod export;
 #[cfg(feature = "std")]
 mod lp;
 #[cfg(feature = "std")]
+mod mpc_law;
+#[cfg(feature = "std")]
 pub mod mpqp;
 #[cfg(feature = "std")]
 mod qp;
@@ -27,6 +29,8 @@ pub use eval::{
 
 #[cfg(feature = "std")]
 pub use error::EmpcError;
+#[cfg(feature = "std")]
+pub use mpc_law::{ExplicitMpc, ExplicitSolver};
 #[cfg(feature = "std")]
 pub use mpqp::{
     CriticalRegion, MpqpSolution, Settings, SolveStats, brute_force_active_sets, solve,

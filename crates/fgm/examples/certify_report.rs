@@ -79,7 +79,7 @@ fn report(name: &str, prob: &MpqpProblem, samples: usize) {
         print!(" {e:.3e} -> {}", d.certify(e).expect("cert").iterations);
     }
     println!("   (last: eps for 1 us, mu_H = {mu_h:.4e})");
-    let reference = ReferenceSolver::new(&d.problem);
+    let mut reference = ReferenceSolver::new(&d.problem).expect("reference");
     let mut rng = Rng(2024);
     let t0 = Instant::now();
     let thetas: Vec<DVector<f64>> = (0..samples)
@@ -87,7 +87,7 @@ fn report(name: &str, prob: &MpqpProblem, samples: usize) {
         .collect();
     let best: Vec<f64> = thetas
         .iter()
-        .map(|th| reference.solve(&d.problem, th).expect("clarabel").cost)
+        .map(|th| reference.solve(th).expect("clarabel").cost)
         .collect();
     println!(
         "clarabel references: {samples} solves in {:.1} s",

@@ -16,6 +16,8 @@ mod error;
 #[cfg(feature = "std")]
 mod export;
 #[cfg(feature = "std")]
+mod mpc_law;
+#[cfg(feature = "std")]
 pub mod precond;
 #[cfg(feature = "std")]
 mod problem;
@@ -31,6 +33,8 @@ pub use design::{
 pub use error::FgmError;
 #[cfg(feature = "std")]
 pub use export::{ExportScalar, export_rust};
+#[cfg(feature = "std")]
+pub use mpc_law::{FastGradientSolver, FgmMpc, FgmOptions, FgmStart};
 #[cfg(feature = "std")]
 pub use precond::{Preconditioner, Preconditioning, Spectrum};
 #[cfg(feature = "std")]

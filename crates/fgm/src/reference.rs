@@ -1,19 +1,30 @@
-//! Reference solves with clarabel (interior point), for tests, the CLI and
-//! the benchmarks.
+//! The exact optimum of a [`BoxQp`], for checking certificates: kestrel-mpc's
+//! polished clarabel reference ([`kestrel_mpc::ReferenceSolver`]) on the
+//! problem written as `G = [I; -I]` ([`BoxQp::to_mpqp`]).
 
 use crate::{BoxQp, FgmError};
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{
-    DefaultSettings, DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
-};
+use kestrel_mpc::QpSettings;
 use nalgebra::DVector;
 
-/// A reusable clarabel formulation of a [`BoxQp`]: `P = H`, `A = [I; -I]`.
-#[derive(Clone, Debug)]
+/// The reference solver of one [`BoxQp`], set up once and solved at any
+/// parameter.
+///
+/// ```
+/// use kestrel_fgm::{BoxQp, reference::ReferenceSolver};
+/// use kestrel_core::formats::MpqpProblem;
+/// use nalgebra::dvector;
+/// // min 1/2 z^2 + theta z  s.t.  -1 <= z <= 1
+/// let p = MpqpProblem::from_json_str(r#"{"format": "kestrel.mpqp.v1",
+///   "H": [[1]], "F": [[1]], "G": [[1], [-1]], "W": [1, 1], "E": [[0], [0]],
+///   "theta_lb": [-5], "theta_ub": [5]}"#).unwrap();
+/// let mut reference = ReferenceSolver::new(&BoxQp::from_mpqp(&p).unwrap()).unwrap();
+/// let best = reference.solve(&dvector![-3.0]).unwrap(); // the bound z <= 1 is active
+/// assert!(best.polished && (best.z[0] - 1.0).abs() < 1e-14 && (best.cost + 2.5).abs() < 1e-14);
+/// ```
+#[derive(Debug)]
 pub struct ReferenceSolver {
-    p: CscMatrix<f64>,
-    a: CscMatrix<f64>,
-    settings: DefaultSettings<f64>,
+    problem: BoxQp,
+    solver: kestrel_mpc::ReferenceSolver,
 }
 
 /// A reference solution.
@@ -21,81 +32,49 @@ pub struct ReferenceSolver {
 pub struct ReferenceSolution {
     /// The minimiser.
     pub z: DVector<f64>,
-    /// The optimal cost `1/2 z'Hz + (F'theta + f)'z`.
+    /// The optimal cost `1/2 z'Hz + (F'theta + f)'z` ([`BoxQp::cost`]).
     pub cost: f64,
+    /// Whether the active-set polish verified `z` as the exact optimum
+    /// (see [`kestrel_mpc::QpSolution::polished`]); if not, `z` is the
+    /// interior-point solution, to about `1e-9` relative in the duality gap.
+    pub polished: bool,
 }
 
 impl ReferenceSolver {
-    /// Builds the formulation (tolerances tightened to 1e-10).
-    pub fn new(problem: &BoxQp) -> Self {
-        let n = problem.n();
-        // Upper triangle of H, column by column.
-        let mut colptr = vec![0];
-        let mut rowval = Vec::new();
-        let mut nzval = Vec::new();
-        for j in 0..n {
-            for i in 0..=j {
-                let v = 0.5 * (problem.h[(i, j)] + problem.h[(j, i)]);
-                if v != 0.0 {
-                    rowval.push(i);
-                    nzval.push(v);
-                }
-            }
-            colptr.push(rowval.len());
-        }
-        let p = CscMatrix::new(n, n, colptr, rowval, nzval);
-        let a = CscMatrix::new(
-            2 * n,
-            n,
-            (0..=n).map(|j| 2 * j).collect(),
-            (0..n).flat_map(|j| [j, n + j]).collect(),
-            (0..n).flat_map(|_| [1.0, -1.0]).collect(),
-        );
-        let settings = DefaultSettingsBuilder::default()
-            .verbose(false)
-            .tol_gap_abs(1e-10)
-            .tol_gap_rel(1e-10)
-            .tol_feas(1e-10)
-            .build()
-            .unwrap_or_default();
-        ReferenceSolver { p, a, settings }
+    /// Sets up the reference of `problem` with kestrel-mpc's default
+    /// settings (tolerance `1e-9`, polished).
+    ///
+    /// # Errors
+    /// [`FgmError::Solver`] when the problem is refused (its Hessian must be
+    /// positive definite).
+    pub fn new(problem: &BoxQp) -> Result<Self, FgmError> {
+        let solver = kestrel_mpc::ReferenceSolver::new(&problem.to_mpqp(), QpSettings::default())
+            .map_err(|e| FgmError::Solver(format!("reference QP: {e}")))?;
+        Ok(ReferenceSolver {
+            problem: problem.clone(),
+            solver,
+        })
+    }
+
+    /// The problem.
+    pub fn problem(&self) -> &BoxQp {
+        &self.problem
     }
 
     /// Solves at `theta`.
     ///
     /// # Errors
-    /// [`FgmError::Solver`] unless clarabel reports the problem solved.
-    pub fn solve(
-        &self,
-        problem: &BoxQp,
-        theta: &DVector<f64>,
-    ) -> Result<ReferenceSolution, FgmError> {
-        let n = problem.n();
-        let q = problem.linear_term(theta);
-        let bounds = problem.bounds(theta);
-        let mut b = bounds.hi.as_slice().to_vec();
-        b.extend(bounds.lo.iter().map(|v| -v));
-        let cones = [SupportedConeT::NonnegativeConeT(2 * n)];
-        let mut solver = DefaultSolver::new(
-            &self.p,
-            q.as_slice(),
-            &self.a,
-            &b,
-            &cones,
-            self.settings.clone(),
-        )
-        .map_err(|e| FgmError::Solver(format!("{e:?}")))?;
-        solver.solve();
-        match solver.solution.status {
-            SolverStatus::Solved | SolverStatus::AlmostSolved => {
-                // Clean up tiny bound violations of the interior point.
-                let z = DVector::from_fn(n, |i, _| {
-                    solver.solution.x[i].clamp(bounds.lo[i], bounds.hi[i])
-                });
-                let cost = problem.cost(&z, theta);
-                Ok(ReferenceSolution { z, cost })
-            }
-            other => Err(FgmError::Solver(format!("reference QP: {other:?}"))),
-        }
+    /// [`FgmError::Solver`] unless the problem is solved.
+    pub fn solve(&mut self, theta: &DVector<f64>) -> Result<ReferenceSolution, FgmError> {
+        let sol = self
+            .solver
+            .solve(theta)
+            .map_err(|e| FgmError::Solver(format!("reference QP: {e}")))?;
+        let cost = self.problem.cost(&sol.z, theta);
+        Ok(ReferenceSolution {
+            z: sol.z,
+            cost,
+            polished: sol.polished,
+        })
     }
 }

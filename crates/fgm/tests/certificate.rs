@@ -29,12 +29,13 @@ fn design(seed: u64, nx: usize, nu: usize, nh: usize, pc: Preconditioner) -> Fgm
 fn check_cold(d: &FgmDesign, eps: f64, seed: u64) -> f64 {
     let cert = d.certify(eps).unwrap();
     let data = d.data::<f64>(&cert, None).unwrap();
-    let reference = ReferenceSolver::new(&d.problem);
+    let mut reference = ReferenceSolver::new(&d.problem).unwrap();
     let mut rng = Rng(seed);
     let mut worst: f64 = f64::NEG_INFINITY;
     for _ in 0..SAMPLES {
         let th = random_theta(&mut rng, &d.problem.theta_lb, &d.problem.theta_ub);
-        let best = reference.solve(&d.problem, &th).unwrap();
+        let best = reference.solve(&th).unwrap();
+        assert!(best.polished, "the reference is exact");
         let z = data
             .solve(th.as_slice(), Start::Cold, cert.iterations)
             .unwrap();
@@ -47,7 +48,7 @@ fn check_cold(d: &FgmDesign, eps: f64, seed: u64) -> f64 {
             );
         }
         let gap = d.problem.cost(&z, &th) - best.cost;
-        // clarabel's own accuracy (1e-10 relative) is far below eps.
+        // The polished reference is exact to rounding: no slack.
         assert!(
             gap <= eps,
             "gap {gap} > eps {eps} after {} iterations",
@@ -101,7 +102,7 @@ fn warm_start_certificate_holds() {
         cert.iterations
     );
     let data = d.data::<f64>(&cert, Some(warm.iterations)).unwrap();
-    let reference = ReferenceSolver::new(&d.problem);
+    let mut reference = ReferenceSolver::new(&d.problem).unwrap();
     let mut rng = Rng(11);
     for _ in 0..SAMPLES {
         let th0 = random_theta(&mut rng, &d.problem.theta_lb, &d.problem.theta_ub);
@@ -116,8 +117,7 @@ fn warm_start_certificate_holds() {
         let z = data
             .solve(th.as_slice(), Start::Warm(&prev), warm.iterations)
             .unwrap();
-        let gap = d.problem.cost(&DVector::from_vec(z), &th)
-            - reference.solve(&d.problem, &th).unwrap().cost;
+        let gap = d.problem.cost(&DVector::from_vec(z), &th) - reference.solve(&th).unwrap().cost;
         assert!(gap <= eps, "warm gap {gap} > {eps}");
     }
 }
@@ -127,7 +127,7 @@ fn check_low_precision<S: Scalar>(d: &FgmDesign, eps: f64) -> f64 {
     let bound = d.rounding_bound::<S>(&cert).expect("constant scheme");
     let lo = d.data::<S>(&cert, None).unwrap();
     let hi = d.data::<f64>(&cert, None).unwrap();
-    let reference = ReferenceSolver::new(&d.problem);
+    let mut reference = ReferenceSolver::new(&d.problem).unwrap();
     let mut rng = Rng(23);
     let mut worst: f64 = 0.0;
     for _ in 0..SAMPLES {
@@ -139,7 +139,7 @@ fn check_low_precision<S: Scalar>(d: &FgmDesign, eps: f64) -> f64 {
             hi.solve(th.as_slice(), Start::Cold, cert.iterations)
                 .unwrap(),
         );
-        let best = reference.solve(&d.problem, &th).unwrap().cost;
+        let best = reference.solve(&th).unwrap().cost;
         let gap = d.problem.cost(&zs, &th) - best;
         assert!(
             gap <= bound.cost_bound,
@@ -296,7 +296,8 @@ fn pwm_tolerance_is_the_closed_form_and_tight() {
     // Any feasible z with J - J* <= eps: random probes never exceed e.
     let th = (&d.problem.theta_lb + &d.problem.theta_ub) * 0.5;
     let best = ReferenceSolver::new(&d.problem)
-        .solve(&d.problem, &th)
+        .unwrap()
+        .solve(&th)
         .unwrap();
     let b = d.problem.bounds(&th);
     let mut rng = Rng(9);

@@ -65,7 +65,7 @@ proptest! {
         let cert = d.certify(1.0).unwrap();
         let data = d.data::<f64>(&cert, Some(40)).unwrap();
         let th = theta_at(&d, &u);
-        let best = ReferenceSolver::new(&d.problem).solve(&d.problem, &th).unwrap().cost;
+        let best = ReferenceSolver::new(&d.problem).unwrap().solve(&th).unwrap().cost;
         let rate = 1.0 - (d.spectrum.mu / d.spectrum.l).sqrt();
         for k in 0..40usize {
             let z = DVector::from_vec(data.solve(th.as_slice(), Start::Cold, k).unwrap());

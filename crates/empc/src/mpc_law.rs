@@ -1,0 +1,180 @@
+//! The explicit solution as a solver of kestrel-mpc's condensed QP, so
+//! `kestrel_mpc::MpcLaw` and closed-loop simulations fly it like the
+//! clarabel reference.
+
+use crate::{
+    EmpcError, OwnedTables, Settings, TreeSettings, build_controller, evaluate_with, solve,
+};
+use kestrel_core::Error;
+use kestrel_core::formats::MpqpProblem;
+use kestrel_mpc::{MpcError, MpcLaw, MpcProblem, ParametricQpSolver};
+
+/// The MPC law with the explicit solution ([`ExplicitSolver`]).
+pub type ExplicitMpc = MpcLaw<ExplicitSolver>;
+
+/// The explicit MPC: the multi-parametric solution of the QP, stored as a
+/// binary search tree over the whole `z`, evaluated by point location
+/// ([`evaluate_with`], the run-time evaluator).
+///
+/// A parameter outside the explored set (the parameter box or the hull of
+/// the regions) gets the clamped law of the nearest region, as on the
+/// aircraft; [`ExplicitSolver::outside`] counts those calls.
+///
+/// ```
+/// use kestrel_core::{Matrix, StateSpace};
+/// use kestrel_empc::ExplicitSolver;
+/// use kestrel_mpc::{InputBounds, MpcProblem, MpcSettings, ParametricQpSolver, QpSettings,
+///     ReferenceSolver, Terminal};
+/// use nalgebra::dvector;
+/// // A double integrator sampled at 0.1 s, |u| <= 1, horizon 5.
+/// let m = StateSpace::new(Matrix::from_rows([[1.0, 0.1], [0.0, 1.0]]),
+///     Matrix::from_rows([[0.005], [0.1]]), Matrix::from_rows([[1.0, 0.0]]),
+///     Matrix::from_rows([[0.0]]), 0.1);
+/// let p = MpcProblem::build(&m, &InputBounds::new(dvector![-1.0], dvector![1.0]),
+///     &MpcSettings { horizon: 5, terminal: Terminal::Lq, ..MpcSettings::default() }).unwrap();
+/// let mut explicit = ExplicitSolver::build(&p.to_mpqp(), &kestrel_empc::Settings::default()).unwrap();
+/// let mut qp = ReferenceSolver::new(&p.to_mpqp(), QpSettings::default()).unwrap();
+/// let theta = p.theta(&[0.2, -0.1], &[0.5]).unwrap();
+/// let (mut ze, mut zq) = (vec![0.0; p.n()], vec![0.0; p.n()]);
+/// explicit.solve_into(theta.as_slice(), &mut ze).unwrap();
+/// qp.solve_into(theta.as_slice(), &mut zq).unwrap();
+/// assert!(ze.iter().zip(&zq).all(|(a, b)| (a - b).abs() < 1e-6));
+/// ```
+#[derive(Clone, Debug)]
+pub struct ExplicitSolver {
+    tables: OwnedTables<f64>,
+    scratch: Vec<f64>,
+    outside: usize,
+    regions: usize,
+}
+
+impl ExplicitSolver {
+    /// A solver from the tables of an explicit controller over all of `z`
+    /// ([`crate::Outputs::All`]).
+    pub fn new(tables: OwnedTables<f64>) -> Self {
+        ExplicitSolver {
+            scratch: vec![0.0; tables.n_params],
+            tables,
+            outside: 0,
+            regions: 0,
+        }
+    }
+
+    /// Solves `problem` multi-parametrically and builds the search tree
+    /// over all of `z`.
+    ///
+    /// # Errors
+    /// [`MpcError::ExternalSolver`] when the mpQP solve or the tree
+    /// construction fails (too many regions, a degenerate problem).
+    pub fn build(problem: &MpqpProblem, settings: &Settings) -> Result<Self, MpcError> {
+        let err = |e: EmpcError| MpcError::ExternalSolver {
+            solver: "explicit MPC",
+            reason: e.to_string(),
+        };
+        let solution = solve(problem, settings).map_err(err)?;
+        let controller =
+            build_controller(problem, &solution, &TreeSettings::default()).map_err(err)?;
+        let mut s = ExplicitSolver::new(controller.tables);
+        s.regions = solution.regions.len();
+        Ok(s)
+    }
+
+    /// The explicit MPC law of `problem`: solved multi-parametrically,
+    /// evaluated by point location in its search tree (formerly
+    /// `kestrel_mpc::MpcLaw::explicit`).
+    ///
+    /// # Errors
+    /// As [`ExplicitSolver::build`].
+    pub fn mpc_law(problem: &MpcProblem, settings: &Settings) -> Result<ExplicitMpc, MpcError> {
+        MpcLaw::new(problem, Self::build(&problem.to_mpqp(), settings)?)
+    }
+
+    /// Calls so far whose parameter was outside the explored set.
+    pub fn outside(&self) -> usize {
+        self.outside
+    }
+
+    /// Critical regions of the solution (0 when made from tables).
+    pub fn regions(&self) -> usize {
+        self.regions
+    }
+
+    /// The tree tables.
+    pub fn tables(&self) -> &OwnedTables<f64> {
+        &self.tables
+    }
+}
+
+impl ParametricQpSolver for ExplicitSolver {
+    fn n(&self) -> usize {
+        self.tables.n_outputs
+    }
+    fn p(&self) -> usize {
+        self.tables.n_params
+    }
+    fn solve_into(&mut self, theta: &[f64], z: &mut [f64]) -> Result<(), Error> {
+        let e = evaluate_with(&self.tables.tables(), theta, &mut self.scratch, z)?;
+        self.outside += usize::from(e.outside);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use kestrel_core::{ControlLaw, Matrix, StateSpace};
+    use kestrel_mpc::{InputBounds, MpcSettings, QpSettings, Terminal, Weight};
+    use nalgebra::dvector;
+
+    /// A double integrator sampled at 0.1 s, |u| <= 1, horizon 3.
+    fn problem() -> MpcProblem {
+        let m = StateSpace::new(
+            Matrix::from_rows([[1.0, 0.1], [0.0, 1.0]]),
+            Matrix::from_rows([[0.005], [0.1]]),
+            Matrix::from_rows([[1.0, 0.0]]),
+            Matrix::from_rows([[0.0]]),
+            0.1,
+        );
+        let bounds = InputBounds::new(dvector![-1.0], dvector![1.0]);
+        let settings = MpcSettings {
+            horizon: 3,
+            q2: Weight::Scalar(1e-3),
+            terminal: Terminal::Lq,
+            ..MpcSettings::default()
+        };
+        MpcProblem::build(&m, &bounds, &settings).unwrap()
+    }
+
+    #[test]
+    fn explicit_law_is_the_qp_law() {
+        let p = problem();
+        let mut explicit = ExplicitSolver::mpc_law(&p, &Settings::default()).unwrap();
+        let mut qp = MpcLaw::clarabel(&p, QpSettings::default()).unwrap();
+        assert!(explicit.solver().regions() > 1);
+        let (mut ue, mut uq) = ([0.0], [0.0]);
+        let mut saturated = 0;
+        for k in 0..60 {
+            let t = k as f64 * 0.37;
+            let x = [0.3 * t.sin(), 0.8 * (1.3 * t).cos()];
+            let r = [0.2 * (0.7 * t).cos()];
+            explicit.control(&x, &r, &mut ue).unwrap();
+            qp.control(&x, &r, &mut uq).unwrap();
+            assert!((ue[0] - uq[0]).abs() < 1e-6, "{k}: {ue:?} vs {uq:?}");
+            saturated += usize::from(uq[0].abs() > 1.0 - 1e-9);
+        }
+        // Both the saturated and the unconstrained pieces were visited.
+        assert!(saturated > 0 && saturated < 60, "{saturated}");
+        assert_eq!(explicit.solver().outside(), 0);
+    }
+
+    #[test]
+    fn solver_errors_are_values() {
+        let p = problem();
+        let mut s = ExplicitSolver::build(&p.to_mpqp(), &Settings::default()).unwrap();
+        let mut z = vec![0.0; p.n()];
+        let mut theta = vec![0.0; p.p()];
+        assert!(s.solve_into(&theta[..1], &mut z).is_err());
+        theta[0] = f64::NAN;
+        assert!(s.solve_into(&theta, &mut z).is_err());
+    }
+}
