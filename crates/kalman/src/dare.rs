@@ -1,42 +1,6 @@
 //! The discrete algebraic Riccati equation (feature `std`).
 //!
-//! Solves, for the stabilising symmetric `X`,
-//!
-//! ```text
-//! X = A'XA - (A'XB + S)(R + B'XB)^-1 (B'XA + S') + Q
-//! ```
-//!
-//! (SciPy's `solve_discrete_are` and python-control's `dare` with the cross
-//! term `S`). This is (5.15c) of the thesis with `A -> A'`, `B -> C'`, and
-//! (7.18) as corrected in the errata.
-//!
-//! # Method
-//! 1. The cross term is removed: `Ã = A - B R^-1 S'`, `Q̃ = Q - S R^-1 S'`,
-//!    `G = B R^-1 B'` (R must be positive definite; a Cholesky solve, so a
-//!    condition number of 1e8 costs nothing).
-//! 2. The structure-preserving doubling algorithm (SDA, Chu, Fan and Lin
-//!    2005): `A_{k+1} = A_k W^-1 A_k`, `G_{k+1} = G_k + A_k W^-1 G_k A_k'`,
-//!    `H_{k+1} = H_k + A_k' H_k W^-1 A_k` with `W = I + G_k H_k`, starting
-//!    from `(Ã, G, Q̃)`. `H_k -> X` quadratically; only one LU per
-//!    iteration, no inverse of `A` (singular `A` is fine), all buffers
-//!    allocated once before the loop.
-//! 3. The relative residual is checked; above
-//!    [`DareSettings::refine_above`] Newton–Kleinman steps
-//!    (`Ac' N Ac - N = -Res`, Stein equation solved by Smith doubling)
-//!    refine `X`, keeping the best iterate.
-//! 4. The closed loop `A - B K` must be stable. If the doubling fails,
-//!    the PBH tests on the unstable eigenvalues of `Ã` name the culprit
-//!    ([`KalmanError::NotStabilizable`], [`KalmanError::NotDetectable`]).
-//!    A non-detectable `(Ã, Q̃)` is refused even when a stabilising
-//!    solution exists: in the doubling `G_k` converges to the solution of
-//!    the dual equation, which exists only for a detectable pair, so an
-//!    unobservable unstable mode `lambda` makes `G_k` grow like
-//!    `|lambda|^(2^k)` and overflow or, by the time `H_k` has converged,
-//!    grow by orders of magnitude. [`DetectabilityCheck::OnGrowth`]
-//!    (default) runs the PBH test when `||G_k|| / ||G_0||` exceeds
-//!    [`DareSettings::growth_limit`]; [`DetectabilityCheck::Always`] runs
-//!    it on every solve (an eigenvalue decomposition of `A` and an SVD per
-//!    unstable eigenvalue: it triples the time at n = 60).
+//! See [`dare`] for the equation and the method.
 
 use crate::KalmanError;
 use nalgebra::{Complex, DMatrix, DVector};
@@ -94,7 +58,7 @@ pub enum DetectabilityCheck {
     Always,
     /// When the dual iterate `G_k` has grown by more than
     /// [`DareSettings::growth_limit`] (the symptom of an unobservable
-    /// unstable mode; see the [module documentation](self)).
+    /// unstable mode; see [`dare`]).
     #[default]
     OnGrowth,
     /// Never (failures of the doubling are still diagnosed).
@@ -119,7 +83,45 @@ pub struct DareSolution {
     pub refinements: usize,
 }
 
-/// Solves the DARE with default [`DareSettings`]; see the [module documentation](self).
+/// Solves the DARE with default [`DareSettings`].
+///
+/// Solves, for the stabilising symmetric `X`,
+///
+/// ```text
+/// X = A'XA - (A'XB + S)(R + B'XB)^-1 (B'XA + S') + Q
+/// ```
+///
+/// (SciPy's `solve_discrete_are` and python-control's `dare` with the cross
+/// term `S`). This is (5.15c) of the thesis with `A -> A'`, `B -> C'`, and
+/// (7.18) as corrected in the errata.
+///
+/// # Method
+/// 1. The cross term is removed: `Ã = A - B R^-1 S'`, `Q̃ = Q - S R^-1 S'`,
+///    `G = B R^-1 B'` (R must be positive definite; a Cholesky solve, so a
+///    condition number of 1e8 costs nothing).
+/// 2. The structure-preserving doubling algorithm (SDA, Chu, Fan and Lin
+///    2005): `A_{k+1} = A_k W^-1 A_k`, `G_{k+1} = G_k + A_k W^-1 G_k A_k'`,
+///    `H_{k+1} = H_k + A_k' H_k W^-1 A_k` with `W = I + G_k H_k`, starting
+///    from `(Ã, G, Q̃)`. `H_k -> X` quadratically; only one LU per
+///    iteration, no inverse of `A` (singular `A` is fine), all buffers
+///    allocated once before the loop.
+/// 3. The relative residual is checked; above
+///    [`DareSettings::refine_above`] Newton–Kleinman steps
+///    (`Ac' N Ac - N = -Res`, Stein equation solved by Smith doubling)
+///    refine `X`, keeping the best iterate.
+/// 4. The closed loop `A - B K` must be stable. If the doubling fails,
+///    the PBH tests on the unstable eigenvalues of `Ã` name the culprit
+///    ([`KalmanError::NotStabilizable`], [`KalmanError::NotDetectable`]).
+///    A non-detectable `(Ã, Q̃)` is refused even when a stabilising
+///    solution exists: in the doubling `G_k` converges to the solution of
+///    the dual equation, which exists only for a detectable pair, so an
+///    unobservable unstable mode `lambda` makes `G_k` grow like
+///    `|lambda|^(2^k)` and overflow or, by the time `H_k` has converged,
+///    grow by orders of magnitude. [`DetectabilityCheck::OnGrowth`]
+///    (default) runs the PBH test when `||G_k|| / ||G_0||` exceeds
+///    [`DareSettings::growth_limit`]; [`DetectabilityCheck::Always`] runs
+///    it on every solve (an eigenvalue decomposition of `A` and an SVD per
+///    unstable eigenvalue: it triples the time at n = 60).
 ///
 /// `a` is `n x n`, `b` `n x m`, `q` `n x n` symmetric, `r` `m x m` symmetric
 /// positive definite, `s` (optional cross weight) `n x m`, with
