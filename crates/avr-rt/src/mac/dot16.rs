@@ -7,7 +7,7 @@
 /// in Q`f` format, the sum has `16 + f` fraction bits.
 ///
 /// Timed by the firmware's `fgm-bench` build; the loop's kernels use the
-/// row routines ([`row_q16_i16`], `Row16::apply_all`), which also round.
+/// row routines ([`row_q16_i16`](super::row::row_q16_i16), `Row16::apply_all`), which also round.
 ///
 /// ```
 /// use kestrel_avr_rt::mac::dot_q16_i16;

@@ -3,7 +3,7 @@
 //! written with the ATmega2560's hardware `MUL` (16 byte products in inline
 //! assembly) instead of LLVM's generic 64 x 64-bit multiply.
 //!
-//! It implements [`Scalar`], so every run-time kernel generic over the
+//! It implements [`Scalar`](kestrel_core::Scalar), so every run-time kernel generic over the
 //! scalar (Kalman step, tree walk, fast gradient, the rate loop) runs on it
 //! unchanged; the firmware selects it with its `fixed-mac` feature, and
 //! checks it against `Q16` on the target at boot ([`self_test`]).

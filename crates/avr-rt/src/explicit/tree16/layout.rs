@@ -7,7 +7,7 @@ pub const NONE: u8 = 0xFF;
 /// "None" in a `u16` field of the wide layout ([`Tree16Layout::wide`]).
 pub const NONE16: u16 = 0xFFFF;
 
-/// Counts and scale of a [`Tree16`] table (the generated constants).
+/// Counts and scale of a `Tree16` table (the generated constants).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Tree16Layout {
     /// Parameters `P`.
