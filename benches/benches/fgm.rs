@@ -22,7 +22,8 @@ use kestrel_fgm::reference::ReferenceSolver;
 use kestrel_fgm::{
     AppliedInputs, BoxQp, FgmDesign, FgmSettings, FgmTables, FgmWorkspace, Momentum,
 };
-use kestrel_mpc::{ProblemSize, QpSettings, default_weights, tricopter_problem, tricopter_trim};
+use kestrel_mpc::QpSettings;
+use kestrel_tricopter::{ProblemSize, default_weights, tricopter_problem, tricopter_trim};
 use nalgebra::DVector;
 use std::hint::black_box;
 
@@ -75,7 +76,7 @@ fn bench_size<M: Measurement, const N: usize>(
     let pinv = model.c.clone().pseudo_inverse(1e-12).expect("pinv");
     let mut mpc_ref =
         kestrel_mpc::ReferenceSolver::new(&mpqp, QpSettings::default()).expect("clarabel");
-    let fgm_ref = ReferenceSolver::new(&d.problem);
+    let mut fgm_ref = ReferenceSolver::new(&d.problem).expect("reference");
     for (label, rates) in [
         ("table 7.2 state", [0.2, 0.3, 0.4]),
         ("released at [2,2,2]", [2.0; 3]),
@@ -114,7 +115,7 @@ fn bench_size<M: Measurement, const N: usize>(
             b.iter(|| mpc_ref.solve(black_box(&th)).expect("clarabel"))
         });
         g.bench_function("clarabel_box", |b| {
-            b.iter(|| fgm_ref.solve(&d.problem, black_box(&th)).expect("clarabel"))
+            b.iter(|| fgm_ref.solve(black_box(&th)).expect("clarabel"))
         });
         g.finish();
     }

@@ -8,9 +8,9 @@
 //! servo bound active).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use kestrel_mpc::{
-    ProblemSize, QpSettings, ReferenceSolver, default_weights, identified_model, tricopter_problem,
-    tricopter_trim,
+use kestrel_mpc::{QpSettings, ReferenceSolver};
+use kestrel_tricopter::{
+    ProblemSize, default_weights, identified_model, tricopter_problem, tricopter_trim,
 };
 use nalgebra::DVector;
 use std::hint::black_box;

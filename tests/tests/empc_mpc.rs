@@ -29,9 +29,8 @@ use kestrel_empc::mpqp::Rng;
 use kestrel_empc::{
     Outputs, Settings, TreeSettings, build_compact, build_controller, evaluate_with, solve,
 };
-use kestrel_mpc::{
-    ProblemSize, QpSettings, ReferenceSolver, default_weights, design_model, tricopter_problem,
-};
+use kestrel_mpc::{QpSettings, ReferenceSolver};
+use kestrel_tricopter::{ProblemSize, default_weights, design_model, tricopter_problem};
 use nalgebra::{DMatrix, DVector};
 
 /// The QP optimum at `theta` by enumerating active sets (exact KKT solves).

@@ -8,7 +8,8 @@
 //! `EMPC_DUMP=dir` writes it again (for a re-identified model).
 
 use kestrel_core::formats::{MpqpProblem, SsModel};
-use kestrel_mpc::{Blocking, MpcProblem, MpcSettings, default_weights, tricopter_trim};
+use kestrel_mpc::{Blocking, MpcProblem, MpcSettings};
+use kestrel_tricopter::{ProblemSize, default_weights, tricopter_trim};
 
 fn blackbox_model() -> SsModel {
     let path = concat!(
@@ -18,13 +19,13 @@ fn blackbox_model() -> SsModel {
     SsModel::read(std::path::Path::new(path)).unwrap()
 }
 
-/// The Ns = 2 thesis problem (as avr-rt's `design::ns2_problem`).
+/// The Ns = 2 thesis problem (as kestrel-tricopter's `firmware::ns2_problem`).
 fn ns2_problem() -> MpqpProblem {
     let model = blackbox_model();
     let (q1, q2) = default_weights();
     let settings = MpcSettings {
         blocking: Some(Blocking::thesis(2, 2).unwrap()),
-        ..MpcSettings::thesis(q1, q2)
+        ..ProblemSize::Thesis.settings(q1, q2)
     };
     let trim = tricopter_trim(&model).unwrap();
     MpcProblem::build(&model, &trim.bounds(), &settings)

@@ -17,7 +17,7 @@ use kestrel_fgm::reference::ReferenceSolver;
 use kestrel_fgm::{
     AppliedInputs, BoxQp, FgmDesign, FgmSettings, Preconditioner, Start, WarmStartAssumption,
 };
-use kestrel_mpc::{ProblemSize, default_weights, tricopter_problem};
+use kestrel_tricopter::{ProblemSize, default_weights, tricopter_problem};
 use nalgebra::DVector;
 
 fn samples() -> usize {
@@ -84,7 +84,7 @@ fn check(size: ProblemSize) {
         )
         .unwrap();
     let data = d.data::<f64>(&cert, Some(warm.iterations)).unwrap();
-    let reference = ReferenceSolver::new(&qp);
+    let mut reference = ReferenceSolver::new(&qp).unwrap();
     let table: Vec<(f64, usize)> = [1e5, 1e4, 1e3, 1e2, eps]
         .iter()
         .map(|e| (*e, d.certify(*e).unwrap().iterations))
@@ -107,7 +107,7 @@ fn check(size: ProblemSize) {
         let th = DVector::from_fn(qp.p(), |i, _| {
             qp.theta_lb[i] + (qp.theta_ub[i] - qp.theta_lb[i]) * unit(&mut s)
         });
-        let best = reference.solve(&qp, &th).unwrap();
+        let best = reference.solve(&th).unwrap();
         let z = DVector::from_vec(
             data.solve(th.as_slice(), Start::Cold, cert.iterations)
                 .unwrap(),

@@ -122,7 +122,7 @@ fn model_file_offset_free_and_bad_input() {
     let d = dir("model");
     // The identified model from a file flies like the built-in default.
     let model = d.join("model.json");
-    std::fs::write(&model, kestrel_mpc::IDENTIFIED_MODEL_JSON).unwrap();
+    std::fs::write(&model, kestrel_tricopter::IDENTIFIED_MODEL_JSON).unwrap();
     let m = model.display().to_string();
     let a = fly(&d, "file", &["--controller", "qp", "--model", &m]);
     let b = fly(&d, "builtin", &["--controller", "qp"]);

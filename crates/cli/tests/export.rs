@@ -117,9 +117,14 @@ fn tables_hold_the_model_filter_and_certified_solver() {
     assert!((v[mix + 3] - u0[3]).abs() < 1e-3);
     // The certified count is kestrel-fgm's for the 1 us eps of this
     // problem, computed here from kestrel-mpc's problem directly.
-    let (q1, q2) = kestrel_mpc::default_weights();
-    let problem =
-        kestrel_mpc::tricopter_problem(&model, kestrel_mpc::ProblemSize::Thesis, q1, q2).unwrap();
+    let (q1, q2) = kestrel_tricopter::default_weights();
+    let problem = kestrel_tricopter::tricopter_problem(
+        &model,
+        kestrel_tricopter::ProblemSize::Thesis,
+        q1,
+        q2,
+    )
+    .unwrap();
     let fgm = FgmDesign::new(
         BoxQp::from_mpqp(&problem.to_mpqp()).unwrap(),
         FgmSettings::default(),
@@ -143,11 +148,16 @@ fn tables_hold_the_model_filter_and_certified_solver() {
 #[test]
 fn design_files_give_the_same_tables_as_the_defaults() {
     let model = SsModel::read(Path::new(&fixture())).unwrap();
-    let kalman = kestrel_mpc::sim::kalman_design(&model).unwrap();
-    let (q1, q2) = kestrel_mpc::default_weights();
-    let problem = kestrel_mpc::tricopter_problem(&model, kestrel_mpc::ProblemSize::Thesis, q1, q2)
-        .unwrap()
-        .to_mpqp();
+    let kalman = kestrel_tricopter::closed_loop::kalman_design(&model).unwrap();
+    let (q1, q2) = kestrel_tricopter::default_weights();
+    let problem = kestrel_tricopter::tricopter_problem(
+        &model,
+        kestrel_tricopter::ProblemSize::Thesis,
+        q1,
+        q2,
+    )
+    .unwrap()
+    .to_mpqp();
     let kf = write("filter.json", &kalman.to_json_string());
     let pr = write("problem.json", &problem.to_json_string());
     let (ok, from_files, err) = kestrel(&[

@@ -22,7 +22,7 @@ const DOUBLE_INTEGRATOR: &str = r#"{"format": "kestrel.ss.v1", "ts": 0.1,
 #[test]
 fn writes_tricopter_problem_with_throttle_parameter() {
     let d = dir("tri");
-    let model = kestrel_mpc::design_model().unwrap();
+    let model = kestrel_tricopter::design_model().unwrap();
     let mp = write(&d, "model.json", &model.to_json_string());
     let out = d.join("problem.json").display().to_string();
     let (ok, _, err) = kestrel(&[
@@ -57,9 +57,14 @@ fn writes_tricopter_problem_with_throttle_parameter() {
         kestrel_mpc::Weight::Scalar(2000.0),
         kestrel_mpc::Weight::Scalar(0.01),
     );
-    let lib = kestrel_mpc::tricopter_problem(&model, kestrel_mpc::ProblemSize::Larger, q1, q2)
-        .unwrap()
-        .to_mpqp();
+    let lib = kestrel_tricopter::tricopter_problem(
+        &model,
+        kestrel_tricopter::ProblemSize::Larger,
+        q1,
+        q2,
+    )
+    .unwrap()
+    .to_mpqp();
     assert!((&lib.h - &p.h).amax() < 1e-9 * lib.h.amax());
     assert!((&lib.f_theta - &p.f_theta).amax() < 1e-9 * lib.f_theta.amax().max(1.0));
 }

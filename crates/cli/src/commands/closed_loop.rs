@@ -4,14 +4,16 @@
 use crate::io;
 use anyhow::{Context, bail};
 use kestrel_core::formats::SsModel;
-use kestrel_mpc::sim::{
-    PlantKind as SimPlant, RunResult, RunSettings, fly_mpc, fly_offset_free, fly_pi,
-};
+use kestrel_fgm::{FgmOptions, FgmStart};
 use kestrel_mpc::{
-    Blocking, DisturbanceModel, FgmOptions, FgmStart, MpcLaw, MpcProblem, MpcSettings,
-    ParametricQpSolver, ProblemSize, QpSettings, Terminal, default_weights, identified_model,
-    tricopter_trim,
+    Blocking, DisturbanceModel, MpcLaw, MpcProblem, MpcSettings, ParametricQpSolver, QpSettings,
+    Terminal,
 };
+use kestrel_tricopter::closed_loop::{
+    PlantKind as SimPlant, RunResult, RunSettings, fly_mpc, fly_offset_free, fly_pi, kalman_design,
+    kalman_design_with_disturbance,
+};
+use kestrel_tricopter::{ProblemSize, default_weights, identified_model, tricopter_trim};
 use std::path::PathBuf;
 
 /// The controller flown.
@@ -166,8 +168,11 @@ fn fly_law<S: ParametricQpSolver>(
 ) -> anyhow::Result<(RunResult, S)> {
     let mut law = MpcLaw::new(design.problem(), solver)?;
     let result = match design {
-        Design::Plain(problem) => fly_mpc(model, problem, &mut law, run)?,
-        Design::OffsetFree(d) => fly_offset_free(d, &mut law, run)?,
+        Design::Plain(problem) => fly_mpc(model, problem, &mut law, &kalman_design(model)?, run)?,
+        Design::OffsetFree(d) => {
+            let kalman = kalman_design_with_disturbance(&d.augmented, d.nd)?;
+            fly_offset_free(d, &mut law, &kalman, run)?
+        }
     };
     Ok((result, law.into_solver()))
 }
@@ -223,7 +228,7 @@ fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunRes
                 mpqp.p(),
                 mpqp.m()
             );
-            let solver = kestrel_mpc::ExplicitSolver::build(
+            let solver = kestrel_empc::ExplicitSolver::build(
                 &mpqp,
                 &kestrel_empc::Settings {
                     parallel: true,
@@ -255,7 +260,7 @@ fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunRes
                 ..FgmOptions::default()
             };
             let solver =
-                kestrel_mpc::FastGradientSolver::new(&mpqp, &opts)?.with_shift(design.problem().nu);
+                kestrel_fgm::FastGradientSolver::new(&mpqp, &opts)?.with_shift(design.problem().nu);
             Ok(fly_law(model, &design, solver, run)?.0)
         }
         Controller::Pid => unreachable!("handled above"),
@@ -268,9 +273,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(p) => SsModel::read(p).with_context(|| format!("{}", p.display()))?,
         None => identified_model()?,
     };
-    // A feed-through D acts one sample later in the loop (kestrel_mpc::delay_feedthrough).
+    // A feed-through D acts one sample later in the loop (kestrel_tricopter::delay_feedthrough).
     let model = if model.d.iter().any(|v| *v != 0.0) {
-        let m = kestrel_mpc::delay_feedthrough(&model)?;
+        let m = kestrel_tricopter::delay_feedthrough(&model)?;
         eprintln!(
             "the model has a feed-through D: designing on its strictly proper form with D acting one sample later ({} states)",
             m.nx()

@@ -2,13 +2,13 @@
 
 use crate::io;
 use anyhow::{Context, bail};
-use kestrel_avr_rt::design::{
-    DesignSettings, FirmwareDesign, IterationBudget, Realization, generate_tables,
-};
 use kestrel_core::formats::{MpqpProblem, SsModel};
 use kestrel_fgm::Preconditioner;
 use kestrel_kalman::KalmanDesign;
-use kestrel_mpc::ProblemSize;
+use kestrel_tricopter::ProblemSize;
+use kestrel_tricopter::firmware::{
+    DesignSettings, FirmwareDesign, IterationBudget, Realization, generate_tables,
+};
 use std::path::PathBuf;
 
 /// Writes the firmware tables (`avr/firmware/src/generated.rs`, Rust source)
@@ -17,7 +17,7 @@ use std::path::PathBuf;
 /// In: the 50 Hz design model (`kestrel.ss.v1`, 4 inputs pwm1, pwm2, pwm3,
 /// servo in us with the hover trim as `u0`; 3 outputs p, q, r in rad/s);
 /// optionally the stationary Kalman filter (`kestrel.kalman.v1`, from
-/// `kestrel kalman`; default: kestrel-mpc's noise design with the thesis's
+/// `kestrel kalman`; default: kestrel-tricopter's noise design with the thesis's
 /// gyro covariance and bias) and the condensed MPC problem
 /// (`kestrel.mpqp.v1`, from `kestrel mpc`, parameters `[x; p_ref, q_ref,
 /// r_ref; throttle]`; default: the tricopter problem of `--size`).
@@ -128,13 +128,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (kalman, problem) => {
             let kalman = match kalman {
                 Some(p) => KalmanDesign::read(p).with_context(|| format!("{}", p.display()))?,
-                None => kestrel_mpc::sim::kalman_design(&model)?,
+                None => kestrel_tricopter::closed_loop::kalman_design(&model)?,
             };
             let problem = match problem {
                 Some(p) => MpqpProblem::read(p).with_context(|| format!("{}", p.display()))?,
                 None => {
-                    let (q1, q2) = kestrel_mpc::default_weights();
-                    kestrel_mpc::tricopter_problem(&model, settings.size, q1, q2)?.to_mpqp()
+                    let (q1, q2) = kestrel_tricopter::default_weights();
+                    kestrel_tricopter::tricopter_problem(&model, settings.size, q1, q2)?.to_mpqp()
                 }
             };
             FirmwareDesign::new(&model, kalman, problem, &settings)?

@@ -6,8 +6,8 @@ use anyhow::{Context, bail};
 use kestrel_core::formats::{SsModel, json};
 use kestrel_mpc::{
     Blocking, InputBounds, MpcProblem, MpcSettings, Terminal, ThrottleParameter, Weight,
-    tricopter_trim,
 };
+use kestrel_tricopter::tricopter_trim;
 use nalgebra::{DMatrix, DVector};
 use std::path::{Path, PathBuf};
 
