@@ -11,9 +11,10 @@
 //! gradient method of kestrel-fgm (`Fgm16Law`, certified iteration count)
 //! on the thesis-sized MPC problem of kestrel-tricopter, designed from the
 //! identified model `models/tricopter-blackbox-5.json`, with the tables of
-//! `avr/firmware/src/generated.rs` (written by `cargo run -p
-//! kestrel-tricopter --example avr_tables`; this test checks the committed
-//! file is what that design produces). The firmware's PWMs are compared
+//! `avr/firmware/src/generated.rs` (written by `kestrel codegen`, from
+//! kestrel-tricopter's `codegen::firmware`; this test checks, without
+//! writing, that the committed files are what that design produces, and
+//! fails on a stale one). The firmware's PWMs are compared
 //! with the same composition run on the host in f64 from the f64 design
 //! (kestrel-kalman's `StationaryFilter`, kestrel-fgm's `FgmLaw`).
 //!
@@ -38,9 +39,8 @@ use kestrel_core::Matrix;
 use kestrel_empc::{ExplicitController, SliceTables};
 use kestrel_kalman::StationaryFilter;
 use kestrel_tricopter::closed_loop::{NonlinearPlant, RatePlant};
-use kestrel_tricopter::firmware::{
-    FirmwareDesign, empc_controller, generate_empc_tables, generate_tables, ns2_problem,
-};
+use kestrel_tricopter::codegen::{self, GeneratedFile, Status};
+use kestrel_tricopter::firmware::FirmwareDesign;
 use kestrel_tricopter_model::PlantConfig;
 use std::path::{Path, PathBuf};
 use std::process::Command as Process;
@@ -55,10 +55,6 @@ mod generated {
 mod generated_empc {
     include!("../../../avr/firmware/src/generated_empc.rs");
 }
-
-#[allow(dead_code)]
-#[path = "../examples/avr_tables.rs"]
-mod avr_tables;
 
 /// The law the firmware runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -91,13 +87,13 @@ fn repo_root() -> PathBuf {
 /// target directory.
 fn build_firmware(features: &[&str], generic_float: bool) -> PathBuf {
     let _guard = BUILD_LOCK.lock().unwrap_or_else(|e| e.into_inner());
-    ensure_generated();
+    assert_fresh(&codegen::firmware::tables_file(design()).unwrap());
     // Every explicit-MPC build (empc, empc-check, empc-ns2) compiles generated_empc.rs.
     if features.iter().any(|f| f.starts_with("empc")) {
-        ensure_generated_empc();
+        assert_fresh(&codegen::firmware::empc_file(empc()).unwrap());
     }
     if features.contains(&"empc-ns2") {
-        ensure_generated_empc_ns2();
+        assert_fresh(&codegen::firmware::empc_ns2_file(ns2_empc()).unwrap());
     }
     let root = repo_root();
     let fw = root.join("avr/firmware");
@@ -182,7 +178,7 @@ type HostEmpcLoop = RateLoop<f64, StationaryFilter<f64, { generated::NX }, 4, 3>
 /// kestrel-empc (once per test binary), in f64.
 fn empc() -> &'static ExplicitController {
     static C: std::sync::OnceLock<ExplicitController> = std::sync::OnceLock::new();
-    C.get_or_init(|| empc_controller(&design().problem).expect("explicit controller"))
+    C.get_or_init(|| codegen::firmware::empc(design()).expect("explicit controller"))
 }
 
 /// The host reference of the `empc` builds: the same loop in f64 with the
@@ -212,7 +208,7 @@ type HostLoop = RateLoop<f64, StationaryFilter<f64, { generated::NX }, 4, 3>, Ho
 /// The design, once per test binary.
 fn design() -> &'static FirmwareDesign {
     static D: std::sync::OnceLock<FirmwareDesign> = std::sync::OnceLock::new();
-    D.get_or_init(avr_tables::design)
+    D.get_or_init(|| codegen::firmware::design(&repo_root()).expect("firmware design"))
 }
 
 /// The same composition on the host in f64 from the f64 design (an
@@ -247,89 +243,39 @@ fn host_loop() -> HostLoop {
     .unwrap()
 }
 
-/// Writes `avr/firmware/src/generated.rs` if it is not what the design of
-/// the current `models/tricopter-blackbox-5.json` produces (the sysid
-/// pipeline may re-commit an improved model), so the firmware always flies
-/// the design the host reference computes; returns whether it was stale.
-/// Called under `BUILD_LOCK` before every firmware build.
-fn ensure_generated() -> bool {
-    let path = avr_tables::generated_path();
-    let fresh = generate_tables(design()).unwrap();
-    let stale = std::fs::read_to_string(&path).ok().as_deref() != Some(fresh.as_str());
-    if stale {
-        std::fs::write(&path, &fresh).unwrap();
-        println!(
-            "avr/firmware/src/generated.rs was stale (the design model changed): regenerated; commit it"
-        );
-    }
-    stale
+/// Fails unless the committed file `f.path` is what the generator
+/// produces (the firmware must fly the design the host reference
+/// computes); writes nothing: `kestrel codegen` does.
+fn assert_fresh(f: &GeneratedFile) {
+    let status = f.status(&repo_root()).unwrap();
+    assert_eq!(
+        status,
+        Status::Fresh,
+        "{} is {status:?} ({}): stale: run `kestrel codegen`",
+        f.path,
+        f.generator
+    );
 }
 
-/// The same for `avr/firmware/src/generated_empc.rs` (the `empc` build).
-fn ensure_generated_empc() -> bool {
-    let path = avr_tables::generated_path().with_file_name("generated_empc.rs");
-    let fresh = generate_empc_tables(empc(), "N = 2, Ns = 1").unwrap();
-    let stale = std::fs::read_to_string(&path).ok().as_deref() != Some(fresh.as_str());
-    if stale {
-        std::fs::write(&path, &fresh).unwrap();
-        println!("avr/firmware/src/generated_empc.rs was stale: regenerated; commit it");
-    }
-    stale
-}
-
-/// Scale of the `empc-ns2` design's parameter box about its centre: the
-/// exact first-move tree of the Ns = 2 problem over the whole box needs
-/// more than the 32767 nodes of the `u16` child codes (crates/empc/README.md),
-/// over half of it (states within +-5, references within +-1.5 rad/s,
-/// throttle 1250-1750 us) it has about 8,000.
-const NS2_BOX_SCALE: f64 = 0.5;
-
-/// The explicit controller with `Ns = 2` free moves (N = 2, blocks [1, 1],
-/// `design::ns2_problem` of the firmware's model) over the parameter box
-/// scaled by [`NS2_BOX_SCALE`], built here with kestrel-empc (once per
-/// test binary), in f64.
+/// The explicit controller with `Ns = 2` free moves (N = 2, blocks
+/// [1, 1]) over the parameter box scaled by
+/// `codegen::firmware::NS2_BOX_SCALE` (the whole box's exact tree needs
+/// more than the 32767 nodes of the `u16` child codes), built here with
+/// kestrel-empc (once per test binary), in f64.
 fn ns2_empc() -> &'static ExplicitController {
     static C: std::sync::OnceLock<ExplicitController> = std::sync::OnceLock::new();
-    C.get_or_init(|| {
-        let mut prob = ns2_problem(&design().model).expect("Ns = 2 problem");
-        prob.scale_parameter_box(NS2_BOX_SCALE);
-        empc_controller(&prob).expect("Ns = 2 explicit controller")
-    })
+    C.get_or_init(|| codegen::firmware::ns2_empc(design()).expect("Ns = 2 explicit controller"))
 }
 
 /// What `avr/firmware/src/generated_empc_ns2.rs` holds (the `empc-ns2`
 /// build's table): [`ns2_empc`] in the wide 16-bit layout.
 fn ns2_tables() -> kestrel_avr_rt::explicit::quantize::Tree16Tables {
-    kestrel_avr_rt::explicit::quantize::quantize_tree_layout(&ns2_empc().tables, 4096, true)
-        .unwrap()
-}
-
-/// The same for `avr/firmware/src/generated_empc_ns2.rs` (the `empc-ns2` build).
-fn ensure_generated_empc_ns2() -> bool {
-    let path = avr_tables::generated_path().with_file_name("generated_empc_ns2.rs");
-    let fresh = kestrel_avr_rt::explicit::quantize::tree16_chunked_source(
-        &ns2_tables(),
-        "EMPC_NS2",
-        12,
-        "Explicit MPC with Ns = 2 free moves (N = 2, blocks [1, 1]) over the parameter box scaled by 0.5 about its centre (the whole box's exact tree exceeds the u16 node codes).",
-    )
-    .unwrap();
-    let stale = std::fs::read_to_string(&path).ok().as_deref() != Some(fresh.as_str());
-    if stale {
-        std::fs::write(&path, &fresh).unwrap();
-        println!("avr/firmware/src/generated_empc_ns2.rs was stale: regenerated; commit it");
-    }
-    stale
+    codegen::firmware::ns2_tables(ns2_empc()).unwrap()
 }
 
 #[test]
 fn generated_tables_follow_the_design() {
-    {
-        let _guard = BUILD_LOCK.lock().unwrap_or_else(|e| e.into_inner());
-        ensure_generated();
-    }
-    let on_disk = std::fs::read_to_string(avr_tables::generated_path()).unwrap();
-    assert_eq!(on_disk, generate_tables(design()).unwrap());
+    assert_fresh(&codegen::firmware::tables_file(design()).unwrap());
     // The dimensions this test binary was compiled with (`generated::*`).
     let d = design();
     assert_eq!(d.model.nx(), generated::NX);
@@ -718,7 +664,7 @@ fn hil_step_scenario_empc_fixed_q16_mac() {
 // `fgm_kernel_cycles_fixed_q16`.
 
 /// The explicit MPC with Ns = 2 free moves (its parameter box halved,
-/// see [`NS2_BOX_SCALE`]; the wide table in flash chunks above 64 kB).
+/// see `codegen::firmware::NS2_BOX_SCALE`; the wide table in flash chunks above 64 kB).
 #[test]
 fn hil_step_scenario_empc_ns2_fixed_q16_mac() {
     check_flight(&["empc-ns2", "fixed-mac"], false, "fixed-mac", 3);
