@@ -50,7 +50,7 @@ const CONFIG: u8 = (if cfg!(feature = "fixed-mac") {
 #[used]
 static EMPC_TABLE: [u8; generated_empc::EMPC16_BYTES] = generated_empc::EMPC16;
 
-/// Generated controller values (host: `cargo run -p kestrel-avr-rt --example avr_tables`).
+/// Generated controller values (host: `kestrel codegen`).
 #[allow(dead_code)]
 mod generated;
 #[cfg(feature = "empc")]

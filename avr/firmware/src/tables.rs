@@ -1,7 +1,7 @@
 // Controller tables, placed in flash (`.text.kestrel_tables`, read with ELPM).
 //
 // The values come from `generated.rs`, written on the host by
-// `cargo run -p kestrel-avr-rt --example avr_tables` (5-state 50 Hz model,
+// `kestrel codegen` (5-state 50 Hz model,
 // stationary Kalman gains from kestrel-kalman, fast-gradient data of the
 // thesis-sized problem from kestrel-mpc + kestrel-fgm; see that file's
 // header). f32 builds store f32 values, fixed-point builds the Q16 raw bits
