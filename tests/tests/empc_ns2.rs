@@ -4,8 +4,10 @@
 //! `crates/empc/tests/data/thesis-ns2.json` (kestrel-empc's `tests/ns2.rs`
 //! checks its search trees on a sub-box in CI; the whole box needs more
 //! than the 32767 nodes of the `u16` child codes and builds in the wide
-//! `u32` layout in minutes: its `whole_box` example and ignored test), and
-//! `EMPC_DUMP=dir` writes it again (for a re-identified model).
+//! `u32` layout in minutes: its `whole_box` example and ignored test). The
+//! fixture is written by `kestrel codegen` (kestrel-tricopter's
+//! `firmware::ns2_problem` of `models/tricopter-blackbox-5.json`); this test
+//! fails when it is stale.
 
 use kestrel_core::formats::{MpqpProblem, SsModel};
 use kestrel_mpc::{Blocking, MpcProblem, MpcSettings};
@@ -36,23 +38,20 @@ fn ns2_problem() -> MpqpProblem {
 #[test]
 fn ns2_problem_has_the_fixture_shape() {
     let prob = ns2_problem();
-    if let Ok(dir) = std::env::var("EMPC_DUMP") {
-        std::fs::write(format!("{dir}/thesis-ns2.json"), prob.to_json_string()).unwrap();
-    }
-    let fixture =
-        MpqpProblem::from_json_str(include_str!("../../crates/empc/tests/data/thesis-ns2.json"))
-            .unwrap();
+    let text = include_str!("../../crates/empc/tests/data/thesis-ns2.json");
+    let fixture = MpqpProblem::from_json_str(text).unwrap();
     assert_eq!((prob.p(), prob.n(), prob.m()), (9, 8, 16));
     assert_eq!(
         (fixture.p(), fixture.n(), fixture.m()),
         (prob.p(), prob.n(), prob.m())
     );
-    // The same constraint rows (input bounds of both moves); the weights
-    // and bounds follow the model fixture, which may be re-identified.
+    // The same constraint rows (input bounds of both moves).
     assert_eq!(fixture.g, prob.g);
-    if fixture.h != prob.h || fixture.w != prob.w {
-        eprintln!(
-            "note: models/tricopter-blackbox-5.json changed since the Ns = 2 fixture was written; regenerate it with EMPC_DUMP=dir"
-        );
-    }
+    // The weights and bounds follow the design model, which may be
+    // re-identified: the fixture is this very problem.
+    assert_eq!(
+        text,
+        prob.to_json_string(),
+        "crates/empc/tests/data/thesis-ns2.json is stale: run `kestrel codegen`"
+    );
 }
