@@ -104,14 +104,18 @@ impl Disturbance {
             Disturbance::Output => (DMatrix::zeros(nx, ny), DMatrix::identity(ny, ny)),
             Disturbance::OutputStates => (plant.c.transpose(), DMatrix::zeros(ny, ny)),
             Disturbance::OutputIncrement => {
-                let bd = plant
-                    .c
-                    .clone()
-                    .pseudo_inverse(PSEUDO_INVERSE_TOLERANCE)
-                    .map_err(|reason| KalmanError::InvalidArgument {
-                        name: "C",
-                        reason: format!("pseudo-inverse: {reason}"),
-                    })?;
+                let bd = if nx == 0 || ny == 0 {
+                    DMatrix::zeros(nx, ny) // (nalgebra's SVD refuses an empty matrix)
+                } else {
+                    plant
+                        .c
+                        .clone()
+                        .pseudo_inverse(PSEUDO_INVERSE_TOLERANCE)
+                        .map_err(|reason| KalmanError::InvalidArgument {
+                            name: "C",
+                            reason: format!("pseudo-inverse: {reason}"),
+                        })?
+                };
                 (bd, DMatrix::zeros(ny, ny))
             }
             Disturbance::Custom { bd, cd } => {
@@ -439,9 +443,13 @@ fn check_detectable(
     pbh.view_mut((0, nx), (nx, nd)).copy_from(bd);
     pbh.view_mut((nx, 0), (ny, nx)).copy_from(c);
     pbh.view_mut((nx, nx), (ny, nd)).copy_from(cd);
-    let sv = pbh.singular_values();
-    let tol = DETECTABILITY_RANK_TOLERANCE * sv.max().max(1.0);
-    let rank = sv.iter().filter(|s| **s > tol).count();
+    let rank = if nx + ny == 0 {
+        0 // (nalgebra's SVD refuses an empty matrix)
+    } else {
+        let sv = pbh.singular_values();
+        let tol = DETECTABILITY_RANK_TOLERANCE * sv.max().max(1.0);
+        sv.iter().filter(|s| **s > tol).count()
+    };
     if rank < nx + nd {
         return Err(KalmanError::DisturbanceNotDetectable {
             rank,

@@ -420,3 +420,49 @@ fn bad_input_is_an_error_not_a_panic() {
         Err(KalmanError::InvalidArgument { name: "nd", .. })
     ));
 }
+
+#[test]
+fn empty_plants_are_errors_or_designs_not_panics() {
+    // No states and no outputs: two disturbances nobody sees.
+    let none = SsModel::new(
+        0.1,
+        DMatrix::zeros(0, 0),
+        DMatrix::zeros(0, 1),
+        DMatrix::zeros(0, 0),
+        DMatrix::zeros(0, 1),
+    )
+    .unwrap();
+    let custom = Disturbance::Custom {
+        bd: DMatrix::zeros(0, 2),
+        cd: DMatrix::zeros(0, 2),
+    };
+    assert_eq!(
+        AugmentedModel::new(&none, &custom).unwrap_err(),
+        KalmanError::DisturbanceNotDetectable {
+            rank: 0,
+            required: 2
+        }
+    );
+    // No states, two outputs: output offsets are measured directly, a
+    // state increment has no state to enter.
+    let outputs = SsModel::new(
+        0.1,
+        DMatrix::zeros(0, 0),
+        DMatrix::zeros(0, 1),
+        DMatrix::zeros(2, 0),
+        DMatrix::zeros(2, 1),
+    )
+    .unwrap();
+    let aug = AugmentedModel::new(&outputs, &Disturbance::Output).unwrap();
+    assert_eq!(
+        (aug.nx, aug.nd, aug.model.c.clone()),
+        (0, 2, DMatrix::identity(2, 2))
+    );
+    assert!(matches!(
+        AugmentedModel::new(&outputs, &Disturbance::OutputIncrement),
+        Err(KalmanError::DisturbanceNotDetectable {
+            rank: 0,
+            required: 2
+        })
+    ));
+}
