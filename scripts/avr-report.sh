@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The AVR cycle report: flies the example firmware hardware-in-the-loop in
-# simavr (crates/tricopter/tests/hil.rs) for every configuration, prints the
+# simavr (crates/tricopter/tests/hil/) for every configuration, prints the
 # per-stage cycles and sizes, and ends with one JSON line:
 #   {"hil_passed": true, "configs": [{"scalar": ..., "solver": ..., "kalman_cycles": {...}, ...}, ...]}
 # Usage: bash scripts/avr-report.sh   (from any directory)
