@@ -187,3 +187,40 @@ fn linear_plant_and_bad_models_through_the_run_helpers() {
     let e = fly_mpc(&two, &problem, &mut law, &kalman, &s).unwrap_err();
     assert!(e.to_string().contains("3 rate outputs"), "{e}");
 }
+
+#[test]
+fn the_thesis_filter_is_for_the_three_gyro_outputs() {
+    let model = identified_model().unwrap();
+    // The measurement noise is the thesis's gyro (7.5)-(7.6), the process
+    // noise enters through [B, C'] with the thesis's levels.
+    let noise = thesis_noise(&model, 0).unwrap();
+    for i in 0..3 {
+        for j in 0..3 {
+            assert_eq!(noise.r[(i, j)], crate::constants::GYRO_COVARIANCE[i][j]);
+        }
+    }
+    let bias = noise.bias.as_ref().unwrap();
+    assert_eq!(bias.as_slice(), &crate::constants::GYRO_BIAS);
+    assert_eq!(noise.q[(0, 0)], crate::constants::INPUT_NOISE_US.powi(2));
+    assert_eq!(noise.q[(4, 4)], crate::constants::GUST_NOISE.powi(2));
+    // A model without the gyro's three outputs has no thesis filter.
+    let mut two = model.clone();
+    two.c = two.c.rows(0, 2).into_owned();
+    two.d = two.d.rows(0, 2).into_owned();
+    two.y0 = None;
+    two.outputs = None;
+    let e = kalman_design(&two).unwrap_err();
+    assert!(e.to_string().contains("3 outputs"), "{e}");
+}
+
+#[test]
+fn the_loop_refuses_a_filter_of_another_model() {
+    let model = identified_model().unwrap();
+    let (q1, q2) = default_weights();
+    let problem = tricopter_problem(&model, ProblemSize::Thesis, q1, q2).unwrap();
+    let mut law = MpcLaw::clarabel(&problem, qp_settings()).unwrap();
+    // The physical model's filter has 8 states, the identified model 5.
+    let other = kalman_design(&crate::design_model().unwrap()).unwrap();
+    let e = fly_mpc(&model, &problem, &mut law, &other, &RunSettings::default()).unwrap_err();
+    assert!(e.to_string().contains("closed-loop Kalman filter"), "{e}");
+}

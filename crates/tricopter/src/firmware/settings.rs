@@ -10,7 +10,7 @@ pub const NY: usize = 3;
 /// Law parameters beyond the states: three rate references and the throttle.
 pub const NR: usize = 4;
 /// Servo centre pulse (us) the mixer adds to the servo trim.
-pub const SERVO_CENTER: f64 = 1500.0;
+pub const SERVO_CENTER: f64 = crate::constants::pwm::SERVO_CENTER;
 
 /// How many fast-gradient iterations the firmware runs each period.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
