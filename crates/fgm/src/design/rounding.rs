@@ -4,8 +4,8 @@
 //! gradient bound of Schmidt, Le Roux and Bach, 2011).
 
 use super::{Certificate, FgmDesign, MomentumScheme, RoundingBound};
-use kestrel_core::Scalar;
 use crate::precond::Spectrum;
+use kestrel_core::Scalar;
 use nalgebra::{DMatrix, DVector};
 
 impl FgmDesign {
