@@ -24,7 +24,6 @@ use kestrel_core::formats::SsModel;
 use kestrel_empc::tree::TreeMethod;
 use kestrel_tricopter::firmware::{DesignSettings, FirmwareDesign};
 use std::collections::BTreeMap;
-use std::path::Path;
 
 /// Counts over all periods.
 #[derive(Default, Debug)]
@@ -41,8 +40,7 @@ struct Counts {
 }
 
 fn main() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let model = SsModel::read(&root.join("models/tricopter-blackbox-5.json")).expect("model");
+    let model = SsModel::from_json_str(kestrel_tricopter::IDENTIFIED_MODEL_JSON).expect("model");
     let d = FirmwareDesign::from_model(&model, &DesignSettings::default()).expect("design");
     let solution = kestrel_empc::solve(&d.problem, &kestrel_empc::Settings::default()).unwrap();
     let variant = std::env::var("TREE").unwrap_or_default();
