@@ -328,3 +328,47 @@ fn malformed_flight_log_stops_with_file_line_and_column() {
     );
     std::fs::remove_dir_all(&base).unwrap();
 }
+
+/// The estimator the report tunes (stage 4) is the one the closed loop
+/// flies (stage 9) and the one the firmware tables carry (stage 10): the
+/// same measurement-update gain, bit for bit, on the `--quick`
+/// configuration; the firmware's `kestrel.kalman.v1` text reads back to
+/// the same gain exactly.
+#[test]
+fn report_filter_is_flown_and_flashed() {
+    let cfg: kestrel_tricopter::pipeline::Config = toml::from_str(DEFAULT).unwrap();
+    let res = kestrel_tricopter::pipeline::run(&cfg.quick(), None).unwrap();
+    let tuned = res.kalman.gain();
+    // The filter is the MPC's estimator: its state is the problem's x (and d).
+    let layout = &res.problems.thesis.problem.layout;
+    assert_eq!(tuned.shape(), (layout.nx, 3));
+    assert_eq!(
+        res.kalman.design.kalman.nx(),
+        res.problems.estimator_model.nx()
+    );
+    // Tuned on the measured gyro statistics, not the thesis's constants.
+    let r = &res.kalman.design.kalman.r;
+    assert_eq!(r, &res.sensor.covariance);
+    assert_eq!(res.kalman.design.kalman.bias.as_slice(), &res.sensor.bias);
+    // Flown: every MPC run of the closed loop.
+    let mut mpc_runs = 0;
+    for run in &res.closed_loop.runs {
+        match &run.estimator_gain {
+            Some(g) => {
+                assert_eq!(g, tuned, "{:?} {:?}", run.kind, run.controller);
+                mpc_runs += 1;
+            }
+            None => assert_eq!(
+                run.controller,
+                kestrel_tricopter::pipeline::closed_loop::Controller::Pi
+            ),
+        }
+    }
+    assert!(mpc_runs >= 6, "{mpc_runs} MPC runs");
+    // Flashed: the firmware's filter and its file.
+    assert_eq!(&res.firmware.kalman.filter.m, tuned);
+    let back = kestrel_kalman::KalmanDesign::from_json_str(&res.firmware.kalman_json).unwrap();
+    assert_eq!(&back.filter.m, tuned);
+    assert_eq!(back.filter.l, res.kalman.design.kalman.filter.l);
+    assert_eq!((&back.r, &back.bias), (r, &res.kalman.design.kalman.bias));
+}

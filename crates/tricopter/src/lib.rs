@@ -6,6 +6,7 @@ pub mod constants;
 mod error;
 pub mod firmware;
 pub mod ident;
+pub mod pipeline;
 pub mod problems;
 
 pub use error::TricopterError;

@@ -1,6 +1,6 @@
 //! `kestrel pipeline`: the main job, the thesis workflow end to end.
 
-use crate::pipeline::{Options, config::Config, run as run_pipeline};
+use crate::pipeline::{Options, config, run as run_pipeline};
 use std::path::PathBuf;
 
 /// Runs the whole workflow of the thesis's chapter 7 on the built-in
@@ -42,9 +42,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         return Ok(());
     }
     let (config, config_source) = match &args.config {
-        Some(p) => (Config::read(p)?, p.display().to_string()),
+        Some(p) => (config::read(p)?, p.display().to_string()),
         None => (
-            Config::builtin()?,
+            config::builtin()?,
             "the built-in default (`crates/cli/kestrel.toml`)".to_string(),
         ),
     };

@@ -1,16 +1,17 @@
 //! `kestrel pipeline`: the thesis workflow of chapter 7 end to end on the
-//! built-in tricopter (or on given flight logs), composed from the crates'
-//! library APIs, written as a report directory that appears only when
-//! every step has succeeded.
+//! built-in tricopter (or on given flight logs), run by kestrel-tricopter's
+//! typed pipeline and rendered here as a report directory that appears
+//! only when every stage has succeeded.
 
 pub mod config;
 pub mod flights;
-mod steps;
+mod render;
 
 use crate::report::ReportDir;
 use crate::report::table::Table;
 use anyhow::Context;
 use config::Config;
+use kestrel_tricopter::pipeline::{self, PipelineResult, Progress, Stage};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -31,14 +32,10 @@ pub struct Options {
     pub quick: bool,
 }
 
-/// The report being written: the directory, the markdown text and the
-/// machine-readable summary.
+/// The report being written: the directory and the markdown text.
 pub struct Report {
     dir: ReportDir,
     md: String,
-    summary: serde_json::Map<String, serde_json::Value>,
-    progress: indicatif::ProgressBar,
-    timings: Vec<(String, f64)>,
 }
 
 impl Report {
@@ -80,28 +77,26 @@ impl Report {
             "\n![{caption}]({rel})\n\n*{caption}* (`{rel}`)\n\n"
         ));
     }
+}
 
-    /// Records a value in `summary.json`.
-    pub fn summary(&mut self, key: &str, v: serde_json::Value) {
-        self.summary.insert(key.to_string(), v);
+/// The progress bar on a terminal.
+struct Bar(indicatif::ProgressBar);
+
+impl Progress for Bar {
+    fn stage(&mut self, stage: Stage) {
+        if self.0.position() < Stage::ALL.len() as u64 && stage != Stage::Experiments {
+            self.0.inc(1);
+        }
+        self.0.set_message(stage.title());
     }
-
-    /// Shows the step on the progress bar.
-    pub fn step(&self, msg: &str) {
-        self.progress.set_message(msg.to_string());
+    fn step(&mut self, message: &str) {
+        self.0.set_message(message.to_string());
     }
 }
 
-/// Runs the pipeline.
-pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
-    let cfg = if opts.quick {
-        opts.config.clone().quick()
-    } else {
-        opts.config.clone()
-    };
-    let dir = ReportDir::create(&opts.out)?;
-    let progress = if std::io::stderr().is_terminal() {
-        let pb = indicatif::ProgressBar::new(11);
+fn progress_bar() -> Bar {
+    Bar(if std::io::stderr().is_terminal() {
+        let pb = indicatif::ProgressBar::new(Stage::ALL.len() as u64);
         pb.set_style(
             indicatif::ProgressStyle::with_template(
                 "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} {msg}",
@@ -112,13 +107,26 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
         pb
     } else {
         indicatif::ProgressBar::hidden()
+    })
+}
+
+/// Runs the pipeline and writes its report.
+pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
+    let cfg = if opts.quick {
+        opts.config.clone().quick()
+    } else {
+        opts.config.clone()
     };
+    let dir = ReportDir::create(&opts.out)?;
+    let t_all = Instant::now();
+    let flights = opts.flights.as_deref().map(flights::read_dir).transpose()?;
+    let mut bar = progress_bar();
+    let result = pipeline::run_with(&cfg, flights, &mut bar)?;
+    let total = t_all.elapsed().as_secs_f64();
+    bar.0.finish_and_clear();
     let mut r = Report {
         dir,
         md: String::new(),
-        summary: serde_json::Map::new(),
-        progress,
-        timings: Vec::new(),
     };
     r.text(format!(
         "# kestrel pipeline report\n\nThe workflow of chapter 7 of *Model Predictive Control of a Tricopter* \
@@ -134,57 +142,28 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
         opts.config_source
     ));
     r.write("config.toml", toml_text(opts)?)?;
-    let t_all = Instant::now();
+    render::all(&mut r, &result, opts.flights.as_deref())?;
+    timings(&mut r, &result, total)?;
+    let md = std::mem::take(&mut r.md);
+    r.write("report.md", md)?;
+    r.write("summary.json", summary_json(&result, total, opts.quick)?)?;
+    r.dir.finish()
+}
 
-    macro_rules! timed {
-        ($name:expr, $e:expr) => {{
-            r.step($name);
-            let t0 = Instant::now();
-            let v = $e;
-            r.timings
-                .push(($name.to_string(), t0.elapsed().as_secs_f64()));
-            r.progress.inc(1);
-            v
-        }};
+/// `summary.json`: the result's key figures, the run time and `quick`.
+fn summary_json(result: &PipelineResult, seconds: f64, quick: bool) -> anyhow::Result<String> {
+    let mut v = serde_json::to_value(result.summary())?;
+    if let Some(m) = v.as_object_mut() {
+        m.insert("seconds".into(), serde_json::json!(seconds));
+        m.insert("quick".into(), serde_json::json!(quick));
     }
+    Ok(serde_json::to_string_pretty(&v)? + "\n")
+}
 
-    let flights = timed!(
-        "1. experiments",
-        steps::experiments(&mut r, &cfg, opts.flights.as_deref())?
-    );
-    let sensor = timed!("2. sensor", steps::sensor(&mut r, &cfg, &flights)?);
-    let ident = timed!(
-        "3. identification",
-        steps::identification(&mut r, &cfg, &flights)?
-    );
-    timed!(
-        "4. Kalman filter",
-        steps::kalman(&mut r, &cfg, &flights, &ident, &sensor)?
-    );
-    let problems = timed!("5. MPC problems", steps::mpc(&mut r, &cfg, &ident)?);
-    let explicit = timed!("6. explicit MPC", steps::explicit(&mut r, &cfg, &problems)?);
-    let fgm = timed!(
-        "7. fast gradient",
-        steps::fast_gradient(&mut r, &cfg, &problems)?
-    );
-    timed!(
-        "8. Table 7.2",
-        steps::table_7_2(&mut r, &cfg, &ident, &problems, &explicit, &fgm)?
-    );
-    timed!(
-        "9. closed loop",
-        steps::closed_loop(&mut r, &cfg, &ident, &problems, &explicit, &fgm)?
-    );
-    timed!(
-        "10. firmware tables",
-        steps::firmware(&mut r, &cfg, &problems, &explicit, &fgm)?
-    );
-    timed!("11. differences", steps::differences(&mut r, &cfg)?);
-
-    let total = t_all.elapsed().as_secs_f64();
+fn timings(r: &mut Report, result: &PipelineResult, total: f64) -> anyhow::Result<()> {
     let mut t = Table::new(["step", "seconds"]);
-    for (name, s) in &r.timings {
-        t.row([name.clone(), format!("{s:.2}")]);
+    for (stage, s) in &result.seconds {
+        t.row([stage.title().to_string(), format!("{s:.2}")]);
     }
     t.row(["total".to_string(), format!("{total:.2}")]);
     r.text("\n## Run time\n");
@@ -192,17 +171,7 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
         "timings",
         "Wall-clock time of each step on this machine",
         &t,
-    )?;
-    r.summary("seconds", serde_json::json!(total));
-    r.summary("quick", serde_json::json!(opts.quick));
-    let md = std::mem::take(&mut r.md);
-    r.write("report.md", md)?;
-    let summary =
-        serde_json::to_string_pretty(&serde_json::Value::Object(std::mem::take(&mut r.summary)))?
-            + "\n";
-    r.write("summary.json", summary)?;
-    r.progress.finish_and_clear();
-    r.dir.finish()
+    )
 }
 
 fn toml_text(opts: &Options) -> anyhow::Result<String> {
