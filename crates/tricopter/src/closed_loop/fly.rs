@@ -154,7 +154,7 @@ fn fly_with<S: ParametricQpSolver>(
 
 /// Flies an MPC law in the closed loop of section 7.7: the plant of
 /// `settings`, the stationary Kalman filter of `kalman` (designed for
-/// `model`, e.g. the thesis's [`kalman_design`]), the law (any [`ParametricQpSolver`]: clarabel,
+/// `model`, e.g. the thesis's [`kalman_design`](crate::closed_loop::kalman_design)), the law (any [`ParametricQpSolver`]: clarabel,
 /// explicit, fast gradient) on `theta = [x_hat; r - y0; throttle]`, the
 /// actuation with clipping; the trace holds the cost `J` of the law's
 /// whole move sequence at every step.
@@ -184,7 +184,7 @@ pub fn fly_mpc<S: ParametricQpSolver>(
 }
 
 /// [`fly_mpc`] for an offset-free design: `kalman` is a filter of the
-/// augmented model (e.g. [`kalman_design_with_disturbance`] with
+/// augmented model (e.g. [`kalman_design_with_disturbance`](crate::closed_loop::kalman_design_with_disturbance) with
 /// `design.nd`).
 pub fn fly_offset_free<S: ParametricQpSolver>(
     design: &OffsetFreeDesign,

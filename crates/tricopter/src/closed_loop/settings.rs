@@ -7,7 +7,7 @@ use crate::error::TricopterError;
 use kestrel_core::formats::SsModel;
 use kestrel_tricopter_model::{GyroConfig, PlantConfig};
 
-/// Settings of a closed-loop run ([`fly_mpc`], [`fly_offset_free`], [`fly_pi`]).
+/// Settings of a closed-loop run ([`fly_mpc`](crate::closed_loop::fly_mpc), [`fly_offset_free`](crate::closed_loop::fly_offset_free), [`fly_pi`](crate::closed_loop::fly_pi)).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunSettings {
     /// Initial rates, references and their steps, throttle, duration.

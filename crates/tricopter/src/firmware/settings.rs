@@ -41,12 +41,12 @@ pub struct DesignSettings {
     pub max_input_error_us: f64,
     /// Preconditioner of the fast gradient method.
     pub preconditioner: Preconditioner,
-    /// The MPC problem built when none is given ([`FirmwareDesign::from_model`]).
+    /// The MPC problem built when none is given ([`FirmwareDesign::from_model`](crate::firmware::FirmwareDesign::from_model)).
     pub size: ProblemSize,
     /// Iterations per period.
     pub budget: IterationBudget,
-    /// Coordinates of the design model ([`FirmwareDesign::from_model`] only;
-    /// [`FirmwareDesign::new`] keeps the given files' coordinates).
+    /// Coordinates of the design model ([`FirmwareDesign::from_model`](crate::firmware::FirmwareDesign::from_model) only;
+    /// [`FirmwareDesign::new`](crate::firmware::FirmwareDesign::new) keeps the given files' coordinates).
     pub realization: Realization,
 }
 

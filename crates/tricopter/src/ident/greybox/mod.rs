@@ -6,11 +6,11 @@
 //!
 //! # Model
 //!
-//! For a parameter vector `g` ([`GreyBoxParams`]) the map
+//! For a parameter vector `g` ([`GreyBoxParams`](kestrel_tricopter_model::GreyBoxParams)) the map
 //! [`grey_box_model`] re-trims the aircraft at hover, linearises it
 //! ([`kestrel_tricopter_model::grey_box_rate_model`], kind
-//! [`RateModelKind::Rates`] or [`RateModelKind::WithActuators`], inputs
-//! [`RateInputs::Pwm`] or [`RateInputs::Virtual`]) and discretises it with
+//! [`RateModelKind::Rates`](kestrel_tricopter_model::RateModelKind::Rates) or [`RateModelKind::WithActuators`](kestrel_tricopter_model::RateModelKind::WithActuators), inputs
+//! [`RateInputs::Pwm`](kestrel_tricopter_model::RateInputs::Pwm) or [`RateInputs::Virtual`](kestrel_tricopter_model::RateInputs::Virtual)) and discretises it with
 //! zero-order hold at the data's sample time. The known parameters (mass,
 //! arm length, ESC map, servo gain, spins) come from
 //! [`GreyBoxSpec::base`]. The data are deviations from the operating point
@@ -79,7 +79,7 @@
 //!
 //! # The thesis's initial guess
 //!
-//! [`GreyBoxParams::thesis_initial_guess`] (Table 7.1) cannot hover with
+//! [`GreyBoxParams::thesis_initial_guess`](kestrel_tricopter_model::GreyBoxParams::thesis_initial_guess) (Table 7.1) cannot hover with
 //! the known aircraft: `k_tau / k_t = 0.5 m`, and no tilt of the rear rotor
 //! cancels that reaction torque. When the initial guess has no trim and
 //! `k_tau` is free, the search starts from it with `k_tau` halved until
@@ -104,7 +104,7 @@
 //! [`thrust_and_drag_from_trim`] inverts; with
 //! [`GreyBoxSpec::operating_point`] set (the means removed from the data)
 //! they are held at those values and the search estimates the other six.
-//! The kind [`RateModelKind::Rates`] has no actuator dynamics, so
+//! The kind [`RateModelKind::Rates`](kestrel_tricopter_model::RateModelKind::Rates) has no actuator dynamics, so
 //! `motor_tau`, `servo_wn`, `servo_zeta` do not enter it: leave them fixed
 //! there (a free parameter the model does not depend on is an error).
 //!

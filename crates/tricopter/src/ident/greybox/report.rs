@@ -53,7 +53,7 @@ pub struct StageSummary {
     pub stop: StopReason,
 }
 
-/// Result of [`estimate_grey_box`].
+/// Result of [`estimate_grey_box`](crate::ident::greybox::estimate_grey_box).
 #[derive(Clone, Debug)]
 pub struct GreyBoxReport {
     /// The estimated parameters.
@@ -64,7 +64,7 @@ pub struct GreyBoxReport {
     pub start: GreyBoxParams,
     /// Whether the start differs from the initial guess (no hover trim).
     pub start_adjusted: bool,
-    /// Whether `k_t` and `k_tau` come from [`GreyBoxSpec::operating_point`].
+    /// Whether `k_t` and `k_tau` come from [`GreyBoxSpec::operating_point`](crate::ident::greybox::GreyBoxSpec::operating_point).
     pub from_operating_point: bool,
     /// The parameter table, in [`GreyBoxParams::NAMES`] order.
     pub parameters: Vec<ParameterEstimate>,

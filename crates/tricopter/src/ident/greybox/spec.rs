@@ -17,7 +17,7 @@ pub enum GreyBoxFocus {
     SimulationThenNoise,
 }
 
-/// Settings of the Levenberg-Marquardt search of [`estimate_grey_box`].
+/// Settings of the Levenberg-Marquardt search of [`estimate_grey_box`](crate::ident::greybox::estimate_grey_box).
 #[derive(Clone, Debug, PartialEq)]
 pub struct GreyBoxSettings {
     /// Largest number of iterations (per stage).
@@ -30,7 +30,7 @@ pub struct GreyBoxSettings {
     pub step_tolerance: f64,
     /// Central-difference step of the parametrisation derivative, in log scale.
     pub derivative_step: f64,
-    /// Run the equation-error stage first (see [`Stage::EquationError`]):
+    /// Run the equation-error stage first (see [`Stage::EquationError`](crate::ident::greybox::Stage::EquationError)):
     /// robust against starts far from the truth, such as Table 7.1.
     pub equation_error_start: bool,
     /// Horizons of the k-step rows of the fit table.
@@ -76,7 +76,7 @@ pub struct GreyBoxSpec {
     pub upper: GreyBoxParams,
     /// The measured operating point `[pwm1, pwm2, pwm3, servo]` (us, e.g.
     /// the means removed from the data): when given, `k_t` and `k_tau` are
-    /// computed from it by [`thrust_and_drag_from_trim`] and held fixed
+    /// computed from it by [`thrust_and_drag_from_trim`](crate::ident::greybox::thrust_and_drag_from_trim) and held fixed
     /// (the rate data alone determine them poorly, see the module docs).
     pub operating_point: Option<[f64; 4]>,
     /// Search settings.
