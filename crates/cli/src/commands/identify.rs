@@ -2,9 +2,7 @@
 
 use crate::io;
 use anyhow::{Context, bail};
-use kestrel_sysid::workflow::{
-    self, AfterReduction, IdentifySpec, InputMap, Lowpass, PemFocus, Segment,
-};
+use kestrel_sysid::workflow::{self, AfterReduction, IdentifySpec, Lowpass, PemFocus, Segment};
 use kestrel_sysid::{Criterion, CsvColumns, IoData, MatrixEstimate, Weighting};
 use std::path::PathBuf;
 
@@ -254,7 +252,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         feedthrough: args.feedthrough,
         max_iterations: args.max_iterations,
-        input_map: args.virtual_inputs.then(InputMap::tricopter_virtual),
+        input_map: args
+            .virtual_inputs
+            .then(kestrel_tricopter::ident::virtual_input_map),
         u0: args.u0.clone(),
         y0: args.y0.clone(),
         lowpass: args.lowpass.map(|cutoff| Lowpass {

@@ -82,34 +82,13 @@ pub enum AfterReduction {
 }
 
 /// A linear map of the inputs before identification, `u_new = M u`
-/// (e.g. the tricopter mixer's virtual inputs).
+/// (e.g. a mixer's virtual inputs from the actuator commands).
 #[derive(Clone, Debug, PartialEq)]
 pub struct InputMap {
     /// `nu_new x nu` matrix.
     pub matrix: DMatrix<f64>,
     /// Names of the new inputs (`nu_new`).
     pub names: Vec<String>,
-}
-
-impl InputMap {
-    /// The black-box virtual model's map of the thesis: motor 1, 2, 3 and
-    /// servo pulses to `(U_r, U_p, U_y)` through the inverse of the mixer
-    /// (3.28) with `C_r = 1/sqrt(3)`, `C_p = 2/3`, `C_y = 1`; the new inputs
-    /// are named `u_roll, u_pitch, u_yaw`.
-    pub fn tricopter_virtual() -> Self {
-        let cr = 1.0 / 3f64.sqrt();
-        let cp = 2.0 / 3.0;
-        #[rustfmt::skip]
-        let matrix = DMatrix::from_row_slice(3, 4, &[
-            0.0, cr, -cr, 0.0,
-            -cp, cp / 2.0, cp / 2.0, 0.0,
-            0.0, 0.0, 0.0, 1.0,
-        ]);
-        InputMap {
-            matrix,
-            names: vec!["u_roll".into(), "u_pitch".into(), "u_yaw".into()],
-        }
-    }
 }
 
 /// Zero-phase Butterworth low-pass applied to inputs and outputs.

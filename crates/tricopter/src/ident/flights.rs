@@ -7,7 +7,9 @@ use kestrel_sysid::workflow::{
     IdentifyReport, IdentifySpec, InputMap, PemFocus, Segment, identify,
 };
 use kestrel_sysid::{Experiment, IoData, Result};
-use kestrel_tricopter_model::{Experiment as Flight, SimSettings, simulate};
+use kestrel_tricopter_model::{
+    C_PITCH, C_ROLL, C_YAW, Experiment as Flight, SimSettings, simulate,
+};
 use nalgebra::DMatrix;
 
 /// Estimation set of the black-box models (section 7.2.2): flight no. 2
@@ -34,6 +36,33 @@ pub enum ModelKind {
     BlackBox,
     /// Inputs through the mixer: `u_roll, u_pitch, u_yaw` (us).
     Virtual,
+}
+
+/// The black-box virtual model's input map of the thesis: motor 1, 2, 3
+/// and servo pulses to `(U_r, U_p, U_y)` through the inverse of the mixer
+/// (3.28) with `C_r = 1/sqrt(3)`, `C_p = 2/3`, `C_y = 1`; the new inputs
+/// are named `u_roll, u_pitch, u_yaw`.
+///
+/// ```
+/// use nalgebra::DVector;
+/// // Roll moves motors 2 and 3 in opposite directions, pitch the rear
+/// // against the front, yaw is the servo.
+/// let m = kestrel_tricopter::ident::virtual_input_map().matrix;
+/// let v = &m * DVector::from_vec(vec![0.0, 1.0, -1.0, 0.0]);
+/// assert!(v[0] > 0.0 && v[1].abs() < 1e-15 && v[2] == 0.0);
+/// ```
+pub fn virtual_input_map() -> InputMap {
+    let (cr, cp) = (C_ROLL, C_PITCH);
+    #[rustfmt::skip]
+    let matrix = DMatrix::from_row_slice(3, 4, &[
+        0.0, cr, -cr, 0.0,
+        -cp, cp / 2.0, cp / 2.0, 0.0,
+        0.0, 0.0, 0.0, C_YAW,
+    ]);
+    InputMap {
+        matrix,
+        names: vec!["u_roll".into(), "u_pitch".into(), "u_yaw".into()],
+    }
 }
 
 /// Flights no. 2 (`decoupled`) and no. 3 (`coupled`) of the simulator, as
@@ -88,7 +117,7 @@ pub fn thesis_spec(kind: ModelKind) -> IdentifySpec {
         focus: PemFocus::SimulationThenNoise,
         input_map: match kind {
             ModelKind::BlackBox => None,
-            ModelKind::Virtual => Some(InputMap::tricopter_virtual()),
+            ModelKind::Virtual => Some(virtual_input_map()),
         },
         ..Default::default()
     }

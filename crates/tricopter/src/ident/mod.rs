@@ -8,5 +8,5 @@ pub mod greybox;
 
 pub use flights::{
     ESTIMATE, ModelKind, VALIDATE, VIRTUAL_ESTIMATE_THESIS, VIRTUAL_VALIDATE_THESIS,
-    identify_thesis_model, prediction_spec, simulated_flights, thesis_spec,
+    identify_thesis_model, prediction_spec, simulated_flights, thesis_spec, virtual_input_map,
 };
