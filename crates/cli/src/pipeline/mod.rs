@@ -8,6 +8,7 @@ pub mod flights;
 mod render;
 
 use crate::report::ReportDir;
+use crate::report::document::Report;
 use crate::report::table::Table;
 use anyhow::Context;
 use config::Config;
@@ -30,53 +31,6 @@ pub struct Options {
     pub flights: Option<PathBuf>,
     /// The shortened pipeline.
     pub quick: bool,
-}
-
-/// The report being written: the directory and the markdown text.
-pub struct Report {
-    dir: ReportDir,
-    md: String,
-}
-
-impl Report {
-    /// Appends markdown text.
-    pub fn text(&mut self, s: impl AsRef<str>) {
-        self.md.push_str(s.as_ref());
-        if !self.md.ends_with('\n') {
-            self.md.push('\n');
-        }
-    }
-
-    /// Appends a table (markdown) and writes it as `tables/<name>.csv`.
-    pub fn table(&mut self, name: &str, caption: &str, t: &Table) -> anyhow::Result<()> {
-        self.md
-            .push_str(&format!("\n**{caption}** (`tables/{name}.csv`)\n\n"));
-        self.md.push_str(&t.to_markdown());
-        self.md.push('\n');
-        self.dir.write(&format!("tables/{name}.csv"), t.to_csv())?;
-        Ok(())
-    }
-
-    /// Writes a file of the report.
-    pub fn write(&self, rel: &str, bytes: impl AsRef<[u8]>) -> anyhow::Result<PathBuf> {
-        self.dir.write(rel, bytes)
-    }
-
-    /// The path of a report file (in the staging directory), its folder created.
-    pub fn path(&self, rel: &str) -> PathBuf {
-        let p = self.dir.path(rel);
-        if let Some(d) = p.parent() {
-            let _ = std::fs::create_dir_all(d);
-        }
-        p
-    }
-
-    /// Links a figure into the markdown.
-    pub fn figure(&mut self, rel: &str, caption: &str) {
-        self.md.push_str(&format!(
-            "\n![{caption}]({rel})\n\n*{caption}* (`{rel}`)\n\n"
-        ));
-    }
 }
 
 /// The progress bar on a terminal.
@@ -124,10 +78,7 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
     let result = pipeline::run_with(&cfg, flights, &mut bar)?;
     let total = t_all.elapsed().as_secs_f64();
     bar.0.finish_and_clear();
-    let mut r = Report {
-        dir,
-        md: String::new(),
-    };
+    let mut r = Report::new(dir);
     r.text(format!(
         "# kestrel pipeline report\n\nThe workflow of chapter 7 of *Model Predictive Control of a Tricopter* \
          on {}, produced by `kestrel pipeline` (kestrel-tools {}){}. Configuration: {}.\n\
@@ -144,10 +95,8 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
     r.write("config.toml", toml_text(opts)?)?;
     render::all(&mut r, &result, opts.flights.as_deref())?;
     timings(&mut r, &result, total)?;
-    let md = std::mem::take(&mut r.md);
-    r.write("report.md", md)?;
     r.write("summary.json", summary_json(&result, total, opts.quick)?)?;
-    r.dir.finish()
+    r.finish("report.md")
 }
 
 /// `summary.json`: the result's key figures, the run time and `quick`.

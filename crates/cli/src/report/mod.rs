@@ -1,6 +1,7 @@
 //! The report layer of `kestrel pipeline`: a report directory that appears
 //! only when complete, markdown tables and SVG plots.
 
+pub mod document;
 pub mod plot;
 pub mod table;
 

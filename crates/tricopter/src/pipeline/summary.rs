@@ -1,11 +1,11 @@
 //! The key figures of a [`PipelineResult`] as one serialisable struct:
 //! `kestrel pipeline` writes it as `summary.json` (with the run time).
 
-use super::PipelineResult;
 use super::closed_loop::{Controller, RunKind};
 use super::explicit::ExplicitSolution;
 use super::fast_gradient::FgmProblem;
 use super::identification::IdentifiedModel;
+use super::result::PipelineResult;
 use serde::Serialize;
 
 /// Stage 2's figures.

@@ -1,7 +1,7 @@
 //! Sections 9 (closed loop) and 10 (firmware tables).
 
-use super::super::Report;
-use super::{f3, j3};
+use super::fmt::{f3, j3};
+use crate::report::document::Report;
 use crate::report::plot::{Panel, Series, panels_svg};
 use crate::report::table::Table;
 use kestrel_tricopter::pipeline::PipelineResult;

@@ -1,7 +1,7 @@
 //! Sections 1 (flight experiments) and 2 (gyro statistics and trim).
 
-use super::super::Report;
-use super::{f3, f4, series_t};
+use super::fmt::{f3, f4, series_t};
+use crate::report::document::Report;
 use crate::report::plot::{Panel, Series, panels_svg};
 use crate::report::table::{Table, fmt_sig};
 use kestrel_tricopter::pipeline::PipelineResult;

@@ -1,6 +1,6 @@
 //! Section 11: where the numbers differ from the thesis's, and why.
 
-use super::super::Report;
+use crate::report::document::Report;
 use crate::report::table::{Table, fmt_sig};
 use kestrel_tricopter::pipeline::PipelineResult;
 use kestrel_tricopter::pipeline::differences::{Here, Quantity};

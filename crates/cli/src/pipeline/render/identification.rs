@@ -1,8 +1,8 @@
 //! Section 3: the identified models, their fits, residual tests and
 //! figures 7.8-7.13.
 
-use super::super::Report;
-use super::{f3, f4, series_t};
+use super::fmt::{f3, f4, series_t};
+use crate::report::document::Report;
 use crate::report::plot::{Panel, Series, panels_svg};
 use crate::report::table::Table;
 use kestrel_sysid::ValidationReport;

@@ -6,11 +6,11 @@ mod closed_loop;
 mod data;
 mod differences;
 mod estimation;
+mod fmt;
 mod identification;
 mod solvers;
 
-use super::Report;
-use crate::report::table::fmt_sig;
+use crate::report::document::Report;
 use kestrel_tricopter::pipeline::PipelineResult;
 use std::path::Path;
 
@@ -27,21 +27,4 @@ pub fn all(r: &mut Report, res: &PipelineResult, flights: Option<&Path>) -> anyh
     closed_loop::section(r, res)?;
     closed_loop::firmware(r, res)?;
     differences::section(r, res)
-}
-
-fn f3(v: f64) -> String {
-    fmt_sig(v, 3)
-}
-
-fn f4(v: f64) -> String {
-    fmt_sig(v, 4)
-}
-
-/// `a / b / c` with 3 significant digits.
-fn j3(v: &[f64]) -> String {
-    v.iter().map(|x| f3(*x)).collect::<Vec<_>>().join(" / ")
-}
-
-fn series_t(t: &[f64], v: impl Iterator<Item = f64>) -> Vec<(f64, f64)> {
-    t.iter().copied().zip(v).collect()
 }

@@ -1,8 +1,8 @@
 //! Sections 6 (explicit MPC), 7 (fast-gradient certificates) and 8
 //! (Table 7.2).
 
-use super::super::Report;
-use super::f4;
+use super::fmt::f4;
+use crate::report::document::Report;
 use crate::report::plot::{Polygon, partition_svg};
 use crate::report::table::{Table, fmt_sig};
 use kestrel_tricopter::pipeline::PipelineResult;
