@@ -67,6 +67,8 @@ fn quick_pipeline_report_is_complete_and_consistent() {
         "kalman.json",
         "firmware/empc_tables.rs",
         "firmware/fgm_tables.rs",
+        "firmware/generated.rs",
+        "firmware/kalman.json",
         "figures/partition.svg",
         "figures/kalman.svg",
         "figures/blackbox-simulation.svg",
@@ -371,4 +373,37 @@ fn report_filter_is_flown_and_flashed() {
     assert_eq!(&back.filter.m, tuned);
     assert_eq!(back.filter.l, res.kalman.design.kalman.filter.l);
     assert_eq!((&back.r, &back.bias), (r, &res.kalman.design.kalman.bias));
+    // ... and the firmware's table file: its design's f64 gains are the
+    // tuned gain bit for bit, its 16-bit rows are that gain quantised row by
+    // row (`quantize_row`: c = round(m 2^shift)), within half a step.
+    let fw = &res.firmware.design;
+    assert_eq!(&fw.kalman.filter.m, tuned);
+    assert_eq!(
+        fw.nx(),
+        8,
+        "the quick configuration is offset-free: 5 + 3 states"
+    );
+    let g = fw.gains::<8>().unwrap();
+    for i in 0..8 {
+        for j in 0..3 {
+            assert_eq!(g.m.data[i][j].to_bits(), tuned[(i, j)].to_bits());
+        }
+    }
+    let q = &res.firmware.kalman16;
+    assert_eq!(q.m.len(), 8);
+    for (i, row) in q.m.iter().enumerate() {
+        let want: Vec<f64> = tuned.row(i).iter().copied().collect();
+        assert_eq!(
+            row,
+            &kestrel_tricopter::firmware::quantize_row(&want).unwrap()
+        );
+        let step = 2f64.powi(-i32::from(row.shift));
+        for (c, m) in row.c.iter().zip(&want) {
+            assert!(
+                (f64::from(*c) * step - m).abs() <= 0.5 * step,
+                "row {i}: {c} vs {m}"
+            );
+        }
+    }
+    assert!(res.firmware.tables_source.contains("KF16"));
 }

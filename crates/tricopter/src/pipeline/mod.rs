@@ -98,7 +98,7 @@ pub fn run_with(
         closed_loop::run(cfg, &problems, &kalman, &explicit, &fast_gradient, p)
     })?;
     let firmware = st.run(Stage::Firmware, |_| {
-        firmware::run(cfg, &kalman, &explicit, &fast_gradient)
+        firmware::run(cfg, &problems, &kalman, &explicit, &fast_gradient)
     })?;
     let differences = st.run(Stage::Differences, |_| {
         Ok(differences::run(
