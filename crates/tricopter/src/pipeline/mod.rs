@@ -149,3 +149,6 @@ impl Stages<'_> {
         Ok(v)
     }
 }
+
+#[cfg(test)]
+mod tests;
