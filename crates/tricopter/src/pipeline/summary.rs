@@ -6,6 +6,7 @@ use super::explicit::ExplicitSolution;
 use super::fast_gradient::FgmProblem;
 use super::identification::IdentifiedModel;
 use super::result::PipelineResult;
+use super::table_7_2::Solver;
 use serde::Serialize;
 
 /// Stage 2's figures.
@@ -301,14 +302,14 @@ impl PipelineResult {
                 fgm: t
                     .rows
                     .iter()
-                    .skip(2)
-                    .map(|r| FgmRowSummary {
-                        iterations: match r.solver {
-                            super::table_7_2::Solver::FgmFixed(k)
-                            | super::table_7_2::Solver::FgmCertified { iterations: k, .. } => k,
-                            super::table_7_2::Solver::Qp | super::table_7_2::Solver::Explicit => 0,
-                        },
-                        j: r.cost,
+                    .filter_map(|r| match r.solver {
+                        Solver::FgmFixed(k) | Solver::FgmCertified { iterations: k, .. } => {
+                            Some(FgmRowSummary {
+                                iterations: k,
+                                j: r.cost,
+                            })
+                        }
+                        Solver::Qp | Solver::Explicit => None,
                     })
                     .collect(),
             },
