@@ -2,14 +2,22 @@
 //!
 //! These are deliberately simple (a stable random system, output tracking
 //! with a constant reference, box-bounded inputs, optional move blocking
-//! and a throttle that shifts some input bounds, as in the thesis's (6.7))
-//! so the solver can be tested and benchmarked without the `kestrel-mpc`
-//! crate. The move-blocked constraints are written over the whole horizon
-//! as in the thesis's (6.26b), which produces exactly coincident rows.
-#![allow(clippy::needless_range_loop)] // dense numerical kernels read best with indices
+//! and a throttle that shifts some input bounds, as in the thesis's (6.7)).
+//! The condensing is kestrel-mpc's ([`MpcProblem::build`], then
+//! [`MpcProblem::to_mpqp`]); this module only chooses the data and applies
+//! two rewrites of the resulting `kestrel.mpqp.v1` problem:
+//!
+//! - the input bounds are written once per step of the horizon, as in the
+//!   thesis's (6.26b), instead of once per move-blocking block: a block of
+//!   `L` steps then has `L` exactly coincident copies of its rows, a
+//!   deliberate degeneracy for the mpQP solver;
+//! - a problem without outputs (`ny = 0`) regulates the state: it is built
+//!   as tracking of `y = x`, and the reference parameters are then fixed at
+//!   zero and removed from `theta`.
 
 pub use crate::rng::Rng;
-use kestrel_core::formats::MpqpProblem;
+use kestrel_core::formats::{MpqpProblem, SsModel};
+use kestrel_mpc::{Blocking, InputBounds, MpcProblem, MpcSettings, Terminal, Weight};
 use nalgebra::{DMatrix, DVector};
 
 /// A tracking MPC problem to condense.
@@ -70,106 +78,102 @@ pub fn random_system(nx: usize, nu: usize, ny: usize, rho: f64, seed: u64) -> Mp
 }
 
 impl MpcSpec {
-    /// Condenses into `kestrel.mpqp.v1`: `theta = [x; r; throttle]`,
-    /// `z` = the `Ns` free moves.
+    /// Condenses into `kestrel.mpqp.v1` with kestrel-mpc: `theta = [x; r;
+    /// throttle]`, `z` = the `Ns` free moves, the cost
+    /// `sum_{j=1..N} q/2 |y_j - r|^2 + sum_{k=0..N-1} r/2 |u_k|^2`
+    /// ([`Terminal::StageWeight`]), the bounds written once per step (see
+    /// the module documentation).
+    ///
+    /// # Panics
+    /// If kestrel-mpc rejects the data (non-finite matrices, `u_lo > u_hi`,
+    /// non-positive `r` with an output weight that misses an input
+    /// direction, ...): these are test problems.
     pub fn condense(&self) -> MpqpProblem {
-        let nx = self.a.nrows();
-        let nu = self.b.ncols();
-        let ny = self.c.nrows();
-        let track = ny > 0;
-        let (cm, nyy) = if track {
-            (self.c.clone(), ny)
+        let (nx, nu) = (self.a.nrows(), self.b.ncols());
+        let regulate = self.c.nrows() == 0;
+        let c = if regulate {
+            DMatrix::identity(nx, nx)
         } else {
-            (DMatrix::identity(nx, nx), nx)
+            self.c.clone()
         };
-        let n_hor = self.horizon.max(1);
-        let ns = self.free_moves.clamp(1, n_hor);
-        let has_th = !self.throttle_inputs.is_empty();
-        let p = nx + if track { ny } else { 0 } + usize::from(has_th);
-        let nz = ns * nu;
-        // Omega: U (N*nu) = Omega z.
-        let mut omega = DMatrix::zeros(n_hor * nu, nz);
-        for k in 0..n_hor {
-            let kk = k.min(ns - 1);
-            for i in 0..nu {
-                omega[(k * nu + i, kk * nu + i)] = 1.0;
-            }
-        }
-        // Y = Phi x + Gamma U, rows j = 1..N.
-        let mut phi = DMatrix::zeros(n_hor * nyy, nx);
-        let mut gamma = DMatrix::zeros(n_hor * nyy, n_hor * nu);
-        let mut apow = DMatrix::identity(nx, nx);
-        let mut apows = vec![apow.clone()];
-        for _ in 0..n_hor {
-            apow = &self.a * &apow;
-            apows.push(apow.clone());
-        }
-        for j in 1..=n_hor {
-            phi.view_mut(((j - 1) * nyy, 0), (nyy, nx))
-                .copy_from(&(&cm * &apows[j]));
-            for i in 0..j {
-                let blk = &cm * &apows[j - 1 - i] * &self.b;
-                gamma
-                    .view_mut(((j - 1) * nyy, i * nu), (nyy, nu))
-                    .copy_from(&blk);
-            }
-        }
-        let gz = &gamma * &omega;
-        let h = self.q * gz.transpose() * &gz + self.r * omega.transpose() * &omega;
-        let h = 0.5 * (&h + h.transpose());
-        // Linear term z'(q Gz'(Phi x - S r)) = theta' F z.
-        let mut f_theta = DMatrix::zeros(p, nz);
-        let fx = self.q * phi.transpose() * &gz; // nx x nz
-        f_theta.view_mut((0, 0), (nx, nz)).copy_from(&fx);
-        if track {
-            let mut s = DMatrix::zeros(n_hor * ny, ny);
-            for j in 0..n_hor {
-                s.view_mut((j * ny, 0), (ny, ny))
-                    .copy_from(&DMatrix::identity(ny, ny));
-            }
-            let fr = -self.q * s.transpose() * &gz;
-            f_theta.view_mut((nx, 0), (ny, nz)).copy_from(&fr);
-        }
-        // Constraints over the whole horizon: [I; -I] Omega z <= W + E theta.
-        let m = 2 * n_hor * nu;
-        let mut g = DMatrix::zeros(m, nz);
-        let mut w = DVector::zeros(m);
-        let mut e = DMatrix::zeros(m, p);
-        for k in 0..n_hor {
-            for i in 0..nu {
-                let r = k * nu + i;
-                g.row_mut(r).copy_from(&omega.row(r));
-                g.row_mut(n_hor * nu + r).copy_from(&(-omega.row(r)));
-                w[r] = self.u_hi[i];
-                w[n_hor * nu + r] = -self.u_lo[i];
-                if has_th && self.throttle_inputs.contains(&i) {
-                    e[(r, p - 1)] = -1.0;
-                    e[(n_hor * nu + r, p - 1)] = 1.0;
+        let d = DMatrix::zeros(c.nrows(), nu);
+        // The sample time does not enter the condensed QP; any ts > 0 is a
+        // discrete-time model.
+        let model = SsModel::new(1.0, self.a.clone(), self.b.clone(), c, d)
+            .expect("MpcSpec: A, B, C must be finite and of matching sizes");
+        let mut bounds = InputBounds::new(
+            DVector::from_column_slice(&self.u_lo),
+            DVector::from_column_slice(&self.u_hi),
+        );
+        if !self.throttle_inputs.is_empty() {
+            // (6.7): the bounds of a throttle input move by -1 per unit throttle.
+            let coupling = DVector::from_fn(nu, |i, _| {
+                if self.throttle_inputs.contains(&i) {
+                    -1.0
+                } else {
+                    0.0
                 }
-            }
+            });
+            bounds = bounds.with_throttle(coupling, self.throttle_range.0, self.throttle_range.1);
         }
-        let mut lb = vec![-self.x_bound; nx];
-        let mut ub = vec![self.x_bound; nx];
-        if track {
-            lb.extend(std::iter::repeat_n(-self.ref_bound, ny));
-            ub.extend(std::iter::repeat_n(self.ref_bound, ny));
+        let horizon = self.horizon.max(1);
+        let settings = MpcSettings {
+            horizon,
+            blocking: Some(
+                Blocking::thesis(horizon, self.free_moves.clamp(1, horizon))
+                    .expect("1 <= Ns <= N by the clamp"),
+            ),
+            q1: Weight::Scalar(self.q),
+            q2: Weight::Scalar(self.r),
+            terminal: Terminal::StageWeight,
+            state_bound: self.x_bound,
+            reference_bound: self.ref_bound,
+        };
+        let problem = MpcProblem::build(&model, &bounds, &settings)
+            .unwrap_or_else(|e| panic!("MpcSpec: kestrel-mpc rejects the test problem: {e}"));
+        let mut mpqp = bounds_per_step(&problem);
+        if regulate {
+            fix_parameters_at_zero(&mut mpqp, problem.layout.nx, problem.layout.nr);
         }
-        if has_th {
-            lb.push(self.throttle_range.0);
-            ub.push(self.throttle_range.1);
-        }
-        MpqpProblem {
-            h,
-            f_theta,
-            f: DVector::zeros(nz),
-            g,
-            w,
-            e,
-            theta_lb: DVector::from_vec(lb),
-            theta_ub: DVector::from_vec(ub),
-            theta_poly: None,
-        }
+        mpqp
     }
+}
+
+/// `problem.to_mpqp()` with the bound rows of each move-blocking block
+/// repeated for every step the block covers, in the order of (6.26b): the
+/// upper bounds of steps `0..N`, then the lower bounds of steps `0..N`.
+/// Only rows are copied; `H` and `F` are kestrel-mpc's.
+fn bounds_per_step(problem: &MpcProblem) -> MpqpProblem {
+    let mut mpqp = problem.to_mpqp();
+    let (nu, n) = (problem.nu, problem.n());
+    let steps = Blocking::new(problem.blocks.clone())
+        .expect("kestrel-mpc's blocks are valid")
+        .block_of_step();
+    // Row of kestrel-mpc's per-block constraints for each per-step row.
+    let rows: Vec<usize> = [0, n]
+        .into_iter()
+        .flat_map(|half| {
+            steps
+                .iter()
+                .flat_map(move |&block| (0..nu).map(move |i| half + block * nu + i))
+        })
+        .collect();
+    mpqp.g = mpqp.g.select_rows(&rows);
+    mpqp.w = mpqp.w.select_rows(&rows);
+    mpqp.e = mpqp.e.select_rows(&rows);
+    mpqp
+}
+
+/// Restricts `mpqp` to parameters `theta[start..start + len] = 0`: removes
+/// those entries of `theta` (rows of `F`, columns of `E`, the box entries).
+fn fix_parameters_at_zero(mpqp: &mut MpqpProblem, start: usize, len: usize) {
+    let keep: Vec<usize> = (0..mpqp.p())
+        .filter(|i| !(start..start + len).contains(i))
+        .collect();
+    mpqp.f_theta = mpqp.f_theta.select_rows(&keep);
+    mpqp.e = mpqp.e.select_columns(&keep);
+    mpqp.theta_lb = mpqp.theta_lb.select_rows(&keep);
+    mpqp.theta_ub = mpqp.theta_ub.select_rows(&keep);
 }
 
 /// A thesis-sized problem: 5 states, 4 inputs, 3 tracked outputs, a
@@ -197,4 +201,66 @@ pub fn benchmark_9x8() -> MpqpProblem {
     s.r = 0.05;
     s.x_bound = 20.0;
     s.condense()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blocked_bounds_are_coincident_rows_over_the_whole_horizon() {
+        // N = 6, Ns = 3: blocks [1, 1, 4], so the last block's rows appear 4 times.
+        let mut s = random_system(2, 2, 1, 0.9, 7);
+        s.horizon = 6;
+        s.free_moves = 3;
+        s.throttle_inputs = vec![1];
+        s.throttle_range = (-0.2, 0.2);
+        let p = s.condense();
+        assert_eq!((p.n(), p.m(), p.p()), (6, 2 * 6 * 2, 2 + 1 + 1));
+        p.validate().unwrap();
+        let half = 6 * 2;
+        for k in 2..6 {
+            for i in 0..2 {
+                for off in [0, half] {
+                    let (r, r0) = (off + k * 2 + i, off + 2 * 2 + i);
+                    assert_eq!(p.g.row(r), p.g.row(r0));
+                    assert_eq!(p.w[r], p.w[r0]);
+                    assert_eq!(p.e.row(r), p.e.row(r0));
+                }
+            }
+        }
+        // Upper rows select +z, lower rows -z; the throttle moves input 1 only.
+        assert_eq!(p.g[(half - 1, 5)], 1.0);
+        assert_eq!(p.g[(2 * half - 1, 5)], -1.0);
+        assert_eq!(
+            (p.e[(0, 3)], p.e[(1, 3)], p.e[(half + 1, 3)]),
+            (0.0, -1.0, 1.0)
+        );
+        assert_eq!((p.theta_lb[3], p.theta_ub[3]), (-0.2, 0.2));
+    }
+
+    #[test]
+    fn regulation_has_no_reference_parameters() {
+        let p = benchmark_9x8();
+        assert_eq!((p.p(), p.n(), p.m()), (9, 8, 2 * 6 * 2));
+        p.validate().unwrap();
+        assert_eq!(p.e.amax(), 0.0);
+        assert!(
+            p.theta_lb
+                .iter()
+                .chain(p.theta_ub.iter())
+                .all(|v| v.abs() == 20.0)
+        );
+        // The state rows of F are kestrel-mpc's tracking problem's with y = x.
+        let mut s = random_system(9, 2, 0, 0.98, 7);
+        s.c = DMatrix::identity(9, 9);
+        s.horizon = 6;
+        s.free_moves = 4;
+        s.r = 0.05;
+        s.x_bound = 20.0;
+        let tracking = s.condense();
+        assert_eq!(tracking.p(), 18);
+        assert_eq!(tracking.h, p.h);
+        assert_eq!(tracking.f_theta.rows(0, 9), p.f_theta);
+    }
 }
