@@ -15,8 +15,8 @@
 use crate::condense::{ModelMatrices, MpcProblem, Prediction, ThetaLayout};
 use crate::design::{InputBounds, MpcSettings};
 use crate::error::MpcError;
-use kestrel_core::DiscreteLinearModel;
 use kestrel_core::formats::SsModel;
+use kestrel_kalman::{AugmentedModel, Disturbance, KalmanError};
 use nalgebra::DMatrix;
 
 /// How the constant disturbance enters the model.
@@ -41,7 +41,9 @@ pub enum DisturbanceModel {
 /// simulator) and the condensed problem on it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct OffsetFreeDesign {
-    /// `[x; d]` model with the same inputs, outputs, `u0` and `y0`.
+    /// `[x; d]` model (kestrel-kalman's [`AugmentedModel`] with `D = 0`)
+    /// with the same inputs, outputs, `u0` and `y0` (`x0`, if any,
+    /// extended by a zero disturbance).
     pub augmented: SsModel,
     /// The condensed problem, `theta = [x; d; r; throttle]`.
     pub problem: MpcProblem,
@@ -71,55 +73,28 @@ impl MpcProblem {
     ) -> Result<OffsetFreeDesign, MpcError> {
         let mm = ModelMatrices::from_model(model)?;
         let (nx, nu, ny) = (mm.a.nrows(), mm.b.ncols(), mm.c.nrows());
-        let (bd, cd) = match disturbance {
-            DisturbanceModel::OutputStates => (mm.c.transpose(), DMatrix::zeros(ny, ny)),
-            DisturbanceModel::Output => (DMatrix::zeros(nx, ny), DMatrix::identity(ny, ny)),
-            DisturbanceModel::Custom { bd, cd } => {
-                if bd.nrows() != nx || cd.nrows() != ny || bd.ncols() != cd.ncols() {
-                    return Err(MpcError::dim(
-                        "disturbance model (Bd, Cd)",
-                        format!("{nx} x nd and {ny} x nd"),
-                        format!(
-                            "{} x {} and {} x {}",
-                            bd.nrows(),
-                            bd.ncols(),
-                            cd.nrows(),
-                            cd.ncols()
-                        ),
-                    ));
-                }
-                (bd.clone(), cd.clone())
-            }
+        // The augmentation and its detectability test (Maeder et al.,
+        // Prop. 1) are kestrel-kalman's.
+        let disturbance = match disturbance {
+            DisturbanceModel::OutputStates => Disturbance::OutputStates,
+            DisturbanceModel::Output => Disturbance::Output,
+            DisturbanceModel::Custom { bd, cd } => Disturbance::Custom {
+                bd: bd.clone(),
+                cd: cd.clone(),
+            },
         };
-        let nd = bd.ncols();
-        // Detectability of the augmented pair (Maeder et al., Prop. 1).
-        let mut pbh = DMatrix::zeros(nx + ny, nx + nd);
-        pbh.view_mut((0, 0), (nx, nx))
-            .copy_from(&(&mm.a - DMatrix::identity(nx, nx)));
-        pbh.view_mut((0, nx), (nx, nd)).copy_from(&bd);
-        pbh.view_mut((nx, 0), (ny, nx)).copy_from(&mm.c);
-        pbh.view_mut((nx, nx), (ny, nd)).copy_from(&cd);
-        let sv = pbh.clone().singular_values();
-        let tol = 1e-9 * sv.max().max(1.0);
-        let rank = sv.iter().filter(|s| **s > tol).count();
-        if rank < nx + nd {
-            return Err(MpcError::setting(
-                "disturbance model",
-                format!(
-                    "not detectable: rank [A - I, Bd; C, Cd] = {rank} < nx + nd = {}",
-                    nx + nd
-                ),
-            ));
-        }
+        let mut aug = AugmentedModel::new(model, &disturbance).map_err(augmentation_error)?;
+        // The MPC's model has y = C x (a feed-through below from_model's
+        // threshold is dropped).
+        aug.model.d = DMatrix::zeros(ny, nu);
+        let AugmentedModel {
+            model: augmented,
+            nd,
+            bd,
+            cd,
+            ..
+        } = aug;
         let na = nx + nd;
-        let mut a = DMatrix::identity(na, na);
-        a.view_mut((0, 0), (nx, nx)).copy_from(&mm.a);
-        a.view_mut((0, nx), (nx, nd)).copy_from(&bd);
-        let mut b = DMatrix::zeros(na, nu);
-        b.view_mut((0, 0), (nx, nu)).copy_from(&mm.b);
-        let mut c = DMatrix::zeros(ny, na);
-        c.view_mut((0, 0), (ny, nx)).copy_from(&mm.c);
-        c.view_mut((0, nx), (ny, nd)).copy_from(&cd);
         let layout = ThetaLayout {
             nx: na,
             nr: ny,
@@ -146,25 +121,66 @@ impl MpcProblem {
             .view_mut((0, 0), (nx, nx))
             .copy_from(&DMatrix::identity(nx, nx));
         let pred = Prediction {
-            a: a.clone(),
-            b: b.clone(),
-            c: c.clone(),
+            a: augmented.a.clone(),
+            b: augmented.b.clone(),
+            c: augmented.c.clone(),
             terminal_sel,
             x_ref: target.rows(0, nx).into_owned(),
             u_ref: target.rows(nx, nu).into_owned(),
             lq_model: (mm.a, mm.b, mm.c),
         };
         let problem = MpcProblem::condense(&pred, layout, bounds, settings)?;
-        let mut augmented = SsModel::new(model.sample_time(), a, b, c, DMatrix::zeros(ny, nu))?;
-        augmented.u0 = model.u0.clone();
-        augmented.y0 = model.y0.clone();
-        augmented.inputs = model.inputs.clone();
-        augmented.outputs = model.outputs.clone();
         Ok(OffsetFreeDesign {
             augmented,
             problem,
             nd,
         })
+    }
+}
+
+/// kestrel-kalman's refusal of the augmentation as the MPC's error.
+///
+/// [`AugmentedModel::new`] refuses a non-detectable disturbance, maps
+/// that do not fit the model or hold NaN, and a continuous-time model;
+/// the model itself has passed `ModelMatrices::from_model` before. The
+/// other variants are mapped for completeness, each keeping its message.
+fn augmentation_error(e: KalmanError) -> MpcError {
+    match e {
+        KalmanError::DisturbanceNotDetectable { rank, required } => MpcError::setting(
+            "disturbance model",
+            format!("not detectable: rank [A - I, Bd; C, Cd] = {rank} < nx + nd = {required}"),
+        ),
+        KalmanError::DimensionMismatch {
+            name,
+            expected_rows,
+            expected_cols,
+            found_rows,
+            found_cols,
+        } => MpcError::dim(
+            format!("disturbance model {name}"),
+            format!("{expected_rows} x {expected_cols}"),
+            format!("{found_rows} x {found_cols}"),
+        ),
+        KalmanError::NonFinite { name, .. } => {
+            MpcError::NonFinite(format!("disturbance model {name}"))
+        }
+        KalmanError::InvalidArgument { name, reason } => MpcError::setting(name, reason),
+        KalmanError::NotSymmetric { name, asymmetry } => MpcError::NotSymmetric {
+            what: name.into(),
+            asymmetry,
+        },
+        KalmanError::Core(e) => MpcError::Core(e),
+        e @ (KalmanError::NotPositiveDefinite { .. }
+        | KalmanError::NotPositiveSemidefinite { .. }
+        | KalmanError::NotStabilizable { .. }
+        | KalmanError::NotDetectable { .. }
+        | KalmanError::NoStabilizingSolution { .. }
+        | KalmanError::NotConverged { .. }) => {
+            MpcError::setting("disturbance model", e.to_string())
+        }
+        // KalmanError is #[non_exhaustive], so another crate's match needs
+        // this arm; a variant added later keeps its message.
+        e => MpcError::setting("disturbance model", e.to_string()),
     }
 }
 
@@ -252,5 +268,45 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.to_string().contains("not detectable"), "{e}");
+    }
+
+    #[test]
+    fn disturbance_maps_that_do_not_fit_are_refused() {
+        let m = SsModel::new(
+            0.1,
+            DMatrix::from_element(1, 1, 0.9),
+            DMatrix::from_element(1, 1, 0.1),
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::zeros(1, 1),
+        )
+        .unwrap();
+        let bounds = InputBounds::new(
+            DVector::from_element(1, -1.0),
+            DVector::from_element(1, 1.0),
+        );
+        let custom = |bd, cd| DisturbanceModel::Custom { bd, cd };
+        let e = MpcProblem::build_offset_free(
+            &m,
+            &bounds,
+            &MpcSettings::default(),
+            &custom(DMatrix::zeros(2, 1), DMatrix::zeros(1, 1)),
+        )
+        .unwrap_err();
+        assert!(
+            matches!(&e, MpcError::Dimension { what, expected, found }
+                if what == "disturbance model Bd" && expected == "1 x 1" && found == "2 x 1"),
+            "{e}"
+        );
+        let e = MpcProblem::build_offset_free(
+            &m,
+            &bounds,
+            &MpcSettings::default(),
+            &custom(DMatrix::from_element(1, 1, f64::NAN), DMatrix::zeros(1, 1)),
+        )
+        .unwrap_err();
+        assert!(
+            matches!(&e, MpcError::NonFinite(what) if what == "disturbance model Bd"),
+            "{e}"
+        );
     }
 }

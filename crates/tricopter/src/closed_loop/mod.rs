@@ -17,7 +17,9 @@ mod scenario;
 mod settings;
 mod trace;
 
-pub use estimator::{kalman_design, kalman_design_with_disturbance, thesis_noise};
+pub use estimator::{
+    kalman_design, kalman_design_with_disturbance, thesis_disturbance_noise, thesis_noise,
+};
 pub use fly::{MAX_STATES, RunResult, fly_mpc, fly_offset_free, fly_pi};
 pub use plant::{LinearPlant, NonlinearPlant, PlantKind, RatePlant};
 pub use run::{run_mpc, run_pid};
