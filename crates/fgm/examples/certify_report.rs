@@ -80,7 +80,7 @@ fn report(name: &str, prob: &MpqpProblem, samples: usize) {
     }
     println!("   (last: eps for 1 us, mu_H = {mu_h:.4e})");
     let mut reference = ReferenceSolver::new(&d.problem).expect("reference");
-    let mut rng = Rng(2024);
+    let mut rng = Rng::new(2024);
     let t0 = Instant::now();
     let thetas: Vec<DVector<f64>> = (0..samples)
         .map(|_| random_theta(&mut rng, &d.problem.theta_lb, &d.problem.theta_ub))

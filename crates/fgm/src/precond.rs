@@ -250,13 +250,10 @@ mod tests {
 
     #[test]
     fn optimal_never_worse_than_jacobi_on_random_spd() {
-        let mut seed = 7u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        };
+        use rand::{RngExt, SeedableRng};
+        // Uniform in [-1, 1) from the workspace's seeded generator.
+        let mut rng = rand_xoshiro::SplitMix64::seed_from_u64(7);
+        let mut rnd = || rng.random::<f64>() * 2.0 - 1.0;
         for n in [3, 6, 10] {
             let a = DMatrix::from_fn(n, n, |_, _| rnd());
             let s = DVector::from_fn(n, |_, _| 10f64.powf(2.0 * rnd()));

@@ -30,7 +30,7 @@ fn check_cold(d: &FgmDesign, eps: f64, seed: u64) -> f64 {
     let cert = d.certify(eps).unwrap();
     let data = d.data::<f64>(&cert, None).unwrap();
     let mut reference = ReferenceSolver::new(&d.problem).unwrap();
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let mut worst: f64 = f64::NEG_INFINITY;
     for _ in 0..SAMPLES {
         let th = random_theta(&mut rng, &d.problem.theta_lb, &d.problem.theta_ub);
@@ -103,7 +103,7 @@ fn warm_start_certificate_holds() {
     );
     let data = d.data::<f64>(&cert, Some(warm.iterations)).unwrap();
     let mut reference = ReferenceSolver::new(&d.problem).unwrap();
-    let mut rng = Rng(11);
+    let mut rng = Rng::new(11);
     for _ in 0..SAMPLES {
         let th0 = random_theta(&mut rng, &d.problem.theta_lb, &d.problem.theta_ub);
         // Previous solution: certified cold solve at th0 (eps-optimal).
@@ -128,7 +128,7 @@ fn check_low_precision<S: Scalar>(d: &FgmDesign, eps: f64) -> f64 {
     let lo = d.data::<S>(&cert, None).unwrap();
     let hi = d.data::<f64>(&cert, None).unwrap();
     let mut reference = ReferenceSolver::new(&d.problem).unwrap();
-    let mut rng = Rng(23);
+    let mut rng = Rng::new(23);
     let mut worst: f64 = 0.0;
     for _ in 0..SAMPLES {
         let th = random_theta(&mut rng, &d.problem.theta_lb, &d.problem.theta_ub);
@@ -207,7 +207,7 @@ fn fixed_size_kernel_is_bit_identical_to_the_view_kernel() {
         let data = d.data::<S>(&cert, None).unwrap();
         let tables = data.to_tables::<6, 4, 1>().unwrap();
         let mut ws = kestrel_fgm::FgmWorkspace::<S, 6>::new();
-        let mut rng = Rng(77);
+        let mut rng = Rng::new(77);
         for _ in 0..50 {
             let th = random_theta(&mut rng, &d.problem.theta_lb, &d.problem.theta_ub);
             let ths: [S; 4] = core::array::from_fn(|i| S::from_f64(th[i]));
@@ -250,7 +250,7 @@ fn cold_delta_is_the_vertex_maximum_of_the_quadratic_bound() {
         "{} vs {brute}",
         d.delta()
     );
-    let mut rng = Rng(5);
+    let mut rng = Rng::new(5);
     for _ in 0..1000 {
         let e = DVector::from_fn(n, |j, _| rng.uniform(-r[j], r[j]));
         assert!(q(&e) <= d.delta());
@@ -300,7 +300,7 @@ fn pwm_tolerance_is_the_closed_form_and_tight() {
         .solve(&th)
         .unwrap();
     let b = d.problem.bounds(&th);
-    let mut rng = Rng(9);
+    let mut rng = Rng::new(9);
     for _ in 0..2000 {
         let z = DVector::from_fn(d.n(), |i, _| {
             (best.z[i] + rng.uniform(-1.5, 1.5)).clamp(b.lo[i], b.hi[i])

@@ -13,6 +13,8 @@ use kestrel_empc::{
     ExplicitController, MpqpSolution, Outputs, Settings, TreeSettings, build_controller,
 };
 use kestrel_tricopter::firmware::{DesignSettings, FirmwareDesign};
+use rand::{RngExt, SeedableRng};
+use rand_xoshiro::SplitMix64;
 
 const P: usize = 9;
 const NU: usize = 4;
@@ -37,13 +39,9 @@ fn controller() -> &'static (ExplicitController, MpqpSolution) {
 }
 
 fn uniform(lb: &[f64], ub: &[f64], n: usize) -> Vec<[f64; P]> {
-    let mut s = 0x9E37_79B9_7F4A_7C15u64;
-    let mut rnd = move || {
-        s = s
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    };
+    // The workspace's seeded generator.
+    let mut rng = SplitMix64::seed_from_u64(0x9E37_79B9_7F4A_7C15);
+    let mut rnd = move || rng.random::<f64>();
     (0..n)
         .map(|_| std::array::from_fn(|j| lb[j] + rnd() * (ub[j] - lb[j])))
         .collect()

@@ -409,25 +409,15 @@ fn standard_errors_match_the_monte_carlo_spread() {
     let runs = 24;
     let mut est = vec![Vec::new(); 3];
     let mut se = [0.0; 3];
-    let mut state = 0x2545_f491_4f6c_dd1d_u64;
-    let mut gauss = || {
-        // Box-Muller on a xorshift stream.
-        let mut uni = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let (a, b) = (uni().max(1e-300), uni());
-        (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
-    };
+    // Standard normal noise from the workspace's seeded generator.
+    let mut rng = kestrel_sysid::synthetic::Rng::new(0x2545_f491_4f6c_dd1d);
     for _ in 0..runs {
         let exps = clean
             .experiments()
             .iter()
             .map(|e| {
                 let mut e = e.clone();
-                e.y.iter_mut().for_each(|v| *v += 0.02 * gauss());
+                e.y.iter_mut().for_each(|v| *v += 0.02 * rng.normal());
                 e
             })
             .collect();

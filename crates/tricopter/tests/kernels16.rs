@@ -19,6 +19,8 @@ use kestrel_fgm::reference::ReferenceSolver;
 use kestrel_kalman::StationaryFilter;
 use kestrel_tricopter::firmware::{DesignSettings, FirmwareDesign};
 use nalgebra::DVector;
+use rand::{RngExt, SeedableRng};
+use rand_xoshiro::SplitMix64;
 
 const NX: usize = 5;
 const NZ: usize = 4;
@@ -32,15 +34,14 @@ fn design() -> &'static FirmwareDesign {
     })
 }
 
-struct Lcg(u64);
-impl Lcg {
-    /// Uniform in [-1, 1).
+/// Uniform deviates in `[-1, 1)` from the workspace's seeded generator.
+struct Uniform(SplitMix64);
+impl Uniform {
+    fn new(seed: u64) -> Self {
+        Uniform(SplitMix64::seed_from_u64(seed))
+    }
     fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        2.0 * self.0.random::<f64>() - 1.0
     }
 }
 
@@ -75,7 +76,7 @@ fn kalman16_follows_the_f64_filter_over_a_long_log() {
     let mut k64 = StationaryFilter::new(d.gains::<NX>().unwrap(), [0.0; NX]);
     let model = &d.model;
     let mut x = DVector::zeros(NX);
-    let mut rng = Lcg(7);
+    let mut rng = Uniform::new(7);
     let mut u = [0.0f64; 4];
     let (mut worst, mut scale) = (0.0f64, 0.0f64);
     // The estimate's error in rad/s: the estimated rates C x of both filters.
@@ -135,7 +136,7 @@ fn worst_input_error<S: RtScalar>(data: &FgmData<S>, samples: usize) -> f64 {
     let mut fast = law(data);
     let mut reference = ReferenceSolver::new(&d.qp).unwrap();
     let (lb, ub) = (&d.problem.theta_lb, &d.problem.theta_ub);
-    let mut rng = Lcg(11);
+    let mut rng = Uniform::new(11);
     let mut worst = 0.0f64;
     let mut solved = 0;
     while solved < samples {

@@ -5,23 +5,22 @@
 
 use kestrel_core::formats::MpqpProblem;
 use nalgebra::{DMatrix, DVector};
+use rand::{Rng as _, RngExt, SeedableRng};
+use rand_xoshiro::SplitMix64;
 
-/// A small deterministic generator (SplitMix64).
-pub struct Rng(pub u64);
+/// The workspace's seeded generator, `rand_xoshiro::SplitMix64` (the
+/// seed is its state), with the draws the tests use.
+pub struct Rng(SplitMix64);
 impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Rng(SplitMix64::seed_from_u64(seed))
+    }
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E3779B97F4A7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
-    /// Uniform in [0, 1).
-    pub fn unit(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
+    /// Uniform in `[lo, hi)`: `lo + (hi - lo) u` with `u = random::<f64>()`.
     pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.unit()
+        lo + (hi - lo) * self.0.random::<f64>()
     }
 }
 
@@ -30,7 +29,7 @@ impl Rng {
 /// `lo_pwm - throttle <= u <= hi_pwm - throttle` (thesis 6.5a, in PWM
 /// microseconds), the last `-300 <= u <= 300` (6.5b).
 pub fn mpc_problem(seed: u64, nx: usize, nu: usize, n_h: usize) -> MpqpProblem {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let a0 = DMatrix::from_fn(nx, nx, |_, _| rng.uniform(-1.0, 1.0));
     let norm = a0.clone().svd(false, false).singular_values.max();
     let a = a0 * (0.95 / norm);

@@ -4,30 +4,26 @@
 
 use kestrel_core::formats::MpqpProblem;
 use nalgebra::DVector;
+use rand::{RngExt, SeedableRng};
+use rand_xoshiro::SplitMix64;
 
-/// A seeded generator of parameter points (SplitMix64).
+/// A seeded generator of parameter points: the workspace's seeded
+/// generator `rand_xoshiro::SplitMix64` (the seed is its state), one
+/// uniform `[0, 1)` deviate (`random::<f64>()`, the top 53 bits over
+/// `2^53`) per coordinate.
 #[derive(Clone, Debug)]
-pub struct BoxSampler(u64);
+pub struct BoxSampler(SplitMix64);
 
 impl BoxSampler {
     /// A sampler from a seed.
     pub fn new(seed: u64) -> Self {
-        BoxSampler(seed)
-    }
-
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64
+        BoxSampler(SplitMix64::seed_from_u64(seed))
     }
 
     /// A point of the problem's parameter box.
     pub fn theta(&mut self, p: &MpqpProblem) -> DVector<f64> {
         DVector::from_fn(p.p(), |i, _| {
-            p.theta_lb[i] + (p.theta_ub[i] - p.theta_lb[i]) * self.uniform()
+            p.theta_lb[i] + (p.theta_ub[i] - p.theta_lb[i]) * self.0.random::<f64>()
         })
     }
 }

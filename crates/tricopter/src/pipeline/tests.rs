@@ -72,6 +72,18 @@ fn sampled_parameters_stay_in_the_box_and_repeat() {
     )
     .unwrap();
     let (mut a, mut b) = (BoxSampler::new(7), BoxSampler::new(7));
+    // The report's check points: the hand-written SplitMix64 stream (state
+    // = seed, (next >> 11) / 2^53) that the sampler had before it used
+    // rand_xoshiro's, scaled to the box (values from splitmix64.c).
+    let first = [
+        [-0.22034050321745702, 10.167882945281562],
+        [0.8015213612137668, 15.82930293028078],
+    ];
+    for point in first {
+        let t = a.theta(&p);
+        assert_eq!(t.as_slice(), &point);
+        assert_eq!(t, b.theta(&p));
+    }
     for _ in 0..100 {
         let t = a.theta(&p);
         assert_eq!(t, b.theta(&p));

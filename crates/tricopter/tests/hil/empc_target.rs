@@ -8,6 +8,8 @@ use super::{
 use avr_tester::AvrTester;
 use kestrel_avr_rt::cycles::CycleStats;
 use kestrel_avr_rt::frame::{FrameDecoder, Kind};
+use rand::{RngExt, SeedableRng};
+use rand_xoshiro::SplitMix64;
 
 /// One parameter of the firmware's on-target explicit-MPC check.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -197,14 +199,11 @@ fn empc_ns2_on_target_equals_host_walk() {
     // its box: the same law up to the rounding margin of a hyperplane, and
     // within the proved output bound where the law is the same.
     let t = &ns2_empc().tables;
-    let mut seed = 0x2545_F491_4F6C_DD1Du64;
+    let mut rng = SplitMix64::seed_from_u64(0x2545_F491_4F6C_DD1D);
     let thetas: Vec<[f64; 9]> = (0..2000)
         .map(|_| {
             std::array::from_fn(|j| {
-                seed = seed
-                    .wrapping_mul(6_364_136_223_846_793_005)
-                    .wrapping_add(1_442_695_040_888_963_407);
-                let u = (seed >> 11) as f64 / (1u64 << 53) as f64;
+                let u = rng.random::<f64>();
                 t.theta_lb[j] + u * (t.theta_ub[j] - t.theta_lb[j])
             })
         })
