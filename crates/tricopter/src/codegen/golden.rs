@@ -39,8 +39,8 @@ pub const FGM_EPS: f64 = 1e-6;
 /// --test export --test wide` includes and compares them.
 ///
 /// # Errors
-/// As [`parse_input`] for the problem; [`CodegenError::Empc`] from
-/// kestrel-empc.
+/// [`CodegenError::Io`] or [`CodegenError::Format`] for the problem
+/// file; [`CodegenError::Empc`] from kestrel-empc.
 pub fn empc_files(root: &Path) -> Result<Vec<GeneratedFile>, CodegenError> {
     const GEN: &str = "kestrel_empc::export of the tree of crates/empc/tests/generated/box2.json";
     let prob = parse_input(root, EMPC_BOX2, MpqpProblem::from_json_str)?;
@@ -91,8 +91,8 @@ pub fn empc_files(root: &Path) -> Result<Vec<GeneratedFile>, CodegenError> {
 /// --test export` includes and compares).
 ///
 /// # Errors
-/// As [`parse_input`] for the problem; [`CodegenError::Fgm`] from
-/// kestrel-fgm.
+/// [`CodegenError::Io`] or [`CodegenError::Format`] for the problem
+/// file; [`CodegenError::Fgm`] from kestrel-fgm.
 pub fn fgm_file(root: &Path) -> Result<GeneratedFile, CodegenError> {
     let prob = parse_input(root, FGM_PROBLEM, MpqpProblem::from_json_str)?;
     let settings = FgmSettings {
@@ -116,8 +116,8 @@ pub fn fgm_file(root: &Path) -> Result<GeneratedFile, CodegenError> {
 /// embedded copy [`MODEL_COPY`].
 ///
 /// # Errors
-/// As [`parse_input`] for the model; [`CodegenError::Design`] from
-/// [`ns2_problem`].
+/// [`CodegenError::Io`] or [`CodegenError::Format`] for the model
+/// file; [`CodegenError::Design`] from [`ns2_problem`].
 pub fn model_files(root: &Path) -> Result<Vec<GeneratedFile>, CodegenError> {
     let text = read_input(root, MODEL)?;
     let model = parse_input(root, MODEL, SsModel::from_json_str)?;
