@@ -19,7 +19,7 @@ mod shared;
 use kestrel_core::Scalar;
 use kestrel_empc::eval::{TreeIndex, TreeTables};
 use kestrel_empc::evaluate_with;
-use kestrel_empc::export::any_tables_from_json;
+use kestrel_empc::export::read_tables;
 use kestrel_empc::tree::{AnyTables, OwnedTables};
 
 /// CPU nanoseconds of this thread (`/proc/thread-self/schedstat`).
@@ -57,7 +57,7 @@ fn main() {
     let samples: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(10_000);
     let passes: usize = args.next().and_then(|v| v.parse().ok()).unwrap_or(50);
     let text = std::fs::read_to_string(&path).expect("read the solution file");
-    let tables = any_tables_from_json(&text).expect("tables");
+    let tables: AnyTables = read_tables(&text).expect("tables");
     let thetas = match &tables {
         AnyTables::Narrow(t) => common::box_samples(&t.theta_lb, &t.theta_ub, samples, 7),
         AnyTables::Wide(t) => common::box_samples(&t.theta_lb, &t.theta_ub, samples, 7),

@@ -4,6 +4,7 @@
 //! [first_move] [compact|default|both] [solution.json]` (the last writes the
 //! solution file of `kestrel empc solve --compact --no-regions`).
 use kestrel_core::formats::MpqpProblem;
+use kestrel_empc::export::SolutionTables;
 use kestrel_empc::{Outputs, Settings, TreeSettings, build_compact, build_controller, solve};
 
 fn main() {
@@ -58,7 +59,11 @@ fn main() {
         t2.elapsed().as_secs_f64()
     );
     if let (Some(path), Some(ctl)) = (out, default) {
-        let text = kestrel_empc::export::solution_json_with_compact(&sol, &ctl, &c, false);
+        let text = kestrel_empc::export::solution_json(
+            &sol,
+            SolutionTables::from(&ctl).with_compact(&c),
+            false,
+        );
         std::fs::write(&path, text).expect("writing the solution");
         println!("wrote {path}");
     }

@@ -136,11 +136,8 @@ fn main() {
         t32 * 1e6
     );
     if let Some(o) = out {
-        std::fs::write(
-            &o,
-            kestrel_empc::export::solution_json_any(&sol, &ctl, false),
-        )
-        .expect("write the solution file");
+        std::fs::write(&o, kestrel_empc::export::solution_json(&sol, &ctl, false))
+            .expect("write the solution file");
         println!("solution file: {o}");
     }
 }

@@ -72,14 +72,18 @@ fn exported_tables_are_current_and_evaluate_like_the_solution() {
 #[test]
 fn solution_file_with_compact_layout_reports_its_bytes_and_tables() {
     use kestrel_empc::build_compact;
-    use kestrel_empc::export::{solution_json, solution_json_with_compact};
+    use kestrel_empc::export::{SolutionTables, solution_json};
     let prob = MpqpProblem::from_json_str(include_str!("generated/box2.json")).unwrap();
     let sol = solve(&prob, &Settings::default()).unwrap();
     let ctl = build_controller(&prob, &sol, &TreeSettings::default()).unwrap();
     let compact = build_compact(&prob, &sol, &TreeSettings::default()).unwrap();
     let plain: serde_json::Value = serde_json::from_str(&solution_json(&sol, &ctl, false)).unwrap();
-    let with: serde_json::Value =
-        serde_json::from_str(&solution_json_with_compact(&sol, &ctl, &compact, false)).unwrap();
+    let with: serde_json::Value = serde_json::from_str(&solution_json(
+        &sol,
+        SolutionTables::from(&ctl).with_compact(&compact),
+        false,
+    ))
+    .unwrap();
     // The default layout's keys are unchanged; the compact ones are added.
     for key in ["tree", "tables", "regions", "distinct_laws"] {
         assert_eq!(plain[key], with[key], "{key}");
@@ -112,10 +116,10 @@ fn solution_file_with_compact_layout_reports_its_bytes_and_tables() {
 
 #[test]
 fn exported_compact_tables_are_current_round_trip_and_equal_the_default_tree() {
+    use kestrel_empc::CompactTables;
     use kestrel_empc::build_compact;
     use kestrel_empc::export::{
-        compact_tables_from_json, has_compact_tables, rust_source_compact, solution_json,
-        solution_json_with_compact,
+        SolutionTables, TableFormat, read_tables, solution_json, table_formats,
     };
     let prob = MpqpProblem::from_json_str(include_str!("generated/box2.json")).unwrap();
     let sol = solve(&prob, &Settings::default()).unwrap();
@@ -136,16 +140,26 @@ fn exported_compact_tables_are_current_round_trip_and_equal_the_default_tree() {
         ),
     ] {
         assert_eq!(
-            rust_source_compact(&compact.tables, scalar).unwrap(),
+            rust_source(&compact.tables, scalar).unwrap(),
             golden,
             "the golden file is stale: run `kestrel codegen`"
         );
     }
     // Solution file -> compact tables -> source: the same tables, bit for bit.
-    let text = solution_json_with_compact(&sol, &ctl, &compact, false);
-    assert!(has_compact_tables(&text).unwrap());
-    assert!(!has_compact_tables(&solution_json(&sol, &ctl, false)).unwrap());
-    let back = compact_tables_from_json(&text).unwrap();
+    let text = solution_json(
+        &sol,
+        SolutionTables::from(&ctl).with_compact(&compact),
+        false,
+    );
+    assert_eq!(
+        table_formats(&text).unwrap(),
+        [TableFormat::Narrow, TableFormat::Compact]
+    );
+    assert_eq!(
+        table_formats(&solution_json(&sol, &ctl, false)).unwrap(),
+        [TableFormat::Narrow]
+    );
+    let back: CompactTables<f64> = read_tables(&text).unwrap();
     assert_eq!(back, compact.tables);
     // The `static` tables (f64, f32, Q16) against the default tree (f64)
     // on 10^4 parameters, some outside the box (flagged alike).
@@ -185,14 +199,20 @@ fn exported_compact_tables_are_current_round_trip_and_equal_the_default_tree() {
 
 #[test]
 fn corrupted_compact_tables_are_rejected() {
+    use kestrel_empc::CompactTables;
     use kestrel_empc::build_compact;
-    use kestrel_empc::export::{compact_tables_from_json, solution_json_with_compact};
+    use kestrel_empc::export::{SolutionTables, read_tables, solution_json};
+    let compact_tables_from_json = read_tables::<CompactTables<f64>>;
     let prob = MpqpProblem::from_json_str(include_str!("generated/box2.json")).unwrap();
     let sol = solve(&prob, &Settings::default()).unwrap();
     let ctl = build_controller(&prob, &sol, &TreeSettings::default()).unwrap();
     let compact = build_compact(&prob, &sol, &TreeSettings::default()).unwrap();
-    let good: serde_json::Value =
-        serde_json::from_str(&solution_json_with_compact(&sol, &ctl, &compact, false)).unwrap();
+    let good: serde_json::Value = serde_json::from_str(&solution_json(
+        &sol,
+        SolutionTables::from(&ctl).with_compact(&compact),
+        false,
+    ))
+    .unwrap();
     let nn = compact.tables.nodes.len();
     let cases: Vec<(&str, serde_json::Value, &str)> = vec![
         (

@@ -9,11 +9,11 @@ mod common;
 use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::eval::{TreeTables, WIDE_LEAF, WIDE_NO_ROW};
 use kestrel_empc::export::{
-    ExportScalar, any_tables_from_json, check_wide_tables, rust_source_wide, solution_json,
-    solution_json_any, tables_from_json,
+    ExportScalar, ExportTables, TableFormat, check_tables, read_tables, rust_source, solution_json,
+    table_formats,
 };
 use kestrel_empc::mpqp::Rng;
-use kestrel_empc::tree::{AnyTables, TreeLayout, TreeMethod, WideTables, build_any};
+use kestrel_empc::tree::{AnyTables, OwnedTables, TreeLayout, TreeMethod, WideTables, build_any};
 use kestrel_empc::{
     EmpcError, Outputs, Settings, TreeSettings, build_controller, evaluate, evaluate_with, solve,
 };
@@ -57,11 +57,7 @@ fn thetas(prob: &MpqpProblem, n: usize, spread: f64, seed: u64) -> Vec<Vec<f64>>
 
 /// Both layouts of the same tree at every parameter: the same law, flag,
 /// steps and `z` bit for bit (f64 and f32).
-fn assert_bit_identical(
-    narrow: &kestrel_empc::OwnedTables<f64>,
-    wide: &WideTables<f64>,
-    ths: &[Vec<f64>],
-) {
+fn assert_bit_identical(narrow: &OwnedTables<f64>, wide: &WideTables<f64>, ths: &[Vec<f64>]) {
     let (k, p) = (narrow.n_outputs, narrow.n_params);
     let (n32, w32) = (narrow.cast::<f32>(), wide.cast::<f32>());
     let (mut zn, mut zw, mut s) = (vec![0.0; k], vec![0.0; k], vec![0.0; p]);
@@ -161,25 +157,37 @@ fn wide_solution_file_round_trips_and_the_exported_source_evaluates_alike() {
         ),
     ] {
         assert_eq!(
-            rust_source_wide(w, scalar).unwrap(),
+            rust_source(w, scalar).unwrap(),
             golden,
             "the golden file is stale: run `kestrel codegen`"
         );
     }
     // Solution file: the wide tables come back bit for bit, marked u32;
     // the u16 reader refuses them with a pointer to the reader that takes them.
-    let text = solution_json_any(&sol, &wide, false);
+    let text = solution_json(&sol, &wide, false);
     let v: serde_json::Value = serde_json::from_str(&text).unwrap();
     assert_eq!(v["tables"]["index"], "u32");
     assert_eq!(v["tree"]["bytes"], w.bytes(4));
     assert_eq!(v["tree"]["index_bytes"], 4);
-    assert_eq!(any_tables_from_json(&text).unwrap(), wide.tables);
-    let err = tables_from_json(&text).unwrap_err().to_string();
-    assert!(err.contains("any_tables_from_json"), "{err}");
+    assert_eq!(table_formats(&text).unwrap(), [TableFormat::Wide]);
+    assert_eq!(wide.tables.format(), TableFormat::Wide);
+    assert_eq!(w.format(), TableFormat::Wide);
+    assert_eq!(narrow.tables.format(), TableFormat::Narrow);
+    assert_eq!(read_tables::<AnyTables>(&text).unwrap(), wide.tables);
+    assert_eq!(&read_tables::<WideTables<f64>>(&text).unwrap(), w);
+    let err = read_tables::<OwnedTables<f64>>(&text)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("WideTables or AnyTables"), "{err}");
     // A u16 file reads as the u16 layout, unchanged.
     let text16 = solution_json(&sol, &narrow, false);
+    assert_eq!(table_formats(&text16).unwrap(), [TableFormat::Narrow]);
+    let err = read_tables::<WideTables<f64>>(&text16)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("OwnedTables or AnyTables"), "{err}");
     assert_eq!(
-        any_tables_from_json(&text16).unwrap(),
+        read_tables::<AnyTables>(&text16).unwrap(),
         AnyTables::Narrow(narrow.tables.clone())
     );
     // The `static` wide tables against the u16 tables (f64 from the
@@ -205,8 +213,7 @@ fn corrupted_wide_tables_are_rejected() {
     let prob = box2();
     let sol = solve(&prob, &Settings::default()).unwrap();
     let wide = build_any(&prob, &sol, &wide_settings(TreeLayout::Wide)).unwrap();
-    let good: serde_json::Value =
-        serde_json::from_str(&solution_json_any(&sol, &wide, false)).unwrap();
+    let good: serde_json::Value = serde_json::from_str(&solution_json(&sol, &wide, false)).unwrap();
     let nn = wide.tables.n_nodes();
     let cases: Vec<(&str, serde_json::Value, &str)> = vec![
         ("nodes/0/0", serde_json::json!(999), "node 0"),
@@ -224,7 +231,7 @@ fn corrupted_wide_tables_are_rejected() {
         ("theta_lb/0", serde_json::json!(9), "theta_lb exceeds"),
         ("index", serde_json::json!("u64"), "tables.index"),
     ];
-    common::assert_corruptions_rejected(&good, "tables", cases, any_tables_from_json);
+    common::assert_corruptions_rejected(&good, "tables", cases, read_tables::<AnyTables>);
 }
 
 /// A chain of `n` nodes over one parameter: node `i` sends theta <= c_i
@@ -268,7 +275,7 @@ fn chain(n: usize) -> (WideTables<f64>, Vec<f64>) {
 fn a_tree_beyond_the_u16_codes_evaluates_exactly() {
     let n = 40_000; // more nodes than the 32767 the u16 codes address
     let (t, c) = chain(n);
-    check_wide_tables(&t).unwrap();
+    check_tables(&t).unwrap();
     assert!(t.narrow().is_none(), "40000 nodes do not fit u16");
     let mut rng = Rng::new(1);
     let mut z = [0.0];
@@ -282,7 +289,7 @@ fn a_tree_beyond_the_u16_codes_evaluates_exactly() {
         assert_eq!(e.outside, !(-1.0..=2.0).contains(&th));
     }
     // The exporter writes it (u32 arrays).
-    let src = rust_source_wide(&t, ExportScalar::F32).unwrap();
+    let src = rust_source(&t, ExportScalar::F32).unwrap();
     assert!(src.contains(&format!("pub static NODES: [[u32; 4]; {n}]")));
     assert!(src.contains("WideSliceTables"));
 }
@@ -300,7 +307,7 @@ fn wide_evaluation_errors_are_values() {
         evaluate(&t.tables(), &[0.9], &mut z),
         Err(kestrel_core::Error::OutOfRange)
     );
-    assert!(check_wide_tables(&t).is_err());
+    assert!(check_tables(&t).is_err());
     let (mut t, _) = chain(3);
     t.laws[3] = 999; // a law past the rows
     assert_eq!(

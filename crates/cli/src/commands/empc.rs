@@ -2,8 +2,9 @@
 
 use crate::io;
 use anyhow::{Context, bail};
+use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::eval::{TreeIndex, TreeTables};
-use kestrel_empc::export::{self, ExportScalar};
+use kestrel_empc::export::{self, ExportScalar, SolutionTables};
 use kestrel_empc::tree::{AnyTables, TreeLayout, build_any};
 use kestrel_empc::{
     ExplicitController, Outputs, Settings, TreeSettings, build_compact, evaluate_with, solve,
@@ -196,7 +197,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
 fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
     let name = a.problem.display().to_string();
-    let problem = export::read_problem(&a.problem).with_context(|| name.clone())?;
+    let problem = MpqpProblem::read(&a.problem).with_context(|| name.clone())?;
     let settings = Settings {
         parallel: !a.sequential,
         progress: a.progress,
@@ -244,7 +245,7 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
             bail!("{name}: --compact needs a tree in the u16 layout (this one is wide)")
         }
         AnyTables::Wide(_) => {
-            let text = export::solution_json_any(&sol, &any, !a.no_regions);
+            let text = export::solution_json(&sol, &any, !a.no_regions);
             return io::write_output(a.out.as_deref(), &text);
         }
     };
@@ -256,7 +257,11 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
             compact.tables.nodes.len(),
             compact.tables.bytes(4)
         );
-        export::solution_json_with_compact(&sol, &ctl, &compact, !a.no_regions)
+        export::solution_json(
+            &sol,
+            SolutionTables::from(&ctl).with_compact(&compact),
+            !a.no_regions,
+        )
     } else {
         export::solution_json(&sol, &ctl, !a.no_regions)
     };
@@ -268,11 +273,11 @@ fn read_text(path: &std::path::Path) -> anyhow::Result<String> {
 }
 
 fn read_tables(path: &std::path::Path) -> anyhow::Result<AnyTables> {
-    export::any_tables_from_json(&read_text(path)?).with_context(|| path.display().to_string())
+    export::read_tables(&read_text(path)?).with_context(|| path.display().to_string())
 }
 
 fn read_compact(path: &std::path::Path) -> anyhow::Result<kestrel_empc::CompactTables<f64>> {
-    export::compact_tables_from_json(&read_text(path)?).with_context(|| path.display().to_string())
+    export::read_tables(&read_text(path)?).with_context(|| path.display().to_string())
 }
 
 fn run_eval(a: EvalArgs) -> anyhow::Result<()> {
@@ -346,9 +351,9 @@ fn run_export(a: ExportArgs) -> anyhow::Result<()> {
         ScalarArg::F64 => ExportScalar::F64,
     };
     let src = if a.compact {
-        export::rust_source_compact(&read_compact(&a.solution)?, scalar)
+        export::rust_source(&read_compact(&a.solution)?, scalar)
     } else {
-        export::rust_source_any(&read_tables(&a.solution)?, scalar)
+        export::rust_source(&read_tables(&a.solution)?, scalar)
     }
     .with_context(|| a.solution.display().to_string())?;
     io::write_output(a.out.as_deref(), &src)

@@ -3,14 +3,14 @@
 
 use crate::error::EmpcError;
 use crate::eval::{NO_ROW, NO_ROW8, TreeIndex};
-use crate::tree::{CompactTables, OwnedTables, WideTables};
+use crate::tree::{CompactTables, OwnedTables};
 use kestrel_core::Scalar;
 use kestrel_core::formats::FormatError;
 
 /// Checks that every index of the compact tables points inside its table
 /// (roots, node rows and children, output bounds), that children come
 /// after their parent (no cycles), and the table shapes.
-pub fn check_compact_tables<S: Scalar>(t: &CompactTables<S>) -> Result<(), EmpcError> {
+pub(super) fn check_compact_tables<S: Scalar>(t: &CompactTables<S>) -> Result<(), EmpcError> {
     let w = t.n_params + 1;
     let bad = |what: String| Err(FormatError::invalid("compact_tables", what).into());
     if !t.rows.len().is_multiple_of(w) || !t.hull.len().is_multiple_of(w) {
@@ -110,7 +110,9 @@ fn check_tree<X: TreeIndex, I: Iterator<Item = [X; 4]>>(
 
 /// Checks that every index of the tables (either index type) points
 /// inside its table.
-pub fn check_tables<S: Scalar, X: TreeIndex>(t: &OwnedTables<S, X>) -> Result<(), EmpcError> {
+pub(super) fn check_tables<S: Scalar, X: TreeIndex>(
+    t: &OwnedTables<S, X>,
+) -> Result<(), EmpcError> {
     let nr = t.rows.len() / (t.n_params + 1);
     if let Some(l) = t.laws.iter().find(|&&r| r.index() >= nr) {
         let l = l.index();
@@ -126,10 +128,4 @@ pub fn check_tables<S: Scalar, X: TreeIndex>(t: &OwnedTables<S, X>) -> Result<()
         bounds: &t.bounds,
         bounds_ok: t.theta_lb.iter().zip(&t.theta_ub).all(|(l, u)| l <= u),
     })
-}
-
-/// Checks that every index of the wide tables points inside its table
-/// ([`check_tables`] with `u32` indices).
-pub fn check_wide_tables<S: Scalar>(t: &WideTables<S>) -> Result<(), EmpcError> {
-    check_tables(t)
 }

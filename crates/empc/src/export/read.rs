@@ -1,14 +1,15 @@
-//! Reading the solution file: the tables of either layout, every index
-//! checked ([`crate::export::check_tables`]).
+//! Reading the solution file: the tables of every format, every index
+//! checked (`check`).
 
 use crate::error::EmpcError;
 use crate::eval::CompactNode;
 use crate::export::check::{check_compact_tables, check_tables};
+use crate::export::format::TableFormat;
 use crate::export::index::ExportIndex;
 use crate::export::write::FORMAT;
 use crate::tree::{AnyTables, CompactTables, OwnedTables};
+use kestrel_core::formats::FormatError;
 use kestrel_core::formats::json::{self, Object};
-use kestrel_core::formats::{FormatError, MpqpProblem};
 use serde_json::Value;
 
 /// Index rows of `width` `u16` entries.
@@ -121,15 +122,22 @@ fn read_common<X: ExportIndex>(
     })
 }
 
-/// Reads the tables of a solution file and checks every index.
-pub fn tables_from_json(text: &str) -> Result<OwnedTables<f64>, EmpcError> {
+/// Reads the single tree of a solution file in index type `X`
+/// ([`TableFormat::Narrow`] or [`TableFormat::Wide`]) and checks every
+/// index; an error if the file holds the other index width.
+pub(super) fn read_tree<X: ExportIndex>(text: &str) -> Result<OwnedTables<f64, X>, EmpcError> {
     let obj = json::parse_object(text)?;
     let (p, k) = read_sizes(&obj)?;
     let t = tables_object(&obj, "tables", "written by `kestrel empc solve`")?;
-    if is_wide(t)? {
+    let found = tree_format(t)?;
+    if found != X::FORMAT {
+        let (what, ty) = match found {
+            TableFormat::Wide => ("wide (u32)", "WideTables"),
+            TableFormat::Narrow | TableFormat::Compact => ("u16", "OwnedTables"),
+        };
         return Err(FormatError::invalid(
             "tables.index",
-            "these are wide (u32) tables: read them with any_tables_from_json",
+            format!("these are {what} tables: read them as {ty} or AnyTables"),
         )
         .into());
     }
@@ -175,42 +183,51 @@ fn read_tables<X: ExportIndex>(
     Ok(tables)
 }
 
-/// Whether the tables object says `index: "u32"` (absent or `"u16"`: no).
-fn is_wide(t: &Object) -> Result<bool, EmpcError> {
+/// The format of the tables object: `index: "u32"` wide, absent or
+/// `"u16"` narrow.
+fn tree_format(t: &Object) -> Result<TableFormat, EmpcError> {
     match t.get("index") {
-        None => Ok(false),
+        None => Ok(TableFormat::Narrow),
         Some(v) => match v.as_str() {
-            Some("u16") => Ok(false),
-            Some("u32") => Ok(true),
+            Some("u16") => Ok(TableFormat::Narrow),
+            Some("u32") => Ok(TableFormat::Wide),
             _ => Err(FormatError::invalid("tables.index", "expected \"u16\" or \"u32\"").into()),
         },
     }
 }
 
-/// Reads the tables of a solution file in either layout (`tables.index`
-/// `"u32"`: [`WideTables`](crate::tree::WideTables), else [`OwnedTables`]) and checks every index.
-pub fn any_tables_from_json(text: &str) -> Result<AnyTables, EmpcError> {
+/// Reads the single tree of a solution file in the index width it was
+/// written in (`tables.index` `"u32"`: wide, else narrow) and checks every index.
+pub(super) fn read_any(text: &str) -> Result<AnyTables, EmpcError> {
     let obj = json::parse_object(text)?;
     let (p, k) = read_sizes(&obj)?;
     let t = tables_object(&obj, "tables", "written by `kestrel empc solve`")?;
-    if !is_wide(t)? {
-        return Ok(AnyTables::Narrow(tables_from_json(text)?));
-    }
-    Ok(AnyTables::Wide(read_tables(t, p, k)?))
+    Ok(match tree_format(t)? {
+        TableFormat::Wide => AnyTables::Wide(read_tables(t, p, k)?),
+        TableFormat::Narrow | TableFormat::Compact => AnyTables::Narrow(read_tables(t, p, k)?),
+    })
 }
 
-/// Whether a solution file holds the compact layout (`compact_tables`,
-/// written by `kestrel empc solve --compact`).
-pub fn has_compact_tables(text: &str) -> Result<bool, EmpcError> {
+/// The formats a solution file holds: its single tree's
+/// ([`TableFormat::Narrow`] or [`TableFormat::Wide`]), then
+/// [`TableFormat::Compact`] if it has `compact_tables` (written by `kestrel
+/// empc solve --compact`).
+pub fn table_formats(text: &str) -> Result<Vec<TableFormat>, EmpcError> {
     let obj = json::parse_object(text)?;
     json::check_format(&obj, FORMAT)?;
-    Ok(obj.contains_key("compact_tables"))
+    let mut out = Vec::with_capacity(2);
+    if let Some(t) = obj.get("tables").and_then(Value::as_object) {
+        out.push(tree_format(t)?);
+    }
+    if obj.contains_key("compact_tables") {
+        out.push(TableFormat::Compact);
+    }
+    Ok(out)
 }
 
-/// Reads the compact layout of a solution file (`compact_tables`, see
-/// [`solution_json_with_compact`](crate::export::solution_json_with_compact)) and checks every index
-/// ([`check_compact_tables`]).
-pub fn compact_tables_from_json(text: &str) -> Result<CompactTables<f64>, EmpcError> {
+/// Reads the compact format of a solution file (`compact_tables`) and
+/// checks every index (`check_compact_tables`).
+pub(super) fn read_compact(text: &str) -> Result<CompactTables<f64>, EmpcError> {
     let obj = json::parse_object(text)?;
     let (p, k) = read_sizes(&obj)?;
     let pre = "compact_tables";
@@ -262,9 +279,4 @@ pub fn compact_tables_from_json(text: &str) -> Result<CompactTables<f64>, EmpcEr
     };
     check_compact_tables(&tables)?;
     Ok(tables)
-}
-
-/// Reads a problem file (convenience for the CLI and tests).
-pub fn read_problem(path: &std::path::Path) -> Result<MpqpProblem, EmpcError> {
-    Ok(MpqpProblem::read(path)?)
 }

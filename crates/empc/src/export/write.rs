@@ -1,10 +1,11 @@
 //! Writing the solution file (`kestrel.empc.v1`).
 
+use crate::export::format::TableFormat;
 use crate::export::index::ExportIndex;
 use crate::mpqp::MpqpSolution;
 use crate::tree::{
     AnyController, AnyTables, CompactController, CompactTables, ExplicitController, OwnedTables,
-    TreeStats,
+    TreeStats, WideTables,
 };
 use kestrel_core::formats::json::{self, Object};
 use serde_json::{Value, json};
@@ -17,39 +18,90 @@ fn rows_value(v: &[f64], width: usize) -> Value {
     Value::Array(v.chunks(width.max(1)).map(|r| json!(r)).collect())
 }
 
-/// The `kestrel.empc.v1` solution file: summary, optional region list and tables.
-pub fn solution_json(
-    solution: &MpqpSolution,
-    controller: &ExplicitController,
-    include_regions: bool,
-) -> String {
-    json::to_pretty_string(&solution_object(
-        solution,
-        &controller.stats,
-        TablesView::of(&controller.tables),
-        include_regions,
-    ))
+/// What a solution file carries besides the solution: the single tree
+/// (statistics and tables, [`TableFormat::Narrow`] or [`TableFormat::Wide`])
+/// and optionally the compact format ([`TableFormat::Compact`]).
+///
+/// Made from an [`ExplicitController`] or an [`AnyController`] (`From`),
+/// the compact format added with [`SolutionTables::with_compact`].
+#[derive(Clone, Copy, Debug)]
+pub struct SolutionTables<'a> {
+    stats: &'a TreeStats,
+    tree: Tree<'a>,
+    compact: Option<&'a CompactController>,
 }
 
-/// [`solution_json`] for either layout ([`crate::tree::build_any`]): the
-/// `u16` layout as [`solution_json`] writes it, the wide one with
+/// The single tree in either index width.
+#[derive(Clone, Copy, Debug)]
+enum Tree<'a> {
+    Narrow(&'a OwnedTables<f64>),
+    Wide(&'a WideTables<f64>),
+}
+
+impl<'a> SolutionTables<'a> {
+    /// The same with the compact format added: the summary key
+    /// `tree_compact` = `{depth, nodes, bytes, hyperplanes, rows,
+    /// laws_per_output, depth_per_output, nodes_per_output}` (`bytes` counts
+    /// the compact tables in f32, as [`CompactTables::bytes`]) and
+    /// `compact_tables` = `{roots, nodes: [[row_a, row_b, le, gt]] (255: no
+    /// row), rows, hull, theta_lb, theta_ub, bounds}`. The single tree's keys
+    /// are unchanged.
+    pub fn with_compact(self, compact: &'a CompactController) -> SolutionTables<'a> {
+        SolutionTables {
+            compact: Some(compact),
+            ..self
+        }
+    }
+}
+
+impl<'a> From<&'a ExplicitController> for SolutionTables<'a> {
+    fn from(c: &'a ExplicitController) -> SolutionTables<'a> {
+        SolutionTables {
+            stats: &c.stats,
+            tree: Tree::Narrow(&c.tables),
+            compact: None,
+        }
+    }
+}
+
+impl<'a> From<&'a AnyController> for SolutionTables<'a> {
+    fn from(c: &'a AnyController) -> SolutionTables<'a> {
+        let tree = match &c.tables {
+            AnyTables::Narrow(t) => Tree::Narrow(t),
+            AnyTables::Wide(t) => Tree::Wide(t),
+        };
+        SolutionTables {
+            stats: &c.stats,
+            tree,
+            compact: None,
+        }
+    }
+}
+
+/// The `kestrel.empc.v1` solution file: summary, optional region list
+/// (`include_regions`) and the tables of every format `tables` carries.
+///
+/// The single tree goes under `tables`; in the wide format with
 /// `tables.index = "u32"` and `tree.index_bytes = 4` (`tree.bytes` counts
-/// the wide tables in f32, 4 bytes per index).
-pub fn solution_json_any(
+/// the wide tables in f32, 4 bytes per index). The compact format, if
+/// added ([`SolutionTables::with_compact`]), goes under `tree_compact` and
+/// `compact_tables`. [`read_tables`](crate::export::read_tables) reads
+/// each format back.
+pub fn solution_json<'a>(
     solution: &MpqpSolution,
-    controller: &AnyController,
+    tables: impl Into<SolutionTables<'a>>,
     include_regions: bool,
 ) -> String {
-    let view = match &controller.tables {
-        AnyTables::Narrow(t) => TablesView::of(t),
-        AnyTables::Wide(t) => TablesView::of(t),
+    let tables = tables.into();
+    let view = match tables.tree {
+        Tree::Narrow(t) => TablesView::of(t),
+        Tree::Wide(t) => TablesView::of(t),
     };
-    json::to_pretty_string(&solution_object(
-        solution,
-        &controller.stats,
-        view,
-        include_regions,
-    ))
+    let mut o = solution_object(solution, tables.stats, view, include_regions);
+    if let Some(compact) = tables.compact {
+        insert_compact(&mut o, compact);
+    }
+    json::to_pretty_string(&o)
 }
 
 /// What the solution file writes of a layout: its tables object, f32
@@ -66,8 +118,9 @@ impl TablesView {
         let w = t.n_params + 1;
         let idx = |v: &[X]| json!(v.iter().map(|x| x.index()).collect::<Vec<_>>());
         let mut m = Object::new();
-        if X::WIDE {
-            m.insert("index".into(), X::NAME.into());
+        let wide = X::FORMAT == TableFormat::Wide;
+        if wide {
+            m.insert("index".into(), X::FORMAT.index_type().into());
         }
         m.insert("root".into(), t.root.index().into());
         m.insert(
@@ -90,30 +143,13 @@ impl TablesView {
             tables: Value::Object(m),
             bytes: t.bytes(4),
             n_outputs: t.n_outputs,
-            wide: X::WIDE,
+            wide,
         }
     }
 }
 
-/// [`solution_json`] with the compact layout added (one tree per output,
-/// [`crate::build_compact`]): the summary key `tree_compact` = `{depth,
-/// nodes, bytes, hyperplanes, rows, laws_per_output, depth_per_output,
-/// nodes_per_output}` (`bytes` counts the compact tables in f32, as
-/// [`CompactTables::bytes`]) and `compact_tables` = `{roots, nodes:
-/// [[row_a, row_b, le, gt]] (255: no row), rows, hull, theta_lb, theta_ub,
-/// bounds}`. The default layout's keys are unchanged.
-pub fn solution_json_with_compact(
-    solution: &MpqpSolution,
-    controller: &ExplicitController,
-    compact: &CompactController,
-    include_regions: bool,
-) -> String {
-    let mut o = solution_object(
-        solution,
-        &controller.stats,
-        TablesView::of(&controller.tables),
-        include_regions,
-    );
+/// Adds the compact format's keys `tree_compact` and `compact_tables`.
+fn insert_compact(o: &mut Object, compact: &CompactController) {
     let t: &CompactTables<f64> = &compact.tables;
     let w = t.n_params + 1;
     let per =
@@ -143,7 +179,6 @@ pub fn solution_json_with_compact(
             "bounds": t.bounds,
         }),
     );
-    json::to_pretty_string(&o)
 }
 
 /// The summary, the optional region list and the tables of the solution file.

@@ -10,7 +10,7 @@ use super::firmware::MODEL;
 use crate::firmware::ns2_problem;
 use kestrel_core::Q16;
 use kestrel_core::formats::{MpqpProblem, SsModel};
-use kestrel_empc::export::{ExportScalar, rust_source, rust_source_compact, rust_source_wide};
+use kestrel_empc::export::{ExportScalar, rust_source};
 use kestrel_empc::{Settings, TreeSettings, build_compact, build_controller, solve};
 use kestrel_fgm::{BoxQp, FgmDesign, FgmSettings, Momentum, Preconditioner, export_rust};
 use std::path::Path;
@@ -64,23 +64,23 @@ pub fn empc_files(root: &Path) -> Result<Vec<GeneratedFile>, CodegenError> {
         ),
         file(
             "crates/empc/tests/generated/box2_wide_f32.rs",
-            rust_source_wide(&wide, ExportScalar::F32)?,
+            rust_source(&wide, ExportScalar::F32)?,
         ),
         file(
             "crates/empc/tests/generated/box2_wide_f64.rs",
-            rust_source_wide(&wide, ExportScalar::F64)?,
+            rust_source(&wide, ExportScalar::F64)?,
         ),
         file(
             "crates/empc/tests/generated/box2_compact_f32.rs",
-            rust_source_compact(&compact.tables, ExportScalar::F32)?,
+            rust_source(&compact.tables, ExportScalar::F32)?,
         ),
         file(
             "crates/empc/tests/generated/box2_compact_f64.rs",
-            rust_source_compact(&compact.tables, ExportScalar::F64)?,
+            rust_source(&compact.tables, ExportScalar::F64)?,
         ),
         file(
             "crates/empc/tests/generated/box2_compact_q16.rs",
-            rust_source_compact(&compact.tables, ExportScalar::Q16)?,
+            rust_source(&compact.tables, ExportScalar::Q16)?,
         ),
     ])
 }
