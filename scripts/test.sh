@@ -23,5 +23,5 @@ echo "== cargo test --workspace (unit, integration and doc tests)"
 cargo test --workspace
 echo "== AVR builds"
 bash scripts/avr-check.sh
-echo "== cargo package (publishable crates)"
-cargo package --workspace --no-verify --quiet --allow-dirty --exclude kestrel-benches --exclude kestrel-tests
+echo "== cargo package (publishable crates, each verified by building it alone from its package)"
+cargo package --workspace --quiet --allow-dirty --exclude kestrel-benches --exclude kestrel-tests
