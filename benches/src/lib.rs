@@ -2,18 +2,17 @@
 //! them with `cargo bench -p kestrel-benches`. This library only holds
 //! shared problem generators.
 
-/// A deterministic pseudo-random sequence in `[-1, 1)` (xorshift), so
-/// benchmarks use the same data on every run without a dependency.
+use rand::{RngExt, SeedableRng};
+use rand_xoshiro::SplitMix64;
+
+/// A deterministic pseudo-random sequence in `[-1, 1)` from the
+/// workspace's seeded generator (`rand_xoshiro::SplitMix64` with state
+/// `seed`, mapped as `random::<f64>() * 2.0 - 1.0`), so benchmarks use the
+/// same data on every run. `crates/kalman/examples/dare_cpu_time.rs` and
+/// `crates/kalman/scripts/scipy_dare.py` write out the same sequence.
 pub fn pseudo_random(seed: u64, n: usize) -> Vec<f64> {
-    let mut s = seed.max(1);
-    (0..n)
-        .map(|_| {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        })
-        .collect()
+    let mut rng = SplitMix64::seed_from_u64(seed);
+    (0..n).map(|_| rng.random::<f64>() * 2.0 - 1.0).collect()
 }
 
 #[cfg(test)]

@@ -19,6 +19,8 @@ use kestrel_fgm::{
 };
 use kestrel_tricopter::{ProblemSize, default_weights, tricopter_problem};
 use nalgebra::DVector;
+use rand::{RngExt, SeedableRng};
+use rand_xoshiro::SplitMix64;
 
 fn samples() -> usize {
     std::env::var("KESTREL_FGM_SAMPLES")
@@ -56,15 +58,6 @@ fn design(qp: &BoxQp, pc: Preconditioner) -> FgmDesign {
     .unwrap()
 }
 
-/// SplitMix64 in [0, 1).
-fn unit(state: &mut u64) -> f64 {
-    *state = state.wrapping_add(0x9E3779B97F4A7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
-    ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-}
-
 fn check(size: ProblemSize) {
     let qp = box_qp(size);
     let d = design(&qp, Preconditioner::OptimalDiagonal);
@@ -100,12 +93,12 @@ fn check(size: ProblemSize) {
         warm.iterations,
         warm.refined
     );
-    let mut s = 99u64;
+    let mut s = SplitMix64::seed_from_u64(99);
     let (mut worst_cold, mut worst_warm) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
     let n_samples = samples();
     for _ in 0..n_samples {
         let th = DVector::from_fn(qp.p(), |i, _| {
-            qp.theta_lb[i] + (qp.theta_ub[i] - qp.theta_lb[i]) * unit(&mut s)
+            qp.theta_lb[i] + (qp.theta_ub[i] - qp.theta_lb[i]) * s.random::<f64>()
         });
         let best = reference.solve(&th).unwrap();
         let z = DVector::from_vec(
@@ -120,7 +113,8 @@ fn check(size: ProblemSize) {
             "{size:?}: applied input error above 1 us"
         );
         let th0 = DVector::from_fn(qp.p(), |i, _| {
-            (th[i] + step[i] * (2.0 * unit(&mut s) - 1.0)).clamp(qp.theta_lb[i], qp.theta_ub[i])
+            (th[i] + step[i] * (2.0 * s.random::<f64>() - 1.0))
+                .clamp(qp.theta_lb[i], qp.theta_ub[i])
         });
         let prev = data
             .solve(th0.as_slice(), Start::Cold, cert.iterations)

@@ -1,5 +1,5 @@
 //! CPU time per `dare` call on the problems of `benches/benches/kalman.rs`
-//! (same generator), comparable with the CPU time that
+//! (the same sequence), comparable with the CPU time that
 //! `crates/kalman/scripts/scipy_dare.py` reports for SciPy. CPU time of
 //! this thread (`/proc/thread-self/schedstat`), best of 3 runs of
 //! thousands of calls, so neither other processes on a loaded machine nor
@@ -10,17 +10,15 @@
 //! ```
 use kestrel_kalman::dare;
 use nalgebra::DMatrix;
+use rand::{RngExt, SeedableRng};
+use rand_xoshiro::SplitMix64;
 
+/// `n` numbers uniform in `[-1, 1)` from the workspace's seeded generator
+/// (`rand_xoshiro::SplitMix64`): the sequence of
+/// `kestrel_benches::pseudo_random` and of `scipy_dare.py`.
 fn pseudo_random(seed: u64, n: usize) -> Vec<f64> {
-    let mut s = seed.max(1);
-    (0..n)
-        .map(|_| {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        })
-        .collect()
+    let mut rng = SplitMix64::seed_from_u64(seed);
+    (0..n).map(|_| rng.random::<f64>() * 2.0 - 1.0).collect()
 }
 
 fn thread_cpu_ns() -> u64 {

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """SciPy baseline for benches/benches/kalman.rs: the same DARE problems
-(same xorshift generator as kestrel_benches::pseudo_random), timed with
-process CPU time and with wall-clock time.
+(the same SplitMix64 sequence as kestrel_benches::pseudo_random and the
+dare_cpu_time example), timed with process CPU time and with wall-clock
+time.
 
     python3 crates/kalman/scripts/scipy_dare.py
 """
@@ -13,13 +14,18 @@ MASK = (1 << 64) - 1
 
 
 def pseudo_random(seed, n):
-    s = max(seed, 1)
+    """SplitMix64 seeded with the state `seed` (rand_xoshiro's
+    `SplitMix64::seed_from_u64`), mapped to [-1, 1) as rand's
+    `random::<f64>() * 2.0 - 1.0`: (next >> 11) / 2^53 * 2 - 1."""
+    s = seed & MASK
     out = []
     for _ in range(n):
-        s ^= (s << 13) & MASK
-        s ^= s >> 7
-        s ^= (s << 17) & MASK
-        out.append((s >> 11) / float(1 << 52) - 1.0)
+        s = (s + 0x9E3779B97F4A7C15) & MASK
+        z = s
+        z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & MASK
+        z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & MASK
+        z ^= z >> 31
+        out.append((z >> 11) / float(1 << 53) * 2.0 - 1.0)
     return out
 
 

@@ -455,19 +455,19 @@ pub(crate) mod tests {
     use crate::qp::{QpSettings, ReferenceSolver, kkt_residuals, solve_dense};
     use kestrel_core::formats::SsModel;
     use proptest::prelude::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_xoshiro::SplitMix64;
 
-    /// A small deterministic generator (xorshift) for reproducible random data.
-    pub(crate) struct Rng(u64);
+    /// Reproducible random data from the workspace's seeded generator,
+    /// `rand_xoshiro::SplitMix64`.
+    pub(crate) struct Rng(SplitMix64);
     impl Rng {
         pub(crate) fn new(seed: u64) -> Self {
-            Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+            Rng(SplitMix64::seed_from_u64(seed))
         }
         /// Uniform in [-1, 1).
         pub(crate) fn next(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+            self.0.random::<f64>() * 2.0 - 1.0
         }
         pub(crate) fn mat(&mut self, r: usize, c: usize) -> DMatrix<f64> {
             DMatrix::from_fn(r, c, |_, _| self.next())

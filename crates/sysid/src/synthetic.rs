@@ -5,27 +5,27 @@ use crate::error::Result;
 use crate::linalg::spectral_radius;
 use crate::model::InnovationModel;
 use nalgebra::{DMatrix, DVector};
+use rand::{Rng as _, RngExt, SeedableRng};
+use rand_xoshiro::SplitMix64;
 
-/// A small deterministic random generator (SplitMix64) with normal samples.
+/// A small deterministic random generator with normal samples: the
+/// workspace's seeded generator, `rand_xoshiro::SplitMix64`.
 #[derive(Clone, Debug)]
-pub struct Rng(u64);
+pub struct Rng(SplitMix64);
 
 impl Rng {
-    /// A generator from a seed.
+    /// A generator from a seed (the SplitMix64 state is
+    /// `seed ^ 0x9E37_79B9_7F4A_7C15`).
     pub fn new(seed: u64) -> Self {
-        Rng(seed ^ 0x9E37_79B9_7F4A_7C15)
+        Rng(SplitMix64::seed_from_u64(seed ^ 0x9E37_79B9_7F4A_7C15))
     }
     /// Next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
-    /// Uniform in `[0, 1)`.
+    /// Uniform in `[0, 1)` (the top 53 bits of [`Rng::next_u64`] over `2^53`).
     pub fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+        self.0.random::<f64>()
     }
     /// Standard normal (Box-Muller).
     pub fn normal(&mut self) -> f64 {
