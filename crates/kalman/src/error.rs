@@ -3,8 +3,10 @@
 use nalgebra::Complex;
 
 /// Why a Riccati equation or a filter design was refused or failed.
+///
+/// Not `#[non_exhaustive]`: callers in other crates map every variant by
+/// name (no wildcard arm that would rename an error added later).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[non_exhaustive]
 pub enum KalmanError {
     /// A matrix has the wrong shape.
     #[error(

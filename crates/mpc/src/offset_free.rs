@@ -178,9 +178,6 @@ fn augmentation_error(e: KalmanError) -> MpcError {
         | KalmanError::NotConverged { .. }) => {
             MpcError::setting("disturbance model", e.to_string())
         }
-        // KalmanError is #[non_exhaustive], so another crate's match needs
-        // this arm; a variant added later keeps its message.
-        e => MpcError::setting("disturbance model", e.to_string()),
     }
 }
 
