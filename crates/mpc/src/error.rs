@@ -95,7 +95,16 @@ pub enum MpcError {
 }
 
 impl MpcError {
-    pub(crate) fn dim(
+    /// A [`MpcError::Dimension`] error: `what` should have the shape
+    /// `expected` and has `found`.
+    ///
+    /// ```
+    /// use kestrel_mpc::MpcError;
+    ///
+    /// let e = MpcError::dim("Q1", "3 x 3", "2 x 2");
+    /// assert_eq!(e.to_string(), "Q1: expected 3 x 3, found 2 x 2");
+    /// ```
+    pub fn dim(
         what: impl Into<String>,
         expected: impl Into<String>,
         found: impl Into<String>,
@@ -106,7 +115,16 @@ impl MpcError {
             found: found.into(),
         }
     }
-    pub(crate) fn setting(what: impl Into<String>, reason: impl Into<String>) -> Self {
+    /// A [`MpcError::InvalidSetting`] error: the setting `what` is refused
+    /// because of `reason`.
+    ///
+    /// ```
+    /// use kestrel_mpc::MpcError;
+    ///
+    /// let e = MpcError::setting("horizon", "must be at least 1");
+    /// assert_eq!(e.to_string(), "invalid setting horizon: must be at least 1");
+    /// ```
+    pub fn setting(what: impl Into<String>, reason: impl Into<String>) -> Self {
         MpcError::InvalidSetting {
             what: what.into(),
             reason: reason.into(),

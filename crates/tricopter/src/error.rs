@@ -6,33 +6,17 @@ use kestrel_sysid::SysidError;
 
 /// What went wrong building a tricopter problem or flying the closed loop.
 ///
-/// The messages of the first three variants read as kestrel-mpc's.
+/// A wrong shape, a NaN or a refused setting is reported in kestrel-mpc's
+/// terms ([`MpcError::Dimension`], [`MpcError::NonFinite`],
+/// [`MpcError::InvalidSetting`]) whether kestrel-mpc or this crate found
+/// it, so each message is written once.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum TricopterError {
-    /// A model, vector or law has the wrong shape for the tricopter.
-    #[error("{what}: expected {expected}, found {found}")]
-    Dimension {
-        /// The offending quantity (`"tricopter u0"`, `"control law"`, ...).
-        what: String,
-        /// The shape it must have.
-        expected: String,
-        /// The shape it has.
-        found: String,
-    },
-    /// A vector holds NaN or an infinity.
-    #[error("{0} contains NaN or an infinity")]
-    NonFinite(String),
-    /// A setting is outside its range, or a part of the loop (plant, gyro,
-    /// Kalman filter) refused its configuration.
-    #[error("invalid setting {what}: {reason}")]
-    InvalidSetting {
-        /// The setting or part.
-        what: String,
-        /// Why it is refused.
-        reason: String,
-    },
-    /// kestrel-mpc refused the problem or its solver failed.
+    /// A model, vector, law or setting was refused (by kestrel-mpc, or by
+    /// this crate: `"tricopter u0"`, `"control law"`, a part of the loop
+    /// such as the plant, gyro or Kalman filter), or kestrel-mpc's solver
+    /// failed.
     #[error(transparent)]
     Mpc(#[from] MpcError),
     /// An interchange file is malformed.
@@ -44,22 +28,21 @@ pub enum TricopterError {
 }
 
 impl TricopterError {
+    /// kestrel-mpc's [`MpcError::Dimension`].
     pub(crate) fn dim(
         what: impl Into<String>,
         expected: impl Into<String>,
         found: impl Into<String>,
     ) -> Self {
-        TricopterError::Dimension {
-            what: what.into(),
-            expected: expected.into(),
-            found: found.into(),
-        }
+        MpcError::dim(what, expected, found).into()
     }
+    /// kestrel-mpc's [`MpcError::InvalidSetting`].
     pub(crate) fn setting(what: impl Into<String>, reason: impl Into<String>) -> Self {
-        TricopterError::InvalidSetting {
-            what: what.into(),
-            reason: reason.into(),
-        }
+        MpcError::setting(what, reason).into()
+    }
+    /// kestrel-mpc's [`MpcError::NonFinite`].
+    pub(crate) fn non_finite(what: impl Into<String>) -> Self {
+        MpcError::NonFinite(what.into()).into()
     }
 }
 

@@ -20,8 +20,10 @@ use nalgebra::{DMatrix, DVector};
 /// kestrel-kalman [`AugmentedModel`].
 ///
 /// # Errors
-/// [`TricopterError::Dimension`] if the model does not have the gyro's
-/// 3 outputs; [`TricopterError::InvalidSetting`] for `nd > nx`, or when
+/// [`MpcError::Dimension`](kestrel_mpc::MpcError::Dimension) (in
+/// [`TricopterError::Mpc`]) if the model does not have the gyro's 3
+/// outputs; [`MpcError::InvalidSetting`](kestrel_mpc::MpcError::InvalidSetting)
+/// for `nd > nx`, or when
 /// the last `nd` states are not integrating disturbances or cannot be
 /// estimated.
 pub fn thesis_noise(model: &SsModel, nd: usize) -> Result<NoiseModel, TricopterError> {

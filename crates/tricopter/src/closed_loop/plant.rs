@@ -131,7 +131,7 @@ impl RatePlant for LinearPlant {
     }
     fn advance(&mut self, pwm: &[f64; 4]) -> Result<(), TricopterError> {
         if pwm.iter().any(|v| !v.is_finite()) {
-            return Err(TricopterError::NonFinite("pulses".into()));
+            return Err(TricopterError::non_finite("pulses"));
         }
         let du = DVector::from_column_slice(pwm) - &self.u0;
         self.x = &self.a * &self.x + &self.b * du;

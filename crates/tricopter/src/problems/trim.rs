@@ -58,7 +58,7 @@ impl TricopterTrim {
             ));
         }
         if u0.iter().any(|v| !v.is_finite()) {
-            return Err(TricopterError::NonFinite("tricopter u0".into()));
+            return Err(TricopterError::non_finite("tricopter u0"));
         }
         let absolute = u0[..3].iter().all(|&v| v > 500.0);
         let relative = u0[..3].iter().all(|&v| v.abs() <= 500.0);
@@ -105,7 +105,7 @@ impl TricopterTrim {
             ));
         }
         if z.iter().any(|v| !v.is_finite()) || !throttle.is_finite() {
-            return Err(TricopterError::NonFinite("input move or throttle".into()));
+            return Err(TricopterError::non_finite("input move or throttle"));
         }
         let mut out = Actuation {
             pwm: [0.0; 4],
