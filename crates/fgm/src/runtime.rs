@@ -60,6 +60,49 @@ pub struct FgmView<'a, S> {
     pub betas: &'a [S],
 }
 
+impl<'a, S> FgmView<'a, S> {
+    /// The ten arrays in the order of the fields: `m`, `k_theta`, `k0`,
+    /// `lo_theta`, `lo0`, `hi_theta`, `hi0`, `d`, `d_inv`, `betas` (the
+    /// order of an exported table and of a firmware's flat table).
+    ///
+    /// ```
+    /// use kestrel_fgm::FgmTables;
+    /// use kestrel_core::Matrix;
+    ///
+    /// let t: FgmTables<f64, 1, 1, 1> = FgmTables {
+    ///     m: Matrix::from_rows([[0.5]]),
+    ///     k_theta: Matrix::from_rows([[-1.0]]),
+    ///     k0: [0.0],
+    ///     lo_theta: Matrix::from_rows([[0.0]]),
+    ///     lo0: [-1.0],
+    ///     hi_theta: Matrix::from_rows([[0.0]]),
+    ///     hi0: [1.0],
+    ///     d: [1.0],
+    ///     d_inv: [1.0],
+    ///     betas: [0.0],
+    ///     iterations: 10,
+    ///     warm_iterations: 5,
+    ///     shift: 1,
+    /// };
+    /// let flat: Vec<f64> = t.view().parts().concat();
+    /// assert_eq!(flat, [0.5, -1.0, 0.0, 0.0, -1.0, 0.0, 1.0, 1.0, 1.0, 0.0]);
+    /// ```
+    pub fn parts(&self) -> [&'a [S]; 10] {
+        [
+            self.m,
+            self.k_theta,
+            self.k0,
+            self.lo_theta,
+            self.lo0,
+            self.hi_theta,
+            self.hi0,
+            self.d,
+            self.d_inv,
+            self.betas,
+        ]
+    }
+}
+
 /// Caller-owned scratch vectors of a solve, each of length `n`.
 #[derive(Debug)]
 pub struct WorkspaceMut<'a, S> {

@@ -61,20 +61,5 @@ fn f32_export_round_trips() {
         .filter_map(|t| t.strip_suffix("_f32"))
         .map(|t| t.parse().unwrap())
         .collect();
-    let mut want: Vec<f32> = Vec::new();
-    for v in [
-        &data.m,
-        &data.k_theta,
-        &data.k0,
-        &data.lo_theta,
-        &data.lo0,
-        &data.hi_theta,
-        &data.hi0,
-        &data.d,
-        &data.d_inv,
-        &data.betas,
-    ] {
-        want.extend(v.iter());
-    }
-    assert_eq!(lits, want);
+    assert_eq!(lits, data.view().parts().concat());
 }

@@ -28,21 +28,7 @@ pub(super) fn layout(n: usize, p: usize, t: usize) -> Vec<(&'static str, usize)>
 
 /// The flat table in the order of [`layout`].
 pub(super) fn flat<S: Scalar>(d: &FirmwareDesign, data: &FgmData<S>) -> Vec<S> {
-    let mut v: Vec<S> = Vec::new();
-    for part in [
-        &data.m,
-        &data.k_theta,
-        &data.k0,
-        &data.lo_theta,
-        &data.lo0,
-        &data.hi_theta,
-        &data.hi0,
-        &data.d,
-        &data.d_inv,
-        &data.betas,
-    ] {
-        v.extend_from_slice(part);
-    }
+    let mut v: Vec<S> = data.view().parts().concat();
     v.extend(d.mixer_offset().iter().map(|x| S::from_f64(*x)));
     v.extend(d.bias().iter().map(|x| S::from_f64(*x)));
     v
