@@ -281,24 +281,14 @@ impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usiz
 #[cfg(test)]
 mod tests {
     use super::*;
-    use kestrel_core::Matrix;
     use kestrel_fgm::{FgmWorkspace, Start};
 
+    /// The MPC law's test tables with the scaling `D = diag(2, 0.5)`.
     fn tables() -> FgmTables<f64, 2, 3, 1> {
         FgmTables {
-            m: Matrix::from_rows([[0.5, 0.1], [0.1, 0.4]]),
-            k_theta: Matrix::from_rows([[1.0, 0.0, 0.5], [0.0, -1.0, 0.2]]),
-            k0: [0.0; 2],
-            lo_theta: Matrix::zeros(),
-            lo0: [-1.0; 2],
-            hi_theta: Matrix::zeros(),
-            hi0: [1.0; 2],
             d: [2.0, 0.5],
             d_inv: [0.5, 2.0],
-            betas: [0.2],
-            iterations: 30,
-            warm_iterations: 30,
-            shift: 0,
+            ..crate::law::tests::tables()
         }
     }
 

@@ -80,6 +80,13 @@ impl<S: Scalar> StateEstimator for RateObserver<S> {
 }
 
 /// Per-axis PI rate law (interim stand-in for the MPC).
+///
+/// Not kestrel-tricopter-model's `RatePid`, the simulator's baseline
+/// controller, on purpose: that one outputs pulses through its mixer, cuts
+/// the motors at low throttle and holds an axis's integral while the mixer
+/// clips it; this one outputs virtual torques with a clamped integrator, in
+/// `mul_add` form for fixed point, for the firmware's loop (this crate does
+/// not depend on the model crate).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PiRateLaw<S> {
     /// Proportional gains (torque per rad/s).

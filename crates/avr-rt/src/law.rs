@@ -204,11 +204,13 @@ pub(crate) fn pack_theta<S: Scalar, const P: usize>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use kestrel_core::Matrix;
 
-    fn tables() -> FgmTables<f64, 2, 3, 1> {
+    /// A 2-variable, 3-parameter box QP's tables without scaling (`D = I`),
+    /// shared with the 16-bit law's tests ([`crate::fgm16`]).
+    pub(crate) fn tables() -> FgmTables<f64, 2, 3, 1> {
         FgmTables {
             m: Matrix::from_rows([[0.5, 0.1], [0.1, 0.4]]),
             k_theta: Matrix::from_rows([[1.0, 0.0, 0.5], [0.0, -1.0, 0.2]]),
