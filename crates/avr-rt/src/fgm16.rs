@@ -42,7 +42,7 @@
 
 use crate::kalman16::mul_q15;
 use crate::law::LawInfo;
-use crate::law::pack_theta;
+use crate::law::{check_law_sizes, pack_theta};
 use crate::mac::Row16;
 use crate::output::RtScalar;
 use kestrel_core::{ControlLaw, Error, all_finite};
@@ -139,18 +139,7 @@ impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usiz
         warm: bool,
         iterations: u16,
     ) -> Result<Self, Error> {
-        if nx > P {
-            return Err(Error::DimensionMismatch {
-                expected: P,
-                found: nx,
-            });
-        }
-        if NU > N {
-            return Err(Error::DimensionMismatch {
-                expected: N,
-                found: NU,
-            });
-        }
+        check_law_sizes::<N, P, NU>(nx)?;
         if iterations == 0 || T == 0 {
             return Err(Error::InvalidArgument(
                 "fast gradient with zero iterations or no momentum",

@@ -78,18 +78,7 @@ impl<S: Scalar, const N: usize, const P: usize, const T: usize, const NU: usize>
         start: FgmStart,
         iterations: u16,
     ) -> Result<Self, Error> {
-        if nx > P {
-            return Err(Error::DimensionMismatch {
-                expected: P,
-                found: nx,
-            });
-        }
-        if NU > N {
-            return Err(Error::DimensionMismatch {
-                expected: N,
-                found: NU,
-            });
-        }
+        check_law_sizes::<N, P, NU>(nx)?;
         let finite = tables.m.is_finite()
             && tables.k_theta.is_finite()
             && tables.lo_theta.is_finite()
@@ -178,6 +167,27 @@ macro_rules! parametric_law_sizes {
     };
 }
 pub(crate) use parametric_law_sizes;
+
+/// Checks that a parametric law over `N` variables and `P` parameters can
+/// read `nx` states from the parameters (`nx <= P`) and write `NU` inputs
+/// from the variables (`NU <= N`); shared by the laws of this crate.
+pub(crate) fn check_law_sizes<const N: usize, const P: usize, const NU: usize>(
+    nx: usize,
+) -> Result<(), Error> {
+    if nx > P {
+        return Err(Error::DimensionMismatch {
+            expected: P,
+            found: nx,
+        });
+    }
+    if NU > N {
+        return Err(Error::DimensionMismatch {
+            expected: N,
+            found: NU,
+        });
+    }
+    Ok(())
+}
 
 /// Checks the lengths of a parametric law's state `x`, reference `r` and
 /// output `u` (`r` takes the `P - nx` parameters after the state) and packs
