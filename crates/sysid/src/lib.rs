@@ -40,8 +40,8 @@ pub use n4sid::{MatrixEstimate, N4sidResult, N4sidSettings, Weighting, n4sid, su
 pub use pem::{Criterion, Focus, Identified, PemResult, PemSettings, StopReason, pem, pem_n4sid};
 #[cfg(feature = "std")]
 pub use reduce::{
-    BalredSettings, Reduced, ReductionMethod, Zero, balred, hankel_singular_values,
-    rosenbrock_singular_values, transmission_zeros,
+    BalredSettings, Reduced, ReductionMethod, ZERO_RANK_TOLERANCE, Zero, balred,
+    hankel_singular_values, is_transmission_zero, rosenbrock_singular_values, transmission_zeros,
 };
 #[cfg(feature = "std")]
 pub use validate::{

@@ -367,46 +367,143 @@ fn square_zeros(
     ))
 }
 
+/// The model with its inputs and outputs rescaled so that every column of
+/// `[B; D]` and every row of `[C D]` has the norm of `A` (or 1): the
+/// transmission zeros do not change (they do not depend on units), but the
+/// rank tests on the Rosenbrock matrix stop depending on them.
+fn equilibrated(model: &InnovationModel) -> InnovationModel {
+    let target = model.a.norm().max(1.0);
+    let mut m = model.clone();
+    for j in 0..m.nu() {
+        let s = (m.b.column(j).norm_squared() + m.d.column(j).norm_squared()).sqrt();
+        if s > 0.0 && s.is_finite() {
+            m.b.column_mut(j).scale_mut(target / s);
+            m.d.column_mut(j).scale_mut(target / s);
+        }
+    }
+    for i in 0..m.ny() {
+        let s = (m.c.row(i).norm_squared() + m.d.row(i).norm_squared()).sqrt();
+        if s > 0.0 && s.is_finite() {
+            m.c.row_mut(i).scale_mut(target / s);
+            m.d.row_mut(i).scale_mut(target / s);
+        }
+    }
+    m
+}
+
+/// Relative tolerance of the rank test in [`is_transmission_zero`]: the
+/// smallest singular value of the (equilibrated) Rosenbrock matrix at `z`
+/// must be below this fraction of `||[A B; C D]|| + |z|`.
+pub const ZERO_RANK_TOLERANCE: f64 = 1e-8;
+
+/// Whether the (equilibrated) Rosenbrock matrix `[[A - zI, B], [C, D]]`
+/// really loses rank at `z`, with `normal_rank` its rank at a generic point.
+///
+/// Two conditions, both needed because a small singular value alone
+/// means nothing at a large `|z|` (there `G(z) -> D`, which for `D = 0`
+/// makes the matrix nearly rank deficient everywhere):
+/// - scale: the `normal_rank`-th singular value is below
+///   [`ZERO_RANK_TOLERANCE`] `* (||[A B; C D]|| + |z|)`;
+/// - locality: it is at most `1e-3` of its value at every one of four
+///   points at distance `1e-2 (1 + |z|)` around `z` (a rank drop is a dip
+///   of the singular value, not a plateau).
+fn pencil_drops_rank(m: &InnovationModel, z: Complex<f64>, normal_rank: usize) -> bool {
+    let smin = |w: Complex<f64>| rosenbrock_singular_values(m, w)[normal_rank - 1];
+    let mut abcd = DMatrix::zeros(m.nx() + m.ny(), m.nx() + m.nu());
+    abcd.view_mut((0, 0), m.a.shape()).copy_from(&m.a);
+    abcd.view_mut((0, m.nx()), m.b.shape()).copy_from(&m.b);
+    abcd.view_mut((m.nx(), 0), m.c.shape()).copy_from(&m.c);
+    abcd.view_mut((m.nx(), m.nx()), m.d.shape()).copy_from(&m.d);
+    let s0 = smin(z);
+    // NaN (a non-finite model) fails too.
+    let small = s0 <= ZERO_RANK_TOLERANCE * (abcd.norm() + z.norm());
+    if !small {
+        return false;
+    }
+    let r = 1e-2 * (1.0 + z.norm());
+    [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)]
+        .iter()
+        .all(|&(re, im)| s0 <= 1e-3 * smin(z + Complex::new(re * r, im * r)))
+}
+
+/// Whether `z` is a transmission zero of the deterministic part of the
+/// model: the Rosenbrock matrix `[[A - zI, B], [C, D]]` (after rescaling
+/// inputs and outputs, which does not move zeros) loses rank at `z`
+/// relative to its normal rank `nx + min(nu, ny)`, judged by the size of
+/// its smallest relevant singular value against `||[A B; C D]|| + |z|` and
+/// against its values nearby (see [`ZERO_RANK_TOLERANCE`]).
+///
+/// ```
+/// use kestrel_sysid::{InnovationModel, is_transmission_zero};
+/// use nalgebra::{Complex, DMatrix};
+/// // G(z) = (z - 60) / ((z - 0.5)(z - 0.2)): a zero at 60, none at 50.
+/// let a = DMatrix::from_row_slice(2, 2, &[0.7, -0.1, 1.0, 0.0]);
+/// let b = DMatrix::from_row_slice(2, 1, &[1.0, 0.0]);
+/// let c = DMatrix::from_row_slice(1, 2, &[1.0, -60.0]);
+/// let m = InnovationModel::new(1.0, a, b, c, DMatrix::zeros(1, 1), DMatrix::zeros(2, 1)).unwrap();
+/// assert!(is_transmission_zero(&m, Complex::new(60.0, 0.0)));
+/// assert!(!is_transmission_zero(&m, Complex::new(50.0, 0.0)));
+/// ```
+pub fn is_transmission_zero(model: &InnovationModel, z: Complex<f64>) -> bool {
+    let normal_rank = model.nx() + model.nu().min(model.ny());
+    normal_rank > 0 && z.is_finite() && pencil_drops_rank(&equilibrated(model), z, normal_rank)
+}
+
+/// Candidate zeros: those of a square system made from the model by a
+/// random input or output combination `seed` (they include the true ones).
+fn square_candidates(m: &InnovationModel, seed: u64) -> Result<Vec<Complex<f64>>> {
+    let (nu, ny) = (m.nu(), m.ny());
+    let mut rng = Rng::new(seed);
+    let (b, c, d) = if nu > ny {
+        let r = rng.normal_matrix(nu, ny);
+        (&m.b * &r, m.c.clone(), &m.d * &r)
+    } else if ny > nu {
+        let l = rng.normal_matrix(nu, ny);
+        (m.b.clone(), &l * &m.c, &l * &m.d)
+    } else {
+        (m.b.clone(), m.c.clone(), m.d.clone())
+    };
+    square_zeros(&m.a, &b, &c, &d)
+}
+
 /// Transmission zeros of the deterministic part of a MIMO model: the
 /// values `z` where the Rosenbrock matrix `[[A - zI, B], [C, D]]` loses
 /// rank, each flagged when outside the unit circle (non-minimum phase).
 ///
-/// Square systems with `D` of full rank give the eigenvalues of
-/// `A - B D^-1 C`; with `D = 0` and `C B` of full rank (the generic case
-/// of an identified model without feed-through) the zeros are the
-/// eigenvalues of the zero dynamics `(I - B (CB)^-1 C) A` on `ker C`.
-/// Non-square systems are compressed to square ones by a random input or
-/// output combination (whose zeros include the true ones), and each
-/// candidate is kept only if the full Rosenbrock matrix loses rank there
-/// (generic non-square systems have no zeros).
+/// Inputs and outputs are first rescaled to unit-free sizes (zeros do not
+/// depend on units). Square systems with `D` of full rank give the
+/// eigenvalues of `A - B D^-1 C`; with `D = 0` and `C B` of full rank
+/// (the generic case of an identified model without feed-through) the
+/// zeros are the eigenvalues of the zero dynamics `(I - B (CB)^-1 C) A` on
+/// `ker C`. Non-square systems are compressed to square ones by two
+/// independent random input or output combinations, whose zeros include
+/// the true ones; a candidate is kept only if both give it (to
+/// `1e-6 (1 + |z|)`). Every candidate, square or not, must then pass
+/// [`is_transmission_zero`]: a genuine rank drop of the full Rosenbrock
+/// matrix, not merely a small singular value at a large `|z|`. Generic
+/// non-square systems have no zeros.
 pub fn transmission_zeros(model: &InnovationModel) -> Result<Vec<Zero>> {
     model.validate()?;
-    let (nu, ny) = (model.nu(), model.ny());
-    let mut rng = Rng::new(0x5EED);
-    let (b, c, d) = if nu > ny {
-        let r = rng.normal_matrix(nu, ny);
-        (&model.b * &r, model.c.clone(), &model.d * &r)
-    } else if ny > nu {
-        let l = rng.normal_matrix(nu, ny);
-        (model.b.clone(), &l * &model.c, &l * &model.d)
-    } else {
-        (model.b.clone(), model.c.clone(), model.d.clone())
-    };
-    let cand = square_zeros(&model.a, &b, &c, &d)?;
-    let normal_rank = model.nx() + nu.min(ny);
-    let mut out = Vec::new();
-    for z in cand {
-        if nu != ny {
-            let s = rosenbrock_singular_values(model, z);
-            if s[normal_rank - 1] > 1e-7 * s[0] {
-                continue;
-            }
-        }
-        out.push(Zero {
-            z,
-            non_minimum_phase: z.norm() > 1.0,
+    let m = equilibrated(model);
+    let (nu, ny) = (m.nu(), m.ny());
+    let normal_rank = m.nx() + nu.min(ny);
+    let mut cand = square_candidates(&m, 0x5EED)?;
+    if nu != ny {
+        let other = square_candidates(&m, 0xC0FFEE)?;
+        cand.retain(|z| {
+            other
+                .iter()
+                .any(|w| (z - w).norm() <= 1e-6 * (1.0 + z.norm()))
         });
     }
+    let mut out: Vec<Zero> = cand
+        .into_iter()
+        .filter(|z| normal_rank > 0 && pencil_drops_rank(&m, *z, normal_rank))
+        .map(|z| Zero {
+            z,
+            non_minimum_phase: z.norm() > 1.0,
+        })
+        .collect();
     out.sort_by(|a, b| b.z.norm().total_cmp(&a.z.norm()));
     Ok(out)
 }
