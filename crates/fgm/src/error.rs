@@ -56,6 +56,16 @@ pub enum FgmError {
     /// The tolerance must be a positive finite number.
     #[error("eps must be a positive finite number, got {0}")]
     InvalidEps(f64),
+    /// No iteration count within the limit certifies the tolerance.
+    #[error(
+        "no iteration count up to {limit} certifies J - J* <= {eps:e} for this problem: choose a larger eps"
+    )]
+    NoIterationBound {
+        /// The tolerance asked for.
+        eps: f64,
+        /// The largest bound reported ([`crate::MAX_ITERATION_BOUND`]).
+        limit: usize,
+    },
     /// A setting is outside its range.
     #[error("invalid setting: {0}")]
     InvalidSetting(String),

@@ -26,8 +26,9 @@ pub mod reference;
 
 #[cfg(feature = "std")]
 pub use design::{
-    AppliedInputs, Certificate, FgmData, FgmDesign, FgmSettings, Momentum, MomentumScheme,
-    PwmTolerance, RecommendedStart, RoundingBound, WarmCertificate, WarmStartAssumption,
+    AppliedInputs, Certificate, FgmData, FgmDesign, FgmSettings, MAX_ITERATION_BOUND, Momentum,
+    MomentumScheme, PwmTolerance, RecommendedStart, RoundingBound, WarmCertificate,
+    WarmStartAssumption,
 };
 #[cfg(feature = "std")]
 pub use error::FgmError;

@@ -4,6 +4,10 @@ use crate::FgmError;
 use kestrel_core::formats::MpqpProblem;
 use nalgebra::{DMatrix, DVector};
 
+/// The message for a problem without decision variables.
+pub(crate) const NO_VARIABLES: &str =
+    "the problem has no decision variables (H is empty): there is nothing to solve";
+
 /// Relative size below which a constraint coefficient counts as zero.
 const ZERO_TOL: f64 = 1e-12;
 
@@ -81,11 +85,15 @@ impl BoxQp {
     /// without a lower or an upper bound, [`FgmError::CrossingBounds`] for
     /// two bounds neither of which dominates, [`FgmError::EmptyBox`] if
     /// `lo(theta) > hi(theta)` somewhere in the parameter box, and
-    /// [`FgmError::Problem`] for a problem that fails its own validation.
+    /// [`FgmError::Problem`] for a problem that fails its own validation
+    /// or has no decision variables.
     pub fn from_mpqp(prob: &MpqpProblem) -> Result<Self, FgmError> {
         prob.validate()
             .map_err(|e| FgmError::Problem(e.to_string()))?;
         let (n, p, m) = (prob.n(), prob.p(), prob.m());
+        if n == 0 {
+            return Err(FgmError::Problem(NO_VARIABLES.into()));
+        }
         let mut lower: Vec<Vec<AffineBound>> = vec![Vec::new(); n];
         let mut upper: Vec<Vec<AffineBound>> = vec![Vec::new(); n];
         for i in 0..m {
@@ -210,6 +218,14 @@ impl BoxQp {
             return Err(FgmError::NonFinite("theta"));
         }
         Ok(())
+    }
+
+    /// The first entry of `theta` outside the parameter box
+    /// `[theta_lb, theta_ub]` (`None` if inside, boundary included):
+    /// certificates cover the box only, so callers warn about the others.
+    pub fn outside_parameter_box(&self, theta: &[f64]) -> Option<usize> {
+        (0..self.p().min(theta.len()))
+            .find(|&j| !(self.theta_lb[j] <= theta[j] && theta[j] <= self.theta_ub[j]))
     }
 
     /// Writes the problem back as `kestrel.mpqp.v1` with `G = [I; -I]`.

@@ -96,14 +96,29 @@ pub struct Certificate {
     /// `L/2 * squared diameter`: Richter, Jones and Morari's `Delta` for a
     /// start anywhere in the box, for comparison with `delta`.
     pub delta_richter: f64,
-    /// `ceil(ln(eps/Delta) / ln(1 - sqrt(mu/L)))` (`None` if `mu = 0`).
+    /// `ceil(ln(eps/Delta) / ln(1 - sqrt(mu/L)))` (`None` if `mu = 0` or
+    /// if it exceeds [`MAX_ITERATION_BOUND`]).
     pub linear_bound: Option<usize>,
-    /// `ceil(2 sqrt(Delta/eps) - 2)`.
-    pub sublinear_bound: usize,
+    /// `ceil(2 sqrt(Delta/eps) - 2)`, or `None` when that exceeds
+    /// [`MAX_ITERATION_BOUND`] (a tolerance far below what the method can
+    /// certify), never a saturated `usize::MAX`.
+    pub sublinear_bound: Option<usize>,
     /// The scheme the iteration count is for.
     pub scheme: MomentumScheme,
     /// Certified iterations after the initial step.
     pub iterations: usize,
+}
+
+/// The largest iteration bound a [`Certificate`] reports (`2^53`, the
+/// largest count every `f64` and JSON number holds exactly); a bound beyond
+/// it is `None`, and a tolerance with neither bound within it is
+/// [`FgmError::NoIterationBound`].
+pub const MAX_ITERATION_BOUND: usize = 1 << 53;
+
+/// An iteration bound from its real value: `None` beyond [`MAX_ITERATION_BOUND`].
+fn iteration_bound(k: f64) -> Option<usize> {
+    let k = k.ceil().max(0.0);
+    (k <= MAX_ITERATION_BOUND as f64).then_some(k as usize)
 }
 
 /// Which decision variables an input tolerance is for.
@@ -420,7 +435,8 @@ impl FgmDesign {
     /// # Errors
     /// [`FgmError::NotConvex`] for a Hessian with a negative eigenvalue,
     /// [`FgmError::Solver`] if the preconditioning SDP fails,
-    /// [`FgmError::InvalidSetting`] for a non-positive `scaled_range`.
+    /// [`FgmError::InvalidSetting`] for a non-positive `scaled_range`,
+    /// [`FgmError::Problem`] for a problem without decision variables.
     pub fn new(problem: BoxQp, settings: FgmSettings) -> Result<Self, FgmError> {
         if !(settings.scaled_range.is_finite() && settings.scaled_range > 0.0) {
             return Err(FgmError::InvalidSetting(format!(
@@ -429,6 +445,9 @@ impl FgmDesign {
             )));
         }
         let n = problem.n();
+        if n == 0 {
+            return Err(FgmError::Problem(crate::problem::NO_VARIABLES.into()));
+        }
         let pc = precondition(&problem.h, settings.preconditioner)?;
         let mut design = Self::fold(problem, settings, pc.clone(), pc.d.clone())?;
         // Normalise the overall scale of D (cond(DHD) is invariant) so that
@@ -607,7 +626,9 @@ impl FgmDesign {
     ///
     /// # Errors
     /// [`FgmError::InvalidEps`] for `eps <= 0` or not finite,
-    /// [`FgmError::InvalidSetting`] for [`Momentum::Constant`] with `mu = 0`.
+    /// [`FgmError::InvalidSetting`] for [`Momentum::Constant`] with `mu = 0`,
+    /// [`FgmError::NoIterationBound`] when no bound the scheme may use stays
+    /// within [`MAX_ITERATION_BOUND`] (an `eps` far too small).
     pub fn certify(&self, eps: f64) -> Result<Certificate, FgmError> {
         self.certify_delta(eps, self.delta())
     }
@@ -620,33 +641,39 @@ impl FgmDesign {
         let ratio = delta / eps;
         let linear_bound = if mu > 0.0 {
             let rate = 1.0 - (mu / l).sqrt();
-            Some(if ratio <= 1.0 {
-                0
+            if ratio <= 1.0 {
+                Some(0)
             } else if rate <= 0.0 {
-                1
+                Some(1)
             } else {
-                ((eps / delta).ln() / rate.ln()).ceil().max(0.0) as usize
-            })
+                iteration_bound((eps / delta).ln() / rate.ln())
+            }
         } else {
             None
         };
-        let sublinear_bound = (2.0 * ratio.sqrt() - 2.0).ceil().max(0.0) as usize;
+        let sublinear_bound = iteration_bound(2.0 * ratio.sqrt() - 2.0);
+        let no_bound = || FgmError::NoIterationBound {
+            eps,
+            limit: MAX_ITERATION_BOUND,
+        };
+        // The table scheme satisfies both bounds; `None` is "beyond the limit".
+        let table = match (linear_bound, sublinear_bound) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
         let (scheme, iterations) = match (self.settings.momentum, linear_bound) {
             (Momentum::Constant, Some(k)) => (MomentumScheme::Constant, k),
+            (Momentum::Constant, None) if mu > 0.0 => return Err(no_bound()),
             (Momentum::Constant, None) => {
                 return Err(FgmError::InvalidSetting(
                     "constant momentum needs mu > 0 (the scaled Hessian is singular)".into(),
                 ));
             }
-            (Momentum::Table, lin) => (
-                MomentumScheme::Table,
-                lin.map_or(sublinear_bound, |k| k.min(sublinear_bound)),
-            ),
-            (Momentum::Auto, Some(k)) if k <= sublinear_bound => (MomentumScheme::Constant, k),
-            (Momentum::Auto, lin) => (
-                MomentumScheme::Table,
-                lin.map_or(sublinear_bound, |k| k.min(sublinear_bound)),
-            ),
+            (Momentum::Table, _) => (MomentumScheme::Table, table.ok_or_else(no_bound)?),
+            (Momentum::Auto, Some(k)) if sublinear_bound.is_none_or(|s| k <= s) => {
+                (MomentumScheme::Constant, k)
+            }
+            (Momentum::Auto, _) => (MomentumScheme::Table, table.ok_or_else(no_bound)?),
         };
         Ok(Certificate {
             eps,
