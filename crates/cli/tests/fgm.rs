@@ -253,3 +253,102 @@ fn certify_exports_firmware_tables() {
     assert!(text.contains("pub static FGM: kestrel_fgm::FgmTables<kestrel_core::Q16, 2, 2,"));
     assert!(text.contains("Q16::from_bits("));
 }
+
+/// Issue 20, finding 8: an mp-QP without variables panicked in nalgebra
+/// (exit 101); both subcommands now refuse it with a message.
+#[test]
+fn a_problem_without_variables_is_refused() {
+    let p = temp_file(
+        "empty.json",
+        r#"{"format": "kestrel.mpqp.v1", "H": [], "F": [], "G": [], "W": [], "E": [],
+            "theta_lb": [], "theta_ub": []}"#,
+    );
+    let t = temp_file("empty-thetas.csv", "\n");
+    for args in [
+        vec!["certify", "--problem", p.to_str().unwrap(), "--eps", "1"],
+        vec![
+            "solve",
+            "--problem",
+            p.to_str().unwrap(),
+            "--thetas",
+            t.to_str().unwrap(),
+            "--iterations",
+            "5",
+        ],
+    ] {
+        let mut all = vec!["fgm"];
+        all.extend_from_slice(&args);
+        let (ok, _, err) = run(&all);
+        assert!(!ok && !err.contains("panicked"), "{all:?}: {err}");
+        assert!(
+            err.contains("empty.json") && err.contains("no decision variables"),
+            "{all:?}: {err}"
+        );
+    }
+}
+
+/// Issue 20, finding 11: `--eps 1e-300` printed `sublinear_bound:
+/// 18446744073709551615` (a saturated cast shown as a count); the bound is
+/// now null with a `bound_note`, and the certified count is the linear one.
+#[test]
+fn a_tiny_eps_reports_no_sublinear_bound() {
+    let p = temp_file("box5.json", BOX);
+    let (ok, out, err) = run(&[
+        "fgm",
+        "certify",
+        "--problem",
+        p.to_str().unwrap(),
+        "--eps",
+        "1e-300",
+    ]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!(v["sublinear_bound"].is_null(), "{v}");
+    assert!(v["bound_note"].as_str().unwrap().contains("exceeds"), "{v}");
+    assert_eq!(v["iterations"], v["linear_bound"]);
+    assert!(v["iterations"].as_u64().unwrap() < 10_000, "{v}");
+    // An ordinary eps: both bounds are counts and there is no note.
+    let (ok, out, err) = run(&[
+        "fgm",
+        "certify",
+        "--problem",
+        p.to_str().unwrap(),
+        "--eps",
+        "1e-3",
+    ]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!(v["sublinear_bound"].as_u64().is_some() && v.get("bound_note").is_none());
+}
+
+/// Issue 20, finding 11: `fgm solve` accepted parameters outside the box
+/// without a word (`empc eval` warns); it now warns on standard error and
+/// still writes every row.
+#[test]
+fn solve_warns_about_parameters_outside_the_box() {
+    let p = temp_file("box6.json", BOX);
+    let solve = |thetas: &str, name: &str| {
+        let t = temp_file(name, thetas);
+        run(&[
+            "fgm",
+            "solve",
+            "--problem",
+            p.to_str().unwrap(),
+            "--thetas",
+            t.to_str().unwrap(),
+            "--iterations",
+            "50",
+        ])
+    };
+    let (ok, out, err) = solve("0,0.25\n3,0.25\n1,-0.5\n", "outside.csv");
+    assert!(ok, "{err}");
+    assert_eq!(out.lines().count(), 3);
+    assert!(
+        err.contains("warning: 2 of 3 parameters lie outside")
+            && err.contains("outside.csv row 2, entry 1 = 3 not in [-2, 2]"),
+        "{err}"
+    );
+    let (ok, out, err) = solve("0,0.25\n2,0.5\n", "inside.csv");
+    assert!(ok && out.lines().count() == 2, "{err}");
+    assert!(!err.contains("warning"), "{err}");
+}

@@ -37,7 +37,10 @@ pub enum FgmCommand {
     /// `pwm_1us` (the eps that keeps the applied inputs within 1 us of the
     /// optimum, computed from diag(H^-1), and its iterations), `rounding`
     /// (f32 and Q16 error bounds) and, with `--theta-step`, `warm` (the
-    /// warm-start certificate). `--export` also writes the firmware tables.
+    /// warm-start certificate). `linear_bound` (null if mu = 0) and
+    /// `sublinear_bound` are null when beyond 2^53 iterations (with a
+    /// `bound_note`); an eps that no bound reaches is an error. `--export`
+    /// also writes the firmware tables.
     Certify(CertifyArgs),
     /// Solve for each theta of a CSV file with a fixed iteration count.
     ///
@@ -48,7 +51,9 @@ pub enum FgmCommand {
     /// a cold start from the box centre, in f64.
     ///
     /// Output (CSV, to stdout or `--out`): one row per theta, the n entries
-    /// of z in the problem's units, no header.
+    /// of z in the problem's units, no header. Parameters outside the
+    /// problem's box (`theta_lb`, `theta_ub`) are solved too, with a warning
+    /// on standard error: the certificate does not cover them.
     Solve(SolveArgs),
 }
 
@@ -235,6 +240,12 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
             "q16": rounding(d.rounding_bound::<kestrel_core::Q16>(&cert)),
         },
     });
+    if cert.sublinear_bound.is_none() || (cert.linear_bound.is_none() && cert.mu > 0.0) {
+        out["bound_note"] = json!(format!(
+            "a null linear_bound or sublinear_bound exceeds {} iterations (eps is far below what that rate can certify); iterations uses the other bound",
+            kestrel_fgm::MAX_ITERATION_BOUND
+        ));
+    }
     let mut warm_iterations = None;
     if let Some(step) = &a.theta_step {
         let assume = WarmStartAssumption {
@@ -330,6 +341,25 @@ fn read_thetas(path: &Path, p: usize) -> anyhow::Result<Vec<Vec<f64>>> {
 fn solve(a: SolveArgs) -> anyhow::Result<()> {
     let d = load(&a.problem, a.preconditioner, Momentum::Auto)?;
     let thetas = read_thetas(&a.thetas, d.problem.p())?;
+    let outside: Vec<(usize, usize)> = thetas
+        .iter()
+        .enumerate()
+        .filter_map(|(k, th)| d.problem.outside_parameter_box(th).map(|j| (k, j)))
+        .collect();
+    if let Some(&(k, j)) = outside.first() {
+        let qp = &d.problem;
+        eprintln!(
+            "warning: {} of {} parameters lie outside the problem's parameter box, which the certificate covers (first: {} row {}, entry {} = {} not in [{}, {}]); they are solved anyway, without a certified accuracy",
+            outside.len(),
+            thetas.len(),
+            a.thetas.display(),
+            k + 1,
+            j + 1,
+            thetas[k][j],
+            qp.theta_lb[j],
+            qp.theta_ub[j]
+        );
+    }
     // Any eps gives the same scaled data; the momentum scheme follows the
     // certificate's choice for a tight tolerance.
     let cert = d.certify(1e-9 * d.delta().max(f64::MIN_POSITIVE))?;
