@@ -183,7 +183,25 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
         MomentumArg::Constant => Momentum::Constant,
         MomentumArg::Table => Momentum::Table,
     };
+    if let Some(step) = &a.theta_step
+        && let Some((j, v)) = step
+            .iter()
+            .enumerate()
+            .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
+    {
+        bail!(
+            "--theta-step: entry {} is {v}; each entry is the largest change of one parameter between two solves, a number >= 0",
+            j + 1
+        );
+    }
     let d = load(&a.problem, a.preconditioner, momentum)?;
+    if let Some(k) = a.applied_inputs.filter(|&k| k == 0 || k > d.n()) {
+        bail!(
+            "--applied-inputs {k}: the problem has {} variables; the applied inputs are the first 1 to {} of them",
+            d.n(),
+            d.n()
+        );
+    }
     let cert = d.certify(a.eps)?;
     let pc = &d.preconditioning;
     let applied = match a.applied_inputs {
