@@ -64,8 +64,30 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_chain(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes as one line, `outer: inner: ...`, each text
+/// once: a cause whose message already includes the one below it (a
+/// library error that prints its source) replaces it, and a context that
+/// the message already starts with (the file name added twice) is left out.
+fn error_chain(e: &anyhow::Error) -> String {
+    let parts: Vec<String> = e.chain().map(ToString::to_string).collect();
+    let mut msg = String::new();
+    for part in parts.iter().rev() {
+        if msg.is_empty() || part.ends_with(msg.as_str()) {
+            msg.clone_from(part);
+        } else if msg
+            .strip_prefix(part.as_str())
+            .is_some_and(|rest| rest.starts_with(':'))
+        {
+            // The context is already the message's own prefix.
+        } else {
+            msg = format!("{part}: {msg}");
+        }
+    }
+    msg
 }

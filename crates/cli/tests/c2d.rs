@@ -123,5 +123,6 @@ fn missing_file_and_bad_ts() {
         .output()
         .unwrap();
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("\"ts\""));
+    // The flag is wrong, not the file's "ts" key.
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--ts"));
 }

@@ -354,7 +354,8 @@ fn tree_method_and_node_cap() {
         .output()
         .unwrap();
     assert!(!o.status.success());
-    assert!(stderr(&o).contains("max_nodes"), "{}", stderr(&o));
+    // It names the flag, not the library's setting.
+    assert!(stderr(&o).contains("--max-nodes 2"), "{}", stderr(&o));
     // An unknown method is rejected by the argument parser.
     let o = kestrel()
         .args(["empc", "solve", "--tree-method", "fastest", "--problem"])

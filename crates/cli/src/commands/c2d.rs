@@ -22,6 +22,12 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if !(args.ts.is_finite() && args.ts > 0.0) {
+        anyhow::bail!(
+            "--ts: the sample time must be a positive number of seconds, got {}",
+            args.ts
+        );
+    }
     let model = SsModel::read(&args.model).with_context(|| format!("{}", args.model.display()))?;
     let discrete = model
         .c2d(args.ts)

@@ -74,7 +74,10 @@ t, r_p, r_q, r_r, throttle, p, q, r (true rates), p_meas, q_meas, r_meas (gyro),
 p_est, q_est, r_est (Kalman estimate), pwm1, pwm2, pwm3, servo (pulses sent, us),
 saturated (1 if any pulse was clipped), J (the MPC cost (6.3a) of the law's move sequence,
 empty for pid). A summary goes to standard error: rise time, overshoot, RMS tracking error,
-actuator effort (RMS pulse from trim) per axis, the largest bound violation.
+actuator effort (RMS pulse from trim) per axis, the largest bound violation; rise time is
+from the step until the rate first crosses 90 % of the step, \"not reached\" when it never does.
+A run whose rates leave max(3 x the largest released rate or reference, 5 rad/s) diverged:
+an error, no trace written.
 
 Examples:
   kestrel closed-loop --controller qp --out qp.csv
@@ -109,12 +112,13 @@ pub struct Args {
     /// Input weight Q2: a number (times the identity) or a JSON matrix file (default 0.01).
     #[arg(long)]
     pub q2: Option<String>,
-    /// Fast-gradient iterations per step (`--controller fgm`).
-    #[arg(long, default_value_t = 12)]
-    pub iterations: usize,
-    /// Where each fast-gradient solve starts (`--controller fgm`).
-    #[arg(long, value_enum, default_value = "cold")]
-    pub start: Start,
+    /// Fast-gradient iterations per step (`--controller fgm` only; default 12).
+    #[arg(long)]
+    pub iterations: Option<usize>,
+    /// Where each fast-gradient solve starts (`--controller fgm` only;
+    /// default `cold`).
+    #[arg(long, value_enum)]
+    pub start: Option<Start>,
     /// Offset-free MPC: constant torque disturbances on the rate states,
     /// estimated by the Kalman filter (not with `pid`).
     #[arg(long)]
@@ -191,7 +195,30 @@ impl Design {
     }
 }
 
+/// The controller's name as on the command line.
+fn controller_name(c: Controller) -> &'static str {
+    match c {
+        Controller::Qp => "qp",
+        Controller::Empc => "empc",
+        Controller::Fgm => "fgm",
+        Controller::Pid => "pid",
+    }
+}
+
 fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunResult> {
+    if args.controller != Controller::Fgm {
+        for (flag, given) in [
+            ("--iterations", args.iterations.is_some()),
+            ("--start", args.start.is_some()),
+        ] {
+            if given {
+                bail!(
+                    "{flag} applies to --controller fgm only; --controller {} does not use it",
+                    controller_name(args.controller)
+                );
+            }
+        }
+    }
     if args.controller == Controller::Pid {
         if args.offset_free {
             bail!("--offset-free applies to the MPC controllers, not to pid");
@@ -247,12 +274,13 @@ fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunRes
             Ok(result)
         }
         Controller::Fgm => {
-            if args.iterations == 0 {
+            let iterations = args.iterations.unwrap_or(12);
+            if iterations == 0 {
                 bail!("--iterations: expected at least 1");
             }
             let opts = FgmOptions {
-                iterations: args.iterations,
-                start: match args.start {
+                iterations,
+                start: match args.start.unwrap_or(Start::Cold) {
                     Start::Cold => FgmStart::Cold,
                     Start::Warm => FgmStart::Warm,
                     Start::Shifted => FgmStart::WarmShifted,
@@ -303,15 +331,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let result = fly(&args, &model, &run)?;
     let m = &result.metrics;
+    if let Some(d) = &m.diverged {
+        bail!(
+            "--controller {}: the closed loop diverged (lost control): {d}; the step figures would mean nothing and no trace is written (check the model: its inputs, outputs and units, and a feed-through D)",
+            controller_name(args.controller)
+        );
+    }
     let f = |v: &[f64]| {
         v.iter()
-            .map(|x| format!("{x:.3}"))
+            .map(|x| {
+                if x.is_finite() {
+                    format!("{x:.3}")
+                } else {
+                    "not reached".to_string()
+                }
+            })
             .collect::<Vec<_>>()
             .join(", ")
     };
     eprintln!(
-        "{:?}: rise time [{}] s, overshoot [{}] %, RMS error [{}] rad/s, effort (RMS pulse from trim) [{}] us, largest bound violation {:.3} us",
-        args.controller,
+        "{}: rise time (from the step to 90 %) [{}] s, overshoot [{}] %, RMS error [{}] rad/s, effort (RMS pulse from trim) [{}] us, largest bound violation {:.3} us",
+        controller_name(args.controller),
         f(&m.rise_time),
         f(&m.overshoot),
         f(&m.rms_error),

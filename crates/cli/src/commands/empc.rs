@@ -196,6 +196,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
+    if a.max_nodes == 0 {
+        bail!("--max-nodes: a search tree has at least 1 node, got 0");
+    }
     let name = a.problem.display().to_string();
     let problem = MpqpProblem::read(&a.problem).with_context(|| name.clone())?;
     let settings = Settings {
@@ -203,6 +206,13 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
         progress: a.progress,
         ..Settings::default()
     };
+    if let Some(k) = a.first_move.filter(|&k| k == 0 || k > problem.n()) {
+        bail!(
+            "--first-move {k}: the problem has {} variables; keep between 1 and {} of them",
+            problem.n(),
+            problem.n()
+        );
+    }
     let sol = solve(&problem, &settings).with_context(|| name.clone())?;
     let outputs = match a.first_move {
         Some(k) => Outputs::First(k),
@@ -224,7 +234,27 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
         },
         ..TreeSettings::default()
     };
-    let any = build_any(&problem, &sol, &tree).with_context(|| name.clone())?;
+    let layout_limit = match a.layout {
+        LayoutArg::U16 => kestrel_empc::tree::MAX_NODES,
+        LayoutArg::Auto | LayoutArg::U32 => kestrel_empc::tree::WIDE_MAX_NODES,
+    };
+    let any = build_any(&problem, &sol, &tree).map_err(|e| match e {
+        // The search stopped at the user's cap, not at the layout's.
+        kestrel_empc::EmpcError::TooLarge(_) if a.max_nodes < layout_limit => anyhow::anyhow!(
+            "{name}: --max-nodes {}: the search tree needs more nodes; raise --max-nodes, or keep only the first move with --first-move",
+            a.max_nodes
+        ),
+        e => anyhow::Error::new(e).context(name.clone()),
+    })?;
+    // Every tree method stops at --max-nodes (the sampled search while it
+    // grows, the LP search here, once built).
+    if any.stats.nodes > a.max_nodes {
+        bail!(
+            "{name}: --max-nodes {}: the search tree has {} nodes; raise --max-nodes, or keep only the first move with --first-move",
+            a.max_nodes,
+            any.stats.nodes
+        );
+    }
     eprintln!(
         "{} regions, {} distinct laws, solved in {:.4} s; tree depth {}, {} nodes, {} bytes (f32, {} indices)",
         sol.regions.len(),

@@ -3,7 +3,7 @@
 use crate::io;
 use anyhow::{Context, bail};
 use kestrel_sysid::workflow::{self, AfterReduction, IdentifySpec, Lowpass, PemFocus, Segment};
-use kestrel_sysid::{Criterion, CsvColumns, IoData, MatrixEstimate, Weighting};
+use kestrel_sysid::{Criterion, CsvColumns, IoData, MatrixEstimate, SysidError, Weighting};
 use std::path::PathBuf;
 
 /// Identification method.
@@ -212,6 +212,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(y0) = args.y0.as_ref().filter(|v| v.len() != data.ny()) {
         bail!("--y0 needs {} values, found {}", data.ny(), y0.len());
     }
+    check_horizon(&args, data.ny())?;
+    check_lowpass(&args, &data)?;
     let spec = IdentifySpec {
         estimate: parse(&args.estimate, "estimate")?,
         validate: parse(&args.validate, "validate")?,
@@ -263,7 +265,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }),
         horizons: args.horizons.clone(),
     };
-    let report = workflow::identify(&data, &spec).context("identification")?;
+    let report = workflow::identify(&data, &spec).map_err(|e| {
+        if matches!(e, SysidError::ConstantInput { .. }) {
+            anyhow::anyhow!("identification: {e}. {}", constant_input_hint(&args, &data))
+        } else {
+            anyhow::Error::new(e).context("identification")
+        }
+    })?;
     let ss = report.to_ss_model()?;
     io::write_output(args.out.as_deref(), &ss.to_json_string())?;
     if args.out.is_some() {
@@ -272,4 +280,97 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         eprint!("{report}");
     }
     Ok(())
+}
+
+/// The largest order whose singular value N4SID shows (the workflow's
+/// `max_order`, at least the requested order).
+const N4SID_SHOWN_ORDERS: usize = 10;
+
+/// `--horizon` against the orders N4SID examines: it needs horizon x
+/// outputs > the largest of them.
+fn check_horizon(args: &Args, ny: usize) -> anyhow::Result<()> {
+    let Some(h) = args.horizon else {
+        return Ok(());
+    };
+    let largest = args.order.unwrap_or(0).max(N4SID_SHOWN_ORDERS);
+    if h >= 2 && h * ny > largest {
+        return Ok(());
+    }
+    let why = match args.order {
+        Some(o) if o > N4SID_SHOWN_ORDERS => format!("--order {o}"),
+        Some(o) => format!(
+            "the singular values it shows go to order {N4SID_SHOWN_ORDERS}, also with --order {o}"
+        ),
+        None => format!("the singular values it shows go to order {N4SID_SHOWN_ORDERS}"),
+    };
+    bail!(
+        "--horizon {h} is too short: N4SID needs at least 2 block rows and horizon x outputs > the largest order it examines ({largest}: {why}) with {ny} outputs; use --horizon {} or more, or leave it out",
+        (largest / ny + 1).max(2)
+    )
+}
+
+/// What the sample time suggests about the `t` column.
+fn time_hint(data: &IoData) -> String {
+    if data.ts() > 1.0 {
+        format!(
+            " (ts = {} s, read from the `t` column: is it in milliseconds? kestrel expects seconds)",
+            data.ts()
+        )
+    } else {
+        String::new()
+    }
+}
+
+/// `--lowpass` between the lowest frequency the log resolves and Nyquist.
+fn check_lowpass(args: &Args, data: &IoData) -> anyhow::Result<()> {
+    let Some(cutoff) = args.lowpass else {
+        return Ok(());
+    };
+    let ts = data.ts();
+    let nyquist = std::f64::consts::PI / ts;
+    let longest = data
+        .experiments()
+        .iter()
+        .map(|e| e.len())
+        .max()
+        .unwrap_or(0);
+    let lowest = 2.0 * std::f64::consts::PI / (longest.max(1) as f64 * ts);
+    if !(cutoff.is_finite() && cutoff > 0.0) {
+        bail!("--lowpass: the cut-off must be a positive number of rad/s, got {cutoff}");
+    }
+    if cutoff >= nyquist {
+        bail!(
+            "--lowpass {cutoff} rad/s is at or above the Nyquist frequency pi/ts = {nyquist:.4} rad/s{}; choose a cut-off below it",
+            time_hint(data)
+        );
+    }
+    if cutoff < lowest {
+        bail!(
+            "--lowpass {cutoff} rad/s is below {lowest:.4} rad/s, the lowest frequency of the log (2 pi / {:.1} s): it would flatten every signal to a constant; choose a cut-off between {lowest:.4} and {nyquist:.4} rad/s (pi/ts)",
+            longest as f64 * ts
+        );
+    }
+    Ok(())
+}
+
+/// The likely causes of a constant input, from the flags and the data.
+fn constant_input_hint(args: &Args, data: &IoData) -> String {
+    let mut causes = Vec::new();
+    let t = time_hint(data);
+    if !t.is_empty() {
+        causes.push(format!("the time column's unit{t}"));
+    }
+    if let Some(c) = args.lowpass {
+        causes.push(format!(
+            "--lowpass {c} rad/s filtering the variation away (try a higher cut-off)"
+        ));
+    }
+    if args.estimate.is_some() {
+        causes.push(
+            "the --estimate intervals selecting a stretch where it does not move (e.g. before take-off)"
+                .to_string(),
+        );
+    }
+    causes.push("the --inputs column naming a signal that does not vary in this log".to_string());
+    format!("Likely causes: {}", causes.join("; "))
 }

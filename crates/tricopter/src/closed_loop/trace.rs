@@ -33,10 +33,51 @@ pub struct Trace {
     pub trim_pwm: [f64; 4],
 }
 
+/// The bound on the true body rates beyond which a run counts as diverged
+/// (rad/s): three times the largest rate of the scenario (released rates and
+/// references), and at least this many rad/s.
+pub const DIVERGENCE_MIN_BOUND: f64 = 5.0;
+
+/// How a closed loop diverged (see [`StepMetrics::diverged`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Divergence {
+    /// The axis (0 = p, 1 = q, 2 = r).
+    pub axis: usize,
+    /// The time the rate first left the bound (s).
+    pub t: f64,
+    /// The rate there (rad/s; may be non-finite).
+    pub rate: f64,
+    /// The bound it left (rad/s).
+    pub bound: f64,
+}
+
+impl Divergence {
+    /// The axis name `p`, `q` or `r`.
+    pub fn axis_name(&self) -> &'static str {
+        ["p", "q", "r"][self.axis.min(2)]
+    }
+}
+
+impl core::fmt::Display for Divergence {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "the rate {} reached {:.3} rad/s at t = {:.2} s, beyond the divergence bound {:.1} rad/s",
+            self.axis_name(),
+            self.rate,
+            self.t,
+            self.bound
+        )
+    }
+}
+
 /// Step-response figures per axis `[p, q, r]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StepMetrics {
-    /// 10 %-90 % rise time after the step (s); `NaN` if never reached.
+    /// Rise time (s): from the step until the rate first crosses 90 % of
+    /// the step from below; `NaN` when it never does (the 90 % level is not
+    /// reached, or the rate was already beyond it at the step and never
+    /// came back below it: it did not rise). `NaN` for an axis without a step.
     pub rise_time: [f64; 3],
     /// Overshoot beyond the new reference, percent of the step.
     pub overshoot: [f64; 3],
@@ -47,6 +88,12 @@ pub struct StepMetrics {
     pub effort: [f64; 4],
     /// Largest pulse excursion beyond its range (us); 0 when always inside.
     pub max_bound_violation: f64,
+    /// `Some` when the loop diverged (lost control): a true rate became
+    /// non-finite or left
+    /// `max(3 x the largest released rate or reference,`
+    /// [`DIVERGENCE_MIN_BOUND`]`)`. The other figures of a diverged run
+    /// mean nothing.
+    pub diverged: Option<Divergence>,
 }
 
 impl Trace {
@@ -89,15 +136,18 @@ impl Trace {
             rms_error: [0.0; 3],
             effort: [0.0; 4],
             max_bound_violation: 0.0,
+            diverged: self.divergence(from, to),
         };
         for k in 0..3 {
             let d = to[k] - from[k];
             if d.abs() > 1e-12 {
                 let frac = |r: &TraceRow| (r.rates[k] - from[k]) / d;
-                let t10 = after.iter().find(|r| frac(r) >= 0.1).map(|r| r.t);
-                let t90 = after.iter().find(|r| frac(r) >= 0.9).map(|r| r.t);
-                if let (Some(a), Some(b)) = (t10, t90) {
-                    m.rise_time[k] = b - a;
+                // The first crossing of 90 % from below, after the step.
+                let below = after.iter().position(|r| frac(r) < 0.9);
+                let t90 =
+                    below.and_then(|i| after[i..].iter().find(|r| frac(r) >= 0.9).map(|r| r.t));
+                if let Some(b) = t90 {
+                    m.rise_time[k] = b - step_time;
                 }
                 let peak = after.iter().map(|r| frac(r)).fold(f64::MIN, f64::max);
                 m.overshoot[k] = ((peak - 1.0) * 100.0).max(0.0);
@@ -132,5 +182,84 @@ impl Trace {
             }
         }
         m
+    }
+
+    /// The first row whose true rate is non-finite or beyond the
+    /// divergence bound of [`StepMetrics::diverged`].
+    fn divergence(&self, from: [f64; 3], to: [f64; 3]) -> Option<Divergence> {
+        let first = self.rows.first()?;
+        let scale = first
+            .rates
+            .iter()
+            .chain(&from)
+            .chain(&to)
+            .fold(0.0_f64, |a, v| a.max(v.abs()));
+        let bound = (3.0 * scale).max(DIVERGENCE_MIN_BOUND);
+        self.rows.iter().find_map(|r| {
+            (0..3)
+                .find(|&k| !r.rates[k].is_finite() || r.rates[k].abs() > bound)
+                .map(|axis| Divergence {
+                    axis,
+                    t: r.t,
+                    rate: r.rates[axis],
+                    bound,
+                })
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(t: f64, rates: [f64; 3]) -> TraceRow {
+        TraceRow {
+            t,
+            reference: [1.0, 1.0, 1.0],
+            throttle: 1500.0,
+            rates,
+            measured: rates,
+            estimated: rates,
+            pwm: [1500.0, 1500.0, 1500.0, 0.0],
+            saturated: false,
+            cost: f64::NAN,
+        }
+    }
+
+    /// p rises from 0 to 1 at t = 0.06 s after the step at 0; q sits at
+    /// 1.2 (beyond the reference) throughout, never rising; r stays at 0.5.
+    fn trace() -> Trace {
+        let p = [0.0, 0.05, 0.5, 0.95, 1.0, 1.0];
+        Trace {
+            rows: (0..6)
+                .map(|i| row(0.02 * i as f64, [p[i], 1.2, 0.5]))
+                .collect(),
+            trim_pwm: [1500.0, 1500.0, 1500.0, 0.0],
+        }
+    }
+
+    #[test]
+    fn rise_time_is_measured_from_the_step_and_nan_when_never_risen() {
+        let m = trace().step_metrics(0.0, [0.0; 3], [1.0; 3]);
+        assert!((m.rise_time[0] - 0.06).abs() < 1e-12, "{m:?}");
+        // Already beyond 90 % at the step and never below it: no rise
+        // (the old 10-90 % figure was 0 s, the best of any axis).
+        assert!(m.rise_time[1].is_nan(), "{m:?}");
+        // 90 % never reached.
+        assert!(m.rise_time[2].is_nan(), "{m:?}");
+        assert_eq!(m.diverged, None);
+    }
+
+    #[test]
+    fn a_run_beyond_the_bound_or_non_finite_is_diverged() {
+        let mut t = trace();
+        t.rows[4].rates[1] = 25.0;
+        let d = t.step_metrics(0.0, [0.0; 3], [1.0; 3]).diverged.unwrap();
+        assert_eq!((d.axis, d.rate, d.bound), (1, 25.0, 5.0));
+        assert!(d.to_string().contains("rate q reached 25"), "{d}");
+        let mut t = trace();
+        t.rows[5].rates[2] = f64::NAN;
+        let d = t.step_metrics(0.0, [0.0; 3], [1.0; 3]).diverged.unwrap();
+        assert_eq!(d.axis, 2);
     }
 }

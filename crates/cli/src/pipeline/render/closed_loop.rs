@@ -8,6 +8,21 @@ use kestrel_tricopter::pipeline::PipelineResult;
 use kestrel_tricopter::pipeline::closed_loop::{Controller, RunKind};
 use kestrel_tricopter::pipeline::config::FirmwareScalar;
 
+/// Rise times `a / b / c`, "not reached" where the rate never crossed
+/// 90 % of its step.
+fn rise_times(v: &[f64]) -> String {
+    v.iter()
+        .map(|&x| {
+            if x.is_finite() {
+                f3(x)
+            } else {
+                "not reached".to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" / ")
+}
+
 /// Section 9: closed-loop runs on the nonlinear tricopter.
 pub fn section(r: &mut Report, res: &PipelineResult) -> anyhow::Result<()> {
     let cl = &res.closed_loop;
@@ -34,8 +49,16 @@ pub fn section(r: &mut Report, res: &PipelineResult) -> anyhow::Result<()> {
         t.row([
             run.kind.as_str().to_string(),
             c,
-            j3(&m.rise_time),
-            j3(&m.overshoot),
+            if m.diverged.is_some() {
+                "diverged".to_string()
+            } else {
+                rise_times(&m.rise_time)
+            },
+            if m.diverged.is_some() {
+                "diverged".to_string()
+            } else {
+                j3(&m.overshoot)
+            },
             j3(&m.rms_error),
             j3(&m.effort),
             format!("{:.0}..{:.0}", run.pwm_range.0, run.pwm_range.1),
