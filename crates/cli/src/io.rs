@@ -1,54 +1,154 @@
-//! Output helpers shared by the subcommands.
+//! Output helpers shared by the subcommands: every output file is written
+//! atomically, and a command that writes several writes them together.
+//!
+//! [`Outputs`] stages each file in a temporary file beside its destination
+//! (same directory, so the final step is a rename on one file system) and
+//! [`Outputs::commit`] renames them all into place once every file has been
+//! written in full. Dropped without a commit (an error on the way), the
+//! temporary files are removed: a failed command leaves nothing new behind.
+//!
+//! The temporary files come from the `tempfile` crate: unpredictable
+//! names created exclusively (two outputs, two runs or two threads never
+//! share one, and nothing that already exists is overwritten), removal on
+//! drop, including on an early `?` return, and a well-kept crate that
+//! is already in the build's dependency tree.
 
 use anyhow::Context;
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Writes `text` to `path`, or to standard output when `path` is `None`.
-///
-/// A file is written to a temporary sibling first and renamed into place,
-/// so a failed run never leaves a half-written file that looks complete.
-pub fn write_output(path: Option<&Path>, text: &str) -> anyhow::Result<()> {
-    match path {
-        None => {
-            let mut out = std::io::stdout().lock();
-            out.write_all(text.as_bytes())
-                .context("writing to standard output")?;
-            out.flush().context("writing to standard output")
+/// One staged output.
+enum Staged {
+    /// A regular (or new) file: written to a temporary sibling, renamed at commit.
+    File {
+        tmp: tempfile::NamedTempFile,
+        dest: PathBuf,
+    },
+    /// A device, FIFO or other non-regular file (`/dev/null`, a terminal):
+    /// written in place at commit, since renaming over it would replace it.
+    InPlace { dest: PathBuf, bytes: Vec<u8> },
+    /// Standard output.
+    Stdout(Vec<u8>),
+}
+
+/// Output files written together: each staged beside its destination by
+/// [`Outputs::add`], all put in place by [`Outputs::commit`].
+#[derive(Default)]
+pub struct Outputs {
+    staged: Vec<Staged>,
+}
+
+impl Outputs {
+    /// No outputs yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Stages `bytes` for `path`, or for standard output when `path` is
+    /// `None`. A file is written in full to a temporary file in the same
+    /// directory now (so a full disk or a missing directory fails here,
+    /// before anything is put in place); standard output is written at
+    /// [`Outputs::commit`].
+    pub fn add(&mut self, path: Option<&Path>, bytes: impl AsRef<[u8]>) -> anyhow::Result<()> {
+        let bytes = bytes.as_ref();
+        let Some(path) = path else {
+            self.staged.push(Staged::Stdout(bytes.to_vec()));
+            return Ok(());
+        };
+        // A symbolic link is followed and its target replaced.
+        let dest = match std::fs::symlink_metadata(path) {
+            Ok(m) if m.file_type().is_symlink() => std::fs::canonicalize(path)
+                .with_context(|| format!("resolving the link {}", path.display()))?,
+            _ => path.to_path_buf(),
+        };
+        let existing = std::fs::metadata(&dest).ok();
+        if let Some(m) = &existing {
+            if m.is_dir() {
+                anyhow::bail!(
+                    "{} is a directory; give a file name to write to",
+                    path.display()
+                );
+            }
+            if !m.is_file() {
+                self.staged.push(Staged::InPlace {
+                    dest,
+                    bytes: bytes.to_vec(),
+                });
+                return Ok(());
+            }
         }
-        Some(p) => write_atomic(p, text.as_bytes()),
+        let dir = dest
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let name = dest
+            .file_name()
+            .with_context(|| format!("{}: not a file name", path.display()))?
+            .to_string_lossy()
+            .into_owned();
+        let prefix = format!(".{name}.");
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(&prefix).suffix(".tmp");
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            // As `File::create` would (0666 less the umask), not 0600.
+            builder.permissions(std::fs::Permissions::from_mode(0o666));
+        }
+        let mut tmp = builder
+            .tempfile_in(dir)
+            .with_context(|| format!("writing {}", path.display()))?;
+        if let Some(m) = &existing {
+            // Replacing a file keeps its permissions.
+            tmp.as_file()
+                .set_permissions(m.permissions())
+                .with_context(|| format!("writing {}", path.display()))?;
+        }
+        tmp.write_all(bytes)
+            .and_then(|()| tmp.as_file().sync_all())
+            .with_context(|| format!("writing {}", path.display()))?;
+        self.staged.push(Staged::File { tmp, dest });
+        Ok(())
+    }
+
+    /// Writes standard output and devices, then renames every staged file
+    /// into place. Should a rename fail, the files not yet renamed are
+    /// removed (those already in place stay: each is complete).
+    pub fn commit(self) -> anyhow::Result<()> {
+        let mut files = Vec::new();
+        for s in self.staged {
+            match s {
+                Staged::Stdout(bytes) => {
+                    let mut out = std::io::stdout().lock();
+                    out.write_all(&bytes)
+                        .and_then(|()| out.flush())
+                        .context("writing to standard output")?;
+                }
+                Staged::InPlace { dest, bytes } => std::fs::write(&dest, bytes)
+                    .with_context(|| format!("writing {}", dest.display()))?,
+                Staged::File { tmp, dest } => files.push((tmp, dest)),
+            }
+        }
+        for (tmp, dest) in files {
+            tmp.persist(&dest)
+                .map_err(|e| e.error)
+                .with_context(|| format!("writing {}", dest.display()))?;
+        }
+        Ok(())
     }
 }
 
-/// Writes bytes to a file atomically (temporary file, then rename).
+/// Writes `text` to `path`, or to standard output when `path` is `None`
+/// (one [`Outputs`] entry, committed).
 ///
-/// Only a regular file (or a new one) is replaced that way: a symbolic link
-/// is followed and its target replaced, and anything else that exists at
-/// `path` (`/dev/null`, a FIFO, a terminal) is written in place, since
+/// Only a regular file (or a new one) is replaced by a rename: a symbolic
+/// link is followed and its target replaced, and anything else that exists
+/// at `path` (`/dev/null`, a FIFO, a terminal) is written in place, since
 /// renaming over it would replace the device itself.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let target = match std::fs::symlink_metadata(path) {
-        Ok(m) if m.file_type().is_symlink() => std::fs::canonicalize(path)
-            .with_context(|| format!("resolving the link {}", path.display()))?,
-        _ => path.to_path_buf(),
-    };
-    let path = target.as_path();
-    if let Ok(m) = std::fs::metadata(path)
-        && !m.is_file()
-    {
-        return std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()));
-    }
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-    std::fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("writing {}", path.display()))
+pub fn write_output(path: Option<&Path>, text: &str) -> anyhow::Result<()> {
+    let mut out = Outputs::new();
+    out.add(path, text)?;
+    out.commit()
 }
 
 #[cfg(test)]
@@ -59,7 +159,7 @@ mod tests {
     fn devices_are_written_in_place_not_replaced() {
         let null = Path::new("/dev/null");
         if std::fs::metadata(null).is_ok_and(|m| !m.is_file()) {
-            write_atomic(null, b"discarded").unwrap();
+            write_output(Some(null), "discarded").unwrap();
             assert!(
                 !std::fs::metadata(null).unwrap().is_file(),
                 "/dev/null was replaced"
@@ -76,7 +176,7 @@ mod tests {
         std::fs::write(&file, "old").unwrap();
         let _ = std::fs::remove_file(&link);
         std::os::unix::fs::symlink(&file, &link).unwrap();
-        write_atomic(&link, b"new").unwrap();
+        write_output(Some(&link), "new").unwrap();
         assert!(
             std::fs::symlink_metadata(&link)
                 .unwrap()
@@ -84,8 +184,45 @@ mod tests {
                 .is_symlink()
         );
         assert_eq!(std::fs::read_to_string(&file).unwrap(), "new");
-        write_atomic(&file, b"newer").unwrap();
+        write_output(Some(&file), "newer").unwrap();
         assert_eq!(std::fs::read_to_string(&link).unwrap(), "newer");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn nothing_is_written_unless_every_output_can_be() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("a.txt");
+        let mut out = Outputs::new();
+        out.add(Some(&a), "a").unwrap();
+        assert!(out.add(Some(&dir.path().join("no/b.txt")), "b").is_err());
+        drop(out);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        let mut out = Outputs::new();
+        out.add(Some(&a), "a").unwrap();
+        out.add(Some(&dir.path().join("b.txt")), "b").unwrap();
+        // Staged, not yet in place.
+        assert!(!a.exists());
+        out.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&a).unwrap(), "a");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_replaced_file_keeps_its_permissions() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("a.sh");
+        std::fs::write(&a, "old").unwrap();
+        std::fs::set_permissions(&a, std::fs::Permissions::from_mode(0o750)).unwrap();
+        write_output(Some(&a), "new").unwrap();
+        let mode = std::fs::metadata(&a).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o750);
+        // A new file is not private to its owner like a temporary file.
+        let b = dir.path().join("b.txt");
+        write_output(Some(&b), "new").unwrap();
+        let mode = std::fs::metadata(&b).unwrap().permissions().mode() & 0o777;
+        assert_ne!(mode & 0o044, 0, "{mode:o}");
     }
 }

@@ -75,12 +75,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             files.len()
         );
     }
-    for (f, status) in &changed {
+    // Every changed file is staged, then all are renamed into place.
+    let mut outputs = io::Outputs::new();
+    for (f, _) in &changed {
         let path = f.location(&root);
         if let Some(dir) = path.parent() {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         }
-        io::write_atomic(&path, f.contents.as_bytes())?;
+        outputs.add(Some(&path), f.contents.as_bytes())?;
+    }
+    outputs.commit()?;
+    for (f, status) in &changed {
         println!("wrote {} (was {})", f.path, describe(*status));
     }
     println!(

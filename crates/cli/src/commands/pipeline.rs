@@ -12,12 +12,20 @@ use std::path::PathBuf;
 /// certificates, Table 7.2, the closed-loop runs against the baseline PI
 /// (CSV traces), firmware tables, plots (SVG) and `report.md` with every
 /// table and the differences from the thesis. The directory appears only
-/// when every step has succeeded.
+/// when every step has succeeded. `--out` must be new, empty, or (with
+/// `--force`) a previous report; anything else is refused before the work
+/// starts.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Report directory (replaced when the run succeeds).
+    /// Report directory: a new or empty directory, or a previous report
+    /// with --force (anything else is refused before the work starts).
     #[arg(long, default_value = "report")]
     pub out: PathBuf,
+    /// Replace a previous report in --out (only a directory written by
+    /// `kestrel pipeline`, holding nothing it did not write), when the run
+    /// succeeds.
+    #[arg(long)]
+    pub force: bool,
     /// TOML configuration (every key documented in the built-in default,
     /// `crates/cli/kestrel.toml`; unknown keys are rejected).
     #[arg(long)]
@@ -54,6 +62,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         config_source,
         flights: args.flights,
         quick: args.quick,
+        force: args.force,
     })?;
     eprintln!(
         "pipeline done: report in {}",

@@ -47,7 +47,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("simulating experiment {}", args.experiment.name()))?;
     let bytes = log.to_csv_bytes()?;
     let text = String::from_utf8(bytes).context("CSV log is not UTF-8")?;
-    io::write_output(args.out.as_deref(), &text)?;
+    // Every output is computed, then all are written together.
+    let mut outputs = io::Outputs::new();
     if let Some(path) = &args.rate_model {
         let model = kestrel_tricopter_model::rate_model_discrete(
             &settings.plant.params,
@@ -55,8 +56,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             RateInputs::Pwm,
             1.0 / settings.plant.gyro.rate_hz,
         )?;
-        io::write_output(Some(path), &model.to_json_string())?;
+        outputs.add(Some(path), model.to_json_string())?;
     }
+    outputs.add(args.out.as_deref(), text)?;
+    outputs.commit()?;
     eprintln!("{}: {}", args.experiment.name(), log.trim);
     Ok(())
 }

@@ -31,6 +31,8 @@ pub struct Options {
     pub flights: Option<PathBuf>,
     /// The shortened pipeline.
     pub quick: bool,
+    /// Replace a previous report in `out` (`--force`).
+    pub force: bool,
 }
 
 /// The progress bar on a terminal.
@@ -71,7 +73,7 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
     } else {
         opts.config.clone()
     };
-    let dir = ReportDir::create(&opts.out)?;
+    let dir = ReportDir::create(&opts.out, opts.force)?;
     let t_all = Instant::now();
     let flights = opts.flights.as_deref().map(flights::read_dir).transpose()?;
     let mut bar = progress_bar();

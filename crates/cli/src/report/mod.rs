@@ -5,44 +5,189 @@ pub mod document;
 pub mod plot;
 pub mod table;
 
-use anyhow::Context;
+use anyhow::{Context, bail};
+use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
+
+/// The file in every report that marks it as one and lists the files the
+/// report wrote (first line [`MARKER_HEADER`], then one relative path, with
+/// `/` separators, per line).
+pub const MARKER: &str = ".kestrel-report";
+
+/// The first line of [`MARKER`].
+pub const MARKER_HEADER: &str = "kestrel pipeline report";
 
 /// A report directory written in a hidden staging directory beside its
 /// final place and moved there by [`ReportDir::finish`]; dropped unfinished
 /// (an error on the way), the staging directory is removed, so a failed
 /// run never leaves a half-written report that looks complete.
+///
+/// Nothing the command did not create is replaced: [`ReportDir::create`]
+/// accepts a new or empty directory, and a previous report (one with a
+/// [`MARKER`] listing every file in it) only when `force` is set; anything
+/// else is refused before the work starts.
 #[derive(Debug)]
 pub struct ReportDir {
     final_dir: PathBuf,
     staging: PathBuf,
+    /// Parent directories [`ReportDir::create`] made, deepest first.
+    made_parents: Vec<PathBuf>,
+    force: bool,
     finished: bool,
 }
 
+/// What is at a report's destination.
+#[derive(Debug, PartialEq)]
+enum Destination {
+    /// Nothing, or an empty directory: the report is renamed there.
+    Free,
+    /// A previous report to be replaced (`--force`).
+    PreviousReport,
+}
+
+/// Checks what is at `dir`: see [`ReportDir`].
+fn check_destination(dir: &Path, force: bool) -> anyhow::Result<Destination> {
+    let shown = dir.display();
+    let meta = match std::fs::symlink_metadata(dir) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Destination::Free),
+        Err(e) => return Err(e).with_context(|| format!("--out {shown}")),
+    };
+    if meta.file_type().is_symlink() {
+        bail!(
+            "--out {shown} is a symbolic link; give the directory it points to, or a new directory (nothing was written)"
+        );
+    }
+    if !meta.is_dir() {
+        bail!(
+            "--out {shown} exists and is not a directory; give a new or empty directory for the report (nothing was written)"
+        );
+    }
+    let mut entries = std::fs::read_dir(dir).with_context(|| format!("reading --out {shown}"))?;
+    if entries.next().is_none() {
+        return Ok(Destination::Free);
+    }
+    let Some(listed) = read_marker(dir)? else {
+        let md = std::fs::read_to_string(dir.join("report.md")).unwrap_or_default();
+        if md.starts_with("# kestrel pipeline report") {
+            bail!(
+                "--out {shown} holds a report of an earlier kestrel version (it has no {MARKER} listing its files); remove it yourself, or give another directory (nothing was written)"
+            );
+        }
+        bail!(
+            "--out {shown} is not empty and is not a kestrel report (it has no {MARKER}); give a new or empty directory, or move its contents away (nothing was written)"
+        );
+    };
+    if !force {
+        bail!(
+            "--out {shown} holds a previous kestrel report; add --force to replace it, or give another directory (nothing was written)"
+        );
+    }
+    let foreign: Vec<String> = files_in(dir)?
+        .into_iter()
+        .filter(|f| f != MARKER && !listed.contains(f))
+        .collect();
+    if !foreign.is_empty() {
+        let shown_list: Vec<&str> = foreign.iter().take(5).map(String::as_str).collect();
+        bail!(
+            "--out {shown} holds a previous kestrel report and {} file(s) the report did not write ({}{}); move them away before replacing it with --force (nothing was written)",
+            foreign.len(),
+            shown_list.join(", "),
+            if foreign.len() > 5 { ", ..." } else { "" }
+        );
+    }
+    Ok(Destination::PreviousReport)
+}
+
+/// The files listed in `dir`'s [`MARKER`], or `None` if it has none.
+fn read_marker(dir: &Path) -> anyhow::Result<Option<BTreeSet<String>>> {
+    let path = dir.join(MARKER);
+    match std::fs::symlink_metadata(&path) {
+        Ok(m) if m.is_file() => {}
+        _ => return Ok(None),
+    }
+    let text =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let mut lines = text.lines();
+    if lines.next() != Some(MARKER_HEADER) {
+        return Ok(None);
+    }
+    Ok(Some(lines.map(str::to_string).collect()))
+}
+
+/// Every file under `dir` (relative, `/`-separated, sorted; symbolic links
+/// not followed), and every empty directory as `name/`.
+fn files_in(dir: &Path) -> anyhow::Result<Vec<String>> {
+    fn walk(dir: &Path, rel: &str, out: &mut Vec<String>) -> anyhow::Result<()> {
+        let mut empty = true;
+        for e in std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))? {
+            let e = e.with_context(|| format!("reading {}", dir.display()))?;
+            empty = false;
+            let name = e.file_name().to_string_lossy().into_owned();
+            let r = if rel.is_empty() {
+                name
+            } else {
+                format!("{rel}/{name}")
+            };
+            let t = e
+                .file_type()
+                .with_context(|| format!("reading {}", e.path().display()))?;
+            if t.is_dir() {
+                walk(&e.path(), &r, out)?;
+            } else {
+                out.push(r);
+            }
+        }
+        if empty && !rel.is_empty() {
+            out.push(format!("{rel}/"));
+        }
+        Ok(())
+    }
+    let mut out = Vec::new();
+    walk(dir, "", &mut out)?;
+    out.sort();
+    Ok(out)
+}
+
 impl ReportDir {
-    /// Starts a report that will end up in `final_dir`.
-    pub fn create(final_dir: &Path) -> anyhow::Result<Self> {
+    /// Starts a report that will end up in `final_dir`, after checking that
+    /// nothing but a previous report (with `force`) would be replaced.
+    pub fn create(final_dir: &Path, force: bool) -> anyhow::Result<Self> {
+        check_destination(final_dir, force)?;
         let parent = final_dir
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
             .unwrap_or(Path::new("."));
-        std::fs::create_dir_all(parent)
-            .with_context(|| format!("creating {}", parent.display()))?;
         let name = final_dir
             .file_name()
-            .with_context(|| format!("{}: not a directory name", final_dir.display()))?
+            .with_context(|| format!("--out {}: not a directory name", final_dir.display()))?
             .to_string_lossy()
             .into_owned();
-        let staging = parent.join(format!(".{name}.partial-{}", std::process::id()));
-        if staging.exists() {
-            std::fs::remove_dir_all(&staging)
-                .with_context(|| format!("removing {}", staging.display()))?;
+        let mut made_parents = Vec::new();
+        let mut p = parent;
+        while !p.as_os_str().is_empty() && std::fs::symlink_metadata(p).is_err() {
+            made_parents.push(p.to_path_buf());
+            p = p.parent().unwrap_or(Path::new(""));
         }
-        std::fs::create_dir_all(&staging)
-            .with_context(|| format!("creating {}", staging.display()))?;
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("creating {}", parent.display()))?;
+        let mut n = 0u32;
+        let staging = loop {
+            let s = parent.join(format!(".{name}.partial-{}-{n}", std::process::id()));
+            match std::fs::create_dir(&s) {
+                Ok(()) => break s,
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && n < 1000 => n += 1,
+                Err(e) => {
+                    remove_made(&made_parents);
+                    return Err(e).with_context(|| format!("creating {}", s.display()));
+                }
+            }
+        };
         Ok(ReportDir {
             final_dir: final_dir.to_path_buf(),
             staging,
+            made_parents,
+            force,
             finished: false,
         })
     }
@@ -62,19 +207,65 @@ impl ReportDir {
         Ok(p)
     }
 
-    /// Moves the finished report into place, replacing an older one.
+    /// Writes the [`MARKER`] and moves the finished report into place,
+    /// replacing a previous report (checked again: see [`ReportDir::create`]).
+    /// Should the move fail, the previous report is put back.
     pub fn finish(mut self) -> anyhow::Result<PathBuf> {
-        if self.final_dir.exists() {
-            let old = self.staging.with_extension("old");
-            std::fs::rename(&self.final_dir, &old).with_context(|| {
-                format!("moving the previous {} aside", self.final_dir.display())
-            })?;
-            std::fs::remove_dir_all(&old).with_context(|| format!("removing {}", old.display()))?;
+        let mut marker = format!("{MARKER_HEADER}\n");
+        for f in files_in(&self.staging)? {
+            marker.push_str(&f);
+            marker.push('\n');
         }
-        std::fs::rename(&self.staging, &self.final_dir)
-            .with_context(|| format!("moving the report to {}", self.final_dir.display()))?;
+        self.write(MARKER, marker)?;
+        let shown = self.final_dir.display().to_string();
+        match check_destination(&self.final_dir, self.force)? {
+            Destination::Free => {
+                // Onto nothing or an empty directory (rename replaces one).
+                std::fs::rename(&self.staging, &self.final_dir)
+                    .with_context(|| format!("moving the report to {shown}"))?;
+            }
+            Destination::PreviousReport => {
+                let aside = self
+                    .staging
+                    .with_file_name(format!("{}.previous", self.staging_name()));
+                std::fs::rename(&self.final_dir, &aside)
+                    .with_context(|| format!("moving the previous report in {shown} aside"))?;
+                if let Err(e) = std::fs::rename(&self.staging, &self.final_dir) {
+                    let back = std::fs::rename(&aside, &self.final_dir);
+                    return Err(e).with_context(|| match back {
+                        Ok(()) => format!("moving the report to {shown} (the previous one is kept)"),
+                        Err(b) => format!(
+                            "moving the report to {shown}; putting the previous one back also failed ({b}): it is in {}",
+                            aside.display()
+                        ),
+                    });
+                }
+                std::fs::remove_dir_all(&aside).with_context(|| {
+                    format!(
+                        "the report is in {shown}, but removing the previous one from {} failed",
+                        aside.display()
+                    )
+                })?;
+            }
+        }
         self.finished = true;
         Ok(self.final_dir.clone())
+    }
+
+    fn staging_name(&self) -> String {
+        self.staging
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    }
+}
+
+/// Removes the directories in `made` (deepest first) while they are empty.
+fn remove_made(made: &[PathBuf]) {
+    for d in made {
+        if std::fs::remove_dir(d).is_err() {
+            break;
+        }
     }
 }
 
@@ -82,6 +273,7 @@ impl Drop for ReportDir {
     fn drop(&mut self) {
         if !self.finished {
             let _ = std::fs::remove_dir_all(&self.staging);
+            remove_made(&self.made_parents);
         }
     }
 }
@@ -92,31 +284,82 @@ mod tests {
 
     #[test]
     fn report_appears_only_when_finished() {
-        let base = std::env::temp_dir().join(format!("kestrel-report-test-{}", std::process::id()));
+        let tmp = tempfile::tempdir().unwrap();
+        let base = tmp.path();
         let dest = base.join("report");
         {
-            let r = ReportDir::create(&dest).unwrap();
+            let r = ReportDir::create(&dest, false).unwrap();
             r.write("a/b.txt", "x").unwrap();
             assert!(!dest.exists());
             // dropped without finish: nothing left behind
         }
         assert!(!dest.exists());
-        assert_eq!(std::fs::read_dir(&base).unwrap().count(), 0);
-        let r = ReportDir::create(&dest).unwrap();
+        assert_eq!(std::fs::read_dir(base).unwrap().count(), 0);
+        let r = ReportDir::create(&dest, false).unwrap();
         r.write("report.md", "# one").unwrap();
         r.finish().unwrap();
         assert_eq!(
             std::fs::read_to_string(dest.join("report.md")).unwrap(),
             "# one"
         );
-        let r = ReportDir::create(&dest).unwrap();
+        let err = ReportDir::create(&dest, false).unwrap_err().to_string();
+        assert!(err.contains("--force"), "{err}");
+        let r = ReportDir::create(&dest, true).unwrap();
         r.write("report.md", "# two").unwrap();
         r.finish().unwrap();
         assert_eq!(
             std::fs::read_to_string(dest.join("report.md")).unwrap(),
             "# two"
         );
-        assert_eq!(std::fs::read_dir(&base).unwrap().count(), 1);
-        std::fs::remove_dir_all(&base).unwrap();
+        assert_eq!(std::fs::read_dir(base).unwrap().count(), 1);
+        let listed = std::fs::read_to_string(dest.join(MARKER)).unwrap();
+        assert_eq!(listed, format!("{MARKER_HEADER}\nreport.md\n"));
+        // A file the report did not write stops even --force.
+        std::fs::write(dest.join("mine.txt"), "mine").unwrap();
+        let err = ReportDir::create(&dest, true).unwrap_err().to_string();
+        assert!(err.contains("mine.txt"), "{err}");
+    }
+
+    #[test]
+    fn an_empty_directory_takes_the_report_and_a_file_is_refused() {
+        let base = tempfile::tempdir().unwrap();
+        let dest = base.path().join("empty");
+        std::fs::create_dir(&dest).unwrap();
+        let r = ReportDir::create(&dest, false).unwrap();
+        r.write("report.md", "# one").unwrap();
+        r.finish().unwrap();
+        assert!(dest.join("report.md").is_file());
+        let file = base.path().join("notes.txt");
+        std::fs::write(&file, "notes").unwrap();
+        let err = ReportDir::create(&file, true).unwrap_err().to_string();
+        assert!(err.contains("not a directory"), "{err}");
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), "notes");
+        assert_eq!(std::fs::read_dir(base.path()).unwrap().count(), 2);
+    }
+
+    #[test]
+    fn parents_made_for_a_failed_report_are_removed() {
+        let base = tempfile::tempdir().unwrap();
+        let dest = base.path().join("a/b/report");
+        drop(ReportDir::create(&dest, false).unwrap());
+        assert_eq!(std::fs::read_dir(base.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn a_report_replaced_while_building_is_checked_again() {
+        let base = tempfile::tempdir().unwrap();
+        let dest = base.path().join("report");
+        let r = ReportDir::create(&dest, true).unwrap();
+        r.write("report.md", "# new").unwrap();
+        // The user fills the destination in the meantime.
+        std::fs::create_dir(&dest).unwrap();
+        std::fs::write(dest.join("keep.txt"), "keep").unwrap();
+        let err = r.finish().unwrap_err().to_string();
+        assert!(err.contains("not a kestrel report"), "{err}");
+        assert_eq!(
+            std::fs::read_to_string(dest.join("keep.txt")).unwrap(),
+            "keep"
+        );
+        assert_eq!(std::fs::read_dir(base.path()).unwrap().count(), 1);
     }
 }
