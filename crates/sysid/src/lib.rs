@@ -12,6 +12,8 @@ mod filter;
 #[cfg(feature = "std")]
 pub mod linalg;
 #[cfg(feature = "std")]
+pub mod lm;
+#[cfg(feature = "std")]
 mod model;
 #[cfg(feature = "std")]
 mod n4sid;

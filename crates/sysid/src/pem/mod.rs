@@ -4,7 +4,8 @@
 //! One file per part: the [`settings`] and the [`result`], the parameter
 //! [`layout`], the data as [`series`], the [`residuals`] of a trial step,
 //! their exact [`jacobian`], the [`criterion`] as residual weights, the
-//! [`search`] loop and the N4SID [`start`] wrapper.
+//! [`search`] (the problem handed to the one Levenberg-Marquardt loop,
+//! [`crate::lm`]) and the N4SID [`start`] wrapper.
 
 mod criterion;
 mod jacobian;

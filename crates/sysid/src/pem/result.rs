@@ -5,21 +5,7 @@ use super::settings::{Criterion, PemSettings};
 use crate::model::InnovationModel;
 use nalgebra::DVector;
 
-/// Why the search stopped.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum StopReason {
-    /// The relative cost decrease fell below `cost_tolerance`.
-    CostTolerance,
-    /// The gradient fell below `gradient_tolerance`.
-    GradientTolerance,
-    /// The step fell below `step_tolerance`.
-    StepTolerance,
-    /// `max_iterations` reached.
-    MaxIterations,
-    /// No step lowering the cost (while keeping stability) was found even
-    /// with very large damping: a local minimum within numerical precision.
-    NoProgress,
-}
+pub use crate::lm::StopReason;
 
 /// Result of [`pem`](crate::pem()).
 #[derive(Clone, Debug, PartialEq)]

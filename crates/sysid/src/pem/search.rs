@@ -1,18 +1,20 @@
 //! The Levenberg-Marquardt search of [`pem`].
 
-use super::criterion::Objective;
+use super::criterion::{Objective, ResidualWeights};
 use super::jacobian::{residuals_and_jacobian, simulation_residuals_and_jacobian, stack};
 use super::layout::Layout;
 use super::residuals::{multistep_residuals, residuals, stack_residuals, without_k};
-use super::result::{PemResult, StopReason};
+use super::result::PemResult;
 use super::series::series_of;
 use super::settings::{Criterion, Focus, PemSettings};
 use crate::data::IoData;
 use crate::error::{Result, SysidError};
 use crate::linalg::spectral_radius;
+use crate::lm::{LeastSquares, LmSettings, NormalEquations, levenberg_marquardt};
 use crate::model::InnovationModel;
 use crate::n4sid::{Scaling, stabilise_k};
 use crate::validate::{estimate_x0_predictor, estimate_x0_simulation};
+use core::convert::Infallible;
 use nalgebra::{DMatrix, DVector};
 
 /// Prediction-error identification of an innovation model (4.4)-(4.10):
@@ -22,8 +24,8 @@ use nalgebra::{DMatrix, DVector};
 /// [`PemSettings::horizon`] `h > 1`: the mean squared error of the
 /// `1..=h`-step-ahead predictions, a multi-step focus).
 ///
-/// The search is Levenberg-Marquardt on the Gauss-Newton Hessian `J'J`
-/// with the exact Jacobian from forward sensitivity recursions of the
+/// The search is Levenberg-Marquardt ([`crate::lm`], damping capped at
+/// `1e12`) on the Gauss-Newton Hessian `J'J` with the exact Jacobian from forward sensitivity recursions of the
 /// predictor (no finite differences). Every step is taken in data-driven
 /// local coordinates: the `nx^2` directions that only change the state
 /// basis are projected out, which makes the problem well posed. A trial
@@ -159,102 +161,48 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
     };
     let mut theta = lay.pack(&base, &x0);
     lay.pack_simulation(&mut theta, &xs0);
-    let (mut res, mut jt) = res_jac(&base, &x0, &xs0);
+    let (mut res, jt) = res_jac(&base, &x0, &xs0);
     let mf = objective.count(res.len());
     let initial_cost = res.norm_squared() / mf;
-    let mut plain_cost = initial_cost;
-    let mut w = objective.weights_at(&res);
+    let w = objective.weights_at(&res);
+    let mut jt = jt;
     w.apply(&objective.groups, &mut res, Some(&mut jt));
-    let mut cost = res.norm_squared() / mf;
-    let mut history = vec![cost];
-    let mut mu = 1e-3;
-    let mut iterations = 0;
-    let mut evaluations = 1;
-    let mut stop = StopReason::MaxIterations;
-    let mut free = 0;
-    let (mut model, mut x0s) = lay.unpack(&theta, &base);
-    let mut xss = lay.simulation_x0(&theta);
-    while iterations < settings.max_iterations {
-        iterations += 1;
-        let qp = if settings.fixed_dynamics {
-            // Only K and the initial states move: no similarity freedom left.
-            let idx: Vec<usize> = (lay.ok..lay.p).collect();
-            DMatrix::from_fn(lay.p, idx.len(), |r, c| if r == idx[c] { 1.0 } else { 0.0 })
-        } else {
-            lay.ddlc(&model, &x0s, &xss)
-        };
-        free = qp.ncols();
-        let h = &jt * jt.transpose();
-        let g = &jt * &res;
-        let hr = qp.transpose() * &h * &qp;
-        let gr = qp.transpose() * &g;
-        if gr.amax() / mf <= settings.gradient_tolerance * cost.max(f64::MIN_POSITIVE) {
-            stop = StopReason::GradientTolerance;
-            break;
-        }
-        let dscale: Vec<f64> = (0..free)
-            .map(|i| hr[(i, i)].max(1e-12 * hr.diagonal().amax()).max(1e-300))
-            .collect();
-        let mut accepted = None;
-        while mu < 1e12 {
-            let mut lhs = hr.clone();
-            for i in 0..free {
-                lhs[(i, i)] += mu * dscale[i];
-            }
-            let Some(ch) = lhs.cholesky() else {
-                mu *= 10.0;
-                continue;
-            };
-            let d = ch.solve(&(-&gr));
-            let step = &qp * d;
-            let th_try = &theta + &step;
-            let (m_try, x0_try) = lay.unpack(&th_try, &base);
-            let xs_try = lay.simulation_x0(&th_try);
-            evaluations += 1;
-            let stable = spectral_radius(&m_try.a) <= limit
-                && (!has_k || spectral_radius(&(&m_try.a - &m_try.k * &m_try.c)) <= limit);
-            let (c_try, p_try) = if stable {
-                let mut r = res_only(&m_try, &x0_try, &xs_try);
-                let plain = r.norm_squared() / mf;
-                w.apply(&objective.groups, &mut r, None);
-                (r.norm_squared() / mf, plain)
-            } else {
-                (f64::INFINITY, f64::INFINITY)
-            };
-            if c_try.is_finite() && c_try < cost {
-                mu = (mu / 5.0).max(1e-12);
-                accepted = Some((th_try, step.norm(), c_try, p_try));
-                break;
-            }
-            mu *= 5.0;
-        }
-        let Some((th_new, step_norm, c_new, p_new)) = accepted else {
-            stop = StopReason::NoProgress;
-            break;
-        };
-        let rel = (cost - c_new) / cost;
-        theta = th_new;
-        cost = c_new;
-        plain_cost = p_new;
-        history.push(cost);
-        (model, x0s) = lay.unpack(&theta, &base);
-        xss = lay.simulation_x0(&theta);
-        if rel < settings.cost_tolerance {
-            stop = StopReason::CostTolerance;
-            break;
-        }
-        if step_norm < settings.step_tolerance * (1.0 + theta.norm()) {
-            stop = StopReason::StepTolerance;
-            break;
-        }
-        (res, jt) = res_jac(&model, &x0s, &xss);
-        evaluations += 1;
-        if settings.criterion != Criterion::Trace {
-            w = objective.weights_at(&res);
-        }
-        w.apply(&objective.groups, &mut res, Some(&mut jt));
-        cost = res.norm_squared() / mf;
-    }
+    let first = NormalEquations {
+        cost: res.norm_squared() / mf,
+        hessian: &jt * jt.transpose(),
+        gradient: &jt * &res,
+    };
+    let mut problem = PemProblem {
+        lay: &lay,
+        base: &base,
+        objective: &objective,
+        res_jac,
+        res_only: &res_only,
+        w,
+        mf,
+        limit,
+        has_k,
+        reweigh: settings.criterion != Criterion::Trace,
+        fixed_dynamics: settings.fixed_dynamics,
+        first: Some(first),
+    };
+    let lm = LmSettings {
+        max_iterations: settings.max_iterations,
+        cost_tolerance: settings.cost_tolerance,
+        gradient_tolerance: settings.gradient_tolerance,
+        step_tolerance: settings.step_tolerance,
+        gradient_divisor: mf,
+        initial_damping: 1e-3,
+        max_damping: 1e12,
+        bounds: None,
+    };
+    let found = match levenberg_marquardt(&mut problem, theta, &lm) {
+        Ok(found) => found,
+        Err(never) => match never {},
+    };
+    theta = found.theta;
+    let (model, x0s) = lay.unpack(&theta, &base);
+    let xss = lay.simulation_x0(&theta);
     let final_res = res_only(&model, &x0s, &xss);
     // The prediction errors only (the simulation errors come last).
     let n_sim = if sim {
@@ -270,12 +218,92 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
         x0: x0s,
         simulation_x0: xss,
         initial_cost,
-        cost: plain_cost,
+        cost: found.accepted.unwrap_or(initial_cost),
         det_cost,
-        history,
-        iterations,
-        evaluations,
-        free_parameters: free,
-        stop,
+        history: found.history,
+        iterations: found.iterations,
+        evaluations: found.evaluations,
+        free_parameters: found.search_dimension,
+        stop: found.stop,
     })
+}
+
+/// [`pem`] as a [`LeastSquares`] problem: the residuals weighed by the
+/// criterion's weights (renewed at every linearisation unless the
+/// criterion is the trace), trial points admissible when `A` and
+/// `A - KC` are stable, the search in data-driven local coordinates.
+struct PemProblem<'a, J, R> {
+    lay: &'a Layout,
+    base: &'a InnovationModel,
+    objective: &'a Objective,
+    res_jac: J,
+    res_only: &'a R,
+    w: ResidualWeights,
+    mf: f64,
+    limit: f64,
+    has_k: bool,
+    reweigh: bool,
+    fixed_dynamics: bool,
+    /// The normal equations at the start (computed before the search for
+    /// the residual count).
+    first: Option<NormalEquations>,
+}
+
+impl<J, R> LeastSquares for PemProblem<'_, J, R>
+where
+    J: Fn(&InnovationModel, &[DVector<f64>], &[DVector<f64>]) -> (DVector<f64>, DMatrix<f64>),
+    R: Fn(&InnovationModel, &[DVector<f64>], &[DVector<f64>]) -> DVector<f64>,
+{
+    type Error = Infallible;
+    /// The unweighted cost.
+    type Trial = f64;
+
+    fn linearise(
+        &mut self,
+        theta: &DVector<f64>,
+    ) -> core::result::Result<NormalEquations, Infallible> {
+        if let Some(first) = self.first.take() {
+            return Ok(first);
+        }
+        let (model, x0s) = self.lay.unpack(theta, self.base);
+        let xss = self.lay.simulation_x0(theta);
+        let (mut res, mut jt) = (self.res_jac)(&model, &x0s, &xss);
+        if self.reweigh {
+            self.w = self.objective.weights_at(&res);
+        }
+        self.w
+            .apply(&self.objective.groups, &mut res, Some(&mut jt));
+        Ok(NormalEquations {
+            cost: res.norm_squared() / self.mf,
+            hessian: &jt * jt.transpose(),
+            gradient: &jt * &res,
+        })
+    }
+
+    fn admissible(&mut self, theta: &DVector<f64>) -> bool {
+        let (m, _) = self.lay.unpack(theta, self.base);
+        spectral_radius(&m.a) <= self.limit
+            && (!self.has_k || spectral_radius(&(&m.a - &m.k * &m.c)) <= self.limit)
+    }
+
+    fn trial(&mut self, theta: &DVector<f64>) -> Option<(f64, f64)> {
+        let (m, x0) = self.lay.unpack(theta, self.base);
+        let xs = self.lay.simulation_x0(theta);
+        let mut r = (self.res_only)(&m, &x0, &xs);
+        let plain = r.norm_squared() / self.mf;
+        self.w.apply(&self.objective.groups, &mut r, None);
+        Some((r.norm_squared() / self.mf, plain))
+    }
+
+    fn basis(&mut self, theta: &DVector<f64>) -> Option<DMatrix<f64>> {
+        let lay = self.lay;
+        Some(if self.fixed_dynamics {
+            // Only K and the initial states move: no similarity freedom left.
+            let idx: Vec<usize> = (lay.ok..lay.p).collect();
+            DMatrix::from_fn(lay.p, idx.len(), |r, c| if r == idx[c] { 1.0 } else { 0.0 })
+        } else {
+            let (model, x0s) = lay.unpack(theta, self.base);
+            lay.ddlc(&model, &x0s, &lay.simulation_x0(theta))
+        })
+    }
 }

@@ -2,7 +2,9 @@
 
 use crate::ident::greybox::problem::{Eval, Gain, Problem};
 use crate::ident::greybox::report::{Stage, StageSummary};
+use core::cmp::Ordering;
 use kestrel_sysid::linalg::{pinv, spectral_radius};
+use kestrel_sysid::lm::{self, Bounds, LeastSquares, LmSettings, NormalEquations};
 use kestrel_sysid::{Result, StopReason, SysidError};
 use kestrel_tricopter_model::GreyBoxParams;
 use nalgebra::{DMatrix, DVector};
@@ -68,111 +70,92 @@ pub(super) fn cost_of(e: &Eval) -> f64 {
     e.r.norm_squared()
 }
 
+/// The search of one stage: [`kestrel_sysid::lm::levenberg_marquardt`]
+/// with the log parameters clamped to their bounds (projected: a
+/// parameter on its bound whose descent direction points outward is
+/// held), a free gain's predictor kept stable, and a damping cap of
+/// `1e14`.
 pub(super) fn levenberg_marquardt(prob: &Problem, theta0: DVector<f64>) -> Result<Search> {
     let set = &prob.spec.settings;
-    let mut theta = theta0;
-    let mut eval = prob.evaluate(&theta, true)?;
-    let initial_cost = cost_of(&eval);
-    let mut cost = initial_cost;
-    let mut mu = 1e-3;
-    let mut iterations = 0;
-    let mut stop = StopReason::MaxIterations;
-    // A free gain keeps the predictor stable (it starts from K = A C',
-    // whose predictor poles are the actuators').
-    let limit = 1.0 - 1e-6;
-    let nphys = prob.phys.len();
-    while iterations < set.max_iterations {
-        iterations += 1;
+    let lm = LmSettings {
+        max_iterations: set.max_iterations,
+        cost_tolerance: set.cost_tolerance,
+        gradient_tolerance: set.gradient_tolerance,
+        step_tolerance: set.step_tolerance,
+        gradient_divisor: 1.0,
+        initial_damping: 1e-3,
+        max_damping: 1e14,
+        bounds: Some(Bounds {
+            lower: prob.lo.clone(),
+            upper: prob.hi.clone(),
+        }),
+    };
+    let mut ls = StageProblem {
+        prob,
+        // A free gain keeps the predictor stable (it starts from K = A C',
+        // whose predictor poles are the actuators').
+        limit: 1.0 - 1e-6,
+        last: None,
+    };
+    let found = lm::levenberg_marquardt(&mut ls, theta0, &lm)?;
+    let eval = match (found.linearised, ls.last) {
+        (true, Some(eval)) => eval,
+        _ => prob.evaluate(&found.theta, true)?,
+    };
+    Ok(Search {
+        theta: found.theta,
+        eval,
+        initial_cost: found.initial_cost,
+        cost: found.cost,
+        iterations: found.iterations,
+        stop: found.stop,
+    })
+}
+
+/// One stage's search problem: the scaled residuals of [`Problem::evaluate`].
+struct StageProblem<'p, 'a> {
+    prob: &'p Problem<'a>,
+    /// Largest spectral radius of `A - KC` with a free gain.
+    limit: f64,
+    /// The evaluation (with the Jacobian) of the last linearisation.
+    last: Option<Eval>,
+}
+
+impl LeastSquares for StageProblem<'_, '_> {
+    type Error = SysidError;
+    type Trial = ();
+
+    fn linearise(&mut self, theta: &DVector<f64>) -> Result<NormalEquations> {
+        let eval = self.prob.evaluate(theta, true)?;
         let jac = eval.jac.as_ref().ok_or_else(|| {
             SysidError::Numerical("internal: Jacobian missing in the grey-box search".into())
         })?;
-        let h = jac.transpose() * jac;
-        let mut h = h;
-        let mut g = jac.transpose() * &eval.r;
-        // Active bounds: a log parameter on its bound whose descent
-        // direction points outward is held (projected Levenberg-Marquardt).
-        for k in 0..nphys {
-            let at_hi = theta[k] >= prob.hi[k] && g[k] < 0.0;
-            let at_lo = theta[k] <= prob.lo[k] && g[k] > 0.0;
-            if at_hi || at_lo {
-                g[k] = 0.0;
-                h.row_mut(k).fill(0.0);
-                h.column_mut(k).fill(0.0);
-                h[(k, k)] = 1.0;
-            }
-        }
-        if g.amax() <= set.gradient_tolerance * cost.max(f64::MIN_POSITIVE) {
-            stop = StopReason::GradientTolerance;
-            break;
-        }
-        let np = theta.len();
-        let hmax = h.diagonal().amax();
-        let dscale: Vec<f64> = (0..np)
-            .map(|i| h[(i, i)].max(1e-12 * hmax).max(1e-300))
-            .collect();
-        let mut accepted = None;
-        while mu < 1e14 {
-            let mut lhs = h.clone();
-            for i in 0..np {
-                lhs[(i, i)] += mu * dscale[i];
-            }
-            let Some(ch) = lhs.cholesky() else {
-                mu *= 10.0;
-                continue;
-            };
-            let step = ch.solve(&(-&g));
-            let mut trial = &theta + &step;
-            // Bounds: clamp the log parameters.
-            for k in 0..nphys {
-                trial[k] = trial[k].clamp(prob.lo[k], prob.hi[k]);
-            }
-            let ok = match prob.evaluate(&trial, false) {
-                Ok(e)
-                    if prob.k_free()
-                        && spectral_radius(&(&e.model.a - &e.model.k * &e.model.c)) > limit =>
-                {
-                    None
-                }
-                Ok(e) => Some(e),
-                // No hover trim, invalid parameter, divergence: reject.
-                Err(_) => None,
-            };
-            if let Some(e) = ok {
-                let c = cost_of(&e);
-                if c < cost {
-                    mu = (mu / 5.0).max(1e-12);
-                    accepted = Some((trial, c));
-                    break;
-                }
-            }
-            mu *= 5.0;
-        }
-        let Some((trial, c_new)) = accepted else {
-            stop = StopReason::NoProgress;
-            break;
+        let ne = NormalEquations {
+            cost: cost_of(&eval),
+            hessian: jac.transpose() * jac,
+            gradient: jac.transpose() * &eval.r,
         };
-        let rel = (cost - c_new) / cost;
-        let step_norm = (&trial - &theta).norm();
-        theta = trial;
-        cost = c_new;
-        eval = prob.evaluate(&theta, true)?;
-        if rel < set.cost_tolerance {
-            stop = StopReason::CostTolerance;
-            break;
-        }
-        if step_norm < set.step_tolerance * (1.0 + theta.norm()) {
-            stop = StopReason::StepTolerance;
-            break;
-        }
+        self.last = Some(eval);
+        Ok(ne)
     }
-    Ok(Search {
-        theta,
-        eval,
-        initial_cost,
-        cost,
-        iterations,
-        stop,
-    })
+
+    fn admissible(&mut self, theta: &DVector<f64>) -> bool {
+        if !self.prob.k_free() {
+            return true;
+        }
+        // No hover trim or an invalid parameter: rejected; so is an
+        // unstable predictor (a NaN radius is left to the residuals).
+        self.prob.model_of(theta).is_ok_and(|m| {
+            let radius = spectral_radius(&(&m.a - &m.k * &m.c));
+            radius.partial_cmp(&self.limit) != Some(Ordering::Greater)
+        })
+    }
+
+    fn trial(&mut self, theta: &DVector<f64>) -> Option<(f64, ())> {
+        // No hover trim, invalid parameter, divergence: rejected.
+        let e = self.prob.evaluate(theta, false).ok()?;
+        Some((cost_of(&e), ()))
+    }
 }
 
 /// Standard errors of the free log parameters (in `prob.phys` order):
