@@ -397,3 +397,65 @@ fn bad_logs_give_clear_errors() {
     ]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("start < end"));
 }
+
+/// Issue 20, finding 11: a `t` column in milliseconds gave ts = 20 s, and
+/// a log without `t` and without `--ts` gave ts = 1 s, both silently. A
+/// step of 1 s or more now needs the unit stated (`--time-unit ms`, or
+/// `--time-unit s` for a log that is really sampled that slowly), and a
+/// log without `t` needs `--ts`.
+#[test]
+fn the_sample_time_is_never_guessed() {
+    let d = dir("time-unit");
+    let ms = d.join("ms.csv");
+    write_log(&ms, 1500, |k, f| f[0] = format!("{}", k * 20));
+    let o = identify_order_one(&ms, &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "a 20 s step was accepted");
+    assert!(
+        err.contains("ms.csv") && err.contains("20 s") && err.contains("--time-unit ms"),
+        "{err}"
+    );
+    assert_eq!(
+        printed_model(&identify_order_one(&ms, &["--time-unit", "ms"])).ts,
+        0.02
+    );
+    // Stated seconds: a slow log is taken as it is.
+    assert_eq!(
+        printed_model(&identify_order_one(&ms, &["--time-unit", "s"])).ts,
+        20.0
+    );
+
+    // No `t` column: --ts is required, and then used.
+    let no_t = d.join("no-t.csv");
+    write_log(&no_t, 1500, |_, _| {});
+    let text = std::fs::read_to_string(&no_t).unwrap();
+    let stripped: String = text
+        .lines()
+        .map(|l| l.split_once(',').unwrap().1.to_string() + "\n")
+        .collect();
+    std::fs::write(&no_t, stripped).unwrap();
+    let o = identify_order_one(&no_t, &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "ts = 1 s was guessed");
+    assert!(
+        err.contains("no-t.csv") && err.contains("no time column") && err.contains("--ts"),
+        "{err}"
+    );
+    assert_eq!(
+        printed_model(&identify_order_one(&no_t, &["--ts", "0.02"])).ts,
+        0.02
+    );
+    // --ts and a `t` column that disagree: refused, naming both.
+    let log = d.join("log.csv");
+    write_log(&log, 1500, |_, _| {});
+    let o = identify_order_one(&log, &["--ts", "0.01"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("0.01") && err.contains("0.02"),
+        "{err}"
+    );
+    assert_eq!(
+        printed_model(&identify_order_one(&log, &["--ts", "0.02"])).ts,
+        0.02
+    );
+}

@@ -29,7 +29,7 @@ mod validate;
 pub mod workflow;
 
 #[cfg(feature = "std")]
-pub use data::{CsvColumns, Experiment, IoData, Offsets, SignalSelection, TimeInterval};
+pub use data::{CsvColumns, Experiment, IoData, Offsets, SignalSelection, TimeInterval, TimeUnit};
 #[cfg(feature = "std")]
 pub use error::{Result, SysidError};
 #[cfg(feature = "std")]

@@ -15,8 +15,13 @@ fn daisy(file: &str) -> PathBuf {
 }
 
 /// Estimation part (means removed) and validation part (same offsets).
-fn parts(file: &str, signals: (&[&str], &[&str]), frac: f64) -> (IoData, IoData) {
-    let data = IoData::read_csv(&daisy(file), &CsvColumns::new(signals.0, signals.1)).unwrap();
+/// `ts`: the sample time of a file without a `t` column (none is guessed).
+fn parts(file: &str, signals: (&[&str], &[&str]), frac: f64, ts: Option<f64>) -> (IoData, IoData) {
+    let cols = CsvColumns {
+        ts,
+        ..CsvColumns::new(signals.0, signals.1)
+    };
+    let data = IoData::read_csv(&daisy(file), &cols).unwrap();
     let (est, val) = data.split(frac).unwrap();
     let (est, off) = est.remove_means().unwrap();
     (est, val.subtract(&off).unwrap())
@@ -43,6 +48,7 @@ fn steam_generator_subspace_models_beat_persistence_and_the_state_regression_pre
         "steam_generator.csv",
         (&["u1", "u2", "u3", "u4"], &["y1", "y2", "y3", "y4"]),
         0.5,
+        None,
     );
     for weighting in [Weighting::Moesp, Weighting::Cva] {
         let fit = |matrices| {
@@ -83,6 +89,8 @@ fn cd_player_arm_subspace_model_beats_persistence() {
         "cd_player_arm.csv",
         (&["u1", "u2"], &["y1", "y2"]),
         2.0 / 3.0,
+        // DaISy gives no sample time for the CD player arm: 1 (samples).
+        Some(1.0),
     );
     for matrices in [MatrixEstimate::OutputError, MatrixEstimate::StateRegression] {
         let r = n4sid(

@@ -3,7 +3,9 @@
 use crate::io;
 use anyhow::{Context, bail};
 use kestrel_sysid::workflow::{self, AfterReduction, IdentifySpec, Lowpass, PemFocus, Segment};
-use kestrel_sysid::{Criterion, CsvColumns, IoData, MatrixEstimate, SysidError, Weighting};
+use kestrel_sysid::{
+    Criterion, CsvColumns, IoData, MatrixEstimate, SysidError, TimeUnit, Weighting,
+};
 use std::path::PathBuf;
 
 /// Identification method.
@@ -60,6 +62,15 @@ pub enum CriterionArg {
     Determinant,
     /// Sum of the RMS errors per output and prediction step (the mean fit).
     Fit,
+}
+
+/// Unit of the `t` column.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimeUnitArg {
+    /// Seconds.
+    S,
+    /// Milliseconds.
+    Ms,
 }
 
 /// What PEM re-estimates after `--reduce`.
@@ -165,9 +176,15 @@ pub struct Args {
     /// Order of the low-pass filter.
     #[arg(long, default_value_t = 2)]
     pub lowpass_order: usize,
-    /// Sample time when the file has no `t` column.
+    /// Sample time in seconds: required when the file has no `t` column;
+    /// with one, it must agree with the column's step.
     #[arg(long)]
     pub ts: Option<f64>,
+    /// Unit of the `t` column. Without this flag `t` is read in seconds
+    /// and a step of 1 s or more is refused as implausible (a column in
+    /// milliseconds); `--time-unit s` accepts any step.
+    #[arg(long, value_enum)]
+    pub time_unit: Option<TimeUnitArg>,
     /// Prediction horizons for the k-step fit table.
     #[arg(long, value_delimiter = ',', default_values_t = vec![1usize, 5])]
     pub horizons: Vec<usize>,
@@ -183,10 +200,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     cols.inputs = args.inputs.clone();
     cols.outputs = args.outputs.clone();
     cols.ts = args.ts;
+    cols.time_unit = match args.time_unit {
+        Some(TimeUnitArg::Ms) => TimeUnit::Milliseconds,
+        Some(TimeUnitArg::S) | None => TimeUnit::Seconds,
+    };
     let files = args
         .data
         .iter()
-        .map(|p| IoData::read_csv(p, &cols).with_context(|| format!("reading {}", p.display())))
+        .map(|p| {
+            let d =
+                IoData::read_csv(p, &cols).with_context(|| format!("reading {}", p.display()))?;
+            check_time_unit(&args, p, &d)?;
+            Ok(d)
+        })
         .collect::<anyhow::Result<Vec<_>>>()?;
     let data = if files.len() == 1 {
         files.into_iter().next().context("no --data")?
@@ -278,6 +304,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         print!("{report}");
     } else {
         eprint!("{report}");
+    }
+    Ok(())
+}
+
+/// The documented rule for the `t` column's unit: without `--time-unit`
+/// and `--ts`, a step of 1 s or more (a 50 Hz log in milliseconds reads
+/// as 20 s) is refused; the user states the unit instead of a guess.
+fn check_time_unit(args: &Args, path: &std::path::Path, data: &IoData) -> anyhow::Result<()> {
+    if args.time_unit.is_none() && args.ts.is_none() && data.ts() >= 1.0 {
+        bail!(
+            "{}: the `t` column steps by {} s, implausible for a flight log in seconds: if it is in milliseconds, add --time-unit ms; if the log really is sampled every {} s, add --time-unit s",
+            path.display(),
+            data.ts(),
+            data.ts()
+        );
     }
     Ok(())
 }

@@ -91,21 +91,48 @@ pub struct CsvColumns {
     pub inputs: Vec<String>,
     /// Output column names, in model order.
     pub outputs: Vec<String>,
-    /// The time column (seconds); used when present in the file.
+    /// The time column; used when present in the file.
     pub time: String,
+    /// The unit of the time column (default seconds); times and the sample
+    /// time are converted to seconds.
+    pub time_unit: TimeUnit,
     /// The column that tells experiments apart (integers); used when present.
     pub experiment: String,
-    /// Sample time when the file has no time column (default 1).
+    /// Sample time in seconds: required when the file has no time column
+    /// (nothing is guessed); with one, it must agree with the column's
+    /// step to 1 %.
     pub ts: Option<f64>,
 }
 
+/// The unit of a CSV time column.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum TimeUnit {
+    /// Seconds.
+    #[default]
+    Seconds,
+    /// Milliseconds.
+    Milliseconds,
+}
+
+impl TimeUnit {
+    /// Seconds per unit.
+    pub fn seconds(self) -> f64 {
+        match self {
+            TimeUnit::Seconds => 1.0,
+            TimeUnit::Milliseconds => 1e-3,
+        }
+    }
+}
+
 impl CsvColumns {
-    /// Selects inputs and outputs; time column `t`, experiment column `experiment`.
+    /// Selects inputs and outputs; time column `t` in seconds, experiment
+    /// column `experiment`, no sample time given.
     pub fn new(inputs: &[&str], outputs: &[&str]) -> Self {
         CsvColumns {
             inputs: inputs.iter().map(|s| s.to_string()).collect(),
             outputs: outputs.iter().map(|s| s.to_string()).collect(),
             time: "t".into(),
+            time_unit: TimeUnit::Seconds,
             experiment: "experiment".into(),
             ts: None,
         }

@@ -23,8 +23,11 @@ pub(super) fn snap_sample_time(step: f64) -> f64 {
 impl IoData {
     /// Reads a CSV log (one header row) with the given columns. A time
     /// column, when present, gives the sample time (median step; sampling
-    /// must be uniform within 1 %); without one, times are row indices and
-    /// the sample time is `columns.ts` (default 1). An experiment column,
+    /// must be uniform within 1 %), in `columns.time_unit` (converted to
+    /// seconds); a `columns.ts` given as well must agree with it to 1 %.
+    /// Without a time column the sample time is `columns.ts`, which is then
+    /// required (nothing is guessed), and times are row indices. An
+    /// experiment column,
     /// when present, splits the rows into experiments (consecutive rows
     /// with the same value).
     pub fn read_csv(path: &Path, columns: &CsvColumns) -> Result<IoData> {
@@ -72,6 +75,18 @@ impl IoData {
         let ui = pick(&columns.inputs)?;
         let yi = pick(&columns.outputs)?;
         let ti = find(&columns.time);
+        if let Some(ts) = columns.ts.filter(|ts| !(ts.is_finite() && *ts > 0.0)) {
+            return Err(SysidError::invalid(format!(
+                "the sample time must be a positive number of seconds, got {ts}"
+            )));
+        }
+        if ti.is_none() && columns.ts.is_none() {
+            return Err(err(format!(
+                "no time column \"{}\" (columns: {}) and no sample time given: give the sample time in seconds (`CsvColumns::ts`, `--ts` on the command line)",
+                columns.time,
+                headers.iter().collect::<Vec<_>>().join(", ")
+            )));
+        }
         let ei = find(&columns.experiment);
         let mut rows: Vec<(f64, f64, Vec<f64>, Vec<f64>)> = Vec::new();
         for (r, rec) in rdr.records().enumerate() {
@@ -94,7 +109,7 @@ impl IoData {
                 Ok(v)
             };
             let t = match ti {
-                Some(i) => get(i, &columns.time)?,
+                Some(i) => get(i, &columns.time)? * columns.time_unit.seconds(),
                 None => r as f64,
             };
             let ex = match ei {
@@ -152,7 +167,14 @@ impl IoData {
                     "non-uniform sampling: step {bad} differs from the median {median} by more than 1 %"
                 )));
             }
-            snap_sample_time(median)
+            let ts = snap_sample_time(median);
+            if let Some(given) = columns.ts.filter(|g| ((g - ts) / ts).abs() > 0.01) {
+                return Err(err(format!(
+                    "the sample time given, {given} s, disagrees with the time column \"{}\", whose step is {ts} s; leave the sample time out or correct it",
+                    columns.time
+                )));
+            }
+            ts
         } else {
             columns.ts.unwrap_or(1.0)
         };

@@ -1,7 +1,7 @@
 //! Tests of the data sets: CSV loading, selection, offsets, maps.
 
 use super::read::snap_sample_time;
-use super::{CsvColumns, IoData, Offsets, TimeInterval};
+use super::{CsvColumns, IoData, Offsets, TimeInterval, TimeUnit};
 use crate::error::SysidError;
 use nalgebra::DMatrix;
 
@@ -153,4 +153,79 @@ fn merge_and_map_inputs() {
     );
     let other = IoData::new(2.0, DMatrix::zeros(3, 2), DMatrix::zeros(3, 1)).unwrap();
     assert!(IoData::merge(&[d, other]).is_err());
+}
+
+/// Issue 20, finding 11: without a time column the sample time was a
+/// silent 1 s; it is now required. With one, a sample time given as well
+/// must agree with it.
+#[test]
+fn csv_sample_time_is_never_guessed() {
+    let no_t = "a,q\n1,2\n2,3\n3,1\n";
+    let cols = CsvColumns::new(&["a"], &["q"]);
+    let e = IoData::from_csv_reader(no_t.as_bytes(), &cols, "f.csv")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("f.csv") && e.contains("no time column \"t\"") && e.contains("sample time"),
+        "{e}"
+    );
+    let given = CsvColumns {
+        ts: Some(0.02),
+        ..cols.clone()
+    };
+    let d = IoData::from_csv_reader(no_t.as_bytes(), &given, "f.csv").unwrap();
+    assert_eq!(d.ts(), 0.02);
+    // Times stay row indices (the unit of intervals without a time column).
+    assert_eq!(d.experiments()[0].t, vec![0.0, 1.0, 2.0]);
+    for bad in [0.0, -1.0, f64::NAN] {
+        let c = CsvColumns {
+            ts: Some(bad),
+            ..cols.clone()
+        };
+        assert!(IoData::from_csv_reader(no_t.as_bytes(), &c, "f").is_err());
+    }
+    // A time column and a sample time: they must agree (to 1 %).
+    let agree = CsvColumns {
+        ts: Some(0.02),
+        ..self::cols()
+    };
+    assert_eq!(
+        IoData::from_csv_reader(CSV.as_bytes(), &agree, "f")
+            .unwrap()
+            .ts(),
+        0.02
+    );
+    let disagree = CsvColumns {
+        ts: Some(0.01),
+        ..self::cols()
+    };
+    let e = IoData::from_csv_reader(CSV.as_bytes(), &disagree, "f.csv")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("0.01 s") && e.contains("0.02 s"), "{e}");
+}
+
+/// A time column in milliseconds, stated as such, gives seconds.
+#[test]
+fn csv_time_column_in_milliseconds() {
+    let ms = CSV
+        .replace("0.00,", "0,")
+        .replace("0.02,", "20,")
+        .replace("0.04,", "40,")
+        .replace("0.06,", "60,");
+    let c = CsvColumns {
+        time_unit: TimeUnit::Milliseconds,
+        ..cols()
+    };
+    let d = IoData::from_csv_reader(ms.as_bytes(), &c, "ms.csv").unwrap();
+    assert_eq!(d.ts(), 0.02);
+    assert_eq!(d.experiments()[0].t, vec![0.0, 0.02, 0.04, 0.06]);
+    // Read as seconds (the default) the step is 20 s.
+    assert_eq!(
+        IoData::from_csv_reader(ms.as_bytes(), &cols(), "ms.csv")
+            .unwrap()
+            .ts(),
+        20.0
+    );
+    assert_eq!(TimeUnit::default(), TimeUnit::Seconds);
 }
