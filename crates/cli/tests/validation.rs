@@ -287,23 +287,51 @@ fn identify_names_the_flags_and_the_likely_cause() {
         &["--horizon 1", "--order 4"],
         &["invalid argument"],
     );
-    // A millisecond time column: refused as read, with the flag to state it.
+    // A millisecond time column: the message says so.
     let ms = flight_log(&dir, "20", true);
     let ms = ms.to_str().unwrap();
     run(
         with(&["--estimate", "2:20"], ms),
-        &["milliseconds", "--time-unit ms"],
-        &["is constant"],
-    );
-    // Stated as seconds anyway: the later messages still say so.
-    run(
-        with(&["--estimate", "2:20", "--time-unit", "s"], ms),
         &["is constant", "milliseconds"],
         &[],
     );
     run(
-        with(&["--lowpass", "30", "--time-unit", "s"], ms),
+        with(&["--lowpass", "30"], ms),
         &["--lowpass", "milliseconds"],
         &[],
     );
+}
+
+#[test]
+fn mpc_of_a_four_input_plant_gets_no_pwm_window_or_throttle_unless_asked() {
+    let dir = temp_dir("validation-plant");
+    let mut m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(MODEL).unwrap()).unwrap();
+    m["inputs"] = serde_json::json!(["valve1", "valve2", "heater", "fan"]);
+    let plant = dir.join("plant.json");
+    std::fs::write(&plant, m.to_string()).unwrap();
+    let plant = plant.to_str().unwrap();
+    let base = ["mpc", "--model", plant, "--horizon", "2"];
+    // No silent PWM bounds: the bounds are asked for.
+    fails_with(&base, &["--u-min", "--tricopter", "valve1"], &[]);
+    // Generic bounds: no throttle parameter, the given bounds.
+    let bounds = [&base[..], &["--u-min=-1,-1,-1,-1", "--u-max", "1,1,1,1"]].concat();
+    let (ok, out, err) = kestrel(&bounds);
+    assert!(ok, "{err}");
+    let p: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let nx = m["A"].as_array().unwrap().len();
+    assert_eq!(p["theta_lb"].as_array().unwrap().len(), nx + 3, "{p}");
+    assert_eq!(p["W"][0], 1.0);
+    // A throttle flag on a problem without a throttle is refused.
+    fails_with(
+        &[&bounds[..], &["--throttle-min", "1100"]].concat(),
+        &["--throttle-min"],
+        &[],
+    );
+    // --tricopter asks for the thesis window and throttle explicitly.
+    let (ok, out, err) = kestrel(&[&base[..], &["--tricopter"]].concat());
+    assert!(ok, "{err}");
+    let p: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(p["theta_lb"].as_array().unwrap().len(), nx + 4, "{p}");
+    assert_eq!(p["theta_ub"][nx + 3], 2000.0);
 }

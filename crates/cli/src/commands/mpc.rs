@@ -16,11 +16,12 @@ use std::path::{Path, PathBuf};
 /// `kestrel.mpqp.v1` with `theta = [x; r_1..r_ny; throttle]` (for the
 /// tricopter `[x; r_roll; r_pitch; r_yaw; throttle]`).
 ///
-/// A model with 4 inputs is the tricopter: its inputs are bounded by the
-/// PWM ranges around its `u0` (motors within 1000-2000 us minus the
-/// throttle, the servo within +-300 us of its centre) and the throttle is
-/// the last parameter. Other models need `--u-min` and `--u-max`
-/// (deviations from `u0`) and have no throttle parameter.
+/// The tricopter (`--tricopter`, or a model whose inputs are named
+/// `pwm1,pwm2,pwm3,servo`): its inputs are bounded by the PWM ranges
+/// around its `u0` (motors within 1000-2000 us minus the throttle, the
+/// servo within +-300 us of its centre) and the throttle is the last
+/// parameter. Other models need `--u-min` and `--u-max` (deviations from
+/// `u0`) and have no throttle parameter.
 #[derive(clap::Args, Debug)]
 #[command(after_help = AFTER_HELP)]
 pub struct Args {
@@ -46,7 +47,7 @@ pub struct Args {
     #[arg(long, default_value = "lq")]
     pub terminal: String,
     /// Lower input bounds, comma separated, as deviations from `u0`
-    /// (required for models without 4 inputs; overrides the PWM bounds).
+    /// (required for models other than the tricopter's; not with `--tricopter`).
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     pub u_min: Option<Vec<f64>>,
     /// Upper input bounds, comma separated, as deviations from `u0`.
@@ -58,12 +59,18 @@ pub struct Args {
     /// Parameter box of the references: |r_i| <= r-max.
     #[arg(long, default_value_t = 3.0)]
     pub r_max: f64,
-    /// Smallest throttle of the parameter box (tricopter only, us).
-    #[arg(long, default_value_t = 1000.0)]
-    pub throttle_min: f64,
-    /// Largest throttle of the parameter box (tricopter only, us).
-    #[arg(long, default_value_t = 2000.0)]
-    pub throttle_max: f64,
+    /// The model is the tricopter's (4 pulse inputs motor 1-3 and servo, in
+    /// us): the thesis PWM window around `u0` bounds the inputs and the
+    /// throttle is the last parameter. Implied by inputs named
+    /// `pwm1,pwm2,pwm3,servo`.
+    #[arg(long, conflicts_with_all = ["u_min", "u_max"])]
+    pub tricopter: bool,
+    /// Smallest throttle of the parameter box (tricopter only, us; default 1000).
+    #[arg(long)]
+    pub throttle_min: Option<f64>,
+    /// Largest throttle of the parameter box (tricopter only, us; default 2000).
+    #[arg(long)]
+    pub throttle_max: Option<f64>,
     /// Output file (default: standard output).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -73,9 +80,10 @@ const AFTER_HELP: &str = "\
 Input: a discrete-time model (kestrel.ss.v1 with ts > 0 and D = 0; u0/y0 optional), e.g. the
 identified tricopter model models/tricopter-blackbox-5.json (inputs pwm1,pwm2,pwm3,servo in us,
 outputs p,q,r in rad/s), plus the horizon, move blocking, weights and terminal cost below.
-A model with 4 inputs is taken to be the tricopter: PWM bounds around its u0 (motors
-1000-2000 us minus the throttle, servo +-300 us) and the throttle as the last parameter.
-Other models need --u-min/--u-max (deviations from u0) and have no throttle parameter.
+The tricopter (--tricopter, or a model whose inputs are named pwm1,pwm2,pwm3,servo): PWM
+bounds around its u0 (motors 1000-2000 us minus the throttle, servo +-300 us) and the
+throttle as the last parameter. Other models need --u-min/--u-max (deviations from u0) and
+have no throttle parameter.
 
 Output: the condensed parametric QP as kestrel.mpqp.v1 (--out, or standard output):
   min_z 1/2 z'Hz + theta'F z   s.t.   G z <= W + E theta,   theta_lb <= theta <= theta_ub,
@@ -144,33 +152,64 @@ pub fn build(args: &Args) -> anyhow::Result<MpcProblem> {
         state_bound: args.x_max,
         reference_bound: args.r_max,
     };
+    let named_tricopter = model
+        .inputs
+        .as_ref()
+        .is_some_and(|v| v.iter().map(String::as_str).eq(TRICOPTER_INPUTS));
+    let tricopter = args.tricopter || (named_tricopter && args.u_min.is_none());
+    if !tricopter {
+        for (flag, given) in [
+            ("--throttle-min", args.throttle_min.is_some()),
+            ("--throttle-max", args.throttle_max.is_some()),
+        ] {
+            if given {
+                bail!(
+                    "{flag} applies to the tricopter (--tricopter) only; this problem has no throttle parameter"
+                );
+            }
+        }
+    }
     let bounds = match (&args.u_min, &args.u_max) {
         (Some(lo), Some(hi)) => InputBounds::new(
             DVector::from_column_slice(lo),
             DVector::from_column_slice(hi),
         ),
-        (None, None) if model.nu() == 4 => {
+        (None, None) if tricopter => {
+            if model.nu() != 4 {
+                bail!(
+                    "--tricopter needs a model with the 4 pulse inputs motor 1-3 and servo, found {} inputs",
+                    model.nu()
+                );
+            }
             let mut b = tricopter_trim(&model)
                 .with_context(|| format!("{}: u0", args.model.display()))?
                 .bounds();
             if let Some(t) = &mut b.throttle {
                 *t = ThrottleParameter {
-                    min: args.throttle_min,
-                    max: args.throttle_max,
+                    min: args.throttle_min.unwrap_or(1000.0),
+                    max: args.throttle_max.unwrap_or(2000.0),
                     ..t.clone()
                 };
             }
             b
         }
         (None, None) => bail!(
-            "the model has {} inputs: give --u-min and --u-max (the PWM bounds apply to 4-input tricopter models only)",
-            model.nu()
+            "the model's {} inputs ({}) are not the tricopter's pwm1, pwm2, pwm3, servo: give --u-min and --u-max (bounds as deviations from u0), or --tricopter for the thesis PWM window and throttle parameter",
+            model.nu(),
+            model
+                .inputs
+                .as_ref()
+                .map_or_else(|| "unnamed".to_string(), |v| v.join(", "))
         ),
         _ => bail!("give both --u-min and --u-max, or neither"),
     };
     MpcProblem::build(&model, &bounds, &settings)
         .with_context(|| format!("building the MPC problem of {}", args.model.display()))
 }
+
+/// The input names of the tricopter's models (`kestrel identify`, `kestrel
+/// simulate --rate-model`, models/tricopter-blackbox-5.json).
+const TRICOPTER_INPUTS: [&str; 4] = ["pwm1", "pwm2", "pwm3", "servo"];
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
