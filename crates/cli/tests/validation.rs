@@ -287,16 +287,22 @@ fn identify_names_the_flags_and_the_likely_cause() {
         &["--horizon 1", "--order 4"],
         &["invalid argument"],
     );
-    // A millisecond time column: the message says so.
+    // A millisecond time column: refused as read, with the flag to state it.
     let ms = flight_log(&dir, "20", true);
     let ms = ms.to_str().unwrap();
     run(
         with(&["--estimate", "2:20"], ms),
+        &["milliseconds", "--time-unit ms"],
+        &["is constant"],
+    );
+    // Stated as seconds anyway: the later messages still say so.
+    run(
+        with(&["--estimate", "2:20", "--time-unit", "s"], ms),
         &["is constant", "milliseconds"],
         &[],
     );
     run(
-        with(&["--lowpass", "30"], ms),
+        with(&["--lowpass", "30", "--time-unit", "s"], ms),
         &["--lowpass", "milliseconds"],
         &[],
     );
