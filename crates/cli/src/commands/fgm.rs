@@ -277,6 +277,8 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
                              "recommended_start": w.recommended().name(),
                              "recommended_iterations": w.recommended_iterations()});
     }
+    // Both outputs are staged, then written together.
+    let mut outputs = io::Outputs::new();
     if let Some(path) = &a.export {
         let (scalar, text) = match a.scalar {
             ScalarArg::F32 => (
@@ -304,12 +306,13 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
                 ),
             ),
         };
-        io::write_output(Some(path), &text)?;
+        outputs.add(Some(path), text)?;
         out["export"] =
             json!({"path": path.display().to_string(), "scalar": format!("{scalar:?}")});
     }
     let text = serde_json::to_string_pretty(&out)? + "\n";
-    io::write_output(a.out.as_deref(), &text)
+    outputs.add(a.out.as_deref(), text)?;
+    outputs.commit()
 }
 
 fn read_thetas(path: &Path, p: usize) -> anyhow::Result<Vec<Vec<f64>>> {
