@@ -4,7 +4,9 @@
 # report.md with every table, CSV logs and traces, models (kestrel.ss.v1),
 # MPC problems (kestrel.mpqp.v1), SVG plots and firmware tables. The
 # directory only appears when every step has succeeded. Further arguments
-# go to `kestrel pipeline` (e.g. --config my.toml, --quick).
+# go to `kestrel pipeline` (e.g. --config my.toml, --quick). Run again, it
+# replaces the report it wrote before (`--force`: only a kestrel report that
+# holds nothing but its own files is ever replaced; anything else is refused).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$root"
@@ -15,5 +17,5 @@ bash scripts/setup.sh >/dev/null
 cargo build --release -p kestrel-tools
 k="$root/target/release/kestrel"
 "$k" --version
-"$k" pipeline --out "$out" "$@"
+"$k" pipeline --out "$out" --force "$@"
 echo "main job done: results in $out/ (start with $out/report.md)"
