@@ -97,6 +97,7 @@ impl Outputs {
         }
         let mut tmp = builder
             .tempfile_in(dir)
+            .map_err(without_temp_name)
             .with_context(|| format!("writing {}", path.display()))?;
         if let Some(m) = &existing {
             // Replacing a file keeps its permissions.
@@ -131,10 +132,21 @@ impl Outputs {
         }
         for (tmp, dest) in files {
             tmp.persist(&dest)
-                .map_err(|e| e.error)
+                .map_err(|e| without_temp_name(e.error))
                 .with_context(|| format!("writing {}", dest.display()))?;
         }
         Ok(())
+    }
+}
+
+/// The error of a temporary-file operation without the temporary file's
+/// name: tempfile appends ` at path ".name.XXXX.tmp"`, a name the user never
+/// chose and cannot find afterwards (the file is gone).
+fn without_temp_name(e: std::io::Error) -> std::io::Error {
+    let text = e.to_string();
+    match text.rsplit_once(" at path ") {
+        Some((head, _)) => std::io::Error::new(e.kind(), head.to_string()),
+        None => e,
     }
 }
 
@@ -224,5 +236,20 @@ mod tests {
         write_output(Some(&b), "new").unwrap();
         let mode = std::fs::metadata(&b).unwrap().permissions().mode() & 0o777;
         assert_ne!(mode & 0o044, 0, "{mode:o}");
+    }
+
+    #[test]
+    fn write_errors_do_not_name_the_temporary_file() {
+        let missing = std::env::temp_dir()
+            .join(format!("kestrel-no-such-dir-{}", std::process::id()))
+            .join("p.json");
+        let err = write_output(Some(&missing), "x").unwrap_err();
+        let text = format!("{err:#}");
+        assert!(text.contains("p.json"), "{text}");
+        assert!(
+            !text.contains(".tmp") && !text.contains("at path"),
+            "{text}"
+        );
+        assert!(!missing.exists());
     }
 }
