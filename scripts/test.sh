@@ -24,4 +24,27 @@ cargo test --workspace
 echo "== AVR builds"
 bash scripts/avr-check.sh
 echo "== cargo package (publishable crates, each verified by building it alone from its package)"
-cargo package --workspace --quiet --allow-dirty --exclude kestrel-benches --exclude kestrel-tests
+# Verification builds each crate against a local registry of the packages
+# just made, which cargo unpacks under ~/.cargo/registry/src/<hash of the
+# registry's path>/ and never refreshes for the same name and version: a
+# fixed target directory would verify against the sources of an earlier run.
+# A new target directory per run gives a new registry path; both it and the
+# unpacked copies it leaves are removed afterwards (nothing else is).
+pkg_target="$(mktemp -d "${TMPDIR:-/tmp}/kestrel-package.XXXXXX")"
+registry_src="${CARGO_HOME:-$HOME/.cargo}/registry/src"
+before="$(ls -1 "$registry_src" 2>/dev/null || true)"
+cleanup_package() {
+  rm -rf "$pkg_target"
+  for d in "$registry_src"/*/; do
+    name="$(basename "$d")"
+    if ! grep -qxF "$name" <<<"$before" \
+       && [ -z "$(find "$d" -mindepth 1 -maxdepth 1 ! -name 'kestrel-*' -print -quit)" ]; then
+      rm -rf "$d"
+    fi
+  done
+}
+trap cleanup_package EXIT
+cargo package --workspace --quiet --allow-dirty --target-dir "$pkg_target" \
+  --exclude kestrel-benches --exclude kestrel-tests
+cleanup_package
+trap - EXIT
