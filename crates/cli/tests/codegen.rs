@@ -4,8 +4,9 @@
 //! codegen` rewrites exactly that file. Nothing is written into the
 //! repository.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 /// The folders `kestrel codegen` reads its inputs from and writes its
 /// files to, relative to the workspace root.
@@ -35,17 +36,10 @@ fn repo() -> PathBuf {
 
 /// Runs `kestrel codegen` with `args` in `dir`: success, stdout, stderr.
 fn codegen(dir: &Path, args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_kestrel"))
-        .arg("codegen")
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    let args: Vec<&str> = std::iter::once("codegen")
+        .chain(args.iter().copied())
+        .collect();
+    common::kestrel_in(dir, &args)
 }
 
 fn copy_folder(from: &Path, to: &Path) {

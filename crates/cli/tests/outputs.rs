@@ -1,22 +1,11 @@
 //! End-to-end tests of what the commands do to files they did not create
 //! (nothing) and what a failed command leaves behind (nothing new).
 
-use std::path::Path;
-use std::process::Command;
-use std::time::{Duration, Instant};
+mod common;
 
-/// Runs `kestrel` with `args`: success, standard output, standard error.
-fn run(args: &[&str]) -> (bool, String, String) {
-    let o = Command::new(env!("CARGO_BIN_EXE_kestrel"))
-        .args(args)
-        .output()
-        .expect("runs");
-    (
-        o.status.success(),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
+use common::kestrel as run;
+use std::path::Path;
+use std::time::{Duration, Instant};
 
 /// The `.kestrel-report` manifest of a report that holds `files`.
 fn manifest(files: &[&str]) -> String {
