@@ -59,7 +59,11 @@ pub enum FrameError {
 }
 
 /// A frame as decoded: kind, sequence number and payload.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+///
+/// Two frames are equal when their kind, sequence number and payload
+/// bytes are ([`Frame::payload`]; the unused rest of the buffer, which
+/// the decoder does not clear, is not compared).
+#[derive(Clone, Copy, Debug)]
 pub struct Frame {
     /// The frame kind.
     pub kind: Kind,
@@ -68,6 +72,14 @@ pub struct Frame {
     pub(super) len: u8,
     pub(super) payload: [u8; MAX_PAYLOAD],
 }
+
+impl PartialEq for Frame {
+    fn eq(&self, other: &Frame) -> bool {
+        (self.kind, self.seq, self.payload()) == (other.kind, other.seq, other.payload())
+    }
+}
+
+impl Eq for Frame {}
 
 impl Frame {
     /// A frame from its parts; `None` if the payload is longer than [`MAX_PAYLOAD`].

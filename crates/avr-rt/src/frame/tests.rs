@@ -186,3 +186,18 @@ proptest! {
         }
     }
 }
+
+/// Found by fuzzing (`fuzz/regressions/frame/seed-stream.bin`): the
+/// decoder reuses its payload buffer, so a short frame after a long one
+/// kept the long one's bytes past its length, and the derived equality
+/// called the same frame on the wire unequal to itself re-encoded.
+#[test]
+fn frames_compare_by_their_bytes_on_the_wire() {
+    let mut bytes = wire(Kind::Reply, 1, &[7; 30]);
+    bytes.extend(wire(Kind::Reply, 2, &[1, 2, 3]));
+    let (ok, bad) = decode_all(&bytes);
+    assert!(bad.is_empty());
+    assert_eq!(ok[1], Frame::new(Kind::Reply, 2, &[1, 2, 3]).unwrap());
+    assert_ne!(ok[1], Frame::new(Kind::Reply, 2, &[1, 2, 4]).unwrap());
+    assert_ne!(ok[1], Frame::new(Kind::Reply, 3, &[1, 2, 3]).unwrap());
+}
