@@ -3,8 +3,8 @@
 #[allow(unused_imports)]
 use std::{borrow::ToOwned, format, string::String, string::ToString, vec, vec::Vec};
 
-use super::FormatError;
 use super::json::{self, Object};
+use super::{FormatError, SsModel};
 use nalgebra::{DMatrix, DVector};
 
 /// A multi-parametric QP in the thesis form (6.19)-(6.21):
@@ -227,6 +227,89 @@ impl MpqpProblem {
     }
 }
 
+/// The model a problem was built on: the optional `model_fingerprint` key.
+///
+/// A condensed problem's parameters start with the state of the model it
+/// was built on, so a filter or firmware that feeds it states must run the
+/// same model in the same coordinates. `kestrel mpc` and `kestrel pipeline`
+/// write the key; readers of the problem ignore it.
+///
+/// ```
+/// use kestrel_core::formats::{MpqpProblem, SsModel, json};
+/// use nalgebra::dmatrix;
+/// let model = SsModel::new(0.1, dmatrix![0.9], dmatrix![0.1], dmatrix![1.0], dmatrix![0.0]).unwrap();
+/// let p = MpqpProblem::from_json_str(r#"{"format": "kestrel.mpqp.v1",
+///   "H": [[2]], "F": [[1]], "G": [[1], [-1]], "W": [1, 1], "E": [[0], [0]],
+///   "theta_lb": [-5], "theta_ub": [5]}"#).unwrap();
+/// let text = p.to_json_string_for_model(&model);
+/// let obj = json::parse_object(&text).unwrap();
+/// assert_eq!(MpqpProblem::from_object(&obj).unwrap(), p);
+/// let fp = MpqpProblem::model_fingerprint_of(&obj).unwrap();
+/// assert_eq!(fp, Some(MpqpProblem::model_fingerprint(&model)));
+/// ```
+impl MpqpProblem {
+    /// The optional key holding [`MpqpProblem::model_fingerprint`].
+    pub const MODEL_FINGERPRINT_KEY: &'static str = "model_fingerprint";
+
+    /// A fingerprint of a model: FNV-1a (64 bit) over the sizes and the
+    /// IEEE bits of the sample time, `A`, `B`, `C`, `D` (row by row) and
+    /// `u0` (zeros when absent), written `fnv1a64:` and 16 hex digits.
+    /// Models read from the same file get the same fingerprint; any other
+    /// number in those matrices gives another. The output operating point,
+    /// the names, `K` and `x0` are not part of it.
+    pub fn model_fingerprint(model: &SsModel) -> String {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        let mut eat = |word: u64| {
+            for byte in word.to_le_bytes() {
+                h = (h ^ u64::from(byte)).wrapping_mul(0x0000_0100_0000_01b3);
+            }
+        };
+        // -0.0 and 0.0 are the same number.
+        let bits = |v: f64| (v + 0.0).to_bits();
+        for n in [model.nx(), model.nu(), model.ny()] {
+            eat(n as u64);
+        }
+        eat(bits(model.ts));
+        for m in [&model.a, &model.b, &model.c, &model.d] {
+            for i in 0..m.nrows() {
+                for j in 0..m.ncols() {
+                    eat(bits(m[(i, j)]));
+                }
+            }
+        }
+        for i in 0..model.nu() {
+            eat(bits(model.u0.as_ref().map_or(0.0, |u| u[i])));
+        }
+        format!("fnv1a64:{h:016x}")
+    }
+
+    /// The problem as JSON text with the fingerprint of the model it was
+    /// built on (whose state is the leading part of `theta`).
+    pub fn to_json_string_for_model(&self, model: &SsModel) -> String {
+        let mut o = self.to_object();
+        o.insert(
+            Self::MODEL_FINGERPRINT_KEY.into(),
+            Self::model_fingerprint(model).into(),
+        );
+        json::to_pretty_string(&o)
+    }
+
+    /// The model fingerprint a problem object carries, if any.
+    ///
+    /// # Errors
+    /// [`FormatError::Invalid`] if the key holds something other than a string.
+    pub fn model_fingerprint_of(obj: &Object) -> Result<Option<String>, FormatError> {
+        match obj.get(Self::MODEL_FINGERPRINT_KEY) {
+            None => Ok(None),
+            Some(serde_json::Value::String(s)) => Ok(Some(s.clone())),
+            Some(_) => Err(FormatError::invalid(
+                Self::MODEL_FINGERPRINT_KEY,
+                "expected a string (\"fnv1a64:\" and 16 hex digits)",
+            )),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -299,5 +382,45 @@ mod tests {
             let e = MpqpProblem::from_json_str(&text).unwrap_err().to_string();
             assert!(e.starts_with(want), "got {e:?}, want prefix {want:?}");
         }
+    }
+
+    #[test]
+    fn model_fingerprint_tells_models_apart() {
+        use nalgebra::dmatrix;
+        let m = SsModel::new(
+            0.1,
+            dmatrix![0.9],
+            dmatrix![0.1],
+            dmatrix![1.0],
+            dmatrix![0.0],
+        )
+        .unwrap();
+        let fp = MpqpProblem::model_fingerprint(&m);
+        assert_eq!(fp.len(), "fnv1a64:".len() + 16);
+        assert_eq!(fp, MpqpProblem::model_fingerprint(&m.clone()));
+        let mut other = m.clone();
+        other.a[(0, 0)] = 0.9 + 1e-15;
+        assert_ne!(MpqpProblem::model_fingerprint(&other), fp);
+        let mut trim = m.clone();
+        trim.u0 = Some(DVector::from_vec(vec![0.0]));
+        assert_eq!(MpqpProblem::model_fingerprint(&trim), fp);
+        trim.u0 = Some(DVector::from_vec(vec![1.0]));
+        assert_ne!(MpqpProblem::model_fingerprint(&trim), fp);
+        let mut ts = m.clone();
+        ts.ts = 0.2;
+        assert_ne!(MpqpProblem::model_fingerprint(&ts), fp);
+        // Written and read back; absent in a plain file; not a string.
+        let p = MpqpProblem::from_json_str(GOOD).unwrap();
+        let obj = json::parse_object(&p.to_json_string_for_model(&m)).unwrap();
+        assert_eq!(MpqpProblem::model_fingerprint_of(&obj).unwrap(), Some(fp));
+        assert_eq!(MpqpProblem::from_object(&obj).unwrap(), p);
+        let plain = json::parse_object(&p.to_json_string()).unwrap();
+        assert_eq!(MpqpProblem::model_fingerprint_of(&plain).unwrap(), None);
+        let bad =
+            json::parse_object(&GOOD.replace("\"H\"", "\"model_fingerprint\": 3, \"H\"")).unwrap();
+        let e = MpqpProblem::model_fingerprint_of(&bad)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("model_fingerprint"), "{e}");
     }
 }
