@@ -105,6 +105,33 @@ impl TreeLayout {
     pub const fn bytes(&self, scalar_bytes: usize) -> usize {
         self.numbers_at() + scalar_bytes * self.n_numbers()
     }
+    /// [`TreeLayout::bytes`], or `None` if a size overflows `usize` (where
+    /// `bytes` would panic or wrap): the check [`FlashTree::new`] makes of a
+    /// layout before it trusts its offsets.
+    pub const fn checked_bytes(&self, scalar_bytes: usize) -> Option<usize> {
+        const fn mul(a: Option<usize>, b: usize) -> Option<usize> {
+            match a {
+                Some(a) => a.checked_mul(b),
+                None => None,
+            }
+        }
+        const fn add(a: Option<usize>, b: Option<usize>) -> Option<usize> {
+            match (a, b) {
+                (Some(a), Some(b)) => a.checked_add(b),
+                _ => None,
+            }
+        }
+        let laws = mul(Some(8), self.n_nodes);
+        let bounds = add(laws, mul(mul(Some(2), self.n_laws), self.n_outputs));
+        let numbers_at = add(bounds, mul(Some(4), self.n_outputs));
+        let w = add(Some(self.n_params), Some(1));
+        let rows = match w {
+            Some(w) => mul(add(Some(self.n_rows), Some(self.n_hull)), w),
+            None => None,
+        };
+        let numbers = add(rows, mul(Some(2), self.n_params));
+        add(numbers_at, mul(numbers, scalar_bytes))
+    }
 }
 
 /// [`TreeTables`] over one flat table in the layout of [`TreeLayout`].
@@ -121,12 +148,18 @@ pub struct FlashTree<T, S> {
 
 impl<T: TableRead, S: FlashNumber> FlashTree<T, S> {
     /// The accessor; [`Error::DimensionMismatch`] if the table's length is
-    /// not the layout's (4-byte numbers).
+    /// not the layout's (4-byte numbers), [`Error::InvalidArgument`] for a
+    /// layout whose size overflows ([`TreeLayout::checked_bytes`]).
     pub fn new(table: T, layout: TreeLayout) -> Result<Self, Error> {
         let len = table.len_bytes() as usize;
-        if len != layout.bytes(4) {
+        let Some(want) = layout.checked_bytes(4) else {
+            return Err(Error::InvalidArgument(
+                "a layout whose size overflows usize",
+            ));
+        };
+        if len != want {
             return Err(Error::DimensionMismatch {
-                expected: layout.bytes(4),
+                expected: want,
                 found: len,
             });
         }
@@ -376,6 +409,36 @@ mod tests {
         assert_eq!(f.theta_bounds(1), None);
         assert_eq!(f.output_bounds(0), s.output_bounds(0));
         assert_eq!(f.output_bounds(1), None);
+    }
+
+    /// Found by fuzzing (`fuzz/regressions/flash_tree/crash-*`): counts
+    /// whose byte size overflows `usize` panicked in `TreeLayout::bytes`
+    /// (or wrapped to a small size in a release build).
+    #[test]
+    fn a_layout_whose_size_overflows_is_an_error() {
+        let (b, l) = bytes();
+        for huge in [
+            TreeLayout {
+                n_laws: 1 << 40,
+                n_outputs: 1 << 40,
+                ..l
+            },
+            TreeLayout {
+                n_nodes: usize::MAX / 4,
+                ..l
+            },
+            TreeLayout {
+                n_params: usize::MAX,
+                ..l
+            },
+        ] {
+            assert!(huge.checked_bytes(4).is_none());
+            assert!(matches!(
+                FlashTree::<_, f32>::new(&b[..], huge),
+                Err(Error::InvalidArgument(_))
+            ));
+        }
+        assert_eq!(l.checked_bytes(4), Some(l.bytes(4)));
     }
 
     #[test]

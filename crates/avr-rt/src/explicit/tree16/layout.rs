@@ -81,4 +81,35 @@ impl Tree16Layout {
         let total = rows + (self.n_rows as u32) * (self.row_bytes() as u32);
         [nodes, laws, bounds, rows, total]
     }
+    /// [`Tree16Layout::offsets`], or `None` if a count or an offset does
+    /// not fit in `u32` (where `offsets` would wrap): the check
+    /// [`super::Tree16::new`] makes of a layout before it trusts its offsets.
+    pub const fn checked_offsets(&self) -> Option<[u32; 5]> {
+        const fn mul(a: Option<u32>, b: usize) -> Option<u32> {
+            match a {
+                Some(a) if b <= u32::MAX as usize => a.checked_mul(b as u32),
+                _ => None,
+            }
+        }
+        const fn add(a: Option<u32>, b: Option<u32>) -> Option<u32> {
+            match (a, b) {
+                (Some(a), Some(b)) => a.checked_add(b),
+                _ => None,
+            }
+        }
+        let index = Some(self.index_bytes() as u32);
+        let nodes = mul(Some(Self::PARAM_BYTES as u32), self.n_params);
+        let laws = add(nodes, mul(Some(self.node_bytes() as u32), self.n_nodes));
+        let bounds = add(laws, mul(mul(index, self.n_laws), self.n_outputs));
+        let rows = add(bounds, mul(mul(index, 2), self.n_outputs));
+        let row_bytes = add(Some(5), mul(Some(2), self.n_params));
+        let total = match row_bytes {
+            Some(r) => add(rows, mul(Some(r), self.n_rows)),
+            None => None,
+        };
+        match (nodes, laws, bounds, rows, total) {
+            (Some(a), Some(b), Some(c), Some(d), Some(e)) => Some([a, b, c, d, e]),
+            _ => None,
+        }
+    }
 }

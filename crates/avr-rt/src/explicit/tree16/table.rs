@@ -16,10 +16,16 @@ pub struct Tree16<T> {
 
 impl<T: TableRead> Tree16<T> {
     /// The accessor; [`Error::DimensionMismatch`] if the table's length is
-    /// not the layout's, [`Error::InvalidArgument`] for more than 255 rows
-    /// (65534 wide) or a scale above 30.
+    /// not the layout's, [`Error::InvalidArgument`] for a layout whose
+    /// offsets do not fit in `u32` ([`Tree16Layout::checked_offsets`]),
+    /// more than 255 rows (65534 wide) or a scale above 30.
     pub fn new(table: T, layout: Tree16Layout) -> Result<Self, Error> {
-        let (len, want) = (table.len_bytes(), layout.offsets()[4]);
+        let Some([.., want]) = layout.checked_offsets() else {
+            return Err(Error::InvalidArgument(
+                "a layout whose sizes overflow 32 bits",
+            ));
+        };
+        let len = table.len_bytes();
         if len != want {
             let size = |v: u32| usize::try_from(v).unwrap_or(usize::MAX);
             return Err(Error::DimensionMismatch {

@@ -167,3 +167,38 @@ fn bad_tables_and_inputs_are_errors_not_panics() {
         );
     }
 }
+
+/// Found by fuzzing (`fuzz/regressions/tree16/crash-*`): counts whose
+/// offsets overflow `u32` panicked in `Tree16Layout::offsets` (or wrapped
+/// in a release build, and a count above `u32::MAX` was truncated, so a
+/// layout claiming 2^32 + 1 nodes could match a one-node table's length).
+#[test]
+fn a_layout_whose_offsets_overflow_is_an_error() {
+    let (b, l) = table();
+    for huge in [
+        Tree16Layout {
+            n_nodes: 1 << 30,
+            ..l
+        },
+        Tree16Layout {
+            n_laws: 1 << 20,
+            n_outputs: 1 << 20,
+            ..l
+        },
+        Tree16Layout {
+            n_nodes: (1 << 32) + 1,
+            ..l
+        },
+        Tree16Layout {
+            n_params: usize::MAX,
+            ..l
+        },
+    ] {
+        assert!(huge.checked_offsets().is_none());
+        assert!(matches!(
+            Tree16::new(&b[..], huge),
+            Err(Error::InvalidArgument(_))
+        ));
+    }
+    assert_eq!(l.checked_offsets(), Some(l.offsets()));
+}
