@@ -195,7 +195,10 @@ pub fn matrix_value(
         (None, None) => 0,
         (Some(other), None) => return Err(shape_err(format!("row 0 is {}", describe(other)))),
     };
-    let mut m = DMatrix::zeros(arr.len(), ncols);
+    // Entries are collected as they are read (not rows x cols allocated
+    // up front), so memory follows the text: a short file cannot claim a
+    // huge matrix.
+    let mut entries = Vec::new();
     for (i, row) in arr.iter().enumerate() {
         let row = row
             .as_array()
@@ -204,10 +207,10 @@ pub fn matrix_value(
             return Err(shape_err(format!("row {i} with {} entries", row.len())));
         }
         for (j, x) in row.iter().enumerate() {
-            m[(i, j)] = number_value(x, &format!("{key}[{i}][{j}]"))?;
+            entries.push(number_value(x, &format!("{key}[{i}][{j}]"))?);
         }
     }
-    Ok(m)
+    Ok(DMatrix::from_row_slice(arr.len(), ncols, &entries))
 }
 
 /// Reads a required matrix.
@@ -395,6 +398,30 @@ fn write_value(v: &Value, indent: usize, out: &mut String) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `n` empty rows: `[[], [], ...]`.
+    fn empty_rows(n: usize) -> String {
+        format!("[{}]", vec!["[]"; n].join(","))
+    }
+
+    /// Found by fuzzing the readers: a matrix with a known column count
+    /// was allocated (rows x cols) before its rows were checked, so 100,000
+    /// empty rows where 100,000 columns were expected (600 kB of text)
+    /// asked for an 80 GB matrix and aborted the process.
+    #[test]
+    fn a_matrix_is_not_allocated_before_its_rows_are_read() {
+        let n = 100_000;
+        let obj = parse_object(&format!(r#"{{"E": {}}}"#, empty_rows(n))).unwrap();
+        let e = matrix(&obj, "E", Some(n), Some(n)).unwrap_err().to_string();
+        assert!(
+            e.contains("\"E\"") && e.contains("row 0 with 0 entries"),
+            "{e}"
+        );
+        let e = matrix(&obj, "E", None, Some(n)).unwrap_err().to_string();
+        assert!(e.contains("row 0 with 0 entries"), "{e}");
+        let m = matrix(&obj, "E", None, Some(0)).unwrap();
+        assert_eq!(m.shape(), (n, 0));
+    }
 
     #[test]
     fn nan_literal_is_reported_with_its_key() {

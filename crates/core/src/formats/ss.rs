@@ -153,7 +153,8 @@ impl SsModel {
         self.c.nrows()
     }
 
-    /// Reads a model from a parsed JSON object.
+    /// Reads a model from a parsed JSON object. A missing `D` is zero (an
+    /// error above 2^20 entries: give `D` in the file).
     pub fn from_object(obj: &Object) -> Result<Self, FormatError> {
         json::check_format(obj, Self::FORMAT)?;
         let ts = json::number(obj, "ts")?;
@@ -163,8 +164,10 @@ impl SsModel {
         let nu = b.ncols();
         let c = json::matrix(obj, "C", None, Some(nx))?;
         let ny = c.nrows();
-        let d = json::opt_matrix(obj, "D", Some(ny), Some(nu))?
-            .unwrap_or_else(|| DMatrix::zeros(ny, nu));
+        let d = match json::opt_matrix(obj, "D", Some(ny), Some(nu))? {
+            Some(d) => d,
+            None => default_d(ny, nu)?,
+        };
         let m = SsModel {
             ts,
             a,
@@ -287,6 +290,24 @@ impl DiscreteLinearModel for SsModel {
     }
 }
 
+/// Entries of the zero `D` a file without `D` gets at most (8 MiB): memory
+/// follows the text, so a short file cannot claim a huge default.
+const MAX_DEFAULT_D: usize = 1 << 20;
+
+/// The zero `D` of a file without `D` (ny x nu, at most [`MAX_DEFAULT_D`]
+/// entries).
+fn default_d(ny: usize, nu: usize) -> Result<DMatrix<f64>, FormatError> {
+    if ny.saturating_mul(nu) > MAX_DEFAULT_D {
+        return Err(FormatError::invalid(
+            "D",
+            format!(
+                "missing, and its default, a {ny} x {nu} zero matrix, is above {MAX_DEFAULT_D} entries; give D in the file"
+            ),
+        ));
+    }
+    Ok(DMatrix::zeros(ny, nu))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -304,6 +325,24 @@ mod tests {
             obj.insert(key.into(), serde_json::from_str(value).unwrap());
         }
         serde_json::to_string(&obj).unwrap()
+    }
+
+    /// Found by fuzzing the readers: a model without `D` got a default
+    /// zero matrix of ny x nu, so 50,000 inputs in `B` and 50,000 outputs
+    /// in `C` (300 kB of text) asked for a 20 GB `D`.
+    #[test]
+    fn a_missing_d_is_not_a_huge_default() {
+        let n = 50_000;
+        let text = format!(
+            r#"{{"format": "kestrel.ss.v1", "ts": 0.02, "A": [[0.5]], "B": [[{}]], "C": [{}]}}"#,
+            vec!["0"; n].join(","),
+            vec!["[0]"; n].join(",")
+        );
+        let e = SsModel::from_json_str(&text).unwrap_err().to_string();
+        assert!(e.contains("\"D\"") && e.contains("50000 x 50000"), "{e}");
+        let small = with("D", "");
+        let m = SsModel::from_json_str(&small).unwrap();
+        assert_eq!(m.d, DMatrix::zeros(1, 1));
     }
 
     #[test]
