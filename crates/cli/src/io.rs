@@ -11,8 +11,11 @@
 //! names created exclusively (two outputs, two runs or two threads never
 //! share one, and nothing that already exists is overwritten), removal on
 //! drop, including on an early `?` return, and a well-kept crate that
-//! is already in the build's dependency tree.
+//! is already in the build's dependency tree. SIGINT skips destructors, so
+//! every temporary file is also registered with [`crate::interrupt`],
+//! whose Ctrl-C handler removes it.
 
+use crate::interrupt;
 use anyhow::Context;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -23,6 +26,8 @@ enum Staged {
     File {
         tmp: tempfile::NamedTempFile,
         dest: PathBuf,
+        /// Removed by a Ctrl-C until committed ([`crate::interrupt`]).
+        token: interrupt::Token,
     },
     /// A device, FIFO or other non-regular file (`/dev/null`, a terminal):
     /// written in place at commit, since renaming over it would replace it.
@@ -95,10 +100,15 @@ impl Outputs {
             // As `File::create` would (0666 less the umask), not 0600.
             builder.permissions(std::fs::Permissions::from_mode(0o666));
         }
-        let mut tmp = builder
-            .tempfile_in(dir)
-            .map_err(without_temp_name)
-            .with_context(|| format!("writing {}", path.display()))?;
+        // Created and registered together: a Ctrl-C removes it.
+        let (mut tmp, token) = interrupt::with_registry(|reg| {
+            builder.tempfile_in(dir).map(|tmp| {
+                let token = reg.add(interrupt::Leftover::File(tmp.path().to_path_buf()));
+                (tmp, token)
+            })
+        })
+        .map_err(without_temp_name)
+        .with_context(|| format!("writing {}", path.display()))?;
         if let Some(m) = &existing {
             // Replacing a file keeps its permissions.
             tmp.as_file()
@@ -108,7 +118,7 @@ impl Outputs {
         tmp.write_all(bytes)
             .and_then(|()| tmp.as_file().sync_all())
             .with_context(|| format!("writing {}", path.display()))?;
-        self.staged.push(Staged::File { tmp, dest });
+        self.staged.push(Staged::File { tmp, dest, token });
         Ok(())
     }
 
@@ -127,15 +137,22 @@ impl Outputs {
                 }
                 Staged::InPlace { dest, bytes } => std::fs::write(&dest, bytes)
                     .with_context(|| format!("writing {}", dest.display()))?,
-                Staged::File { tmp, dest } => files.push((tmp, dest)),
+                Staged::File { tmp, dest, token } => files.push((tmp, dest, token)),
             }
         }
-        for (tmp, dest) in files {
-            tmp.persist(&dest)
-                .map_err(|e| without_temp_name(e.error))
-                .with_context(|| format!("writing {}", dest.display()))?;
-        }
-        Ok(())
+        // The renames under the interrupt lock: a Ctrl-C now waits for
+        // them, so it leaves all the files in place or none.
+        interrupt::with_registry(|reg| {
+            for (_, _, token) in &mut files {
+                reg.release(token);
+            }
+            for (tmp, dest, _) in files {
+                tmp.persist(&dest)
+                    .map_err(|e| without_temp_name(e.error))
+                    .with_context(|| format!("writing {}", dest.display()))?;
+            }
+            Ok(())
+        })
     }
 }
 
@@ -236,6 +253,24 @@ mod tests {
         write_output(Some(&b), "new").unwrap();
         let mode = std::fs::metadata(&b).unwrap().permissions().mode() & 0o777;
         assert_ne!(mode & 0o044, 0, "{mode:o}");
+    }
+
+    #[test]
+    fn staged_files_are_registered_for_ctrl_c_until_committed() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut out = Outputs::new();
+        out.add(Some(&dir.path().join("a.txt")), "a").unwrap();
+        let tmp = match &out.staged[0] {
+            Staged::File { tmp, .. } => tmp.path().to_path_buf(),
+            _ => unreachable!("a new file is staged in a temporary file"),
+        };
+        assert!(tmp.exists() && crate::interrupt::tests::registered(&tmp));
+        out.commit().unwrap();
+        assert!(!tmp.exists() && !crate::interrupt::tests::registered(&tmp));
+        let mut out = Outputs::new();
+        out.add(Some(&dir.path().join("b.txt")), "b").unwrap();
+        drop(out);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 
     #[test]

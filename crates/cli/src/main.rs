@@ -6,8 +6,11 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod commands;
+mod guards;
+mod interrupt;
 mod io;
 mod pipeline;
+mod progress;
 mod report;
 
 /// Model predictive control for small rotorcraft on tiny processors.
@@ -48,6 +51,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    interrupt::install();
     let result = match cli.command {
         Command::C2d(args) => commands::c2d::run(args),
         Command::Simulate(args) => commands::simulate::run(args),

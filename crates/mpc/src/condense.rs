@@ -169,6 +169,11 @@ impl MpcProblem {
     /// Builds the condensed problem for a model (inputs in deviations from
     /// the trim), input bounds and settings.
     ///
+    /// A size whose condensing would exceed a documented limit
+    /// ([`MAX_DECISION_VARIABLES`](crate::MAX_DECISION_VARIABLES) decision
+    /// variables, or the memory and time of [`CondensingCost`](crate::CondensingCost))
+    /// is refused with [`MpcError::TooLarge`] before anything is allocated.
+    ///
     /// ```
     /// use kestrel_core::{Matrix, StateSpace};
     /// use kestrel_mpc::{InputBounds, MpcProblem, MpcSettings, Terminal, Weight};
@@ -230,6 +235,9 @@ impl MpcProblem {
         if n_h == 0 {
             return Err(MpcError::setting("horizon", "must be at least 1"));
         }
+        // The size is checked before the blocking (N ones) is allocated.
+        let nb = settings.blocking.as_ref().map_or(n_h, |b| b.count());
+        crate::limits::CondensingCost::of(nx, nu, ny, p, n_h, nb).check(n_h, nb)?;
         let blocking = settings.blocking();
         if blocking.total() != n_h {
             return Err(MpcError::setting(

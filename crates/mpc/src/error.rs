@@ -86,6 +86,17 @@ pub enum MpcError {
         /// The solver's message.
         reason: String,
     },
+    /// The problem is too large to condense: the estimated memory or
+    /// time exceeds a documented limit (see [`CondensingCost`](crate::CondensingCost)).
+    #[error("{what} is too large to condense: it would need {cost} ({limit})")]
+    TooLarge {
+        /// The size asked for.
+        what: String,
+        /// What it would cost.
+        cost: String,
+        /// The limits.
+        limit: String,
+    },
     /// An interchange file is malformed.
     #[error(transparent)]
     Format(#[from] FormatError),

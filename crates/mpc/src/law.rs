@@ -46,6 +46,9 @@ impl From<MpcError> for Error {
             MpcError::ExternalSolver { .. } => {
                 Error::InvalidArgument("the explicit or fast-gradient solver refused the problem")
             }
+            MpcError::TooLarge { .. } => {
+                Error::InvalidArgument("the problem is too large to condense")
+            }
             MpcError::Format(_) => Error::InvalidArgument("malformed interchange file"),
             MpcError::Core(e) => e,
         }

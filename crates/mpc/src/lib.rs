@@ -10,6 +10,8 @@ mod error;
 #[cfg(feature = "std")]
 mod law;
 #[cfg(feature = "std")]
+mod limits;
+#[cfg(feature = "std")]
 mod lq;
 #[cfg(feature = "std")]
 mod offset_free;
@@ -28,6 +30,10 @@ pub use design::{
 pub use error::MpcError;
 #[cfg(feature = "std")]
 pub use law::{MpcLaw, ParametricQpSolver, QpMpc};
+#[cfg(feature = "std")]
+pub use limits::{
+    CondensingCost, MAX_CONDENSING_BYTES, MAX_CONDENSING_FLOPS, MAX_DECISION_VARIABLES, human_bytes,
+};
 #[cfg(feature = "std")]
 pub use offset_free::{DisturbanceModel, OffsetFreeDesign};
 #[cfg(feature = "std")]

@@ -71,6 +71,18 @@ pub enum SysidError {
         /// Its spectral radius.
         radius: f64,
     },
+    /// A size (model order, horizon) would need more memory or time than
+    /// a documented limit allows ([`MAX_ORDER`](crate::MAX_ORDER),
+    /// [`MAX_PEM_JACOBIAN_BYTES`](crate::MAX_PEM_JACOBIAN_BYTES), ...).
+    #[error("{what} is too large: it would need {cost} ({limit})")]
+    TooLarge {
+        /// The size asked for.
+        what: String,
+        /// What it would cost.
+        cost: String,
+        /// The limits.
+        limit: String,
+    },
     /// A linear-algebra step failed (singular matrix, no convergence).
     #[error("numerical failure: {0}")]
     Numerical(String),

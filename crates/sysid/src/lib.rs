@@ -37,9 +37,15 @@ pub use filter::{Biquad, Butterworth, Periodogram, periodogram};
 #[cfg(feature = "std")]
 pub use model::{InnovationModel, OneStepPrediction};
 #[cfg(feature = "std")]
-pub use n4sid::{MatrixEstimate, N4sidResult, N4sidSettings, Weighting, n4sid, suggest_order};
+pub use n4sid::{
+    MAX_HANKEL_BYTES, MAX_ORDER, MatrixEstimate, N4sidResult, N4sidSettings, Weighting,
+    model_parameters, n4sid, suggest_order,
+};
 #[cfg(feature = "std")]
-pub use pem::{Criterion, Focus, Identified, PemResult, PemSettings, StopReason, pem, pem_n4sid};
+pub use pem::{
+    Criterion, Focus, Identified, MAX_PEM_FLOPS_PER_ITERATION, MAX_PEM_JACOBIAN_BYTES, PemResult,
+    PemSettings, StopReason, pem, pem_n4sid,
+};
 #[cfg(feature = "std")]
 pub use reduce::{
     BalredSettings, Reduced, ReductionMethod, ZERO_RANK_TOLERANCE, Zero, balred,

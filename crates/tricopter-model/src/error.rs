@@ -28,6 +28,18 @@ pub enum ModelError {
         /// The rule it breaks.
         reason: String,
     },
+    /// A simulation would need more memory or time than a documented
+    /// limit allows ([`MAX_SIM_SECONDS`](crate::MAX_SIM_SECONDS),
+    /// [`MAX_SIM_STEPS`](crate::MAX_SIM_STEPS)).
+    #[error("{what} is too long: it would need {cost} ({limit})")]
+    TooLarge {
+        /// The size asked for.
+        what: String,
+        /// What it would cost.
+        cost: String,
+        /// The limit.
+        limit: String,
+    },
     /// The trim iteration did not reach its tolerance.
     #[error("trim did not converge: residual {residual:e} after {iterations} iterations")]
     TrimNotConverged {

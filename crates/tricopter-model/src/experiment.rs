@@ -467,7 +467,19 @@ impl Pilot {
     }
 }
 
+/// Longest flight [`simulate`] flies, in seconds: 10,000 s (2.8 h, 500,000
+/// log rows, about 130 MB held in memory and 300 MB of CSV).
+pub const MAX_SIM_SECONDS: f64 = 10_000.0;
+
+/// Most RK4 integration steps (`seconds / dt`) [`simulate`] takes: `1e8`,
+/// one to two minutes (the default 250 s at 1 ms take 250,000).
+pub const MAX_SIM_STEPS: f64 = 1e8;
+
 /// Flies one experiment and returns its log.
+///
+/// A flight longer than [`MAX_SIM_SECONDS`] or needing more than
+/// [`MAX_SIM_STEPS`] integration steps is refused with
+/// [`ModelError::TooLarge`] before it starts.
 ///
 /// ```
 /// use kestrel_tricopter_model::{Experiment, SimSettings, simulate};
@@ -477,15 +489,13 @@ impl Pilot {
 /// assert!(t0 < 4.0 && t1 > 15.0);                   // take-off and landing
 /// ```
 pub fn simulate(settings: &SimSettings) -> Result<FlightLog, ModelError> {
-    if !(settings.seconds.is_finite() && settings.seconds > 0.0 && settings.seconds <= 1e6) {
+    if !(settings.seconds.is_finite() && settings.seconds > 0.0) {
         return Err(ModelError::InvalidSetting {
             name: "seconds",
-            reason: format!(
-                "must be finite, positive and at most 1e6, found {}",
-                settings.seconds
-            ),
+            reason: format!("must be finite and positive, found {}", settings.seconds),
         });
     }
+    check_size(settings)?;
     if !(settings.hover_altitude.is_finite() && settings.hover_altitude > 0.0) {
         return Err(ModelError::InvalidSetting {
             name: "hover_altitude",
@@ -562,6 +572,34 @@ pub fn simulate(settings: &SimSettings) -> Result<FlightLog, ModelError> {
         trim,
         rows,
     })
+}
+
+/// Refuses a flight beyond [`MAX_SIM_SECONDS`] or [`MAX_SIM_STEPS`].
+fn check_size(settings: &SimSettings) -> Result<(), ModelError> {
+    let (seconds, dt) = (settings.seconds, settings.plant.dt);
+    let rows = seconds * settings.plant.gyro.rate_hz;
+    if seconds > MAX_SIM_SECONDS {
+        return Err(ModelError::TooLarge {
+            what: format!("a flight of {seconds} s"),
+            cost: format!(
+                "{rows:.0} log rows, about {:.1} GB in memory and as CSV",
+                rows * 900.0 / 1e9
+            ),
+            limit: format!("at most {MAX_SIM_SECONDS} s"),
+        });
+    }
+    let steps = seconds / dt;
+    if dt.is_finite() && dt > 0.0 && steps > MAX_SIM_STEPS {
+        return Err(ModelError::TooLarge {
+            what: format!("integration with dt = {dt} s over {seconds} s"),
+            cost: format!(
+                "{steps:.1e} RK4 steps, about {:.1} hours",
+                steps / 1e6 / 3600.0
+            ),
+            limit: format!("at most {MAX_SIM_STEPS:.0e} steps"),
+        });
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -750,6 +788,15 @@ mod tests {
         for bad in [f64::NAN, -1.0, 0.0, f64::INFINITY] {
             assert!(simulate(&SimSettings { seconds: bad, ..s }).is_err());
         }
+        // Too long or too finely integrated: refused before it starts.
+        assert!(matches!(
+            simulate(&SimSettings { seconds: 1e6, ..s }),
+            Err(ModelError::TooLarge { .. })
+        ));
+        let mut fine = s;
+        fine.plant.dt = 1e-9;
+        let e = simulate(&fine).unwrap_err();
+        assert!(matches!(e, ModelError::TooLarge { .. }), "{e}");
         let mut d = s;
         d.plant.dt = 0.003;
         assert!(matches!(

@@ -32,7 +32,10 @@ mod trim;
 #[cfg(feature = "std")]
 pub use error::ModelError;
 #[cfg(feature = "std")]
-pub use experiment::{Experiment, FlightLog, LOG_COLUMNS, LogRow, SimSettings, simulate};
+pub use experiment::{
+    Experiment, FlightLog, LOG_COLUMNS, LogRow, MAX_SIM_SECONDS, MAX_SIM_STEPS, SimSettings,
+    simulate,
+};
 #[cfg(feature = "std")]
 pub use model::{
     Disturbance, INPUT_NAMES, Input, Linearization, NU, NX, NY, OUTPUT_NAMES, Output, STATE_NAMES,

@@ -100,7 +100,8 @@ pub struct Args {
     /// Problem size; `--horizon`/`--blocks` override it.
     #[arg(long, value_enum, default_value = "thesis")]
     pub size: Size,
-    /// Prediction horizon N (overrides `--size`; one block per step unless `--blocks`).
+    /// Prediction horizon N (overrides `--size`; one block per step unless
+    /// `--blocks`); at most 2000 decision variables (blocks x 4 inputs).
     #[arg(long)]
     pub horizon: Option<usize>,
     /// Move-blocking lengths, comma separated, summing to N (overrides `--size`).
@@ -112,7 +113,8 @@ pub struct Args {
     /// Input weight Q2: a number (times the identity) or a JSON matrix file (default 0.01).
     #[arg(long)]
     pub q2: Option<String>,
-    /// Fast-gradient iterations per step (`--controller fgm` only; default 12).
+    /// Fast-gradient iterations per step (`--controller fgm` only; default
+    /// 12, at most 1,000,000).
     #[arg(long)]
     pub iterations: Option<usize>,
     /// Where each fast-gradient solve starts (`--controller fgm` only;
@@ -235,11 +237,14 @@ fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunRes
                 &s,
                 &DisturbanceModel::OutputStates,
             )
+            .map_err(|e| crate::guards::mpc(e, "--horizon"))
             .context("building the offset-free MPC problem")?,
         ))
     } else {
         Design::Plain(Box::new(
-            MpcProblem::build(model, &trim.bounds(), &s).context("building the MPC problem")?,
+            MpcProblem::build(model, &trim.bounds(), &s)
+                .map_err(|e| crate::guards::mpc(e, "--horizon"))
+                .context("building the MPC problem")?,
         ))
     };
     let mpqp = design.problem().to_mpqp();
@@ -255,10 +260,16 @@ fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunRes
                 mpqp.p(),
                 mpqp.m()
             );
+            crate::guards::announce_explicit(
+                mpqp.n(),
+                mpqp.m(),
+                "--controller fgm or qp fly the same problem without it, and --size thesis is the small problem",
+            );
             let solver = kestrel_empc::ExplicitSolver::build(
                 &mpqp,
                 &kestrel_empc::Settings {
                     parallel: true,
+                    progress: crate::progress::enabled(),
                     ..kestrel_empc::Settings::default()
                 },
             )?;
@@ -278,6 +289,7 @@ fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunRes
             if iterations == 0 {
                 bail!("--iterations: expected at least 1");
             }
+            crate::guards::fgm_iterations(iterations, mpqp.n(), 200)?;
             let opts = FgmOptions {
                 iterations,
                 start: match args.start.unwrap_or(Start::Cold) {
@@ -329,7 +341,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         PlantKind::Nonlinear => SimPlant::Nonlinear,
         PlantKind::Linear => SimPlant::Linear,
     };
+    // The explicit solve shows a bar of its own.
+    let spinner = (args.controller != Controller::Empc).then(|| {
+        crate::progress::Spinner::new(&format!(
+            "flying --controller {}",
+            controller_name(args.controller)
+        ))
+    });
     let result = fly(&args, &model, &run)?;
+    drop(spinner);
     let m = &result.metrics;
     if let Some(d) = &m.diverged {
         bail!(

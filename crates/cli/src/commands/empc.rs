@@ -87,7 +87,8 @@ struct SolveArgs {
     /// Explore on one thread.
     #[arg(long)]
     sequential: bool,
-    /// Show a progress bar on standard error.
+    /// Show a progress bar on standard error (always shown when standard
+    /// error is a terminal).
     #[arg(long)]
     progress: bool,
     /// Keep one leaf per law: no clipping (by default a leaf may serve
@@ -203,9 +204,15 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
     let problem = MpqpProblem::read(&a.problem).with_context(|| name.clone())?;
     let settings = Settings {
         parallel: !a.sequential,
-        progress: a.progress,
+        // A bar on a terminal always; --progress also elsewhere.
+        progress: a.progress || crate::progress::enabled(),
         ..Settings::default()
     };
+    crate::guards::announce_explicit(
+        problem.n(),
+        problem.m(),
+        "a smaller parameter box (kestrel mpc --x-max, --r-max) or fewer move blocks shrink it, and kestrel fgm solves the same problem online without it",
+    );
     if let Some(k) = a.first_move.filter(|&k| k == 0 || k > problem.n()) {
         bail!(
             "--first-move {k}: the problem has {} variables; keep between 1 and {} of them",
@@ -238,6 +245,17 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
         LayoutArg::U16 => kestrel_empc::tree::MAX_NODES,
         LayoutArg::Auto | LayoutArg::U32 => kestrel_empc::tree::WIDE_MAX_NODES,
     };
+    if sol.regions.len() >= 1000 {
+        eprintln!(
+            "note: building the search tree of {} regions may take minutes (1,545 regions took 163 s of CPU); it stops at --max-nodes {}; Ctrl-C stops it, and --first-move keeps the tree smaller",
+            sol.regions.len(),
+            a.max_nodes
+        );
+    }
+    let spinner = crate::progress::Spinner::new(&format!(
+        "building the search tree of {} regions",
+        sol.regions.len()
+    ));
     let any = build_any(&problem, &sol, &tree).map_err(|e| match e {
         // The search stopped at the user's cap, not at the layout's.
         kestrel_empc::EmpcError::TooLarge(_) if a.max_nodes < layout_limit => anyhow::anyhow!(
@@ -246,6 +264,7 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
         ),
         e => anyhow::Error::new(e).context(name.clone()),
     })?;
+    drop(spinner);
     // Every tree method stops at --max-nodes (the sampled search while it
     // grows, the LP search here, once built).
     if any.stats.nodes > a.max_nodes {

@@ -143,7 +143,8 @@ pub struct SolveArgs {
     /// CSV file, one theta per row (p numbers), no header.
     #[arg(long)]
     pub thetas: PathBuf,
-    /// Fast-gradient iterations after the initial projected gradient step.
+    /// Fast-gradient iterations after the initial projected gradient step
+    /// (at most 1,000,000; `certify` gives the count for a tolerance).
     #[arg(long)]
     pub iterations: usize,
     /// Diagonal preconditioner.
@@ -280,6 +281,14 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
     // Both outputs are staged, then written together.
     let mut outputs = io::Outputs::new();
     if let Some(path) = &a.export {
+        // The firmware table holds one momentum per iteration.
+        let most = cert.iterations.max(warm_iterations.unwrap_or(0));
+        if most > crate::guards::MAX_FGM_ITERATIONS {
+            bail!(
+                "--export: the certified {most} iterations exceed the firmware tables' limit of {} (one momentum per iteration, and the time budget); certify a larger --eps",
+                crate::guards::MAX_FGM_ITERATIONS
+            );
+        }
         let (scalar, text) = match a.scalar {
             ScalarArg::F32 => (
                 ExportScalar::F32,
@@ -383,6 +392,7 @@ fn solve(a: SolveArgs) -> anyhow::Result<()> {
     }
     // Any eps gives the same scaled data; the momentum scheme follows the
     // certificate's choice for a tight tolerance.
+    crate::guards::fgm_iterations(a.iterations, d.problem.n(), thetas.len())?;
     let cert = d.certify(1e-9 * d.delta().max(f64::MIN_POSITIVE))?;
     let data = d.data::<f64>(&cert, Some(a.iterations))?;
     let mut out = String::new();

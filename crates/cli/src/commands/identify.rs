@@ -110,7 +110,9 @@ pub struct Args {
     /// Validation intervals (same syntax); default: the estimation data.
     #[arg(long)]
     pub validate: Option<String>,
-    /// Model order; default: suggested from the singular values.
+    /// Model order; default: suggested from the singular values. At most
+    /// 100, and no more model parameters than output values in the data
+    /// (order n has n(n + inputs + 2 outputs) + inputs x outputs).
     #[arg(long)]
     pub order: Option<usize>,
     /// Reduce the identified model to this order by balanced truncation.
@@ -140,7 +142,9 @@ pub struct Args {
     pub focus: FocusArg,
     /// Prediction horizon h of the prediction-focus PEM stages: fit the
     /// 1..h-step-ahead predictions together (multi-step focus); 1 is the
-    /// one-step criterion.
+    /// one-step criterion. Each PEM iteration's Jacobian (about samples x
+    /// h x outputs residuals x parameters) is limited to 1 GiB and 5e10
+    /// operations.
     #[arg(long, default_value_t = 1)]
     pub pem_horizon: usize,
     /// Prediction horizon of the dynamics stage of
@@ -291,13 +295,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }),
         horizons: args.horizons.clone(),
     };
+    let spinner = crate::progress::Spinner::new("identifying the model");
     let report = workflow::identify(&data, &spec).map_err(|e| {
         if matches!(e, SysidError::ConstantInput { .. }) {
             anyhow::anyhow!("identification: {e}. {}", constant_input_hint(&args, &data))
         } else {
-            anyhow::Error::new(e).context("identification")
+            crate::guards::sysid(e).context("identification")
         }
     })?;
+    drop(spinner);
     let ss = report.to_ss_model()?;
     io::write_output(args.out.as_deref(), &ss.to_json_string())?;
     if args.out.is_some() {

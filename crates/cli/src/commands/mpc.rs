@@ -28,7 +28,9 @@ pub struct Args {
     /// Discrete-time model (`kestrel.ss.v1`, `ts > 0`, `D = 0`).
     #[arg(long)]
     pub model: PathBuf,
-    /// Prediction horizon N (steps).
+    /// Prediction horizon N (steps). The condensed problem has blocks x
+    /// inputs decision variables, at most 2000 (one block per step without
+    /// --blocks), and its build at most 1 GiB and 1e11 operations.
     #[arg(long)]
     pub horizon: usize,
     /// Move-blocking lengths, comma separated, summing to N (default: one
@@ -204,6 +206,7 @@ pub fn build(args: &Args) -> anyhow::Result<MpcProblem> {
         _ => bail!("give both --u-min and --u-max, or neither"),
     };
     MpcProblem::build(&model, &bounds, &settings)
+        .map_err(|e| crate::guards::mpc(e, "--horizon"))
         .with_context(|| format!("building the MPC problem of {}", args.model.display()))
 }
 
@@ -214,5 +217,8 @@ const TRICOPTER_INPUTS: [&str; 4] = ["pwm1", "pwm2", "pwm3", "servo"];
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let problem = build(&args)?;
-    io::write_output(args.out.as_deref(), &problem.to_mpqp().to_json_string())
+    // The model's fingerprint lets `kestrel export` check the problem's states.
+    let model = SsModel::read(&args.model).with_context(|| format!("{}", args.model.display()))?;
+    let text = problem.to_mpqp().to_json_string_for_model(&model);
+    io::write_output(args.out.as_deref(), &text)
 }

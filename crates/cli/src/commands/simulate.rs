@@ -15,7 +15,8 @@ pub struct Args {
     /// Experiment: hover, decoupled, coupled or ground.
     #[arg(long)]
     pub experiment: Experiment,
-    /// Length of the log in seconds (take-off at 2 s, landing in the last 3.5 s).
+    /// Length of the log in seconds (take-off at 2 s, landing in the last
+    /// 3.5 s); at most 10,000 s (500,000 rows, about 300 MB of CSV).
     #[arg(long, default_value_t = 250.0, allow_negative_numbers = true)]
     pub seconds: f64,
     /// Random seed (gyro noise, gusts, excitation).
@@ -24,7 +25,8 @@ pub struct Args {
     /// Output CSV file (default: standard output).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// RK4 integration step in seconds (must divide the 20 ms sample period).
+    /// RK4 integration step in seconds (must divide the 20 ms sample
+    /// period); seconds / dt at most 1e8 steps (a minute or two).
     #[arg(long, default_value_t = 1e-3, allow_negative_numbers = true)]
     pub dt: f64,
     /// No gyro bias, noise, quantisation or gusts.
@@ -43,7 +45,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.noiseless {
         settings = settings.noiseless();
     }
+    let _spinner = crate::progress::Spinner::new(&format!(
+        "flying experiment {} ({} s)",
+        args.experiment.name(),
+        args.seconds
+    ));
     let log = kestrel_tricopter_model::simulate(&settings)
+        .map_err(crate::guards::simulation)
         .with_context(|| format!("simulating experiment {}", args.experiment.name()))?;
     let bytes = log.to_csv_bytes()?;
     let text = String::from_utf8(bytes).context("CSV log is not UTF-8")?;

@@ -60,6 +60,7 @@ fn progress_bar() -> Bar {
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         pb.enable_steady_tick(std::time::Duration::from_millis(200));
+        crate::progress::show(&pb);
         pb
     } else {
         indicatif::ProgressBar::hidden()

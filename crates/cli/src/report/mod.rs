@@ -5,6 +5,7 @@ pub mod document;
 pub mod plot;
 pub mod table;
 
+use crate::interrupt;
 use anyhow::{Context, bail};
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -34,6 +35,9 @@ pub struct ReportDir {
     made_parents: Vec<PathBuf>,
     force: bool,
     finished: bool,
+    /// The staging directory and the parents made, removed by a Ctrl-C
+    /// until finished ([`crate::interrupt`]).
+    tokens: [interrupt::Token; 2],
 }
 
 /// What is at a report's destination.
@@ -169,26 +173,36 @@ impl ReportDir {
             made_parents.push(p.to_path_buf());
             p = p.parent().unwrap_or(Path::new(""));
         }
-        std::fs::create_dir_all(parent)
-            .with_context(|| format!("creating {}", parent.display()))?;
-        let mut n = 0u32;
-        let staging = loop {
-            let s = parent.join(format!(".{name}.partial-{}-{n}", std::process::id()));
-            match std::fs::create_dir(&s) {
-                Ok(()) => break s,
-                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && n < 1000 => n += 1,
-                Err(e) => {
-                    remove_made(&made_parents);
-                    return Err(e).with_context(|| format!("creating {}", s.display()));
-                }
+        // Made and registered together: a Ctrl-C removes them.
+        let (staging, tokens) = interrupt::with_registry(|reg| {
+            let mut parents = reg.add(interrupt::Leftover::EmptyDirs(made_parents.clone()));
+            if let Err(e) = std::fs::create_dir_all(parent) {
+                reg.release(&mut parents);
+                return Err(e).with_context(|| format!("creating {}", parent.display()));
             }
-        };
+            let mut n = 0u32;
+            let staging = loop {
+                let s = parent.join(format!(".{name}.partial-{}-{n}", std::process::id()));
+                match std::fs::create_dir(&s) {
+                    Ok(()) => break s,
+                    Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && n < 1000 => n += 1,
+                    Err(e) => {
+                        remove_made(&made_parents);
+                        reg.release(&mut parents);
+                        return Err(e).with_context(|| format!("creating {}", s.display()));
+                    }
+                }
+            };
+            let tree = reg.add(interrupt::Leftover::Tree(staging.clone()));
+            anyhow::Ok((staging, [tree, parents]))
+        })?;
         Ok(ReportDir {
             final_dir: final_dir.to_path_buf(),
             staging,
             made_parents,
             force,
             finished: false,
+            tokens,
         })
     }
 
@@ -217,6 +231,19 @@ impl ReportDir {
             marker.push('\n');
         }
         self.write(MARKER, marker)?;
+        // The moves under the interrupt lock: a Ctrl-C now waits for them.
+        interrupt::with_registry(|reg| {
+            for t in &mut self.tokens {
+                reg.release(t);
+            }
+            self.move_into_place()
+        })?;
+        self.finished = true;
+        Ok(self.final_dir.clone())
+    }
+
+    /// Moves the staging directory to the final place: see [`ReportDir::finish`].
+    fn move_into_place(&self) -> anyhow::Result<()> {
         let shown = self.final_dir.display().to_string();
         match check_destination(&self.final_dir, self.force)? {
             Destination::Free => {
@@ -248,8 +275,7 @@ impl ReportDir {
                 })?;
             }
         }
-        self.finished = true;
-        Ok(self.final_dir.clone())
+        Ok(())
     }
 
     fn staging_name(&self) -> String {

@@ -6,6 +6,7 @@
 //! stabilising [`gain`] and the suggested [`order`].
 
 mod gain;
+mod limits;
 mod order;
 mod output_error;
 mod scaling;
@@ -16,6 +17,7 @@ mod subspace;
 mod tests;
 
 pub(crate) use gain::stabilise_k;
+pub use limits::{MAX_HANKEL_BYTES, MAX_ORDER, model_parameters};
 pub use order::suggest_order;
 pub(crate) use scaling::Scaling;
 pub use settings::{MatrixEstimate, N4sidResult, N4sidSettings, Weighting};

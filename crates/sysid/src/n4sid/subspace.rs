@@ -2,6 +2,7 @@
 //! the weighted SVD and the system matrices.
 
 use super::gain::stabilise_k;
+use super::limits::{MAX_ORDER, check_hankel, check_order};
 use super::order::suggest_order;
 use super::output_error::{BdX0, fit_bd_x0};
 use super::scaling::Scaling;
@@ -33,6 +34,13 @@ use nalgebra::DMatrix;
 /// shift. `K` is the stationary Kalman gain of the covariances of the
 /// state and output residuals of that sequence under the chosen
 /// matrices (shrunk if `A - K C` would be unstable).
+///
+/// Sizes are checked before the work starts: an order above
+/// [`MAX_ORDER`](crate::MAX_ORDER), a model with more parameters
+/// ([`model_parameters`](crate::model_parameters)) than the data have
+/// output values, or a block Hankel matrix above
+/// [`MAX_HANKEL_BYTES`](crate::MAX_HANKEL_BYTES) is refused with
+/// [`SysidError::TooLarge`].
 ///
 /// ```
 /// use kestrel_sysid::{n4sid, synthetic, N4sidSettings};
@@ -78,6 +86,14 @@ pub fn n4sid(data: &IoData, settings: &N4sidSettings) -> Result<N4sidResult> {
             found: data.n_samples(),
         });
     }
+    // Too few samples for the Hankel matrix is the plainer message; then the
+    // order against the data, then the memory.
+    if let Some(n) = settings.order {
+        check_order(n, nu, ny, data.n_samples())?;
+    } else if nmax > MAX_ORDER {
+        check_order(nmax, nu, ny, data.n_samples())?;
+    }
+    check_hankel(rows, cols)?;
     // Ht: one row per Hankel column, columns ordered [Uf, Up, Yp, Yf].
     let (m1, m2, m3) = (i * nu, p * (nu + ny), i * ny);
     let mut ht = DMatrix::<f64>::zeros(cols, rows);
@@ -148,6 +164,7 @@ pub fn n4sid(data: &IoData, settings: &N4sidSettings) -> Result<N4sidResult> {
     let sv: Vec<f64> = idx.iter().map(|&k| svd.singular_values[k]).collect();
     let suggested = suggest_order(&sv, nmax.min(m3 - ny));
     let n = settings.order.unwrap_or(suggested);
+    check_order(n, nu, ny, data.n_samples())?;
     if n > m3 - ny {
         return Err(SysidError::invalid(format!(
             "order {n} too large for horizon {i} with {ny} outputs"

@@ -10,6 +10,7 @@
 mod criterion;
 mod jacobian;
 mod layout;
+mod limits;
 mod residuals;
 mod result;
 mod search;
@@ -19,6 +20,7 @@ mod start;
 #[cfg(test)]
 mod tests;
 
+pub use limits::{MAX_PEM_FLOPS_PER_ITERATION, MAX_PEM_JACOBIAN_BYTES};
 pub use result::{PemResult, StopReason};
 pub use search::pem;
 pub use settings::{Criterion, Focus, PemSettings};

@@ -3,7 +3,10 @@
 use super::criterion::{Objective, ResidualWeights};
 use super::jacobian::{residuals_and_jacobian, simulation_residuals_and_jacobian, stack};
 use super::layout::Layout;
-use super::residuals::{multistep_residuals, residuals, stack_residuals, without_k};
+use super::limits::check_size;
+use super::residuals::{
+    multistep_count, multistep_residuals, residuals, stack_residuals, without_k,
+};
 use super::result::PemResult;
 use super::series::series_of;
 use super::settings::{Criterion, Focus, PemSettings};
@@ -33,6 +36,13 @@ use nalgebra::{DMatrix, DVector};
 /// `1 - stability_margin`) is rejected like one that raises the cost.
 /// With [`Focus::Simulation`] `K` is fixed at zero, so the criterion is
 /// the simulation error.
+///
+/// A search whose Jacobian would exceed
+/// [`MAX_PEM_JACOBIAN_BYTES`](crate::MAX_PEM_JACOBIAN_BYTES) or whose
+/// iterations would exceed
+/// [`MAX_PEM_FLOPS_PER_ITERATION`](crate::MAX_PEM_FLOPS_PER_ITERATION)
+/// (a long [`PemSettings::horizon`], a high order) is refused with
+/// [`SysidError::TooLarge`] before it starts.
 ///
 /// ```
 /// use kestrel_sysid::{n4sid, pem, synthetic, N4sidSettings, PemSettings};
@@ -107,6 +117,12 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
             found: data.n_samples(),
         });
     }
+    let n_residuals: usize = data
+        .experiments()
+        .iter()
+        .map(|e| multistep_count(e.len(), h) * ny + if sim { e.len() * ny } else { 0 })
+        .sum();
+    check_size(n_residuals, lay.p, n, h)?;
     let limit = 1.0 - settings.stability_margin;
     let mut base = scaling.scale(start);
     if !has_k {
