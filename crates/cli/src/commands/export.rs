@@ -1,13 +1,14 @@
 //! `kestrel export`: the example firmware's controller tables from design files.
 
 use crate::io;
-use anyhow::{Context, bail};
-use kestrel_core::formats::{MpqpProblem, SsModel};
+use anyhow::{Context, anyhow, bail};
+use kestrel_core::formats::SsModel;
 use kestrel_fgm::Preconditioner;
 use kestrel_kalman::KalmanDesign;
 use kestrel_tricopter::ProblemSize;
 use kestrel_tricopter::firmware::{
-    DesignSettings, FirmwareDesign, IterationBudget, Realization, generate_tables,
+    DesignError, DesignPart, DesignSettings, FirmwareDesign, IterationBudget, ProblemCheck,
+    ProblemFile, Realization, generate_tables,
 };
 use std::path::PathBuf;
 
@@ -21,6 +22,13 @@ use std::path::PathBuf;
 /// gyro covariance and bias) and the condensed MPC problem
 /// (`kestrel.mpqp.v1`, from `kestrel mpc`, parameters `[x; p_ref, q_ref,
 /// r_ref; throttle]`; default: the tricopter problem of `--size`).
+/// The files must belong together, not only fit in size: the filter's
+/// model (its `ts`, `A`, `B`, `C`, `D`, `u0`) must be the design model, or
+/// the design model with constant disturbance states (the offset-free
+/// estimator `kestrel pipeline` writes as `kalman.json`), and the problem
+/// must be built on the filter's model (its `model_fingerprint`, written
+/// by `kestrel mpc` and `kestrel pipeline`; a problem without one is
+/// checked by size only, with a warning).
 /// The fast gradient method is preconditioned and certified for the
 /// iteration count that keeps every input within `--max-input-error` us of
 /// the optimum.
@@ -127,17 +135,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (None, None) => FirmwareDesign::from_model(&model, &settings)?,
         (kalman, problem) => {
             let kalman = match kalman {
-                Some(p) => KalmanDesign::read(p).with_context(|| format!("{}", p.display()))?,
-                None => kestrel_tricopter::closed_loop::kalman_design(&model)?,
+                Some(p) => Some(KalmanDesign::read(p).with_context(|| format!("{}", p.display()))?),
+                None => None,
             };
             let problem = match problem {
-                Some(p) => MpqpProblem::read(p).with_context(|| format!("{}", p.display()))?,
-                None => {
-                    let (q1, q2) = kestrel_tricopter::default_weights();
-                    kestrel_tricopter::tricopter_problem(&model, settings.size, q1, q2)?.to_mpqp()
-                }
+                Some(p) => Some(ProblemFile::read(p).with_context(|| format!("{}", p.display()))?),
+                None => None,
             };
-            FirmwareDesign::new(&model, kalman, problem, &settings)?
+            let (design, checked) = FirmwareDesign::from_parts(&model, kalman, problem, &settings)
+                .map_err(|e| name_parts(e, &args))?;
+            if let (ProblemCheck::SizesOnly, Some(p)) = (checked.problem, &args.problem) {
+                eprintln!(
+                    "warning: {} has no model_fingerprint (older files lack it; `kestrel mpc` and `kestrel pipeline` write it): only its sizes are checked against the filter's model; rebuild it to have it checked",
+                    p.display()
+                );
+            }
+            design
         }
     };
     let source = generate_tables(&design)?;
@@ -153,4 +166,48 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         design.loop_iterations()
     );
     Ok(())
+}
+
+/// A mismatch between two design files, named by their paths (or as the
+/// default built here); other errors unchanged.
+fn name_parts(e: DesignError, args: &Args) -> anyhow::Error {
+    let model = args.model.display();
+    let name = |part: DesignPart| match part {
+        DesignPart::Model => format!("--model {model}"),
+        DesignPart::Kalman => match &args.kalman {
+            Some(p) => format!("--kalman {}", p.display()),
+            None => format!(
+                "the default Kalman filter (designed here for {model}; give --kalman for another)"
+            ),
+        },
+        DesignPart::Problem => match &args.problem {
+            Some(p) => format!("--problem {}", p.display()),
+            None => format!(
+                "the default MPC problem (built here on {model}; give --problem for another)"
+            ),
+        },
+    };
+    match e {
+        DesignError::Mismatch {
+            first,
+            second,
+            detail,
+        } => {
+            let hint = match (first, second) {
+                (DesignPart::Kalman, _) => format!(
+                    "give the model the filter was designed for, or design one for {model} with `kestrel kalman --model {model}`"
+                ),
+                (DesignPart::Problem, _) => format!(
+                    "give the files the problem was built with, or build it on {model} with `kestrel mpc --model {model}`"
+                ),
+                (DesignPart::Model, _) => "give design files of one model".to_string(),
+            };
+            anyhow!(
+                "{} and {} do not belong together: {detail}; {hint}",
+                name(first),
+                name(second)
+            )
+        }
+        other => other.into(),
+    }
 }

@@ -2,7 +2,10 @@
 //! certificate the firmware runs, in f64, and the real Schur coordinates.
 
 use crate::closed_loop::kalman_design;
-use crate::firmware::error::{DesignError, dim};
+use crate::firmware::consistency::{
+    Consistency, ProblemCheck, ProblemFile, check_problem, estimator_model,
+};
+use crate::firmware::error::{DesignError, DesignPart, dim};
 use crate::firmware::settings::{
     DesignSettings, IterationBudget, NR, NU, NY, Realization, SERVO_CENTER,
 };
@@ -61,14 +64,76 @@ impl FirmwareDesign {
         Self::new(&model, kalman, problem, settings)
     }
 
-    /// A design from its parts (e.g. read from `kestrel.kalman.v1` and
-    /// `kestrel.mpqp.v1` files).
+    /// A design from the design model and, when given, the filter and the
+    /// problem read from files (`kestrel.kalman.v1`, `kestrel.mpqp.v1` with
+    /// its model fingerprint), checked to belong together: the filter must
+    /// run the design model, or the design model with constant disturbance
+    /// states (the offset-free MPC's estimator, as `kestrel pipeline`
+    /// writes it); the problem's parameters must be the filter's states,
+    /// and its model fingerprint, when it has one, that of the filter's
+    /// model ([`estimator_model`], [`check_problem`]). The design runs the
+    /// filter's model. A missing filter is the thesis's noise design on the
+    /// model ([`kalman_design`]), a missing problem the tricopter problem of
+    /// `settings.size` with the default weights; the model's coordinates
+    /// are kept (`settings.realization` is not applied).
+    ///
+    /// # Errors
+    /// [`DesignError::Mismatch`] naming the two parts that differ and how;
+    /// as [`FirmwareDesign::new`].
+    pub fn from_parts(
+        model: &SsModel,
+        kalman: Option<KalmanDesign>,
+        problem: Option<ProblemFile>,
+        settings: &DesignSettings,
+    ) -> Result<(Self, Consistency), DesignError> {
+        check_model(model)?;
+        let kalman = match kalman {
+            Some(k) => k,
+            None => kalman_design(model)?,
+        };
+        let (estimator, nd) = estimator_model(model, &kalman)?;
+        let (problem, checked) = match problem {
+            Some(p) => {
+                let checked = check_problem(&estimator, nd, &p)?;
+                (p.problem, checked)
+            }
+            None if nd > 0 => {
+                return Err(DesignError::Mismatch {
+                    first: DesignPart::Problem,
+                    second: DesignPart::Kalman,
+                    detail: format!(
+                        "the filter has {} states, the model's {} and {nd} disturbance states, and the tricopter problem built here has the model's {}: give the problem built on the filter's model",
+                        estimator.nx(),
+                        model.nx(),
+                        model.nx()
+                    ),
+                });
+            }
+            None => {
+                let (q1, q2) = default_weights();
+                let p = tricopter_problem(model, settings.size, q1, q2)?.to_mpqp();
+                (p, ProblemCheck::BuiltHere)
+            }
+        };
+        let design = Self::new(&estimator, kalman, problem, settings)?;
+        Ok((
+            design,
+            Consistency {
+                disturbance_states: nd,
+                problem: checked,
+            },
+        ))
+    }
+
+    /// A design from its parts, the model being the one the filter runs
+    /// (e.g. the pipeline's estimator model).
     ///
     /// # Errors
     /// [`DesignError::Dimension`] if the model is not 4-input 3-output,
     /// the filter's or the problem's sizes do not match it (the problem
     /// must have `nx + 4` parameters and at least 4 variables), or the
-    /// sample times differ; [`DesignError::Unsupported`] for a filter with
+    /// sample times differ; [`DesignError::Mismatch`] if the filter's
+    /// `A`, `B`, `C`, `D` or `u0` are not the model's; [`DesignError::Unsupported`] for a filter with
     /// feed-through or a noise cross term; [`DesignError::InvalidSetting`]
     /// for a non-positive or non-finite input error; the fast gradient's
     /// errors (e.g. a problem that is not a box QP).
@@ -90,6 +155,7 @@ impl FirmwareDesign {
         if (kalman.ts - model.ts).abs() > 1e-9 * model.ts {
             return Err(dim("Kalman filter sample time", model.ts, kalman.ts));
         }
+        estimator_model(model, &kalman)?;
         if kalman.d.iter().any(|v| *v != 0.0) {
             return Err(DesignError::Unsupported(
                 "the firmware's filter has no feed-through (D = 0)".into(),

@@ -2,6 +2,27 @@
 
 use crate::error::TricopterError;
 
+/// One of the firmware's design files.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DesignPart {
+    /// The design model (`kestrel.ss.v1`).
+    Model,
+    /// The stationary Kalman filter (`kestrel.kalman.v1`).
+    Kalman,
+    /// The condensed MPC problem (`kestrel.mpqp.v1`).
+    Problem,
+}
+
+impl std::fmt::Display for DesignPart {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            DesignPart::Model => "the design model",
+            DesignPart::Kalman => "the Kalman filter",
+            DesignPart::Problem => "the MPC problem",
+        })
+    }
+}
+
 /// Errors of the firmware design.
 #[derive(Debug, thiserror::Error)]
 pub enum DesignError {
@@ -14,6 +35,17 @@ pub enum DesignError {
         expected: String,
         /// What was given.
         found: String,
+    },
+    /// Two design files of the same sizes that were designed for different
+    /// models (see [`estimator_model`](crate::firmware::estimator_model)).
+    #[error("{first} and {second} do not belong together: {detail}")]
+    Mismatch {
+        /// The file found at fault.
+        first: DesignPart,
+        /// The file it was compared with.
+        second: DesignPart,
+        /// What differs.
+        detail: String,
     },
     /// A design holds something the firmware's loop does not run.
     #[error("unsupported design: {0}")]

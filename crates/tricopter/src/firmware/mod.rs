@@ -23,6 +23,7 @@
 //! assert!(source.contains("pub const NX: usize = 5;"));
 //! ```
 
+mod consistency;
 mod design;
 mod empc;
 mod error;
@@ -30,9 +31,13 @@ mod quantize;
 mod settings;
 mod tables;
 
+#[cfg(test)]
+mod consistency_tests;
+
+pub use consistency::{Consistency, ProblemCheck, ProblemFile, check_problem, estimator_model};
 pub use design::{FirmwareDesign, schur_realization};
 pub use empc::{empc_controller, empc_layout, empc_table_bytes, generate_empc_tables, ns2_problem};
-pub use error::DesignError;
+pub use error::{DesignError, DesignPart};
 pub use quantize::{Kalman16Design, QuantRow, quantize_row};
 pub use settings::{DesignSettings, IterationBudget, NR, NU, NY, Realization, SERVO_CENTER};
 pub use tables::generate_tables;

@@ -143,7 +143,8 @@ pub fn problems(r: &mut Report, res: &PipelineResult) -> anyhow::Result<()> {
     ]);
     for p in pr.list() {
         let file = format!("problems/{}.json", p.name.as_str());
-        r.write(&file, p.mpqp.to_json_string())?;
+        // With the fingerprint of the model theta starts with (kestrel export checks it).
+        r.write(&file, p.mpqp.to_json_string_for_model(&pr.estimator_model))?;
         t.row([
             p.name.as_str().to_string(),
             p.horizon.horizon.to_string(),
