@@ -11,8 +11,9 @@ use crate::error::MpcError;
 
 /// Largest number of decision variables `n = blocks x inputs` that
 /// [`MpcProblem::build`](crate::MpcProblem::build) condenses (its Hessian
-/// alone is 32 MB at this size; the larger thesis problem has 16).
-pub const MAX_DECISION_VARIABLES: usize = 2_000;
+/// alone is 8 MB at this size, and `kestrel mpc` writes a 35 MB file in
+/// about ten seconds; the larger thesis problem has 16).
+pub const MAX_DECISION_VARIABLES: usize = 1_000;
 
 /// Largest memory the condensing may need, as estimated by
 /// [`CondensingCost::of`]: 1 GiB.

@@ -101,7 +101,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "thesis")]
     pub size: Size,
     /// Prediction horizon N (overrides `--size`; one block per step unless
-    /// `--blocks`); at most 2000 decision variables (blocks x 4 inputs).
+    /// `--blocks`); at most 1000 decision variables (blocks x 4 inputs).
     #[arg(long)]
     pub horizon: Option<usize>,
     /// Move-blocking lengths, comma separated, summing to N (overrides `--size`).

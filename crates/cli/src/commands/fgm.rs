@@ -172,6 +172,7 @@ fn load(path: &Path, pc: PreconditionerArg, momentum: Momentum) -> anyhow::Resul
         momentum,
         ..FgmSettings::default()
     };
+    let _spinner = crate::progress::Spinner::new("preconditioning and certifying");
     FgmDesign::new(qp, settings).with_context(|| name)
 }
 

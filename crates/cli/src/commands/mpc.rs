@@ -29,7 +29,7 @@ pub struct Args {
     #[arg(long)]
     pub model: PathBuf,
     /// Prediction horizon N (steps). The condensed problem has blocks x
-    /// inputs decision variables, at most 2000 (one block per step without
+    /// inputs decision variables, at most 1000 (one block per step without
     /// --blocks), and its build at most 1 GiB and 1e11 operations.
     #[arg(long)]
     pub horizon: usize,
