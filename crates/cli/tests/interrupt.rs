@@ -1,6 +1,7 @@
-//! Ctrl-C (issue 20): a long command stopped by SIGINT exits with status
-//! 130 and leaves no output, partial report or temporary file behind; a
-//! long explicit solve is announced before it starts (finding 9).
+//! Long work (issue 20): a command stopped by Ctrl-C (SIGINT) exits with
+//! status 130 and leaves no output, partial report or temporary file
+//! behind; a long explicit solve is announced before it starts (finding
+//! 9); progress is shown on a terminal and nowhere else.
 
 mod common;
 use common::{interrupt, temp_dir};
@@ -122,5 +123,43 @@ fn a_long_explicit_solve_is_announced_and_ctrl_c_stops_it() {
     let code = exit_code(&mut child, 30);
     assert_eq!(code, Some(130));
     assert_eq!(entries(&dir), Vec::<String>::new(), "left behind");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn progress_is_shown_on_a_terminal_and_silent_in_a_pipe() {
+    let dir = temp_dir("progress");
+    let out = dir.join("hover.csv");
+    let args = [
+        "simulate",
+        "--experiment",
+        "hover",
+        "--seconds",
+        "100",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    // Standard error a pipe (as in CI): the summary only, no spinner.
+    let (ok, _, err) = common::kestrel(&args);
+    assert!(ok, "{err}");
+    assert!(
+        !err.contains("flying experiment") && !err.contains('\r'),
+        "{err:?}"
+    );
+    // On a terminal (a pseudo-terminal from util-linux's `script`, where
+    // installed): the stage and its elapsed time.
+    let line = format!("{} {}", env!("CARGO_BIN_EXE_kestrel"), args.join(" "));
+    if let Ok(o) = Command::new("script")
+        .args(["-qec", &line, "/dev/null"])
+        .stdin(Stdio::null())
+        .output()
+    {
+        let shown = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "{shown}");
+        assert!(
+            shown.contains("flying experiment hover") && shown.contains("[00:00:0"),
+            "{shown:?}"
+        );
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
