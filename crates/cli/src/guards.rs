@@ -15,6 +15,10 @@ use kestrel_tricopter_model::ModelError;
 /// parameter, and the momentum table holds one number per iteration.
 pub const MAX_FGM_ITERATIONS: usize = 1_000_000;
 
+/// Most operations of all the fast-gradient solves of one command
+/// (`iterations x solves x (2 n^2 + 6 n)`): `1e12`, some minutes.
+pub const MAX_FGM_FLOPS: f64 = 1e12;
+
 /// Decision variables from which an explicit solve is announced: the
 /// region count grows exponentially with them (4 variables: under a
 /// second; 8: about 1,500 regions, minutes; the larger problem's 16:
@@ -56,16 +60,17 @@ pub fn simulation(e: ModelError) -> anyhow::Error {
     }
 }
 
-/// Refuses more than [`MAX_FGM_ITERATIONS`] iterations for `n` variables
-/// and `solves` solves, saying what they would cost.
+/// Refuses more than [`MAX_FGM_ITERATIONS`] iterations, or more than
+/// [`MAX_FGM_FLOPS`] operations for `solves` solves of `n` variables,
+/// saying what they would cost.
 pub fn fgm_iterations(iterations: usize, n: usize, solves: usize) -> anyhow::Result<()> {
-    if iterations <= MAX_FGM_ITERATIONS {
-        return Ok(());
-    }
     // One iteration: a matrix-vector product and the momentum step.
     let flops = iterations as f64 * solves.max(1) as f64 * (2.0 * (n * n) as f64 + 6.0 * n as f64);
+    if iterations <= MAX_FGM_ITERATIONS && flops <= MAX_FGM_FLOPS {
+        return Ok(());
+    }
     anyhow::bail!(
-        "--iterations {iterations}: at most {MAX_FGM_ITERATIONS}; {} solve(s) of {n} variables would take about {flops:.0e} operations and a momentum table of {}; `kestrel fgm certify` gives the count that reaches a tolerance (tens to hundreds), take that",
+        "--iterations {iterations}: at most {MAX_FGM_ITERATIONS} and {MAX_FGM_FLOPS:.0e} operations in all; {} solve(s) of {n} variables would take about {flops:.0e} operations and a momentum table of {}; `kestrel fgm certify` gives the count that reaches a tolerance (tens to hundreds), take that",
         solves.max(1),
         kestrel_mpc::human_bytes(8.0 * iterations as f64)
     )
@@ -90,6 +95,7 @@ mod tests {
     #[test]
     fn iterations_beyond_the_limit_are_refused_with_their_cost() {
         assert!(fgm_iterations(201, 16, 100).is_ok());
+        assert!(fgm_iterations(1_000_000, 1000, 200).is_err());
         let e = fgm_iterations(1_000_000_000, 4, 1).unwrap_err().to_string();
         assert!(e.contains("8.0 GB") && e.contains("fgm certify"), "{e}");
     }

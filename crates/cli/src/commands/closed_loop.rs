@@ -114,7 +114,7 @@ pub struct Args {
     #[arg(long)]
     pub q2: Option<String>,
     /// Fast-gradient iterations per step (`--controller fgm` only; default
-    /// 12, at most 1,000,000).
+    /// 12; at most 1,000,000, and 1e12 operations over the flight).
     #[arg(long)]
     pub iterations: Option<usize>,
     /// Where each fast-gradient solve starts (`--controller fgm` only;

@@ -144,7 +144,8 @@ pub struct SolveArgs {
     #[arg(long)]
     pub thetas: PathBuf,
     /// Fast-gradient iterations after the initial projected gradient step
-    /// (at most 1,000,000; `certify` gives the count for a tolerance).
+    /// (at most 1,000,000, and 1e12 operations over all parameters; `certify`
+    /// gives the count for a tolerance).
     #[arg(long)]
     pub iterations: usize,
     /// Diagonal preconditioner.
