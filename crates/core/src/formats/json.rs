@@ -404,7 +404,7 @@ mod tests {
         format!("[{}]", vec!["[]"; n].join(","))
     }
 
-    /// Found by fuzzing the readers: a matrix with a known column count
+    /// Found with the fuzz targets' size check: a matrix with a known column count
     /// was allocated (rows x cols) before its rows were checked, so 100,000
     /// empty rows where 100,000 columns were expected (600 kB of text)
     /// asked for an 80 GB matrix and aborted the process.

@@ -327,7 +327,7 @@ mod tests {
         serde_json::to_string(&obj).unwrap()
     }
 
-    /// Found by fuzzing the readers: a model without `D` got a default
+    /// Found with the fuzz targets' size check: a model without `D` got a default
     /// zero matrix of ny x nu, so 50,000 inputs in `B` and 50,000 outputs
     /// in `C` (300 kB of text) asked for a 20 GB `D`.
     #[test]
