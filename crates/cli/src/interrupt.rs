@@ -114,7 +114,7 @@ pub fn install() {
             leftover.remove();
         }
         crate::progress::clear();
-        eprintln!("interrupted: stopped, nothing was written");
+        eprintln!("interrupted: stopped; no unfinished output is left behind");
         std::process::exit(130);
     });
 }
