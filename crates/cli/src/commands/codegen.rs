@@ -42,8 +42,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             })?
         }
     };
+    let spinner = crate::progress::Spinner::new("generating the firmware tables and golden files");
     let files = generated_files(&root)
         .with_context(|| format!("generating the files of {}", root.display()))?;
+    drop(spinner);
     let mut changed: Vec<(&GeneratedFile, Status)> = Vec::new();
     for f in &files {
         let status = f.status(&root)?;
