@@ -54,11 +54,15 @@ pub fn show(bar: &indicatif::ProgressBar) {
     }
 }
 
-/// Clears the bar on screen (before a message on an interrupt).
+/// Clears the bar on screen (before a message on an interrupt), and the
+/// terminal's current line, where a library's own bar may be.
 pub fn clear() {
     if let Ok(c) = CURRENT.try_lock()
         && let Some(bar) = c.as_ref()
     {
         bar.finish_and_clear();
+    }
+    if enabled() {
+        eprint!("\r\x1b[2K");
     }
 }

@@ -156,6 +156,11 @@ pub fn solve(problem: &MpqpProblem, settings: &Settings) -> Result<MpqpSolution,
     #[cfg(feature = "progress")]
     let bar = settings.progress.then(|| {
         let b = indicatif::ProgressBar::new_spinner();
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+        );
+        b.enable_steady_tick(std::time::Duration::from_millis(200));
         b.set_message("exploring critical regions");
         b
     });
@@ -266,8 +271,11 @@ pub fn solve(problem: &MpqpProblem, settings: &Settings) -> Result<MpqpSolution,
         }
         #[cfg(feature = "progress")]
         if let Some(b) = &bar {
-            b.set_message(format!("{} critical regions", regions.len()));
-            b.tick();
+            b.set_message(format!(
+                "exploring critical regions: {} (stops at {})",
+                regions.len(),
+                settings.max_regions
+            ));
         }
     }
     #[cfg(feature = "progress")]
