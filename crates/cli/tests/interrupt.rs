@@ -1,7 +1,9 @@
 //! Long work (issue 20): a command stopped by Ctrl-C (SIGINT) exits with
 //! status 130 and leaves no output, partial report or temporary file
 //! behind; a long explicit solve is announced before it starts (finding
-//! 9); progress is shown on a terminal and nowhere else.
+//! 9); progress is shown on a terminal and nowhere else. Unix only (the
+//! tests send SIGINT with `kill`).
+#![cfg(unix)]
 
 mod common;
 use common::{interrupt, temp_dir};
