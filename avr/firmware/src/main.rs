@@ -3,18 +3,25 @@
 //! Peripherals (16 MHz):
 //! - Timer1: free-running cycle counter (prescaler 1, overflow interrupt);
 //! - Timer4: fast PWM mode 14, 0.5 us ticks, TOP 39999 (50 Hz): servo on
-//!   OC4A (PH3); its overflow flag paces the 50 Hz loop;
+//!   OC4A (PH3); its overflow flag paces the 50 Hz loop; its compare B
+//!   interrupt, 15 ms into each period, is the output watchdog (safe
+//!   pulses once the main loop has not written the outputs for two
+//!   periods);
 //! - Timer5: fast PWM mode 14, 0.5 us ticks, TOP 4999 (400 Hz): ESC 1-3 on
 //!   OC5A/OC5B/OC5C (PL3/PL4/PL5);
 //! - USART0: 250000 baud 8N1 (UBRR 3, exact at 16 MHz), receive interrupt
-//!   into a ring buffer, transmit by polling.
+//!   into a ring buffer, transmit by polling;
+//! - the watchdog: off during the boot, then a 64 ms reset timeout
+//!   restarted every period (a main loop stuck for three periods resets
+//!   the MCU; after any reset the outputs are the safe pulses until a
+//!   valid command arrives).
 #![no_std]
 #![no_main]
 #![feature(abi_avr_interrupt, asm_experimental_arch)]
 
 use core::cell::UnsafeCell;
 use core::ptr::{read_volatile, write_volatile};
-use kestrel_avr_rt::control::{Mixer, RateLoop};
+use kestrel_avr_rt::control::{GyroCheck, Mixer, RateLoop};
 use kestrel_avr_rt::cycles::CycleClock;
 use kestrel_avr_rt::cycles::timer1::{self, Timer1Clock};
 use kestrel_avr_rt::frame::{
@@ -60,6 +67,9 @@ mod generated_empc;
 #[cfg(feature = "empc-ns2")]
 #[allow(dead_code)]
 mod generated_empc_ns2;
+/// Fault injection for the HIL test.
+#[cfg(feature = "hil-faults")]
+mod faults;
 /// Controller tables in flash (see tables.rs).
 mod tables;
 use tables::*;
@@ -105,6 +115,8 @@ const TCCR4A: *mut u8 = 0xA0 as *mut u8;
 const TCCR4B: *mut u8 = 0xA1 as *mut u8;
 const ICR4L: *mut u8 = 0xA6 as *mut u8;
 const OCR4AL: *mut u8 = 0xA8 as *mut u8;
+const OCR4BL: *mut u8 = 0xAA as *mut u8;
+const TIMSK4: *mut u8 = 0x72 as *mut u8;
 const TIFR4: *mut u8 = 0x39 as *mut u8;
 const TCCR5A: *mut u8 = 0x120 as *mut u8;
 const TCCR5B: *mut u8 = 0x121 as *mut u8;
@@ -114,6 +126,42 @@ const OCR5BL: *mut u8 = 0x12A as *mut u8;
 const OCR5CL: *mut u8 = 0x12C as *mut u8;
 const DDRH: *mut u8 = 0x101 as *mut u8;
 const DDRL: *mut u8 = 0x10A as *mut u8;
+const MCUSR: *mut u8 = 0x54 as *mut u8;
+
+/// Sets the watchdog control register (`WDE | prescaler` bits, or 0 for
+/// off) with the timed sequence: `WDCE | WDE`, then the value within four
+/// cycles, interrupts off. Clears the watchdog reset flag first (while it
+/// is set the watchdog cannot be turned off: after a watchdog reset it
+/// restarts at 16 ms, shorter than the boot).
+fn watchdog(value: u8) {
+    // SAFETY: MCUSR and WDTCSR exist on the ATmega2560; the asm block is
+    // the datasheet's timed sequence and restores SREG.
+    unsafe {
+        write_volatile(MCUSR, read_volatile(MCUSR) & !(1 << 3)); // WDRF
+        core::arch::asm!(
+            "in {sreg}, 0x3f",
+            "cli",
+            "wdr",
+            "sts 0x60, {enable}", // WDTCSR
+            "sts 0x60, {value}",
+            "out 0x3f, {sreg}",
+            sreg = out(reg) _,
+            enable = in(reg) 0x18u8, // WDCE | WDE
+            value = in(reg) value,
+        );
+    }
+}
+
+/// Restarts the watchdog's timeout.
+#[inline(always)]
+fn watchdog_reset() {
+    // SAFETY: `wdr` only restarts the watchdog timer.
+    unsafe { core::arch::asm!("wdr", options(nomem, nostack, preserves_flags)) };
+}
+
+/// WDTCSR value: reset mode (WDE), prescaler 2 (8k cycles of the 128 kHz
+/// oscillator: 64 ms).
+const WATCHDOG_64MS: u8 = 0x08 | 0x02;
 
 /// Writes a 16-bit timer register: high byte first (through TEMP).
 #[inline(always)]
@@ -176,6 +224,32 @@ pub unsafe extern "avr-interrupt" fn __vector_20() {
     unsafe { timer1::on_overflow() }
 }
 
+// ---- output watchdog ----
+/// Timer4 compare-B interrupts since the main loop last wrote the outputs.
+struct Stale(UnsafeCell<u8>);
+// SAFETY: single core; a single byte, written by the ISR and by the main
+// loop with interrupts off.
+unsafe impl Sync for Stale {}
+static STALE: Stale = Stale(UnsafeCell::new(0));
+
+/// Timer4 compare match B, 15 ms into every 20 ms period: the output
+/// watchdog. The main loop writes the outputs at most about 10 ms into a
+/// period (22 ms after an overrun), so a second interrupt without a write
+/// means it has missed two periods (hung or stalled): the safe pulses are
+/// written here, as the failsafe does after two periods without a valid
+/// frame. The watchdog timer then resets a hung MCU.
+#[unsafe(no_mangle)]
+pub unsafe extern "avr-interrupt" fn __vector_43() {
+    // SAFETY: interrupt context (interrupts off), see `Stale`.
+    unsafe {
+        let n = read_volatile(STALE.0.get()).saturating_add(1);
+        write_volatile(STALE.0.get(), n);
+        if n >= 2 {
+            write_pwm(&SafeOutput::default().pwm(&PwmLimits::default()));
+        }
+    }
+}
+
 fn tx(bytes: &[u8]) {
     for &b in bytes {
         // SAFETY: USART0 registers; wait for an empty data register.
@@ -195,13 +269,32 @@ fn send(kind: Kind, seq: u8, payload: &[u8]) {
     }
 }
 
-fn set_pwm(p: &[u16; 4]) {
+/// Writes the compare registers (interrupts must be off: the 16-bit
+/// writes go through the timers' shared TEMP byte, which the output
+/// watchdog's interrupt also uses).
+///
+/// # Safety
+/// Call with interrupts disabled.
+unsafe fn write_pwm(p: &[u16; 4]) {
     // SAFETY: Timer4/Timer5 compare registers; 2 ticks per microsecond.
     unsafe {
         write16(OCR5AL, p[0] * 2);
         write16(OCR5BL, p[1] * 2);
         write16(OCR5CL, p[2] * 2);
         write16(OCR4AL, p[3] * 2);
+    }
+}
+
+/// Writes the outputs and tells the output watchdog.
+fn set_pwm(p: &[u16; 4]) {
+    // SAFETY: interrupts off around the register writes and the watchdog
+    // byte (SREG restored after).
+    unsafe {
+        let sreg = read_volatile(SREG);
+        core::arch::asm!("cli", options(nostack, preserves_flags));
+        write_pwm(p);
+        write_volatile(STALE.0.get(), 0);
+        write_volatile(SREG, sreg);
     }
 }
 
@@ -219,6 +312,7 @@ fn init_hw() {
         write_volatile(TCCR5B, 0x1A);
         // Timer4: servo, fast PWM mode 14, clk/8, TOP 39999 (50 Hz).
         write16(ICR4L, 39999);
+        write16(OCR4BL, 30000); // output watchdog, 15 ms into the period
         write_volatile(TCCR4A, 0x82);
         write_volatile(TCCR4B, 0x1A);
         write_volatile(DDRL, read_volatile(DDRL) | 0x38);
@@ -239,6 +333,8 @@ fn vm<const R: usize, const C: usize>(t: &FarTable, at: usize) -> Matrix<S, R, C
 
 #[unsafe(no_mangle)]
 pub extern "C" fn main() -> ! {
+    // Off during the boot (self-tests, and the benchmark builds' long runs).
+    watchdog(0);
     init_hw();
     // Keep the fillers (the linker drops unreferenced sections).
     #[cfg(feature = "far-selftest")]
@@ -328,9 +424,13 @@ pub extern "C" fn main() -> ! {
         offset: va(&table, MIX_OFFSET),
         throttle_gain: [one, one, one, S::ZERO],
     };
+    #[cfg(feature = "hil-faults")]
+    let law = faults::Stall::new(law, clock);
     let Ok(mut rate_loop) = RateLoop::new(filter, law, bias, mixer, limits, safe) else {
         loop {}
     };
+    // A stuck or railed gyro engages the failsafe (200 ms, 2000 deg/s).
+    rate_loop.gyro_check = Some(GyroCheck::default());
 
     // SAFETY: enable interrupts now that the handlers' state is initialised.
     unsafe { core::arch::asm!("sei") };
@@ -361,26 +461,34 @@ pub extern "C" fn main() -> ! {
     let mut last_seq = 0u8;
     let mut reply_seq = 0u8;
     let mut overrun = false;
+    // Extra solver cycles requested by a fault frame (feature `hil-faults`).
+    let mut stall = 0u32;
     // Drop a tick that came during the boot.
     // SAFETY: clear TOV4 by writing a one.
     unsafe { write_volatile(TIFR4, 1) };
+    // The output watchdog and the watchdog timer from here on (not during
+    // the boot and the benchmark builds' runs before the loop).
+    // SAFETY: OCIE4B; its handler's state is a static byte.
+    unsafe { write_volatile(TIMSK4, 1 << 2) };
+    watchdog(WATCHDOG_64MS);
     loop {
+        watchdog_reset();
         // Idle: decode bytes until the next 50 Hz tick.
         // SAFETY: TIFR4 read; TOV4 is bit 0.
         while unsafe { read_volatile(TIFR4) } & 1 == 0 {
-            while let Some(b) = rx_pop() {
-                if let Some(Ok(f)) = decoder.push(b) {
-                    if let Ok(c) = Command::from_frame(&f) {
-                        if seqs.accept(f.seq) {
-                            fresh = Some((f.seq, c));
-                        }
-                    }
-                }
-            }
+            drain_rx(&mut decoder, &mut seqs, &mut fresh, &mut stall);
         }
         let t0 = clock.now();
         // SAFETY: clear TOV4 by writing a one.
         unsafe { write_volatile(TIFR4, 1) };
+        // After an overrun the tick was already pending and the loop above
+        // did not run: the bytes that came meanwhile (this period's
+        // command among them) are still in the ring.
+        drain_rx(&mut decoder, &mut seqs, &mut fresh, &mut stall);
+        #[cfg(feature = "hil-faults")]
+        {
+            rate_loop.law.extra = core::mem::take(&mut stall);
+        }
         let _ = decoder.reset(); // inter-frame timeout: drop a half frame
         let cmd = fresh.take();
         if let Some((s, _)) = cmd {
@@ -408,6 +516,31 @@ pub extern "C" fn main() -> ! {
         // SAFETY: TIFR4 read.
         overrun = unsafe { read_volatile(TIFR4) } & 1 != 0;
         let _ = read_volatile_sreg();
+    }
+}
+
+/// Decodes the received bytes: the newest accepted command goes to
+/// `fresh`; with `hil-faults`, a fault request's extra solver cycles to
+/// `stall` (a hang request does not return).
+#[cfg_attr(not(feature = "hil-faults"), allow(unused_variables))]
+fn drain_rx(
+    decoder: &mut FrameDecoder,
+    seqs: &mut SeqTracker,
+    fresh: &mut Option<(u8, Command)>,
+    stall: &mut u32,
+) {
+    while let Some(b) = rx_pop() {
+        if let Some(Ok(f)) = decoder.push(b) {
+            #[cfg(feature = "hil-faults")]
+            if f.kind == Kind::Bench {
+                *stall = faults::request(f.payload());
+            }
+            if let Ok(c) = Command::from_frame(&f) {
+                if seqs.accept(f.seq) {
+                    *fresh = Some((f.seq, c));
+                }
+            }
+        }
     }
 }
 
@@ -499,7 +632,7 @@ fn empc_check(law: &mut EmpcLaw16, clock: &Timer1Clock) {
 
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo) -> ! {
-    // Outputs to the safe pulses and stop.
+    // Outputs to the safe pulses and stop (the watchdog resets the MCU).
     set_pwm(&SafeOutput::default().pwm(&PwmLimits::default()));
     loop {}
 }

@@ -1,6 +1,7 @@
 //! The control-loop composition run once per 20 ms period:
 //!
-//! 1. failsafe decision ([`Failsafe`]);
+//! 1. failsafe decision ([`Failsafe`], with the optional gyro plausibility
+//!    check [`GyroCheck`]);
 //! 2. **estimator stage**: gyro bias removal and the estimator's measurement
 //!    update, plus (after the law) its time update: together the stationary
 //!    Kalman step (kestrel-kalman's `StationaryFilter` in the firmware);
@@ -40,6 +41,82 @@ impl<S: RtScalar, const NU: usize> Mixer<S, NU> {
     }
 }
 
+/// A plausibility check of the gyro reading, per axis: a sensor fault is
+/// an axis that reads at or beyond the gyro's `full_scale` (railed: at
+/// once, as a non-finite value is), or that repeats the previous frame's
+/// reading bit for bit in `stuck_periods` consecutive frames (stuck). The
+/// failsafe engages ([`Failsafe::sensor_fault`]) and releases with the
+/// first frame whose every axis is in range and not a repeat.
+///
+/// A railed reading is acted on at once because the law would otherwise
+/// fight a rate the aircraft does not have with full authority (in the
+/// HIL, nine periods of a pitch gyro railed at 2000 deg/s turned the
+/// aircraft over). A live MEMS gyro's noise spans several of its LSBs, so
+/// a bit-identical reading repeats by chance with a probability below
+/// about 0.1 per sample and axis: ten repeats in a row (the default,
+/// 200 ms at 50 Hz) about 1e-10, while a stuck sensor repeats its code
+/// every time.
+///
+/// ```
+/// use kestrel_avr_rt::control::GyroCheck;
+/// let mut c = GyroCheck::new(34.9, 3);
+/// assert!(c.update(&[0.01, 0.0, 0.0]));
+/// assert!(c.update(&[0.01, 0.1, 0.0])); // p repeats: 1
+/// assert!(c.update(&[0.01, 0.2, 0.0])); // 2
+/// assert!(!c.update(&[0.01, 0.3, 0.0])); // 3: stuck
+/// assert!(c.update(&[0.02, 0.3, 0.1])); // live again (q's first repeat)
+/// assert!(!c.update(&[0.03, 0.4, 40.0])); // r railed: at once
+/// assert!(c.update(&[0.04, 0.5, 0.2]));
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GyroCheck {
+    /// Full scale of the gyro in rad/s (a reading with `|g| >= full_scale`,
+    /// or a non-finite one, is railed).
+    pub full_scale: f32,
+    /// Consecutive repeats of one reading that make an axis stuck.
+    pub stuck_periods: u8,
+    last: [u32; 3],
+    repeats: [u8; 3],
+}
+
+impl Default for GyroCheck {
+    /// 2000 deg/s full scale (34.9 rad/s, the widest range of the
+    /// MPU-6000 family), stuck after 10 repeats (200 ms at 50 Hz).
+    fn default() -> Self {
+        GyroCheck::new(34.9, 10)
+    }
+}
+
+impl GyroCheck {
+    /// A check with the given full scale (rad/s) and repeat count (0 is
+    /// taken as 1).
+    pub const fn new(full_scale: f32, stuck_periods: u8) -> Self {
+        GyroCheck {
+            full_scale,
+            stuck_periods: if stuck_periods == 0 { 1 } else { stuck_periods },
+            // A NaN pattern: no finite reading repeats it.
+            last: [u32::MAX; 3],
+            repeats: [0; 3],
+        }
+    }
+
+    /// Takes one frame's reading; `false` if an axis is now railed or stuck.
+    pub fn update(&mut self, gyro: &[f32; 3]) -> bool {
+        let mut ok = true;
+        for ((g, last), n) in gyro.iter().zip(&mut self.last).zip(&mut self.repeats) {
+            let bits = g.to_bits();
+            *n = if bits == *last {
+                n.saturating_add(1)
+            } else {
+                0
+            };
+            *last = bits;
+            ok &= *n < self.stuck_periods && g.abs() < self.full_scale;
+        }
+        ok
+    }
+}
+
 /// The result of one period.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PeriodOutput {
@@ -73,6 +150,8 @@ pub struct RateLoop<S, E, L, const NU: usize> {
     pub limits: PwmLimits,
     /// Failsafe pulses.
     pub safe: SafeOutput,
+    /// The gyro plausibility check, if any (`None` after [`RateLoop::new`]).
+    pub gyro_check: Option<GyroCheck>,
     failsafe: Failsafe,
     last_pwm: [u16; 4],
 }
@@ -112,6 +191,7 @@ where
             mixer,
             limits,
             safe,
+            gyro_check: None,
             failsafe: Failsafe::new(),
             last_pwm,
         })
@@ -126,7 +206,17 @@ where
     /// period (`None`: dropped or corrupted frame).
     pub fn period(&mut self, cmd: Option<&Command>, clock: &impl CycleClock) -> PeriodOutput {
         let mut out = PeriodOutput::default();
-        let decision = self.failsafe.on_tick(cmd.map(Command::is_finite));
+        let finite = cmd.map(Command::is_finite);
+        // The sensor check sees every finite frame's reading.
+        let sensor_ok = match (cmd, finite, self.gyro_check.as_mut()) {
+            (Some(c), Some(true), Some(check)) => check.update(&c.gyro),
+            _ => true,
+        };
+        let decision = if sensor_ok {
+            self.failsafe.on_tick(finite)
+        } else {
+            self.failsafe.sensor_fault()
+        };
         let (cmd, recovered) = match (decision, cmd) {
             (Decision::Run { recovered }, Some(c)) => (c, recovered),
             (Decision::Hold, _) => {
@@ -205,8 +295,108 @@ where
         out.status |= status::FAILSAFE
             | match self.failsafe.active() {
                 Some(FailsafeReason::NonFinite) => status::NON_FINITE,
-                _ => status::TIMEOUT,
+                Some(FailsafeReason::Timeout) | None => status::TIMEOUT,
+                // FAILSAFE alone: the gyro check refused the reading.
+                Some(FailsafeReason::Sensor) => 0,
             };
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::interim::{PiRateLaw, RateObserver};
+
+    struct Clock;
+    impl CycleClock for Clock {
+        fn now(&self) -> u32 {
+            0
+        }
+    }
+
+    type Loop = RateLoop<f32, RateObserver<f32>, PiRateLaw<f32>, 3>;
+
+    fn rate_loop() -> Loop {
+        let mixer = Mixer {
+            offset: [0.0, 0.0, 0.0, 1500.0],
+            m: Matrix::from_fn(|i, j| if i == j { 1.0 } else { 0.0 }),
+            throttle_gain: [1.0, 1.0, 1.0, 0.0],
+        };
+        let law = PiRateLaw::new([100.0f32; 3], [0.0; 3], [50.0; 3]);
+        let mut l = RateLoop::new(
+            RateObserver::new([0.5f32; 3], [0.02; 3]),
+            law,
+            [0.0; 3],
+            mixer,
+            PwmLimits::default(),
+            SafeOutput::default(),
+        )
+        .unwrap();
+        l.gyro_check = Some(GyroCheck::new(34.9, 3));
+        l
+    }
+
+    fn cmd(gyro: [f32; 3]) -> Command {
+        Command {
+            gyro,
+            reference: [0.0; 3],
+            throttle: 1400.0,
+        }
+    }
+
+    #[test]
+    fn stuck_gyro_engages_the_failsafe_until_it_is_live_again() {
+        let mut l = rate_loop();
+        let safe = SafeOutput::default().pwm(&PwmLimits::default());
+        assert_eq!(l.period(Some(&cmd([0.1, 0.2, 0.3])), &Clock).status, 0);
+        // q stuck: three repeats make the fault.
+        for k in 0..3 {
+            let out = l.period(Some(&cmd([0.1 + k as f32, 0.2, 0.3 + k as f32])), &Clock);
+            if k < 2 {
+                assert_eq!(out.status, 0, "repeat {k}");
+            } else {
+                assert_eq!(out.status, status::FAILSAFE, "only FAILSAFE: the sensor");
+                assert_eq!(out.pwm, safe);
+                assert_eq!(l.failsafe().active(), Some(FailsafeReason::Sensor));
+            }
+        }
+        // Still stuck: stays in the failsafe; one missing frame does not
+        // change the reason.
+        assert_eq!(l.period(Some(&cmd([5.0, 0.2, 5.0])), &Clock).pwm, safe);
+        assert_eq!(l.period(None, &Clock).pwm, safe);
+        // Live again: recovery at once.
+        let out = l.period(Some(&cmd([0.0, 0.21, 0.0])), &Clock);
+        assert_eq!(out.status, 0);
+        assert_eq!(l.failsafe().active(), None);
+    }
+
+    #[test]
+    fn railed_gyro_engages_the_failsafe() {
+        let mut l = rate_loop();
+        assert_eq!(l.period(Some(&cmd([0.0, 0.1, 0.0])), &Clock).status, 0);
+        for k in 0..3 {
+            let g = [0.01 * k as f32, -34.9 - k as f32, 0.02 * k as f32];
+            let out = l.period(Some(&cmd(g)), &Clock);
+            assert_eq!(out.status, status::FAILSAFE, "frame {k}");
+        }
+        assert_eq!(l.period(Some(&cmd([0.0, 0.1, 0.0])), &Clock).status, 0);
+        // Without the check a railed reading is flown on.
+        let mut l = rate_loop();
+        l.gyro_check = None;
+        for k in 0..5 {
+            let out = l.period(Some(&cmd([0.0, -34.9, 0.0])), &Clock);
+            assert_eq!(out.status, 0, "frame {k}");
+            assert!(out.pwm.iter().all(|&p| (1000..=2000).contains(&p)));
+        }
+    }
+
+    #[test]
+    fn non_finite_gyro_is_non_finite_not_a_sensor_fault() {
+        let mut l = rate_loop();
+        let out = l.period(Some(&cmd([f32::INFINITY, 0.0, 0.0])), &Clock);
+        assert_eq!(out.status, status::FAILSAFE | status::NON_FINITE);
+        let out = l.period(Some(&cmd([0.0, 0.1, 0.2])), &Clock);
+        assert_eq!(out.status, 0);
     }
 }

@@ -22,6 +22,8 @@ pub enum FailsafeReason {
     Timeout,
     /// A non-finite value in the command or the controller output.
     NonFinite,
+    /// The gyro reads stuck or at full scale (`control::GyroCheck`).
+    Sensor,
 }
 
 /// The failsafe state machine (see the module documentation).
@@ -94,6 +96,16 @@ impl Failsafe {
                 }
             }
         }
+    }
+
+    /// A fresh, finite frame whose gyro reading the loop's sensor check
+    /// refused (stuck or at full scale): the failsafe becomes active at
+    /// once and stays until a frame passes the check (then recovery, as
+    /// after any failsafe).
+    pub fn sensor_fault(&mut self) -> Decision {
+        self.missed = 0;
+        self.enter(FailsafeReason::Sensor);
+        Decision::Safe
     }
 
     /// Reports a non-finite controller output in a period that ran: the

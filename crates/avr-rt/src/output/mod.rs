@@ -10,7 +10,9 @@
 //! - no valid frame this period, the first time: hold the previous outputs;
 //! - no valid frame for **two** periods in a row (dropped or corrupted
 //!   frames), or any **non-finite** value (in the command or in the
-//!   controller's result): output the [`SafeOutput`] (by default motors at
+//!   controller's result), or a gyro reading the loop's sensor check
+//!   refuses (`control::GyroCheck`: an axis stuck at one value or at full
+//!   scale): output the [`SafeOutput`] (by default motors at
 //!   1000 us, i.e. stopped, and the servo centred at 1500 us) until a valid
 //!   frame comes.
 //!

@@ -25,6 +25,10 @@
 //!
 //! Set `KESTREL_HIL_REPORT=1` to print one `HIL-REPORT {json}` line per
 //! configuration (scripts/avr-report.sh collects them).
+//!
+//! Fault injection (gyro, link, actuator and firmware faults, each flown
+//! against the same plant with the `hil-faults` firmware build) is in
+//! `faults.rs`; its table is in docs/avr-rt.md ("HIL fault injection").
 
 use avr_tester::AvrTester;
 use kestrel_avr_rt::control::{Mixer, RateLoop};
@@ -706,4 +710,5 @@ fn far_table_above_64k_reads_back() {
 }
 
 mod empc_target;
+mod faults;
 mod fgm_bench;

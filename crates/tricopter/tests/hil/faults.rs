@@ -1,0 +1,537 @@
+//! HIL fault injection: the `hil-faults` firmware build (avr/firmware,
+//! feature `hil-faults`: src/faults.rs) flown in simavr against the
+//! nonlinear plant, hovering (rate references zero, the hover throttle),
+//! with one fault per flight of [`FLIGHT`] periods starting at [`K0`]:
+//!
+//! - sensor faults change the gyro reading the host sends (stuck at the
+//!   reading of period `K0`, NaN, +inf, railed at the full scale);
+//! - link faults drop or corrupt bursts of command frames;
+//! - actuator faults change what the plant receives (motor 2 at half
+//!   thrust, the servo stuck), the firmware sees only their effect;
+//! - firmware faults are requested with a fault frame (a hang, which the
+//!   watchdog resets; a stall of the solver beyond its time budget).
+//!
+//! For each: the replies' pulses within the limits in every period, no
+//! missed deadline (`OVERRUN` in a reply or a period over 320,000 cycles),
+//! the failsafe engaging and releasing when the specification
+//! (`kestrel_avr_rt::output`, `control::GyroCheck`) says, and the peak
+//! body rate, attitude change and height lost. `KESTREL_HIL_REPORT=1`
+//! prints one `HIL-FAULT {json}` line per flight; the table in
+//! docs/avr-rt.md ("HIL fault injection") comes from
+//! `cargo test -p kestrel-tricopter --test hil faults -- --nocapture`.
+
+use super::{CYCLES_PER_PERIOD, build_firmware, design, read_frames, wait_boot};
+use avr_tester::AvrTester;
+use kestrel_avr_rt::frame::{Boot, Command, Frame, FrameDecoder, Kind, MAX_FRAME, Reply, status};
+use kestrel_avr_rt::output::{PwmLimits, SafeOutput};
+use kestrel_tricopter::closed_loop::{NonlinearPlant, RatePlant};
+use kestrel_tricopter_model::{PlantConfig, idx};
+use std::path::Path;
+
+/// Periods per flight (3 s).
+const FLIGHT: usize = 150;
+/// The period the fault starts in (1 s).
+const K0: usize = 50;
+/// The firmware's gyro full scale (`GyroCheck::default`), rad/s.
+const FULL_SCALE: f32 = 34.9;
+/// Fault-request op codes (avr/firmware/src/faults.rs).
+const HANG: u8 = 1;
+const STALL: u8 = 2;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Inject {
+    /// No fault (the reference for the aircraft's columns).
+    None,
+    /// The gyro repeats its reading of period K0 for `len` periods.
+    GyroStuck,
+    /// Gyro p is NaN for `len` periods.
+    GyroNaN,
+    /// Gyro r is +inf for `len` periods.
+    GyroInf,
+    /// Gyro q reads +full scale for `len` periods.
+    GyroRailed,
+    /// `len` command frames dropped.
+    DropBurst,
+    /// `len` command frames corrupted (one bit of the payload).
+    CorruptBurst,
+    /// Motor 2 gives half its thrust from K0 on (its rotor speed, linear
+    /// in the pulse above 1000 us, scaled by 1/sqrt(2)).
+    MotorHalfThrust,
+    /// The servo stays at its pulse of period K0 from K0 on.
+    ServoStuck,
+    /// The main loop hangs at K0; the watchdog resets the MCU.
+    WatchdogReset,
+    /// The solve of period K0 takes this many cycles more.
+    SolverStall(u32),
+}
+
+struct Scenario {
+    name: &'static str,
+    inject: Inject,
+    /// Periods the fault lasts (to the end of the flight for actuator faults).
+    len: usize,
+}
+
+/// What one faulted flight gave.
+#[derive(Debug)]
+struct Outcome {
+    /// Every reply, in order (one per tick the firmware served; a late
+    /// reply arrives in the next window).
+    replies: Vec<Reply>,
+    /// The replies of each 20 ms window.
+    windows: Vec<Vec<Reply>>,
+    /// Windows in which a boot frame arrived.
+    boots: Vec<usize>,
+    /// Time of the watchdog reset after the start of window K0 (us,
+    /// within 10 us; the watchdog scenario).
+    reset_us: Option<u64>,
+    /// The servo pulses on the pin from window K0 on: start after the
+    /// start of window K0 and width (us; the watchdog scenario).
+    servo_pulses: Vec<(u64, u64)>,
+    /// Largest |p|, |q|, |r| over the flight from K0 on (rad/s).
+    peak_rate: f64,
+    /// Largest |roll|, |pitch| change from period K0 on (rad).
+    peak_tilt: f64,
+    /// Height lost from period K0 to the end of the flight (m).
+    height_lost: f64,
+}
+
+/// The servo pulses on its pin (OC4A, PH3) from samples of its level
+/// (avr-tester 0.6 reaches ports A to H, not the ESCs' port L; the output
+/// watchdog, the failsafe and the reset write all four outputs together).
+#[derive(Debug, Default)]
+struct PulseMeter {
+    high_since: Option<u64>,
+    /// Every complete pulse: start and width (us).
+    pulses: Vec<(u64, u64)>,
+}
+
+/// Whether a measured servo pulse is the safe one (within the 10 us steps).
+fn is_safe_servo(width_us: u64) -> bool {
+    width_us.abs_diff(u64::from(SafeOutput::default().servo)) <= 10
+}
+
+impl PulseMeter {
+    fn sample(&mut self, avr: &mut AvrTester, t_us: u64) {
+        let high = avr.pins().ph3().is_high();
+        match (high, self.high_since) {
+            (true, None) => self.high_since = Some(t_us),
+            (false, Some(t0)) => {
+                self.high_since = None;
+                self.pulses.push((t0, t_us - t0));
+            }
+            _ => {}
+        }
+    }
+}
+
+fn fault_frame(op: u8, arg: u32) -> Vec<u8> {
+    let mut p = [0u8; 5];
+    p[0] = op;
+    p[1..].copy_from_slice(&arg.to_le_bytes());
+    let mut wire = [0u8; MAX_FRAME];
+    let n = Frame::new(Kind::Bench, 0, &p)
+        .unwrap()
+        .encode(&mut wire)
+        .unwrap();
+    wire[..n].to_vec()
+}
+
+fn fly(elf: &Path, sc: &Scenario) -> Outcome {
+    let mut avr = AvrTester::atmega2560().with_clock_of_16_mhz().load(elf);
+    let mut dec = FrameDecoder::new();
+    wait_boot(&mut avr, &mut dec);
+    let mut plant = NonlinearPlant::hovering(PlantConfig::default(), [0.0; 3], 11).unwrap();
+    let throttle = design().trim.hover_throttle as f32;
+    let in_fault = |k: usize| (K0..K0 + sc.len).contains(&k);
+    let mut pwm = SafeOutput::default().pwm(&PwmLimits::default());
+    let mut windows = Vec::with_capacity(FLIGHT);
+    let mut reset_us = None;
+    let mut meter = PulseMeter::default();
+    let mut boots = Vec::new();
+    let mut stuck = [0.0f32; 3];
+    let mut servo_stuck = 1500.0;
+    let (mut peak_rate, mut peak_tilt) = (0.0f64, 0.0f64);
+    let (mut att0, mut z0) = ([0.0; 2], 0.0);
+    for k in 0..FLIGHT {
+        let gyro = plant.measure().map(|g| g as f32);
+        if k == K0 {
+            stuck = gyro;
+            let x = plant.0.state();
+            att0 = [x[idx::PHI], x[idx::THETA]];
+            z0 = x[idx::Z];
+        }
+        let mut cmd = Command {
+            gyro,
+            reference: [0.0; 3],
+            throttle,
+        };
+        let on = in_fault(k);
+        match sc.inject {
+            Inject::GyroStuck if on => cmd.gyro = stuck,
+            Inject::GyroNaN if on => cmd.gyro[0] = f32::NAN,
+            Inject::GyroInf if on => cmd.gyro[2] = f32::INFINITY,
+            Inject::GyroRailed if on => cmd.gyro[1] = FULL_SCALE,
+            _ => {}
+        }
+        let mut wire = [0u8; MAX_FRAME];
+        let n = Frame::new(Kind::Command, k as u8, &cmd.to_payload())
+            .unwrap()
+            .encode(&mut wire)
+            .unwrap();
+        match sc.inject {
+            Inject::DropBurst if on => {}
+            Inject::CorruptBurst if on => {
+                wire[9] ^= 0x04;
+                avr.uart0().write(&wire[..n]);
+            }
+            _ => avr.uart0().write(&wire[..n]),
+        }
+        if k == K0 {
+            match sc.inject {
+                Inject::WatchdogReset => avr.uart0().write(&*fault_frame(HANG, 0)),
+                Inject::SolverStall(c) => avr.uart0().write(&*fault_frame(STALL, c)),
+                _ => {}
+            }
+        }
+        if sc.inject == Inject::WatchdogReset && (K0..K0 + 8).contains(&k) {
+            // The pulses on the pins, measured in 10 us steps (the outputs
+            // while the main loop is hung are the hardware's, not a reply's).
+            // simavr's watchdog reset sets its cycle counter back to 0,
+            // which avr-simulator 0.6.4's `step` subtracts the previous
+            // count from: an overflow panic (printed) in builds with
+            // overflow checks, a short step without. The simulated MCU is
+            // consistent either way: run on.
+            for step in 0..2000 {
+                let run = std::panic::AssertUnwindSafe(|| avr.run_for_us(10));
+                if std::panic::catch_unwind(run).is_err() {
+                    reset_us.get_or_insert(((k - K0) * 20_000 + step * 10) as u64);
+                }
+                meter.sample(&mut avr, ((k - K0) * 20_000 + step * 10) as u64);
+            }
+        } else if sc.inject == Inject::WatchdogReset && k >= K0 {
+            for _ in 0..20 {
+                let run = std::panic::AssertUnwindSafe(|| avr.run_for_ms(1));
+                let _ = std::panic::catch_unwind(run);
+            }
+        } else {
+            avr.run_for(CYCLES_PER_PERIOD);
+        }
+        let frames = read_frames(&mut avr, &mut dec);
+        if frames.iter().any(|f| Boot::from_frame(f).is_ok()) {
+            boots.push(k);
+            // From the reset on the outputs are the safe pulses (init_hw).
+            pwm = SafeOutput::default().pwm(&PwmLimits::default());
+        }
+        // The last reply of the window sets the pulses.
+        let replies: Vec<Reply> = frames
+            .iter()
+            .filter_map(|f| Reply::from_frame(f).ok())
+            .collect();
+        if let Some(r) = replies.last() {
+            pwm = r.pwm;
+        }
+        if sc.inject == Inject::WatchdogReset && (K0..K0 + 8).contains(&k) {
+            // The window's last pulse on the pin: the safe pulses, or the
+            // last reply's (held by the hardware while the loop hangs).
+            if meter.pulses.last().is_some_and(|&(_, w)| is_safe_servo(w)) {
+                pwm = SafeOutput::default().pwm(&PwmLimits::default());
+            }
+        }
+        windows.push(replies);
+        if k == K0 {
+            servo_stuck = f64::from(pwm[3]);
+        }
+        let mut applied = pwm.map(f64::from);
+        if k >= K0 {
+            match sc.inject {
+                Inject::MotorHalfThrust => {
+                    applied[1] = 1000.0 + (applied[1] - 1000.0).max(0.0) / 2f64.sqrt()
+                }
+                Inject::ServoStuck => applied[3] = servo_stuck,
+                _ => {}
+            }
+        }
+        plant.advance(&applied).unwrap();
+        if k >= K0 {
+            let x = plant.0.state();
+            for i in [idx::P, idx::Q, idx::R] {
+                peak_rate = peak_rate.max(x[i].abs());
+            }
+            peak_tilt = peak_tilt
+                .max((x[idx::PHI] - att0[0]).abs())
+                .max((x[idx::THETA] - att0[1]).abs());
+        }
+    }
+    let height_lost = plant.0.state()[idx::Z] - z0;
+    Outcome {
+        replies: windows.concat(),
+        windows,
+        boots,
+        reset_us,
+        servo_pulses: meter.pulses,
+        peak_rate,
+        peak_tilt,
+        height_lost,
+    }
+}
+
+/// The measured row of the fault table.
+#[derive(Debug)]
+struct Row {
+    periods: usize,
+    no_reply: usize,
+    out_of_range: usize,
+    missed: usize,
+    /// First failsafe period from K0, in ms after the fault started.
+    engaged_ms: Option<usize>,
+    /// First period without failsafe after it engaged, in ms after the
+    /// fault ended (after the reboot for the watchdog).
+    released_ms: Option<usize>,
+}
+
+fn row(o: &Outcome, sc: &Scenario) -> Row {
+    let limits = PwmLimits::default();
+    let mut r = Row {
+        periods: o.windows.len(),
+        no_reply: o.windows.len().saturating_sub(o.replies.len()),
+        out_of_range: 0,
+        missed: 0,
+        engaged_ms: None,
+        released_ms: None,
+    };
+    let esc = |w: u16| (limits.esc_min..=limits.esc_max).contains(&w);
+    for rep in &o.replies {
+        let servo = (limits.servo_min..=limits.servo_max).contains(&rep.pwm[3]);
+        if !rep.pwm[..3].iter().all(|&w| esc(w)) || !servo {
+            r.out_of_range += 1;
+        }
+        // Each OVERRUN reports one tick that came while the firmware was
+        // still busy with the period before.
+        if rep.status & status::OVERRUN != 0 {
+            r.missed += 1;
+        }
+    }
+    // Failsafe timing by window (the reply a window brought).
+    let fs = |w: &Vec<Reply>| w.iter().any(|r| r.status & status::FAILSAFE != 0);
+    let end = K0 + sc.len;
+    if sc.inject == Inject::WatchdogReset {
+        // From the pin: the first safe pulse after the hang (the output
+        // watchdog), and the first controlled one after the reset.
+        let p = &o.servo_pulses;
+        let on = p.iter().position(|&(_, w)| is_safe_servo(w));
+        r.engaged_ms = on.map(|i| (p[i].0 / 1000) as usize);
+        let back = on.and_then(|i| p[i..].iter().find(|&&(_, w)| !is_safe_servo(w)));
+        r.released_ms = back
+            .zip(o.reset_us)
+            .map(|(&(t, _), reset)| (t.saturating_sub(reset) / 1000) as usize);
+        return r;
+    }
+    let on = (K0..FLIGHT).find(|&k| fs(&o.windows[k]));
+    r.engaged_ms = on.map(|k| (k - K0) * 20);
+    r.released_ms = on
+        .and_then(|k0| (k0..FLIGHT).find(|&k| !o.windows[k].is_empty() && !fs(&o.windows[k])))
+        .map(|k| k.saturating_sub(end) * 20);
+    r
+}
+
+fn scenarios() -> Vec<Scenario> {
+    let s = |name, inject, len| Scenario { name, inject, len };
+    vec![
+        s("none (reference)", Inject::None, 0),
+        s("gyro stuck", Inject::GyroStuck, 25),
+        s("gyro NaN", Inject::GyroNaN, 5),
+        s("gyro +inf", Inject::GyroInf, 5),
+        s("gyro railed (+full scale)", Inject::GyroRailed, 25),
+        s("5 frames dropped", Inject::DropBurst, 5),
+        s("5 frames corrupted", Inject::CorruptBurst, 5),
+        s(
+            "motor 2 at half thrust",
+            Inject::MotorHalfThrust,
+            FLIGHT - K0,
+        ),
+        s("servo stuck", Inject::ServoStuck, FLIGHT - K0),
+        s("watchdog reset (main loop hung)", Inject::WatchdogReset, 1),
+        // The solver stage's budget is 160,000 cycles (docs/avr-rt.md):
+        // 1.8 times over it, the period still inside its 20 ms.
+        s(
+            "solver 130k cycles over budget",
+            Inject::SolverStall(130_000),
+            1,
+        ),
+        // A solve that ends after the next tick (about 22 ms).
+        s("solver past the next tick", Inject::SolverStall(210_000), 1),
+    ]
+}
+
+fn fmt_ms(v: Option<usize>) -> String {
+    v.map_or("-".to_string(), |ms| format!("{ms} ms"))
+}
+
+fn check_faults(features: &[&str], label: &str) {
+    let elf = build_firmware(features, false);
+    let mut flown = Vec::new();
+    println!(
+        "| {label}: fault | periods | no reply | pulses out of range | missed deadlines | failsafe engaged (after fault start) | released (after fault end) | peak rate (rad/s) | peak roll/pitch change (deg) | height lost (m) |"
+    );
+    for sc in scenarios() {
+        let o = fly(&elf, &sc);
+        let r = row(&o, &sc);
+        println!(
+            "| {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.1} | {:.2} |",
+            sc.name,
+            r.periods,
+            r.no_reply,
+            r.out_of_range,
+            r.missed,
+            fmt_ms(r.engaged_ms),
+            fmt_ms(r.released_ms),
+            o.peak_rate,
+            o.peak_tilt.to_degrees(),
+            o.height_lost
+        );
+        if std::env::var_os("KESTREL_HIL_REPORT").is_some() {
+            println!(
+                "HIL-FAULT {{\"build\": \"{label}\", \"fault\": \"{}\", \"periods\": {}, \"no_reply\": {}, \"out_of_range\": {}, \"missed\": {}, \"engaged_ms\": {}, \"released_ms\": {}, \"peak_rate\": {:.4}, \"peak_tilt\": {:.4}, \"height_lost\": {:.4}}}",
+                sc.name,
+                r.periods,
+                r.no_reply,
+                r.out_of_range,
+                r.missed,
+                r.engaged_ms.map_or(-1, |v| v as i64),
+                r.released_ms.map_or(-1, |v| v as i64),
+                o.peak_rate,
+                o.peak_tilt,
+                o.height_lost
+            );
+        }
+        flown.push((sc, o, r));
+    }
+    for (sc, o, r) in &flown {
+        assert_spec(sc, o, r, label);
+    }
+}
+
+/// The specified behaviour under each fault.
+fn assert_spec(sc: &Scenario, o: &Outcome, r: &Row, label: &str) {
+    let safe = SafeOutput::default().pwm(&PwmLimits::default());
+    let name = format!("{label} {}", sc.name);
+    assert_eq!(r.out_of_range, 0, "{name}: pulses out of range");
+    let expect_missed = usize::from(matches!(sc.inject, Inject::SolverStall(c) if c > 170_000));
+    assert_eq!(r.missed, expect_missed, "{name}: missed deadlines");
+    // Every tick answered but the hung ones (replies[k] is tick k).
+    if sc.inject != Inject::WatchdogReset {
+        assert_eq!(o.replies.len(), FLIGHT, "{name}: every tick answered");
+        for (k, rep) in o.replies.iter().enumerate() {
+            if !(K0..K0 + sc.len + 1).contains(&k) {
+                assert_eq!(rep.cmd_seq, k as u8, "{name}: reply {k} late");
+            }
+        }
+    }
+    let st = |k: usize| o.replies[k].status;
+    let pw = |k: usize| o.replies[k].pwm;
+    match sc.inject {
+        Inject::GyroStuck | Inject::GyroRailed => {
+            // Stuck: the tenth repeat of the reading of K0 engages;
+            // railed: at once. Released by the first live reading.
+            let engage = if sc.inject == Inject::GyroStuck {
+                K0 + 10
+            } else {
+                K0
+            };
+            assert_eq!(st(engage - 1), 0, "{name}: flown until the check");
+            for k in engage..K0 + sc.len {
+                assert_eq!(st(k), status::FAILSAFE, "{name} at {k}");
+                assert_eq!(pw(k), safe, "{name}");
+            }
+            assert_eq!(st(K0 + sc.len), 0, "{name}: released when live");
+        }
+        Inject::GyroNaN | Inject::GyroInf => {
+            for k in K0..K0 + sc.len {
+                assert_eq!(st(k), status::FAILSAFE | status::NON_FINITE, "{name}");
+                assert_eq!(pw(k), safe, "{name}");
+            }
+            assert_eq!(st(K0 + sc.len), 0, "{name}: released");
+        }
+        Inject::DropBurst | Inject::CorruptBurst => {
+            assert_eq!(st(K0), status::HOLD, "{name}: one period held");
+            assert_eq!(pw(K0), pw(K0 - 1), "{name}: held");
+            for k in K0 + 1..K0 + sc.len {
+                assert_eq!(st(k), status::FAILSAFE | status::TIMEOUT, "{name} at {k}");
+                assert_eq!(pw(k), safe, "{name}");
+            }
+            assert_eq!(st(K0 + sc.len), 0, "{name}: released");
+        }
+        Inject::None | Inject::MotorHalfThrust | Inject::ServoStuck => {
+            // Not visible to the firmware as a fault: flown on.
+            assert!(
+                o.replies.iter().all(|r| r.status == 0),
+                "{name}: no failsafe"
+            );
+        }
+        Inject::SolverStall(c) => {
+            let late = o.replies[K0];
+            assert!(
+                late.solver_cycles >= c,
+                "{name}: the stall was in the solver stage"
+            );
+            assert!(o.replies.iter().all(|r| r.status & status::FAILSAFE == 0));
+            if expect_missed == 0 {
+                assert!(late.period_cycles < CYCLES_PER_PERIOD as u32, "{name}");
+                assert!(o.replies.iter().all(|r| r.status == 0), "{name}");
+            } else {
+                // The tick came during the solve: the late outputs are
+                // written, the next period runs at once on its own
+                // command (decoded after the tick) and reports OVERRUN;
+                // the one after is on time again.
+                assert!(late.period_cycles >= CYCLES_PER_PERIOD as u32, "{name}");
+                assert_eq!(st(K0 + 1), status::OVERRUN, "{name}");
+                assert_eq!(o.replies[K0 + 1].cmd_seq, (K0 + 1) as u8, "{name}");
+                assert_eq!(st(K0 + 2), 0, "{name}");
+            }
+        }
+        Inject::WatchdogReset => {
+            // The hang at K0: no reply until the reset (64 ms after the
+            // watchdog's last restart, at the end of period K0 - 1), then
+            // a boot frame; the outputs are the safe pulses from the reset
+            // until a valid command, then every tick is answered.
+            assert_eq!(o.boots.len(), 1, "{name}: one reboot");
+            let reset = o.reset_us.expect("a watchdog reset") / 1000;
+            assert!((40..=80).contains(&reset), "{name}: reset at {reset} ms");
+            // The output watchdog: the held pulses for one period, the safe
+            // ones from the second (before the reset).
+            let on = r.engaged_ms.expect("safe pulses on the pin");
+            assert!(
+                on <= 40 && (on as u64) < reset,
+                "{name}: safe pulses at {on} ms"
+            );
+            let b = o.boots[0];
+            for k in K0..b {
+                assert!(o.windows[k].is_empty(), "{name}: hung at {k}");
+            }
+            let answered: Vec<&Reply> = o.windows[b..].iter().flatten().collect();
+            assert_eq!(
+                answered.len(),
+                FLIGHT - b - 1,
+                "{name}: every tick after the boot"
+            );
+            let back = answered.iter().position(|r| r.status == 0).unwrap();
+            for r in &answered[..back] {
+                assert_ne!(r.status & status::FAILSAFE, 0, "{name}");
+                assert_eq!(r.pwm, safe, "{name}");
+            }
+            assert!(answered[back..].iter().all(|r| r.status == 0), "{name}");
+            assert!(r.released_ms.unwrap() <= 60, "{name}: released");
+        }
+    }
+}
+
+#[test]
+fn hil_faults_f32() {
+    check_faults(&["hil-faults"], "f32");
+}
+
+#[test]
+fn hil_faults_fixed_q16_mac() {
+    check_faults(&["fixed-mac", "hil-faults"], "fixed-mac");
+}
