@@ -5,8 +5,8 @@
 //! - Timer4: fast PWM mode 14, 0.5 us ticks, TOP 39999 (50 Hz): servo on
 //!   OC4A (PH3); its overflow flag paces the 50 Hz loop; its compare B
 //!   interrupt, 15 ms into each period, is the output watchdog (safe
-//!   pulses once the main loop has not written the outputs for two
-//!   periods);
+//!   pulses once the main loop has not written the outputs through two
+//!   whole periods);
 //! - Timer5: fast PWM mode 14, 0.5 us ticks, TOP 4999 (400 Hz): ESC 1-3 on
 //!   OC5A/OC5B/OC5C (PL3/PL4/PL5);
 //! - USART0: 250000 baud 8N1 (UBRR 3, exact at 16 MHz), receive interrupt
@@ -233,18 +233,20 @@ unsafe impl Sync for Stale {}
 static STALE: Stale = Stale(UnsafeCell::new(0));
 
 /// Timer4 compare match B, 15 ms into every 20 ms period: the output
-/// watchdog. The main loop writes the outputs at most about 10 ms into a
-/// period (22 ms after an overrun), so a second interrupt without a write
-/// means it has missed two periods (hung or stalled): the safe pulses are
-/// written here, as the failsafe does after two periods without a valid
-/// frame. The watchdog timer then resets a hung MCU.
+/// watchdog. The main loop writes the outputs about 10 ms into a period
+/// (later after an overrun), which sets the count back to 0; this
+/// interrupt counts up. At 3 the outputs were not written through the
+/// last two whole periods (hung or stalled): the safe pulses are written
+/// here (the ESCs take them within 2.5 ms, the servo at the next period),
+/// as the failsafe does after two periods without a valid frame. The
+/// watchdog timer then resets a hung MCU.
 #[unsafe(no_mangle)]
 pub unsafe extern "avr-interrupt" fn __vector_43() {
     // SAFETY: interrupt context (interrupts off), see `Stale`.
     unsafe {
         let n = read_volatile(STALE.0.get()).saturating_add(1);
         write_volatile(STALE.0.get(), n);
-        if n >= 2 {
+        if n >= 3 {
             write_pwm(&SafeOutput::default().pwm(&PwmLimits::default()));
         }
     }

@@ -194,9 +194,11 @@ fn fly(elf: &Path, sc: &Scenario) -> Outcome {
                 _ => {}
             }
         }
-        if sc.inject == Inject::WatchdogReset && (K0..K0 + 8).contains(&k) {
-            // The pulses on the pins, measured in 10 us steps (the outputs
-            // while the main loop is hung are the hardware's, not a reply's).
+        let firmware_fault = matches!(sc.inject, Inject::WatchdogReset | Inject::SolverStall(_));
+        if firmware_fault && (K0..K0 + 8).contains(&k) {
+            // The servo pulses on its pin, measured in 10 us steps (the
+            // outputs while the main loop is hung or late are the
+            // hardware's and the output watchdog's, not a reply's).
             // simavr's watchdog reset sets its cycle counter back to 0,
             // which avr-simulator 0.6.4's `step` subtracts the previous
             // count from: an overflow panic (printed) in builds with
@@ -231,7 +233,7 @@ fn fly(elf: &Path, sc: &Scenario) -> Outcome {
         if let Some(r) = replies.last() {
             pwm = r.pwm;
         }
-        if sc.inject == Inject::WatchdogReset && (K0..K0 + 8).contains(&k) {
+        if firmware_fault && (K0..K0 + 8).contains(&k) {
             // The window's last pulse on the pin: the safe pulses, or the
             // last reply's (held by the hardware while the loop hangs).
             if meter.pulses.last().is_some_and(|&(_, w)| is_safe_servo(w)) {
@@ -475,6 +477,14 @@ fn assert_spec(sc: &Scenario, o: &Outcome, r: &Row, label: &str) {
                 late.solver_cycles >= c,
                 "{name}: the stall was in the solver stage"
             );
+            // The output watchdog stays quiet: one late period is not two
+            // periods without outputs.
+            assert!(o.servo_pulses.len() >= 7, "{name}: servo pulses measured");
+            assert!(
+                o.servo_pulses.iter().all(|&(_, w)| !is_safe_servo(w)),
+                "{name}: safe pulses on the pin {:?}",
+                o.servo_pulses
+            );
             assert!(o.replies.iter().all(|r| r.status & status::FAILSAFE == 0));
             if expect_missed == 0 {
                 assert!(late.period_cycles < CYCLES_PER_PERIOD as u32, "{name}");
@@ -498,11 +508,13 @@ fn assert_spec(sc: &Scenario, o: &Outcome, r: &Row, label: &str) {
             assert_eq!(o.boots.len(), 1, "{name}: one reboot");
             let reset = o.reset_us.expect("a watchdog reset") / 1000;
             assert!((40..=80).contains(&reset), "{name}: reset at {reset} ms");
-            // The output watchdog: the held pulses for one period, the safe
-            // ones from the second (before the reset).
+            // The output watchdog: the held pulses through the two periods
+            // the loop did not write, then the safe ones (written 15 ms
+            // into the second; on the servo pin from the next period, on
+            // the ESCs' within 2.5 ms), before the reset.
             let on = r.engaged_ms.expect("safe pulses on the pin");
             assert!(
-                on <= 40 && (on as u64) < reset,
+                on <= 45 && (on as u64) < reset,
                 "{name}: safe pulses at {on} ms"
             );
             let b = o.boots[0];
