@@ -70,6 +70,8 @@ mod generated_empc_ns2;
 /// Fault injection for the HIL test.
 #[cfg(feature = "hil-faults")]
 mod faults;
+#[cfg(all(feature = "hil-faults", feature = "empc-check"))]
+compile_error!("`hil-faults` wraps the law; `empc-check` needs the bare explicit law");
 /// Controller tables in flash (see tables.rs).
 mod tables;
 use tables::*;

@@ -61,8 +61,9 @@ enum Inject {
     ServoStuck,
     /// The main loop hangs at K0; the watchdog resets the MCU.
     WatchdogReset,
-    /// The solve of period K0 takes this many cycles more.
-    SolverStall(u32),
+    /// The solve of period K0 takes this many cycles more; `true`: enough
+    /// to end after the next tick.
+    SolverStall(u32, bool),
 }
 
 struct Scenario {
@@ -190,11 +191,11 @@ fn fly(elf: &Path, sc: &Scenario) -> Outcome {
         if k == K0 {
             match sc.inject {
                 Inject::WatchdogReset => avr.uart0().write(&*fault_frame(HANG, 0)),
-                Inject::SolverStall(c) => avr.uart0().write(&*fault_frame(STALL, c)),
+                Inject::SolverStall(c, _) => avr.uart0().write(&*fault_frame(STALL, c)),
                 _ => {}
             }
         }
-        let firmware_fault = matches!(sc.inject, Inject::WatchdogReset | Inject::SolverStall(_));
+        let firmware_fault = matches!(sc.inject, Inject::WatchdogReset | Inject::SolverStall(..));
         if firmware_fault && (K0..K0 + 8).contains(&k) {
             // The servo pulses on its pin, measured in 10 us steps (the
             // outputs while the main loop is hung or late are the
@@ -337,7 +338,9 @@ fn row(o: &Outcome, sc: &Scenario) -> Row {
     r
 }
 
-fn scenarios() -> Vec<Scenario> {
+/// The scenarios; the solver stalls are `within` (the period still ends
+/// before the next tick) and `past` (it does not) cycles.
+fn scenarios(within: u32, past: u32) -> Vec<Scenario> {
     let s = |name, inject, len| Scenario { name, inject, len };
     vec![
         s("none (reference)", Inject::None, 0),
@@ -354,15 +357,16 @@ fn scenarios() -> Vec<Scenario> {
         ),
         s("servo stuck", Inject::ServoStuck, FLIGHT - K0),
         s("watchdog reset (main loop hung)", Inject::WatchdogReset, 1),
-        // The solver stage's budget is 160,000 cycles (docs/avr-rt.md):
-        // 1.8 times over it, the period still inside its 20 ms.
         s(
-            "solver 130k cycles over budget",
-            Inject::SolverStall(130_000),
+            "solver over its budget, within the period",
+            Inject::SolverStall(within, false),
             1,
         ),
-        // A solve that ends after the next tick (about 22 ms).
-        s("solver past the next tick", Inject::SolverStall(210_000), 1),
+        s(
+            "solver past the next tick",
+            Inject::SolverStall(past, true),
+            1,
+        ),
     ]
 }
 
@@ -370,13 +374,16 @@ fn fmt_ms(v: Option<usize>) -> String {
     v.map_or("-".to_string(), |ms| format!("{ms} ms"))
 }
 
-fn check_faults(features: &[&str], label: &str) {
+/// Flies every scenario with the firmware built with `features`, prints
+/// the table and checks the specification; `stalls`: the solver stalls
+/// (within the period, past the next tick) in cycles.
+fn check_faults(features: &[&str], label: &str, stalls: (u32, u32)) {
     let elf = build_firmware(features, false);
     let mut flown = Vec::new();
     println!(
         "| {label}: fault | periods | no reply | pulses out of range | missed deadlines | failsafe engaged (after fault start) | released (after fault end) | peak rate (rad/s) | peak roll/pitch change (deg) | height lost (m) |"
     );
-    for sc in scenarios() {
+    for sc in scenarios(stalls.0, stalls.1) {
         let o = fly(&elf, &sc);
         let r = row(&o, &sc);
         println!(
@@ -419,7 +426,7 @@ fn assert_spec(sc: &Scenario, o: &Outcome, r: &Row, label: &str) {
     let safe = SafeOutput::default().pwm(&PwmLimits::default());
     let name = format!("{label} {}", sc.name);
     assert_eq!(r.out_of_range, 0, "{name}: pulses out of range");
-    let expect_missed = usize::from(matches!(sc.inject, Inject::SolverStall(c) if c > 170_000));
+    let expect_missed = usize::from(matches!(sc.inject, Inject::SolverStall(_, true)));
     assert_eq!(r.missed, expect_missed, "{name}: missed deadlines");
     // Every tick answered but the hung ones (replies[k] is tick k).
     if sc.inject != Inject::WatchdogReset {
@@ -471,7 +478,7 @@ fn assert_spec(sc: &Scenario, o: &Outcome, r: &Row, label: &str) {
                 "{name}: no failsafe"
             );
         }
-        Inject::SolverStall(c) => {
+        Inject::SolverStall(c, _) => {
             let late = o.replies[K0];
             assert!(
                 late.solver_cycles >= c,
@@ -522,10 +529,12 @@ fn assert_spec(sc: &Scenario, o: &Outcome, r: &Row, label: &str) {
                 assert!(o.windows[k].is_empty(), "{name}: hung at {k}");
             }
             let answered: Vec<&Reply> = o.windows[b..].iter().flatten().collect();
-            assert_eq!(
-                answered.len(),
-                FLIGHT - b - 1,
-                "{name}: every tick after the boot"
+            // One tick per window from the boot's on; the last one's reply
+            // may come after the flight (the ticks' new phase).
+            assert!(
+                (FLIGHT - b - 1..=FLIGHT - b).contains(&answered.len()),
+                "{name}: every tick after the boot ({} replies)",
+                answered.len()
             );
             let back = answered.iter().position(|r| r.status == 0).unwrap();
             for r in &answered[..back] {
@@ -540,10 +549,28 @@ fn assert_spec(sc: &Scenario, o: &Outcome, r: &Row, label: &str) {
 
 #[test]
 fn hil_faults_f32() {
-    check_faults(&["hil-faults"], "f32");
+    // The fast gradient's solver stage is designed for 160,000 cycles
+    // (docs/avr-rt.md): 130k more is 1.8 times its budget with the period
+    // still inside its 20 ms; 210k more ends about 22 ms after the tick.
+    check_faults(&["hil-faults"], "f32", (130_000, 210_000));
 }
 
 #[test]
 fn hil_faults_fixed_q16_mac() {
-    check_faults(&["fixed-mac", "hil-faults"], "fixed-mac");
+    check_faults(
+        &["fixed-mac", "hil-faults"],
+        "fixed-mac",
+        (130_000, 210_000),
+    );
+}
+
+/// The explicit MPC (about 8,000 solver cycles, a 28,000-cycle period):
+/// 200k more still ends inside the period, 330k more past the next tick.
+#[test]
+fn hil_faults_empc_fixed_q16_mac() {
+    check_faults(
+        &["empc", "fixed-mac", "hil-faults"],
+        "empc fixed-mac",
+        (200_000, 330_000),
+    );
 }
