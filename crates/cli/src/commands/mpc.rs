@@ -216,7 +216,9 @@ const TRICOPTER_INPUTS: [&str; 4] = ["pwm1", "pwm2", "pwm3", "servo"];
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let spinner = crate::progress::Spinner::new("condensing the MPC problem");
     let problem = build(&args)?;
+    drop(spinner);
     // The model's fingerprint lets `kestrel export` check the problem's states.
     let model = SsModel::read(&args.model).with_context(|| format!("{}", args.model.display()))?;
     let text = problem.to_mpqp().to_json_string_for_model(&model);
