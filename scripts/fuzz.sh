@@ -7,7 +7,7 @@
 # fuzz/artifacts/<target>/).
 #
 #   scripts/fuzz.sh                  every target, 1,000,000 executions each
-#   scripts/fuzz.sh --smoke          every target, 2,000 executions (CI)
+#   scripts/fuzz.sh --smoke          every target, 2,000 executions, unoptimised build (CI)
 #   scripts/fuzz.sh --runs N ss csv_log   N executions of the targets named
 #
 # Needs the pinned nightly (avr/rust-toolchain.toml) and cargo-fuzz; a
@@ -60,6 +60,9 @@ FUZZ=(cargo "+$NIGHTLY" fuzz)
 # (debug assertions are on), aborts, the allocation limit and timeouts are
 # what is caught, at about twice the speed of AddressSanitizer.
 OPTS=(--sanitizer none --fuzz-dir fuzz)
+# The smoke builds without optimisation: half the cold build time, and
+# its few thousand runs take seconds even so.
+((SMOKE)) && OPTS+=(--dev)
 
 start=$(date +%s)
 "${FUZZ[@]}" build "${OPTS[@]}" >&2
