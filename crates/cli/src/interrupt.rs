@@ -1,5 +1,7 @@
 //! Ctrl-C: an interrupted command exits with status 130 and leaves
-//! nothing behind.
+//! nothing behind; so does one stopped by SIGTERM (`kill`, `timeout`) or
+//! SIGHUP (a closed terminal), also with 130: the handler is not told
+//! which signal came.
 //!
 //! Outputs are staged in temporary files ([`crate::io::Outputs`]) and a
 //! report in a staging directory ([`crate::report::ReportDir`]); both are
@@ -8,7 +10,9 @@
 //! `.name.XXXX.tmp` files and `.report.partial-*` directories behind.
 //!
 //! Every such leftover is registered here while it exists. The handler
-//! (the `ctrlc` crate: it waits for the signal on a thread of its own, so
+//! (the `ctrlc` crate with its `termination` feature, chosen over
+//! signal-hook for its one call that installs a portable handler: it
+//! waits for the signal on a thread of its own, so
 //! the handler is ordinary code that may lock a mutex and remove files,
 //! unlike a raw signal handler) removes what is registered and exits with
 //! 130 (128 + SIGINT, what a shell reports for a process killed by Ctrl-C).

@@ -40,7 +40,19 @@ fn exit_code(child: &mut Child, seconds: u64) -> Option<i32> {
 
 #[test]
 fn ctrl_c_stops_the_pipeline_leaving_no_partial_report() {
-    let dir = temp_dir("interrupt-pipeline");
+    stop_the_pipeline("INT");
+}
+
+/// `kill` and `timeout` send SIGTERM: the same clean stop.
+#[test]
+fn sigterm_stops_the_pipeline_leaving_no_partial_report() {
+    stop_the_pipeline("TERM");
+}
+
+/// Starts `kestrel pipeline`, sends `signal` once the report is being
+/// built, and checks that it stops with 130 and leaves nothing behind.
+fn stop_the_pipeline(signal: &str) {
+    let dir = temp_dir(&format!("interrupt-pipeline-{signal}"));
     let mut child = Command::new(env!("CARGO_BIN_EXE_kestrel"))
         .args(["pipeline", "--quick", "--out", "report"])
         .current_dir(&dir)
@@ -64,7 +76,11 @@ fn ctrl_c_stops_the_pipeline_leaving_no_partial_report() {
         child.try_wait().unwrap().is_none(),
         "the pipeline ended early"
     );
-    interrupt(child.id());
+    let sent = Command::new("kill")
+        .args([&format!("-{signal}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
     let code = exit_code(&mut child, 30);
     let mut err = String::new();
     std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
