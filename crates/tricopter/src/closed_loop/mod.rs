@@ -25,7 +25,7 @@ pub use plant::{LinearPlant, NonlinearPlant, PlantKind, RatePlant};
 pub use run::{run_mpc, run_pid};
 pub use scenario::{ReferenceStep, Scenario};
 pub use settings::RunSettings;
-pub use trace::{StepMetrics, Trace, TraceRow};
+pub use trace::{DIVERGENCE_MIN_BOUND, StepMetrics, Trace, TraceRow};
 
 #[cfg(test)]
 mod tests;
