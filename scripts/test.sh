@@ -23,6 +23,8 @@ echo "== cargo test --workspace (unit, integration and doc tests)"
 cargo test --workspace
 echo "== AVR builds"
 bash scripts/avr-check.sh
+echo "== fuzz smoke (every cargo-fuzz target, 2,000 runs each; the full run and its report: scripts/fuzz.sh, docs/fuzz.md)"
+bash scripts/fuzz.sh --smoke
 echo "== cargo package (publishable crates, each verified by building it alone from its package)"
 # Verification builds each crate against a local registry of the packages
 # just made, which cargo unpacks under ~/.cargo/registry/src/<hash of the
