@@ -26,19 +26,24 @@ pub type Object = Map<String, Value>;
 /// not JSON; rather than a bare syntax error, they are read as strings so
 /// that the getters can name the key holding the non-finite value.
 pub fn parse_object(text: &str) -> Result<Object, FormatError> {
-    let value: Value = match serde_json::from_str(text) {
-        Ok(v) => v,
+    match parse_value(text)? {
+        Value::Object(m) => Ok(m),
+        _ => Err(FormatError::NotAnObject),
+    }
+}
+
+/// Parses text into a JSON value of any kind (an object, an array, ...),
+/// reading bare `NaN`/`Infinity` tokens as strings as [`parse_object`] does.
+pub fn parse_value(text: &str) -> Result<Value, FormatError> {
+    match serde_json::from_str(text) {
+        Ok(v) => Ok(v),
         Err(e) => {
             let quoted = quote_non_finite_tokens(text);
             match serde_json::from_str(&quoted) {
-                Ok(v) if quoted != text => v,
-                _ => return Err(FormatError::Json(e)),
+                Ok(v) if quoted != text => Ok(v),
+                _ => Err(FormatError::Json(e)),
             }
         }
-    };
-    match value {
-        Value::Object(m) => Ok(m),
-        _ => Err(FormatError::NotAnObject),
     }
 }
 
@@ -99,7 +104,8 @@ pub fn check_format(obj: &Object, expected: &'static str) -> Result<(), FormatEr
     }
 }
 
-fn describe(v: &Value) -> String {
+/// A short description of a value for error messages (`an array of 3 entries`).
+pub(super) fn describe(v: &Value) -> String {
     match v {
         Value::Null => "null".into(),
         Value::Bool(b) => format!("the boolean {b}"),

@@ -1,4 +1,6 @@
-//! The JSON interchange formats of `shared/FORMATS.md` (feature `std`).
+//! The JSON interchange formats of `shared/FORMATS.md` (feature `std`),
+//! and the two small text inputs of the `kestrel` command: matrix files
+//! ([`matrix_from_text`]) and parameter rows ([`parameter_rows`]).
 //!
 //! Readers reject an unknown `format`, a missing key, a wrong dimension or a
 //! non-finite number with a [`FormatError`] that names the key and the
@@ -10,10 +12,14 @@
 use std::{borrow::ToOwned, format, string::String, string::ToString, vec, vec::Vec};
 
 pub mod json;
+mod matrix_file;
 mod mpqp;
+mod params;
 mod ss;
 
+pub use matrix_file::matrix_from_text;
 pub use mpqp::MpqpProblem;
+pub use params::parameter_rows;
 pub use ss::SsModel;
 
 /// What went wrong reading an interchange file.
@@ -65,6 +71,16 @@ pub enum FormatError {
         /// The key.
         key: String,
         /// The rule that is broken.
+        reason: String,
+    },
+    /// A line of a text table ([`parameter_rows`]) is wrong.
+    #[error("line {line}{}: {reason}", .column.map_or_else(String::new, |c| format!(", column {c}")))]
+    Line {
+        /// The line, counted from 1 (blank lines included).
+        line: usize,
+        /// The column (field) counted from 1, when one field is wrong.
+        column: Option<usize>,
+        /// What is wrong.
         reason: String,
     },
     /// The file could not be read or written.
