@@ -2,7 +2,7 @@
 
 use crate::io;
 use anyhow::{Context, bail};
-use kestrel_core::formats::MpqpProblem;
+use kestrel_core::formats::{MpqpProblem, parameter_rows};
 use kestrel_empc::eval::{TreeIndex, TreeTables};
 use kestrel_empc::export::{self, ExportScalar, SolutionTables};
 use kestrel_empc::tree::{AnyTables, TreeLayout, build_any};
@@ -343,51 +343,23 @@ fn run_eval(a: EvalArgs) -> anyhow::Result<()> {
 
 fn eval_with<I: TreeIndex, T: TreeTables<f64, I>>(a: &EvalArgs, t: &T) -> anyhow::Result<()> {
     let p = t.n_params();
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .trim(csv::Trim::All)
-        .from_path(&a.thetas)
-        .with_context(|| format!("reading {}", a.thetas.display()))?;
+    let thetas = parameter_rows(&read_text(&a.thetas)?, p)
+        .with_context(|| a.thetas.display().to_string())?;
     let mut out = String::new();
-    let mut theta = vec![0.0; p];
     let mut scratch = vec![0.0; p];
     let mut z = vec![0.0; t.n_outputs()];
     let mut outside = 0usize;
-    let mut count = 0usize;
-    for (line, rec) in reader.records().enumerate() {
-        let rec = rec.with_context(|| format!("{}: row {}", a.thetas.display(), line + 1))?;
-        if rec.len() != p {
-            bail!(
-                "{}: row {} has {} values, expected {p} (one per parameter)",
-                a.thetas.display(),
-                line + 1,
-                rec.len()
-            );
-        }
-        for (j, field) in rec.iter().enumerate() {
-            theta[j] = field
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .with_context(|| {
-                    format!(
-                        "{}: row {}, column {}: expected a finite number, found {field:?}",
-                        a.thetas.display(),
-                        line + 1,
-                        j + 1
-                    )
-                })?;
-        }
-        let e = evaluate_with(t, &theta, &mut scratch, &mut z)
-            .map_err(|e| anyhow::anyhow!("{}: row {}: {e}", a.thetas.display(), line + 1))?;
+    for (row, theta) in thetas.iter().enumerate() {
+        let e = evaluate_with(t, theta, &mut scratch, &mut z)
+            .map_err(|e| anyhow::anyhow!("{}: row {}: {e}", a.thetas.display(), row + 1))?;
         outside += usize::from(e.outside);
-        count += 1;
         let row: Vec<String> = z.iter().map(|v| format!("{v:?}")).collect();
         let _ = writeln!(out, "{}", row.join(","));
     }
     if outside > 0 {
         eprintln!(
-            "warning: {outside} of {count} parameters lie outside the explored set; their rows are the nearest region's law clamped to the bounds"
+            "warning: {outside} of {} parameters lie outside the explored set; their rows are the nearest region's law clamped to the bounds",
+            thetas.len()
         );
     }
     io::write_output(a.out.as_deref(), &out)

@@ -2,7 +2,7 @@
 
 use crate::io;
 use anyhow::{Context, bail};
-use kestrel_core::formats::MpqpProblem;
+use kestrel_core::formats::{MpqpProblem, parameter_rows};
 use kestrel_fgm::{
     AppliedInputs, BoxQp, ExportScalar, FgmDesign, FgmSettings, Momentum, Preconditioner, Start,
     WarmStartAssumption,
@@ -328,46 +328,7 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
 
 fn read_thetas(path: &Path, p: usize) -> anyhow::Result<Vec<Vec<f64>>> {
     let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-    let mut rows = Vec::new();
-    for (k, line) in text.lines().enumerate() {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let row: Vec<f64> = line
-            .split(',')
-            .enumerate()
-            .map(|(j, s)| {
-                let v: f64 = s.trim().parse().with_context(|| {
-                    format!(
-                        "{}: line {}, column {}: {:?} is not a number",
-                        path.display(),
-                        k + 1,
-                        j + 1,
-                        s.trim()
-                    )
-                })?;
-                if !v.is_finite() {
-                    bail!(
-                        "{}: line {}, column {}: non-finite value",
-                        path.display(),
-                        k + 1,
-                        j + 1
-                    );
-                }
-                Ok(v)
-            })
-            .collect::<anyhow::Result<_>>()?;
-        if row.len() != p {
-            bail!(
-                "{}: line {}: expected {p} numbers (one theta), found {}",
-                path.display(),
-                k + 1,
-                row.len()
-            );
-        }
-        rows.push(row);
-    }
-    Ok(rows)
+    parameter_rows(&text, p).with_context(|| format!("{}", path.display()))
 }
 
 fn solve(a: SolveArgs) -> anyhow::Result<()> {

@@ -3,7 +3,7 @@
 use crate::io;
 use anyhow::{Context, bail};
 use kestrel_core::formats::SsModel;
-use kestrel_core::formats::json;
+use kestrel_core::formats::matrix_from_text;
 use kestrel_kalman::{KalmanDesign, NoiseModel};
 use nalgebra::{DMatrix, DVector};
 use std::path::{Path, PathBuf};
@@ -149,7 +149,8 @@ fn covariance(arg: &str, key: &str, n: usize) -> anyhow::Result<DMatrix<f64>> {
     read_matrix(path, key, Some(n), Some(n))
 }
 
-/// Reads a JSON matrix file: a bare array of rows, or an object holding `key`.
+/// Reads a JSON matrix file ([`matrix_from_text`]: a bare array of rows, or
+/// an object holding `key`).
 fn read_matrix(
     path: &Path,
     key: &str,
@@ -157,13 +158,5 @@ fn read_matrix(
     cols: Option<usize>,
 ) -> anyhow::Result<DMatrix<f64>> {
     let text = kestrel_core::formats::read_text(path)?;
-    // A bare array of rows is read as the object {key: array}, so that the
-    // checked getters (which name non-finite entries) apply to both forms.
-    let obj = if text.trim_start().starts_with('[') {
-        json::parse_object(&format!("{{\"{key}\": {text}}}"))
-    } else {
-        json::parse_object(&text)
-    }
-    .with_context(|| format!("{}", path.display()))?;
-    json::matrix(&obj, key, rows, cols).with_context(|| format!("{}", path.display()))
+    matrix_from_text(&text, key, rows, cols).with_context(|| format!("{}", path.display()))
 }

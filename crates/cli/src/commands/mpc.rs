@@ -3,7 +3,7 @@
 
 use crate::io;
 use anyhow::{Context, bail};
-use kestrel_core::formats::{SsModel, json};
+use kestrel_core::formats::{SsModel, matrix_from_text};
 use kestrel_mpc::{
     Blocking, InputBounds, MpcProblem, MpcSettings, Terminal, ThrottleParameter, Weight,
 };
@@ -108,14 +108,12 @@ pub fn parse_weight(text: &str, what: &str) -> anyhow::Result<Weight> {
     Ok(Weight::Matrix(read_matrix(Path::new(text), what)?))
 }
 
-/// Reads a JSON file holding one matrix (an array of rows).
+/// Reads a JSON matrix file ([`matrix_from_text`]: an array of rows, or an
+/// object holding it under the key `what`).
 pub fn read_matrix(path: &Path, what: &str) -> anyhow::Result<DMatrix<f64>> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("{what}: reading {}", path.display()))?;
-    let value: serde_json::Value = serde_json::from_str(&text)
-        .with_context(|| format!("{what}: {} is not JSON", path.display()))?;
-    json::matrix_value(&value, what, None, None)
-        .with_context(|| format!("{what}: {}", path.display()))
+    matrix_from_text(&text, what, None, None).with_context(|| format!("{what}: {}", path.display()))
 }
 
 /// The problem described by the arguments.
