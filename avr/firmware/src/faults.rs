@@ -6,20 +6,81 @@
 //! - [`HANG`]: the main loop stops (spins with interrupts on and without
 //!   resetting the watchdog), as a firmware stuck in a loop would: the
 //!   watchdog resets the MCU.
-//! - [`STALL`]: the next period's law runs `arg` cycles longer, as a
-//!   solver overrunning its time budget would ([`Stall`]).
+//! - [`STALL`]: the next period's solver runs slower, as a CPU stolen by
+//!   interrupts or a slower clock would make it: in the fast-gradient
+//!   builds each of its iterations takes `arg` cycles more ([`Slowed`],
+//!   through the solver's deadline hook, so its cycle budget sees the
+//!   overrun and stops the iterations); in the explicit-MPC builds (no
+//!   iterations: a tree walk bounded by its depth) the law's call takes
+//!   `arg` cycles more ([`Stall`]).
 
+#[cfg(feature = "empc")]
 use kestrel_avr_rt::control::LawInfo;
 use kestrel_avr_rt::cycles::CycleClock;
+#[cfg(not(feature = "empc"))]
+use kestrel_avr_rt::cycles::Deadline;
 use kestrel_avr_rt::cycles::timer1::Timer1Clock;
+#[cfg(feature = "empc")]
 use kestrel_core::{ControlLaw, Error};
 
 /// Op code: hang the main loop (the watchdog resets the MCU).
 pub const HANG: u8 = 1;
-/// Op code: the next solve takes `arg` more cycles.
+/// Op code: the next solve takes `arg` more cycles per iteration (fast
+/// gradient) or in all (explicit MPC).
 pub const STALL: u8 = 2;
 
-/// A law that takes `extra` more cycles in its next call (then 0 again).
+/// Busy-waits `cycles` cycles on `clock`.
+fn spin(clock: &Timer1Clock, cycles: u32) {
+    let t0 = clock.now();
+    while clock.now().wrapping_sub(t0) < cycles {}
+}
+
+/// A deadline whose every check first takes `extra` cycles: each
+/// iteration of the solver asking it runs `extra` cycles longer.
+#[cfg(not(feature = "empc"))]
+pub struct Slowed<D> {
+    /// The deadline.
+    pub inner: D,
+    /// Extra cycles per iteration.
+    pub extra: u32,
+    clock: Timer1Clock,
+}
+
+#[cfg(not(feature = "empc"))]
+impl<D> Slowed<D> {
+    /// Wraps `inner`, timing the extra work with `clock`.
+    pub fn new(inner: D, clock: Timer1Clock) -> Self {
+        Slowed {
+            inner,
+            extra: 0,
+            clock,
+        }
+    }
+}
+
+#[cfg(not(feature = "empc"))]
+impl<C: CycleClock, const STRIDE: u16> Slowed<kestrel_avr_rt::cycles::CycleBudget<C, STRIDE>> {
+    /// Starts the budget at `start` ([`CycleBudget::restart_at`]).
+    ///
+    /// [`CycleBudget::restart_at`]: kestrel_avr_rt::cycles::CycleBudget::restart_at
+    pub fn restart_at(&mut self, start: u32) {
+        self.inner.restart_at(start);
+    }
+}
+
+#[cfg(not(feature = "empc"))]
+impl<D: Deadline> Deadline for Slowed<D> {
+    // Asked before every STRIDE-th iteration: the extra cycles of the
+    // STRIDE iterations up to the next question.
+    const STRIDE: u16 = D::STRIDE;
+    fn expired(&mut self) -> bool {
+        spin(&self.clock, self.extra.saturating_mul(u32::from(D::STRIDE)));
+        self.inner.expired()
+    }
+}
+
+/// A law that takes `extra` more cycles in its next call.
+#[cfg(feature = "empc")]
 pub struct Stall<L> {
     /// The law.
     pub inner: L,
@@ -28,6 +89,7 @@ pub struct Stall<L> {
     clock: Timer1Clock,
 }
 
+#[cfg(feature = "empc")]
 impl<L> Stall<L> {
     /// Wraps `inner`, timing the extra work with `clock`.
     pub fn new(inner: L, clock: Timer1Clock) -> Self {
@@ -39,6 +101,7 @@ impl<L> Stall<L> {
     }
 }
 
+#[cfg(feature = "empc")]
 impl<L: ControlLaw> ControlLaw for Stall<L> {
     type Scalar = L::Scalar;
     fn nx(&self) -> usize {
@@ -57,13 +120,12 @@ impl<L: ControlLaw> ControlLaw for Stall<L> {
         u: &mut [L::Scalar],
     ) -> Result<(), Error> {
         let res = self.inner.control(x, r, u);
-        let t0 = self.clock.now();
-        while self.clock.now().wrapping_sub(t0) < self.extra {}
-        self.extra = 0;
+        spin(&self.clock, self.extra);
         res
     }
 }
 
+#[cfg(feature = "empc")]
 impl<L: LawInfo> LawInfo for Stall<L> {
     fn iterations(&self) -> u16 {
         self.inner.iterations()
@@ -74,7 +136,7 @@ impl<L: LawInfo> LawInfo for Stall<L> {
 }
 
 /// Carries out a fault request's payload; returns the extra solver cycles
-/// requested (0 for none).
+/// requested for the next period (0 for none).
 pub fn request(payload: &[u8]) -> u32 {
     let arg = match payload.get(1..5) {
         Some(b) => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),

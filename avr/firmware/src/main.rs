@@ -161,6 +161,26 @@ fn watchdog_reset() {
     unsafe { core::arch::asm!("wdr", options(nomem, nostack, preserves_flags)) };
 }
 
+/// The fast gradient's cycle budget, from the period's tick to the end of
+/// its last iteration: 240,000 cycles (15 ms of the 20 ms period). Its
+/// iterations normally end about 150,000 cycles after the tick (Kalman
+/// measurement update and set-up included; docs/avr-rt.md), so the budget
+/// never cuts a normal solve; the 80,000 cycles (5 ms) left cover the rest
+/// of the period with a margin of more than two: the time update, mixer
+/// and outputs (a few thousand cycles) and the reply, 35 bytes sent by
+/// polling at 250 kbaud (22,400 cycles). A solve slowed past it (CPU
+/// stolen by interrupts, a slower clock) stops early with its current
+/// iterate, in the box; the reply's `iterations` tells.
+#[cfg(not(feature = "empc"))]
+const FGM_BUDGET: u32 = 240_000;
+
+/// The budget is checked before every 4th iteration (7 clock reads in the
+/// 27 iterations, about 1,000 cycles; before each iteration it cost about
+/// 4,500 cycles, 3.6 % of the solve); each check asks whether the next 4
+/// iterations fit.
+#[cfg(not(feature = "empc"))]
+const FGM_STRIDE: u16 = 4;
+
 /// WDTCSR value: reset mode (WDE), prescaler 2 (8k cycles of the 128 kHz
 /// oscillator: 64 ms).
 const WATCHDOG_64MS: u8 = 0x08 | 0x02;
@@ -389,7 +409,15 @@ pub extern "C" fn main() -> ! {
         ) else {
             loop {}
         };
-        law
+        // The solve stops its iterations once the next FGM_STRIDE would end
+        // past FGM_BUDGET cycles after the tick (restarted at every tick).
+        let budget = kestrel_avr_rt::cycles::CycleBudget::<_, FGM_STRIDE>::new(clock, FGM_BUDGET);
+        #[cfg(feature = "hil-faults")]
+        let budget = faults::Slowed::new(budget, clock);
+        kestrel_avr_rt::fgm16::Fgm16Deadline {
+            law,
+            deadline: budget,
+        }
     };
     // Explicit MPC: kestrel-empc's tree with 16-bit rows, read from flash
     // through ELPM by an assembly MAC (kestrel_avr_rt::explicit::tree16).
@@ -428,7 +456,7 @@ pub extern "C" fn main() -> ! {
         offset: va(&table, MIX_OFFSET),
         throttle_gain: [one, one, one, S::ZERO],
     };
-    #[cfg(feature = "hil-faults")]
+    #[cfg(all(feature = "hil-faults", feature = "empc"))]
     let law = faults::Stall::new(law, clock);
     let Ok(mut rate_loop) = RateLoop::new(filter, law, bias, mixer, limits, safe) else {
         loop {}
@@ -489,7 +517,13 @@ pub extern "C" fn main() -> ! {
         // did not run: the bytes that came meanwhile (this period's
         // command among them) are still in the ring.
         drain_rx(&mut decoder, &mut seqs, &mut fresh, &mut stall);
-        #[cfg(feature = "hil-faults")]
+        #[cfg(not(feature = "empc"))]
+        rate_loop.law.deadline.restart_at(t0);
+        #[cfg(all(feature = "hil-faults", not(feature = "empc")))]
+        {
+            rate_loop.law.deadline.extra = core::mem::take(&mut stall);
+        }
+        #[cfg(all(feature = "hil-faults", feature = "empc"))]
         {
             rate_loop.law.extra = core::mem::take(&mut stall);
         }

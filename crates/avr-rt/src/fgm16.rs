@@ -40,6 +40,7 @@
 //! assert_eq!(u[0], 1.0); // the box
 //! ```
 
+use crate::cycles::{Deadline, NoDeadline};
 use crate::kalman16::mul_q15;
 use crate::law::LawInfo;
 use crate::law::{check_law_sizes, pack_theta};
@@ -61,7 +62,10 @@ pub struct Fgm16Law<S, const N: usize, const P: usize, const T: usize, const NU:
     betas: [i16; T],
     nx: usize,
     warm: bool,
-    iterations: u16,
+    certified: u16,
+    /// Iterations run in the last solve (below `certified` when its
+    /// deadline stopped it).
+    done: u16,
     /// Last solution in scaled units (Q15.16), for warm starts.
     last: Option<[i32; N]>,
 }
@@ -87,27 +91,44 @@ fn step<const N: usize>(m: &[Row16<N>; N], y: &[i32; N], b: &Box16<N>, w: &mut [
     }
 }
 
-/// The initial projected gradient step from `y` and `iterations`
-/// iterations, all in Q15.16; returns `z`. Not inlined: a small function
+/// Asks the deadline, in a call of its own: inlined into [`iterate`],
+/// its state and the clock read made the loop's stack frame too large for
+/// the AVR's short `Y+q` addressing, and every iteration slower (about 240
+/// cycles per iteration more in the firmware; about 160 as a call, hence
+/// [`Deadline::STRIDE`]).
+#[inline(never)]
+fn expired<D: Deadline>(deadline: &mut D) -> bool {
+    deadline.expired()
+}
+
+/// The initial projected gradient step from `y` and up to `iterations`
+/// iterations, all in Q15.16, checking `deadline` before every
+/// `D::STRIDE`-th iteration;
+/// returns `z` (projected onto the box after every step) and the number
+/// of iterations run. Not inlined: a small function
 /// of its own keeps its state in registers and a short stack frame on the
 /// AVR (inlined into the firmware's large `main`, every access to a local
 /// costs several instructions).
 #[inline(never)]
 #[allow(clippy::needless_range_loop)] // several arrays indexed together
-fn iterate<const N: usize>(
+fn iterate<const N: usize, D: Deadline>(
     m: &[Row16<N>; N],
     betas: &[i16],
     b: &Box16<N>,
     mut y: [i32; N],
     iterations: u16,
-) -> [i32; N] {
+    deadline: &mut D,
+) -> ([i32; N], u16) {
     let mut w = [0i32; N];
     step(m, &y, b, &mut w);
     let mut z = w;
     y = w;
     let last_beta = betas.last().copied().unwrap_or(0);
-    for k in 0..iterations as usize {
-        let beta = betas.get(k).copied().unwrap_or(last_beta);
+    for k in 0..iterations {
+        if !D::NEVER && k % D::STRIDE.max(1) == 0 && expired(deadline) {
+            return (z, k);
+        }
+        let beta = betas.get(k as usize).copied().unwrap_or(last_beta);
         step(m, &y, b, &mut w);
         for i in 0..N {
             let dz = w[i].saturating_sub(z[i]);
@@ -115,7 +136,7 @@ fn iterate<const N: usize>(
             z[i] = w[i];
         }
     }
-    z
+    (z, iterations)
 }
 
 impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usize>
@@ -179,20 +200,50 @@ impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usiz
             betas,
             nx,
             warm,
-            iterations,
+            certified: iterations,
+            done: 0,
             last: None,
         })
     }
 
-    /// Solves for `theta` and returns the solution in the problem's units
-    /// (all `N` variables).
+    /// The iteration count (the certified one the law was made with).
+    pub fn certified_iterations(&self) -> u16 {
+        self.certified
+    }
+
+    /// Whether the last solve stopped before the certified count (its
+    /// deadline expired): its input is feasible (in the box) but the
+    /// certificate's accuracy does not hold for that period.
+    pub fn truncated(&self) -> bool {
+        self.done < self.certified
+    }
+
+    /// Solves for `theta` with every iteration and returns the solution in
+    /// the problem's units (all `N` variables).
     ///
     /// # Errors
     /// [`Error::NonFinite`] for a non-finite theta (or a set-up that
     /// overflows), [`Error::Infeasible`] if the box is empty.
+    pub fn solve(&mut self, theta: &[S; P]) -> Result<[S; N], Error> {
+        self.solve_until(theta, &mut NoDeadline)
+    }
+
+    /// [`Fgm16Law::solve`], asking `deadline` before every iteration (every
+    /// [`Deadline::STRIDE`]-th): once
+    /// it has expired the solve stops with its current iterate (projected
+    /// onto the box: a valid, bounded input) after at least the initial
+    /// projected gradient step. [`LawInfo::iterations`] then reports the
+    /// iterations run and [`Fgm16Law::truncated`] is true.
+    ///
+    /// # Errors
+    /// As [`Fgm16Law::solve`].
     #[allow(clippy::needless_range_loop)] // several arrays indexed together
     #[inline(never)]
-    pub fn solve(&mut self, theta: &[S; P]) -> Result<[S; N], Error> {
+    pub fn solve_until<D: Deadline>(
+        &mut self,
+        theta: &[S; P],
+        deadline: &mut D,
+    ) -> Result<[S; N], Error> {
         if !all_finite(theta) {
             return Err(Error::NonFinite);
         }
@@ -233,7 +284,8 @@ impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usiz
         for i in 0..N {
             y[i] = y[i].clamp(b.lo[i], b.hi[i]);
         }
-        let z = iterate(&self.m, &self.betas, &b, y, self.iterations);
+        let (z, done) = iterate(&self.m, &self.betas, &b, y, self.certified, deadline);
+        self.done = done;
         self.last = Some(z);
         let mut out = [S::ZERO; N];
         for i in 0..N {
@@ -249,8 +301,26 @@ impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usiz
     type Scalar = S;
     crate::law::parametric_law_sizes!();
     fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
+        self.control_until(x, r, u, &mut NoDeadline)
+    }
+}
+
+impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usize>
+    Fgm16Law<S, N, P, T, NU>
+{
+    /// [`ControlLaw::control`] with a deadline ([`Fgm16Law::solve_until`]).
+    ///
+    /// # Errors
+    /// As [`ControlLaw::control`].
+    pub fn control_until<D: Deadline>(
+        &mut self,
+        x: &[S],
+        r: &[S],
+        u: &mut [S],
+        deadline: &mut D,
+    ) -> Result<(), Error> {
         let theta: [S; P] = pack_theta(self.nx, NU, x, r, u)?;
-        let z = self.solve(&theta)?;
+        let z = self.solve_until(&theta, deadline)?;
         u.copy_from_slice(&z[..NU]);
         Ok(())
     }
@@ -259,11 +329,51 @@ impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usiz
 impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usize> LawInfo
     for Fgm16Law<S, N, P, T, NU>
 {
+    /// Iterations run in the last solve (the certified count unless a
+    /// deadline stopped it; 0 before the first).
     fn iterations(&self) -> u16 {
-        self.iterations
+        self.done
     }
     fn restart(&mut self) {
         self.last = None;
+    }
+}
+
+/// An [`Fgm16Law`] with a [`Deadline`] checked between its iterations, as
+/// a [`ControlLaw`] (the firmware's: a [`crate::cycles::CycleBudget`]
+/// restarted at each period's tick).
+#[derive(Clone, Debug)]
+pub struct Fgm16Deadline<L, D> {
+    /// The law.
+    pub law: L,
+    /// The deadline of each solve.
+    pub deadline: D,
+}
+
+impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usize, D: Deadline>
+    ControlLaw for Fgm16Deadline<Fgm16Law<S, N, P, T, NU>, D>
+{
+    type Scalar = S;
+    fn nx(&self) -> usize {
+        self.law.nx()
+    }
+    fn nr(&self) -> usize {
+        self.law.nr()
+    }
+    fn nu(&self) -> usize {
+        self.law.nu()
+    }
+    fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
+        self.law.control_until(x, r, u, &mut self.deadline)
+    }
+}
+
+impl<L: LawInfo, D> LawInfo for Fgm16Deadline<L, D> {
+    fn iterations(&self) -> u16 {
+        self.law.iterations()
+    }
+    fn restart(&mut self) {
+        self.law.restart()
     }
 }
 
@@ -300,6 +410,84 @@ mod tests {
             for (a, b) in z.iter().zip(exact.iter()) {
                 assert!((a - b).abs() < 1e-3, "{a} vs {b}");
             }
+        }
+    }
+
+    /// A deadline that expires after `k` checks, every `S` iterations (a
+    /// fake clock).
+    struct After<const S: u16 = 1> {
+        k: u16,
+        calls: u16,
+    }
+    impl<const S: u16> Deadline for After<S> {
+        const STRIDE: u16 = S;
+        fn expired(&mut self) -> bool {
+            if self.calls >= self.k {
+                return true;
+            }
+            self.calls += 1;
+            false
+        }
+    }
+
+    #[test]
+    fn a_deadline_with_a_stride_is_asked_every_stride_iterations() {
+        let t = tables();
+        let mut law = Fgm16Law::<f64, 2, 3, 1, 2>::new(t, m16(), [6554], 2, false, 10).unwrap();
+        let theta = [3.0, 2.0, -1.0];
+        // Asked before iterations 0, 4, 8: expiring at the m-th question
+        // stops after 4 m iterations (at most the 10).
+        for (m, run) in [(0, 0), (1, 4), (2, 8), (3, 10), (9, 10)] {
+            let mut d = After::<4> { k: m, calls: 0 };
+            law.solve_until(&theta, &mut d).unwrap();
+            assert_eq!(law.iterations(), run, "m = {m}");
+            assert_eq!(d.calls, m.min(3), "questions asked");
+        }
+    }
+
+    #[test]
+    fn a_deadline_stops_the_iterations_with_an_input_in_the_box() {
+        let t = tables();
+        let new = |k| Fgm16Law::<f64, 2, 3, 1, 2>::new(t, m16(), [6554], 2, false, k).unwrap();
+        let thetas = [[0.3, -0.2, 0.1], [3.0, 2.0, -1.0], [-0.5, 0.25, 0.0]];
+        for theta in thetas {
+            let mut law = new(30);
+            let full = law.solve(&theta).unwrap();
+            assert_eq!((law.iterations(), law.truncated()), (30, false));
+            // A deadline that never expires: bit for bit the same.
+            let never = law.solve_until(&theta, &mut After::<1> { k: 99, calls: 0 });
+            assert_eq!(never.unwrap().map(f64::to_bits), full.map(f64::to_bits));
+            assert_eq!(law.iterations(), 30);
+            for k in 0..30u16 {
+                let z = law
+                    .solve_until(&theta, &mut After::<1> { k, calls: 0 })
+                    .unwrap();
+                assert_eq!(law.iterations(), k, "stopped after {k} iterations");
+                assert!(law.truncated());
+                assert_eq!(law.certified_iterations(), 30);
+                // In the box: |z_i| <= d_i (the box is [-1, 1] scaled).
+                for (zi, di) in z.iter().zip(t.d) {
+                    assert!(zi.abs() <= di, "{zi} outside +-{di}");
+                }
+                // The same as a law made with k iterations.
+                if k > 0 {
+                    let zk = new(k).solve(&theta).unwrap();
+                    assert_eq!(z.map(f64::to_bits), zk.map(f64::to_bits), "k = {k}");
+                }
+            }
+            // The whole law through the wrapper.
+            let mut timed = Fgm16Deadline {
+                law: new(30),
+                deadline: After::<1> { k: 4, calls: 0 },
+            };
+            let mut u = [0.0; 2];
+            timed.control(&theta[..2], &theta[2..], &mut u).unwrap();
+            assert_eq!(
+                (timed.iterations(), timed.nx(), timed.nr(), timed.nu()),
+                (4, 2, 1, 2)
+            );
+            assert_eq!(u, new(4).solve(&theta).unwrap());
+            timed.restart();
         }
     }
 
