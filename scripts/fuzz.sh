@@ -21,7 +21,7 @@ set -euo pipefail
 
 cd "$(dirname "$0")/.."
 NIGHTLY=$(sed -n 's/^channel *= *"\(.*\)"/\1/p' avr/rust-toolchain.toml)
-TARGETS=(ss mpqp kalman empc_solution csv_log frame tree16 flash_tree fgm16 kalman16)
+TARGETS=(ss mpqp kalman empc_solution csv_log frame tree16 flash_tree fgm16 kalman16 thetas matrix_file)
 RUNS=1000000
 SMOKE=0
 picked=()
@@ -37,13 +37,14 @@ while (($#)); do
 done
 ((${#picked[@]})) && TARGETS=("${picked[@]}")
 
-# The longest input per target: JSON files up to 8 KiB (long enough for a
+# The longest input per target: JSON files (matrix files too) up to 8 KiB (long enough for a
 # short file to claim a matrix above the 32 MiB allocation limit of
-# fuzz/src/lib.rs), CSV logs 4 KiB, binary tables 1 KiB, frames 512 bytes.
+# fuzz/src/lib.rs), CSV logs and parameter rows 4 KiB, binary tables 1 KiB,
+# frames 512 bytes.
 max_len() {
     case "$1" in
-        ss|mpqp|kalman|empc_solution) echo 8192 ;;
-        csv_log) echo 4096 ;;
+        ss|mpqp|kalman|empc_solution|matrix_file) echo 8192 ;;
+        csv_log|thetas) echo 4096 ;;
         frame) echo 512 ;;
         *) echo 1024 ;;
     esac

@@ -17,7 +17,7 @@ use kestrel_avr_rt::frame::{Bench, Boot, Command, FrameDecoder, MAX_FRAME, Reply
 use kestrel_avr_rt::kalman16::{Kalman16, Kalman16Tables, Row16};
 use kestrel_avr_rt::mac::Q16Mac;
 use kestrel_avr_rt::output::RtScalar;
-use kestrel_core::formats::{MpqpProblem, SsModel};
+use kestrel_core::formats::{MpqpProblem, SsModel, json, matrix_from_text, parameter_rows};
 use kestrel_core::{ControlLaw, Matrix, StateEstimator};
 use kestrel_empc::export::{self, ExportScalar};
 use kestrel_empc::{AnyTables, CompactTables, evaluate_with};
@@ -33,7 +33,7 @@ pub type Entry = fn(&[u8]) -> Outcome;
 
 /// Every fuzz target by name (the name of its `fuzz_targets/*.rs` file
 /// and of its folder under `fuzz/regressions/`).
-pub const TARGETS: [(&str, Entry); 10] = [
+pub const TARGETS: [(&str, Entry); 12] = [
     ("ss", ss),
     ("mpqp", mpqp),
     ("kalman", kalman),
@@ -44,6 +44,8 @@ pub const TARGETS: [(&str, Entry); 10] = [
     ("flash_tree", flash_tree),
     ("fgm16", fgm16),
     ("kalman16", kalman16),
+    ("thetas", thetas),
+    ("matrix_file", matrix_file),
 ];
 
 fn text(data: &[u8]) -> Result<&str, String> {
@@ -167,6 +169,64 @@ pub fn csv_log(data: &[u8]) -> Outcome {
         "a read log has a sample time"
     );
     assert!(d.n_samples() > 0, "a read log has samples");
+    Ok(())
+}
+
+/// Parameter rows (`fgm solve --thetas`, `empc eval --thetas`): the first
+/// byte picks the number of parameters p (0 to 7), the rest is the CSV
+/// text; rows read have p finite numbers each and, written back one per
+/// line, read back unchanged.
+pub fn thetas(data: &[u8]) -> Outcome {
+    let Some((&mode, file)) = data.split_first() else {
+        return Err("empty input".into());
+    };
+    let p = usize::from(mode % 8);
+    let rows = parameter_rows(text(file)?, p).map_err(|e| e.to_string())?;
+    let mut back = String::new();
+    for row in &rows {
+        assert_eq!(row.len(), p, "a row read has p numbers");
+        assert!(row.iter().all(|v| v.is_finite()), "a row read is finite");
+        let fields: Vec<String> = row.iter().map(|v| format!("{v:?}")).collect();
+        back.push_str(&fields.join(","));
+        back.push('\n');
+    }
+    match parameter_rows(&back, p) {
+        Ok(again) => assert_eq!(again, rows, "rows written read back unchanged"),
+        Err(e) => panic!("rows written read back, not: {e}"),
+    }
+    Ok(())
+}
+
+/// JSON matrix files (`kestrel mpc --q1/--q2/--terminal`, `kestrel kalman
+/// --q/--r/--g/--cross`): the first byte picks the expected rows and
+/// columns (bits 0-2 and 3-5: 0 to 6, or 7 for any) and the key (bit 6:
+/// `Q` or `G`), the rest is the file; a matrix read has the expected shape
+/// and finite entries, and reads back unchanged written as a bare array
+/// and as an object holding the key.
+pub fn matrix_file(data: &[u8]) -> Outcome {
+    let Some((&mode, file)) = data.split_first() else {
+        return Err("empty input".into());
+    };
+    let dim = |bits: u8| (bits != 7).then_some(usize::from(bits));
+    let (rows, cols) = (dim(mode & 7), dim((mode >> 3) & 7));
+    let key = if mode & 64 != 0 { "G" } else { "Q" };
+    let m = matrix_from_text(text(file)?, key, rows, cols).map_err(|e| e.to_string())?;
+    assert!(rows.is_none_or(|r| m.nrows() == r), "rows as expected");
+    assert!(cols.is_none_or(|c| m.ncols() == c), "columns as expected");
+    assert!(m.iter().all(|v| v.is_finite()), "a matrix read is finite");
+    let array = json::matrix_to_value(&m);
+    let mut obj = json::Object::new();
+    obj.insert(key.into(), array.clone());
+    for back in [array.to_string(), json::to_pretty_string(&obj)] {
+        match matrix_from_text(&back, key, rows, cols) {
+            Ok(again) => assert_eq!(
+                (again.shape(), again.as_slice()),
+                (m.shape(), m.as_slice()),
+                "a matrix written reads back unchanged: {back}"
+            ),
+            Err(e) => panic!("a matrix written reads back, not: {e}: {back}"),
+        }
+    }
     Ok(())
 }
 
