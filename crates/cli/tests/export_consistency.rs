@@ -44,24 +44,9 @@ fn kalman_of(model: &str, name: &str) -> String {
 
 /// `kestrel mpc` (the thesis-sized problem) on `model`, written to `name`.
 fn problem_of(model: &str, name: &str) -> String {
-    let out = dir().join(name).display().to_string();
-    let (ok, _, err) = kestrel(&[
-        "mpc",
-        "--model",
-        model,
-        "--horizon",
-        "2",
-        "--blocks",
-        "2",
-        "--q1",
-        "2000",
-        "--q2",
-        "0.01",
-        "--out",
-        &out,
-    ]);
-    assert!(ok, "{err}");
-    out
+    common::thesis_problem_of(model, &dir().join(name))
+        .display()
+        .to_string()
 }
 
 fn export(args: &[&str]) -> (bool, String, String) {

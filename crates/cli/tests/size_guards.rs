@@ -4,13 +4,8 @@
 //! deadline, so a guard that is missing fails the test instead of hanging it.
 
 mod common;
-use common::{kestrel, kestrel_within, temp_dir};
+use common::{MODEL, kestrel, kestrel_within, temp_dir};
 use std::path::{Path, PathBuf};
-
-const MODEL: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../models/tricopter-blackbox-5.json"
-);
 
 /// A refusal within `seconds`: its standard error.
 fn refused(seconds: u64, args: &[&str]) -> String {
@@ -123,24 +118,7 @@ fn simulate_refuses_a_step_too_fine_and_a_flight_too_long() {
 
 /// The thesis problem (4 variables) in `dir`.
 fn thesis_problem(dir: &Path) -> PathBuf {
-    let p = dir.join("thesis.json");
-    let (ok, _, err) = kestrel(&[
-        "mpc",
-        "--model",
-        MODEL,
-        "--horizon",
-        "2",
-        "--blocks",
-        "2",
-        "--q1",
-        "2000",
-        "--q2",
-        "0.01",
-        "--out",
-        p.to_str().unwrap(),
-    ]);
-    assert!(ok, "{err}");
-    p
+    common::thesis_problem_of(MODEL, &dir.join("thesis.json"))
 }
 
 #[test]

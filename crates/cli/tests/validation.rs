@@ -3,34 +3,12 @@
 
 mod common;
 
-use common::{kestrel, temp_dir};
+use common::{MODEL, kestrel, temp_dir};
 use std::path::{Path, PathBuf};
 
-const MODEL: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../models/tricopter-blackbox-5.json"
-);
-
-/// The thesis-sized problem of the built-in model, written once per test.
+/// The thesis problem (4 variables) in `dir`.
 fn thesis_problem(dir: &Path) -> PathBuf {
-    let p = dir.join("thesis.json");
-    let (ok, _, err) = kestrel(&[
-        "mpc",
-        "--model",
-        MODEL,
-        "--horizon",
-        "2",
-        "--blocks",
-        "2",
-        "--q1",
-        "2000",
-        "--q2",
-        "0.01",
-        "--out",
-        p.to_str().unwrap(),
-    ]);
-    assert!(ok, "{err}");
-    p
+    common::thesis_problem_of(MODEL, &dir.join("thesis.json"))
 }
 
 /// A flight log of `seconds` from the simulator; with `millis` the `t`

@@ -30,6 +30,34 @@ fn output_of(cmd: &mut Command) -> (bool, String, String) {
     )
 }
 
+/// The repository's identified tricopter model (`kestrel.ss.v1`).
+pub const MODEL: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../models/tricopter-blackbox-5.json"
+);
+
+/// Writes the thesis-sized problem (`kestrel mpc`, horizon 2 in 2 blocks,
+/// q1 2000, q2 0.01) of the model file `model` to `out` and returns `out`.
+pub fn thesis_problem_of(model: &str, out: &Path) -> PathBuf {
+    let (ok, _, err) = kestrel(&[
+        "mpc",
+        "--model",
+        model,
+        "--horizon",
+        "2",
+        "--blocks",
+        "2",
+        "--q1",
+        "2000",
+        "--q2",
+        "0.01",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    out.to_path_buf()
+}
+
 /// A temporary directory `kestrel-<name>-<pid>`, created if missing.
 pub fn temp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("kestrel-{name}-{}", std::process::id()));
