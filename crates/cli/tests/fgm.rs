@@ -3,12 +3,27 @@
 mod common;
 
 use common::{kestrel as run, temp_dir};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 fn temp_file(name: &str, text: &str) -> PathBuf {
     let p = temp_dir("cli-fgm").join(name);
     std::fs::write(&p, text).unwrap();
     p
+}
+
+/// Runs `kestrel fgm certify --problem <problem> --eps <eps>`, expects it
+/// to succeed, and returns its JSON.
+fn certify(problem: &Path, eps: &str) -> serde_json::Value {
+    let (ok, out, err) = run(&[
+        "fgm",
+        "certify",
+        "--problem",
+        problem.to_str().unwrap(),
+        "--eps",
+        eps,
+    ]);
+    assert!(ok, "{err}");
+    serde_json::from_str(&out).unwrap()
 }
 
 /// Runs `kestrel fgm <args>`, expects it to fail, and checks that standard
@@ -31,16 +46,7 @@ const BOX: &str = r#"{"format": "kestrel.mpqp.v1",
 #[test]
 fn certify_prints_iterations_l_mu_and_preconditioner() {
     let p = temp_file("box.json", BOX);
-    let (ok, out, err) = run(&[
-        "fgm",
-        "certify",
-        "--problem",
-        p.to_str().unwrap(),
-        "--eps",
-        "1e-6",
-    ]);
-    assert!(ok, "{err}");
-    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let v = certify(&p, "1e-6");
     assert!(v["iterations"].as_u64().unwrap() > 0);
     assert!(v["L"].as_f64().unwrap() > 0.0);
     assert!(v["mu"].as_f64().unwrap() > 0.0);
@@ -55,15 +61,7 @@ fn certify_prints_iterations_l_mu_and_preconditioner() {
     );
     assert!(v["delta"].as_f64().unwrap() <= 0.25 * v["delta_richter"].as_f64().unwrap() * 1.000001);
     // A looser tolerance never needs more iterations.
-    let (_, out2, _) = run(&[
-        "fgm",
-        "certify",
-        "--problem",
-        p.to_str().unwrap(),
-        "--eps",
-        "1e-2",
-    ]);
-    let v2: serde_json::Value = serde_json::from_str(&out2).unwrap();
+    let v2 = certify(&p, "1e-2");
     assert!(v2["iterations"].as_u64() <= v["iterations"].as_u64());
 }
 
@@ -293,31 +291,13 @@ fn a_problem_without_variables_is_refused() {
 #[test]
 fn a_tiny_eps_reports_no_sublinear_bound() {
     let p = temp_file("box5.json", BOX);
-    let (ok, out, err) = run(&[
-        "fgm",
-        "certify",
-        "--problem",
-        p.to_str().unwrap(),
-        "--eps",
-        "1e-300",
-    ]);
-    assert!(ok, "{err}");
-    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let v = certify(&p, "1e-300");
     assert!(v["sublinear_bound"].is_null(), "{v}");
     assert!(v["bound_note"].as_str().unwrap().contains("exceeds"), "{v}");
     assert_eq!(v["iterations"], v["linear_bound"]);
     assert!(v["iterations"].as_u64().unwrap() < 10_000, "{v}");
     // An ordinary eps: both bounds are counts and there is no note.
-    let (ok, out, err) = run(&[
-        "fgm",
-        "certify",
-        "--problem",
-        p.to_str().unwrap(),
-        "--eps",
-        "1e-3",
-    ]);
-    assert!(ok, "{err}");
-    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let v = certify(&p, "1e-3");
     assert!(v["sublinear_bound"].as_u64().is_some() && v.get("bound_note").is_none());
 }
 

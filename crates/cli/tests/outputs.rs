@@ -189,35 +189,27 @@ fn fgm_certify_failure_leaves_no_export() {
     )
     .unwrap();
     let export = dir.path().join("e.rs");
-    let (ok, _, err) = run(&[
-        "fgm",
-        "certify",
-        "--problem",
-        problem.to_str().unwrap(),
-        "--eps",
-        "1e-3",
-        "--export",
-        export.to_str().unwrap(),
-        "--out",
-        "/proc/x",
-    ]);
+    let certify = |out: &str| {
+        run(&[
+            "fgm",
+            "certify",
+            "--problem",
+            problem.to_str().unwrap(),
+            "--eps",
+            "1e-3",
+            "--export",
+            export.to_str().unwrap(),
+            "--out",
+            out,
+        ])
+    };
+    let (ok, _, err) = certify("/proc/x");
     assert!(!ok, "succeeded");
     assert!(err.contains("/proc/x"), "{err}");
     assert_eq!(names(dir.path()), ["box.json"]);
     // Both written when both can be.
     let out = dir.path().join("cert.json");
-    let (ok, _, err) = run(&[
-        "fgm",
-        "certify",
-        "--problem",
-        problem.to_str().unwrap(),
-        "--eps",
-        "1e-3",
-        "--export",
-        export.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (ok, _, err) = certify(out.to_str().unwrap());
     assert!(ok, "{err}");
     assert_eq!(names(dir.path()), ["box.json", "cert.json", "e.rs"]);
 }
