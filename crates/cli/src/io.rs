@@ -82,15 +82,8 @@ impl Outputs {
                 return Ok(());
             }
         }
-        let dir = dest
-            .parent()
-            .filter(|d| !d.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        let name = dest
-            .file_name()
-            .with_context(|| format!("{}: not a file name", path.display()))?
-            .to_string_lossy()
-            .into_owned();
+        let (dir, name) = parent_and_name(&dest)
+            .with_context(|| format!("{}: not a file name", path.display()))?;
         let prefix = format!(".{name}.");
         let mut builder = tempfile::Builder::new();
         builder.prefix(&prefix).suffix(".tmp");
@@ -178,6 +171,18 @@ pub fn write_output(path: Option<&Path>, text: &str) -> anyhow::Result<()> {
     let mut out = Outputs::new();
     out.add(path, text)?;
     out.commit()
+}
+
+/// The folder `path` lies in (`.` for a bare name) and its last component,
+/// or `None` when it has no last component (`/`, `..`): where a temporary
+/// sibling of `path` goes and what it is named after.
+pub fn parent_and_name(path: &Path) -> Option<(&Path, String)> {
+    let name = path.file_name()?.to_string_lossy().into_owned();
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    Some((dir, name))
 }
 
 #[cfg(test)]

@@ -158,15 +158,8 @@ impl ReportDir {
     /// nothing but a previous report (with `force`) would be replaced.
     pub fn create(final_dir: &Path, force: bool) -> anyhow::Result<Self> {
         check_destination(final_dir, force)?;
-        let parent = final_dir
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        let name = final_dir
-            .file_name()
-            .with_context(|| format!("--out {}: not a directory name", final_dir.display()))?
-            .to_string_lossy()
-            .into_owned();
+        let (parent, name) = crate::io::parent_and_name(final_dir)
+            .with_context(|| format!("--out {}: not a directory name", final_dir.display()))?;
         let mut made_parents = Vec::new();
         let mut p = parent;
         while !p.as_os_str().is_empty() && std::fs::symlink_metadata(p).is_err() {
