@@ -128,6 +128,29 @@ impl Disturbance {
     }
 }
 
+/// Whether the last `nd` states of the model `x+ = A x + B u` are
+/// integrating disturbances: the last `nd` rows of `A` are `[0, I]` and
+/// those of `B` zero (exactly). `false` when `nd` exceeds the states or the
+/// matrices' rows differ.
+///
+/// ```
+/// use nalgebra::dmatrix;
+/// let a = dmatrix![0.9, 0.1; 0.0, 1.0];
+/// let b = dmatrix![1.0; 0.0];
+/// assert!(kestrel_kalman::augment::integrating_disturbances(&a, &b, 1));
+/// assert!(!kestrel_kalman::augment::integrating_disturbances(&a, &b, 2));
+/// ```
+pub fn integrating_disturbances(a: &DMatrix<f64>, b: &DMatrix<f64>, nd: usize) -> bool {
+    let na = a.nrows();
+    nd <= na
+        && a.ncols() == na
+        && b.nrows() == na
+        && (na - nd..na).all(|i| {
+            (0..na).all(|j| a[(i, j)] == if i == j { 1.0 } else { 0.0 })
+                && b.row(i).iter().all(|v| *v == 0.0)
+        })
+}
+
 /// A plant model augmented with integrating disturbance states: the
 /// augmented model's state is `[x; d]` (plant states first).
 #[derive(Clone, Debug, PartialEq)]
@@ -221,11 +244,7 @@ impl AugmentedModel {
             });
         }
         let nx = na - nd;
-        let integrating = (nx..na).all(|i| {
-            (0..na).all(|j| model.a[(i, j)] == if i == j { 1.0 } else { 0.0 })
-                && model.b.row(i).iter().all(|v| *v == 0.0)
-        });
-        if !integrating {
+        if !integrating_disturbances(&model.a, &model.b, nd) {
             return Err(KalmanError::InvalidArgument {
                 name: "model",
                 reason: format!(

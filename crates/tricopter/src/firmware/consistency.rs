@@ -187,11 +187,7 @@ pub fn estimator_model(
         return Ok((model.clone(), 0));
     }
     // The disturbance states are constant: rows [0, I] of A, zero rows of B.
-    let constant = (nx..nk).all(|i| {
-        (0..nk).all(|j| kalman.a[(i, j)] == if i == j { 1.0 } else { 0.0 })
-            && kalman.b.row(i).iter().all(|v| *v == 0.0)
-    });
-    if !constant {
+    if !kestrel_kalman::augment::integrating_disturbances(&kalman.a, &kalman.b, nd) {
         return Err(differ(format!(
             "the filter has {nk} states, the model {nx}, and its last {nd} are not constant disturbance states (rows [0, I] of A, zero rows of B)"
         )));
