@@ -5,7 +5,7 @@
 //! iterations, an explicit solve's expected time) are checked.
 
 use kestrel_mpc::MpcError;
-use kestrel_sysid::SysidError;
+use kestrel_sysid::{SizedMethod, SysidError};
 use kestrel_tricopter_model::ModelError;
 
 /// Most fast-gradient iterations per solve (`fgm solve --iterations`,
@@ -39,10 +39,16 @@ pub fn mpc(e: MpcError, horizon_flag: &str) -> anyhow::Error {
 /// An identification error, with how to go on when a size is too large.
 pub fn sysid(e: SysidError) -> anyhow::Error {
     match e {
-        SysidError::TooLarge { ref what, .. } if what.starts_with("PEM") => anyhow::anyhow!(
+        SysidError::TooLarge {
+            method: SizedMethod::Pem,
+            ..
+        } => anyhow::anyhow!(
             "{e}; to go on: a shorter --pem-horizon or --dynamics-horizon (1 is the one-step criterion; 10 to 20 steps cover the tricopter's dynamics), a lower --order, or --method n4sid"
         ),
-        SysidError::TooLarge { .. } => anyhow::anyhow!(
+        SysidError::TooLarge {
+            method: SizedMethod::N4sid,
+            ..
+        } => anyhow::anyhow!(
             "{e}; to go on: a lower --order (leave it out for the suggested one), or more data"
         ),
         e => anyhow::Error::new(e),

@@ -76,6 +76,8 @@ pub enum SysidError {
     /// [`MAX_PEM_JACOBIAN_BYTES`](crate::MAX_PEM_JACOBIAN_BYTES), ...).
     #[error("{what} is too large: it would need {cost} ({limit})")]
     TooLarge {
+        /// The method whose size it is.
+        method: SizedMethod,
         /// The size asked for.
         what: String,
         /// What it would cost.
@@ -89,6 +91,17 @@ pub enum SysidError {
     /// A run-time (kestrel-core) error.
     #[error(transparent)]
     Core(#[from] kestrel_core::Error),
+}
+
+/// The method a [`SysidError::TooLarge`] refusal is about, so that a caller
+/// can say which of its settings goes on from it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SizedMethod {
+    /// [`n4sid`](crate::n4sid()): the order and the block Hankel matrix.
+    N4sid,
+    /// [`pem`](crate::pem()): the Jacobian of one iteration (the prediction
+    /// horizon and the parameters).
+    Pem,
 }
 
 /// Shorthand for results of this crate.

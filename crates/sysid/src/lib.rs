@@ -31,7 +31,7 @@ pub mod workflow;
 #[cfg(feature = "std")]
 pub use data::{CsvColumns, Experiment, IoData, Offsets, SignalSelection, TimeInterval, TimeUnit};
 #[cfg(feature = "std")]
-pub use error::{Result, SysidError};
+pub use error::{Result, SizedMethod, SysidError};
 #[cfg(feature = "std")]
 pub use filter::{Biquad, Butterworth, Periodogram, periodogram};
 #[cfg(feature = "std")]

@@ -8,7 +8,7 @@
 //! An order of several hundred on a few thousand samples would run for
 //! hours and could not be determined by the data anyway.
 
-use crate::error::{Result, SysidError};
+use crate::error::{Result, SizedMethod, SysidError};
 
 /// Largest model order [`n4sid`](crate::n4sid()) identifies (the
 /// tricopter's models have 5 to 9 states; the DaISy benchmarks up to 10).
@@ -44,6 +44,7 @@ pub(super) fn check_order(n: usize, nu: usize, ny: usize, samples: usize) -> Res
         .last()
         .unwrap_or(0);
     Err(SysidError::TooLarge {
+        method: SizedMethod::N4sid,
         what: format!("N4SID of order {n}"),
         cost: format!(
             "{params} parameters against {values} output values ({samples} samples x {ny} outputs) and about {:.0e} operations",
@@ -62,6 +63,7 @@ pub(super) fn check_hankel(rows: usize, cols: usize) -> Result<()> {
         return Ok(());
     }
     Err(SysidError::TooLarge {
+        method: SizedMethod::N4sid,
         what: format!("an N4SID block Hankel matrix of {rows} x {cols}"),
         cost: format!("{:.1} GB of memory", bytes / 1e9),
         limit: format!("at most {:.1} GB", MAX_HANKEL_BYTES / 1e9),
@@ -77,7 +79,16 @@ mod tests {
         assert!(check_order(5, 4, 3, 3000).is_ok());
         assert!(check_order(10, 4, 3, 700).is_ok());
         let e = check_order(500, 4, 3, 3000).unwrap_err();
-        assert!(matches!(e, SysidError::TooLarge { .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                SysidError::TooLarge {
+                    method: SizedMethod::N4sid,
+                    ..
+                }
+            ),
+            "{e}"
+        );
         let text = e.to_string();
         assert!(
             text.contains("order 500") && text.contains("order 89"),

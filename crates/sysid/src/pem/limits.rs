@@ -8,7 +8,7 @@
 //! (about `n^2` for order `n`). Forming `J'J` costs `p^2` operations per
 //! residual.
 
-use crate::error::{Result, SysidError};
+use crate::error::{Result, SizedMethod, SysidError};
 
 /// Largest memory of the Jacobian of one PEM iteration (8 bytes per
 /// entry, residuals x parameters): 1 GiB.
@@ -31,6 +31,7 @@ pub(super) fn check_size(residuals: usize, p: usize, n: usize, h: usize) -> Resu
         return Ok(());
     }
     Err(SysidError::TooLarge {
+        method: SizedMethod::Pem,
         what: format!("PEM of order {n} with prediction horizon {h}"),
         cost: format!(
             "a Jacobian of {residuals} residuals x {p} parameters ({:.1} GB) and about {flops:.0e} operations per iteration",
@@ -55,7 +56,16 @@ mod tests {
         assert!(check_size(720_000, 95, 5, 20).is_ok());
         // h = 5000 on 3,000 samples: N^2 ny / 2 residuals.
         let e = check_size(13_500_000, 95, 5, 5000).unwrap_err();
-        assert!(matches!(e, SysidError::TooLarge { .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                SysidError::TooLarge {
+                    method: SizedMethod::Pem,
+                    ..
+                }
+            ),
+            "{e}"
+        );
         assert!(e.to_string().contains("horizon 5000"), "{e}");
     }
 }
