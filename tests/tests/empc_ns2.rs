@@ -30,7 +30,7 @@ fn ns2_problem() -> MpqpProblem {
         ..ProblemSize::Thesis.settings(q1, q2)
     };
     let trim = tricopter_trim(&model).unwrap();
-    MpcProblem::build(&model, &trim.bounds(), &settings)
+    MpcProblem::build(&model, &trim.constrain(settings))
         .unwrap()
         .to_mpqp()
 }

@@ -23,15 +23,15 @@ pub type ExplicitMpc = MpcLaw<ExplicitSolver>;
 /// ```
 /// use kestrel_core::{Matrix, StateSpace};
 /// use kestrel_empc::ExplicitSolver;
-/// use kestrel_mpc::{InputBounds, MpcProblem, MpcSettings, ParametricQpSolver, QpSettings,
+/// use kestrel_mpc::{Bounds, MpcProblem, MpcSettings, ParametricQpSolver, QpSettings,
 ///     ReferenceSolver, Terminal};
 /// use nalgebra::dvector;
 /// // A double integrator sampled at 0.1 s, |u| <= 1, horizon 5.
 /// let m = StateSpace::new(Matrix::from_rows([[1.0, 0.1], [0.0, 1.0]]),
 ///     Matrix::from_rows([[0.005], [0.1]]), Matrix::from_rows([[1.0, 0.0]]),
 ///     Matrix::from_rows([[0.0]]), 0.1);
-/// let p = MpcProblem::build(&m, &InputBounds::new(dvector![-1.0], dvector![1.0]),
-///     &MpcSettings { horizon: 5, terminal: Terminal::Lq, ..MpcSettings::default() }).unwrap();
+/// let p = MpcProblem::build(&m, &MpcSettings { horizon: 5, terminal: Terminal::Lq,
+///     input_bounds: Some(Bounds::new(dvector![-1.0], dvector![1.0])), ..MpcSettings::default() }).unwrap();
 /// let mut explicit = ExplicitSolver::build(&p.to_mpqp(), &kestrel_empc::Settings::default()).unwrap();
 /// let mut qp = ReferenceSolver::new(&p.to_mpqp(), QpSettings::default()).unwrap();
 /// let theta = p.theta(&[0.2, -0.1], &[0.5]).unwrap();
@@ -123,7 +123,7 @@ impl ParametricQpSolver for ExplicitSolver {
 mod tests {
     use super::*;
     use kestrel_core::{ControlLaw, Matrix, StateSpace};
-    use kestrel_mpc::{InputBounds, MpcSettings, QpSettings, Terminal, Weight};
+    use kestrel_mpc::{Bounds, MpcSettings, QpSettings, Terminal, Weight};
     use nalgebra::dvector;
 
     /// A double integrator sampled at 0.1 s, |u| <= 1, horizon 3.
@@ -135,14 +135,14 @@ mod tests {
             Matrix::from_rows([[0.0]]),
             0.1,
         );
-        let bounds = InputBounds::new(dvector![-1.0], dvector![1.0]);
         let settings = MpcSettings {
             horizon: 3,
             q2: Weight::Scalar(1e-3),
             terminal: Terminal::Lq,
+            input_bounds: Some(Bounds::new(dvector![-1.0], dvector![1.0])),
             ..MpcSettings::default()
         };
-        MpcProblem::build(&m, &bounds, &settings).unwrap()
+        MpcProblem::build(&m, &settings).unwrap()
     }
 
     #[test]

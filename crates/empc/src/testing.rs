@@ -17,7 +17,7 @@
 
 pub use crate::rng::Rng;
 use kestrel_core::formats::{MpqpProblem, SsModel};
-use kestrel_mpc::{Blocking, InputBounds, MpcProblem, MpcSettings, Terminal, Weight};
+use kestrel_mpc::{Blocking, Bounds, MpcProblem, MpcSettings, Parameter, Terminal, Weight};
 use nalgebra::{DMatrix, DVector};
 
 /// A tracking MPC problem to condense.
@@ -101,20 +101,26 @@ impl MpcSpec {
         // discrete-time model.
         let model = SsModel::new(1.0, self.a.clone(), self.b.clone(), c, d)
             .expect("MpcSpec: A, B, C must be finite and of matching sizes");
-        let mut bounds = InputBounds::new(
+        let mut bounds = Bounds::new(
             DVector::from_column_slice(&self.u_lo),
             DVector::from_column_slice(&self.u_hi),
         );
+        let mut parameters = Vec::new();
         if !self.throttle_inputs.is_empty() {
             // (6.7): the bounds of a throttle input move by -1 per unit throttle.
-            let coupling = DVector::from_fn(nu, |i, _| {
+            let coupling = DMatrix::from_fn(nu, 1, |i, _| {
                 if self.throttle_inputs.contains(&i) {
                     -1.0
                 } else {
                     0.0
                 }
             });
-            bounds = bounds.with_throttle(coupling, self.throttle_range.0, self.throttle_range.1);
+            bounds = bounds.shifted(coupling);
+            parameters.push(Parameter::new(
+                "throttle",
+                self.throttle_range.0,
+                self.throttle_range.1,
+            ));
         }
         let horizon = self.horizon.max(1);
         let settings = MpcSettings {
@@ -128,12 +134,15 @@ impl MpcSpec {
             terminal: Terminal::StageWeight,
             state_bound: self.x_bound,
             reference_bound: self.ref_bound,
+            input_bounds: Some(bounds),
+            parameters,
+            ..MpcSettings::default()
         };
-        let problem = MpcProblem::build(&model, &bounds, &settings)
+        let problem = MpcProblem::build(&model, &settings)
             .unwrap_or_else(|e| panic!("MpcSpec: kestrel-mpc rejects the test problem: {e}"));
         let mut mpqp = bounds_per_step(&problem);
         if regulate {
-            fix_parameters_at_zero(&mut mpqp, problem.layout.nx, problem.layout.nr);
+            fix_parameters_at_zero(&mut mpqp, problem.layout.nx, problem.layout.ny);
         }
         mpqp
     }

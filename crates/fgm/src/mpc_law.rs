@@ -59,15 +59,15 @@ impl Default for FgmOptions {
 /// ```
 /// use kestrel_core::{Matrix, StateSpace};
 /// use kestrel_fgm::{FastGradientSolver, FgmOptions};
-/// use kestrel_mpc::{InputBounds, MpcProblem, MpcSettings, ParametricQpSolver, QpSettings,
+/// use kestrel_mpc::{Bounds, MpcProblem, MpcSettings, ParametricQpSolver, QpSettings,
 ///     ReferenceSolver, Terminal};
 /// use nalgebra::dvector;
 /// // A double integrator sampled at 0.1 s, |u| <= 1, horizon 5.
 /// let m = StateSpace::new(Matrix::from_rows([[1.0, 0.1], [0.0, 1.0]]),
 ///     Matrix::from_rows([[0.005], [0.1]]), Matrix::from_rows([[1.0, 0.0]]),
 ///     Matrix::from_rows([[0.0]]), 0.1);
-/// let p = MpcProblem::build(&m, &InputBounds::new(dvector![-1.0], dvector![1.0]),
-///     &MpcSettings { horizon: 5, terminal: Terminal::Lq, ..MpcSettings::default() }).unwrap();
+/// let p = MpcProblem::build(&m, &MpcSettings { horizon: 5, terminal: Terminal::Lq,
+///     input_bounds: Some(Bounds::new(dvector![-1.0], dvector![1.0])), ..MpcSettings::default() }).unwrap();
 /// let opts = FgmOptions { iterations: 500, ..FgmOptions::default() };
 /// let mut fgm = FastGradientSolver::new(&p.to_mpqp(), &opts).unwrap();
 /// let mut qp = ReferenceSolver::new(&p.to_mpqp(), QpSettings::default()).unwrap();
@@ -214,7 +214,7 @@ impl ParametricQpSolver for FastGradientSolver {
 mod tests {
     use super::*;
     use kestrel_core::{ControlLaw, Matrix, StateSpace};
-    use kestrel_mpc::{InputBounds, MpcSettings, QpSettings, Terminal, Weight};
+    use kestrel_mpc::{Bounds, MpcSettings, QpSettings, Terminal, Weight};
     use nalgebra::dvector;
 
     /// A lightly damped oscillator with two inputs, |u| <= 0.5, horizon 4.
@@ -226,14 +226,14 @@ mod tests {
             Matrix::from_rows([[0.0, 0.0], [0.0, 0.0]]),
             0.05,
         );
-        let bounds = InputBounds::new(dvector![-0.5, -0.5], dvector![0.5, 0.5]);
         let settings = MpcSettings {
             horizon: 4,
             q2: Weight::Scalar(0.05),
             terminal: Terminal::Lq,
+            input_bounds: Some(Bounds::new(dvector![-0.5, -0.5], dvector![0.5, 0.5])),
             ..MpcSettings::default()
         };
-        MpcProblem::build(&m, &bounds, &settings).unwrap()
+        MpcProblem::build(&m, &settings).unwrap()
     }
 
     /// Largest input difference to the QP law over a closed loop of the

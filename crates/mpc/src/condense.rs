@@ -1,81 +1,49 @@
-//! The condensed parametric QP (6.19)-(6.26) with the errata applied.
+//! The condensed parametric QP (6.19)-(6.26) with the errata applied,
+//! generalised: input-move terms, output and state bounds (hard or soft),
+//! reference preview, an input target, parameter-dependent bounds and a
+//! terminal set.
 
-use crate::design::{InputBounds, MpcSettings, Terminal, check_hessian, check_psd};
+use crate::constraints::{Bounds, InputTarget};
+use crate::design::{MpcSettings, Terminal, check_hessian, check_psd};
 use crate::error::MpcError;
+use crate::layout::ThetaLayout;
+use crate::rows::{ConstraintKind, RowLabel, RowSet, Side};
 use kestrel_core::formats::MpqpProblem;
 use kestrel_core::{DiscreteLinearModel, Scalar};
 use nalgebra::{DMatrix, DVector};
 
-/// Where each part of the parameter vector `theta` sits:
-/// `theta = [x (nx); r (nr); throttle (0 or 1)]`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ThetaLayout {
-    /// Number of states (the estimate the law reads).
-    pub nx: usize,
-    /// Number of references (one per output).
-    pub nr: usize,
-    /// Whether the last entry is the throttle.
-    pub throttle: bool,
-}
-
-impl ThetaLayout {
-    /// Length of `theta`.
-    pub fn len(&self) -> usize {
-        self.nx + self.nr + usize::from(self.throttle)
-    }
-    /// Whether `theta` is empty (never for a built problem).
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-    /// Number of entries after the state: the references plus the
-    /// throttle, i.e. the `r` a [`kestrel_core::ControlLaw`] reads.
-    pub fn n_law_reference(&self) -> usize {
-        self.nr + usize::from(self.throttle)
-    }
-    /// Index of the throttle entry, if any.
-    pub fn throttle_index(&self) -> Option<usize> {
-        self.throttle.then_some(self.nx + self.nr)
-    }
-    /// Writes `theta = [x; r]` where `r` holds the references and, if the
-    /// layout has one, the throttle last; lengths are checked.
-    pub fn assemble_into(
-        &self,
-        x: &[f64],
-        r: &[f64],
-        theta: &mut [f64],
-    ) -> Result<(), kestrel_core::Error> {
-        kestrel_core::check_len(x, self.nx)?;
-        kestrel_core::check_len(r, self.n_law_reference())?;
-        kestrel_core::check_len(theta, self.len())?;
-        theta[..self.nx].copy_from_slice(x);
-        theta[self.nx..].copy_from_slice(r);
-        Ok(())
-    }
-}
-
 /// A condensed MPC problem: the plain matrices of (6.26) with the errata
 /// applied, the parameter box, and what is needed to evaluate the cost.
 ///
-/// minimise over `z` (the blocked input moves, deviations from the trim):
-/// `1/2 z'Hz + theta'F z`, subject to `G z <= W + E theta`, where
-/// `theta = [x; r; throttle]` ([`ThetaLayout`]).
+/// minimise over `z = [input moves (one per block, nu each); slacks]`:
+/// `1/2 z'Hz + theta'F z + q'z`, subject to `G z <= W + E theta`, where
+/// `theta` is laid out as [`ThetaLayout`] says (the thesis's problems:
+/// `[x; r; throttle]`).
 ///
 /// The full cost (6.3a) including the part that does not depend on `z` is
-/// `J = 1/2 z'Hz + theta'F z + 1/2 theta'Y theta` ([`MpcProblem::cost`]).
+/// `J = 1/2 z'Hz + theta'F z + q'z + 1/2 theta'Y theta + c'theta + c0`
+/// ([`MpcProblem::cost`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct MpcProblem {
     /// Hessian `H` (`n x n`, symmetric positive definite).
     pub h: DMatrix<f64>,
-    /// Linear-term map `F` (`p x n`): the linear term is `F' theta`.
+    /// Linear-term map `F` (`p x n`): the linear term is `F' theta + q`.
     pub f: DMatrix<f64>,
-    /// Constraint matrix `G = [I; -I]` over the blocked inputs (`m x n`).
+    /// Constant linear term `q` (`n`; non-zero for a fixed input target
+    /// or a soft bound's linear penalty).
+    pub q: DVector<f64>,
+    /// Constraint matrix `G` (`m x n`); [`MpcProblem::rows`] names each row.
     pub g: DMatrix<f64>,
-    /// Constraint offsets `W = [upper; -lower]` stacked over the blocks (`m`).
+    /// Constraint offsets `W` (`m`).
     pub w: DVector<f64>,
-    /// Constraint parameter map `E` (`m x p`), non-zero only in the throttle column (6.23).
+    /// Constraint parameter map `E` (`m x p`).
     pub e: DMatrix<f64>,
     /// Constant cost term `Y` (`p x p`): `J = ... + 1/2 theta'Y theta`.
     pub y: DMatrix<f64>,
+    /// Constant cost term `c` (`p`): `J = ... + c'theta`.
+    pub c: DVector<f64>,
+    /// Constant cost term `c0`.
+    pub c0: f64,
     /// Lower corner of the parameter box (`p`).
     pub theta_lb: DVector<f64>,
     /// Upper corner of the parameter box (`p`).
@@ -88,27 +56,69 @@ pub struct MpcProblem {
     pub horizon: usize,
     /// Move-blocking lengths (sum `N`).
     pub blocks: Vec<usize>,
+    /// Number of slack variables (the last entries of `z`).
+    pub n_slack: usize,
     /// The terminal state weight in use (`C'Q1N C` for an output terminal
-    /// weight, the Riccati solution for the LQ weight).
+    /// weight, the Riccati solution for the LQ weight, zero for none).
     pub terminal_weight: DMatrix<f64>,
-    /// The input bounds the problem was built with.
-    pub bounds: InputBounds,
+    /// What each row of `G` states.
+    pub rows: Vec<RowLabel>,
+    /// The settings the problem was built with.
+    pub settings: MpcSettings,
 }
 
 /// The prediction model and the maps from `theta` to the references of
-/// each cost term (all linear in `theta`).
+/// each cost term (affine in `theta`).
 pub(crate) struct Prediction {
     pub a: DMatrix<f64>,
     pub b: DMatrix<f64>,
     pub c: DMatrix<f64>,
-    /// Selects the states the terminal weight applies to (`nt x nx`).
+    /// Selects the states the terminal weight, the state bounds and the
+    /// terminal set apply to (`nt x nx`).
     pub terminal_sel: DMatrix<f64>,
     /// Terminal state reference (`nt x p`).
     pub x_ref: DMatrix<f64>,
-    /// Input reference (`nu x p`).
+    /// Input reference (`nu x p`) ...
     pub u_ref: DMatrix<f64>,
+    /// ... plus this constant (`nu`).
+    pub u_ref_const: DVector<f64>,
     /// Physical model used for the LQ terminal weight: `(A, B, C)`.
     pub lq_model: (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>),
+}
+
+/// An affine residual `Mz z + Mt theta + m0` with its weight, summed into
+/// the cost.
+struct CostSum {
+    h: DMatrix<f64>,
+    f: DMatrix<f64>,
+    q: DVector<f64>,
+    y: DMatrix<f64>,
+    c: DVector<f64>,
+    c0: f64,
+}
+
+impl CostSum {
+    fn new(n: usize, p: usize) -> Self {
+        CostSum {
+            h: DMatrix::zeros(n, n),
+            f: DMatrix::zeros(p, n),
+            q: DVector::zeros(n),
+            y: DMatrix::zeros(p, p),
+            c: DVector::zeros(p),
+            c0: 0.0,
+        }
+    }
+    /// Adds `1/2 |Mz z + Mt theta + m0|^2_W`.
+    fn add(&mut self, mz: &DMatrix<f64>, mt: &DMatrix<f64>, m0: &DVector<f64>, w: &DMatrix<f64>) {
+        let wmz = w * mz;
+        let wm0 = w * m0;
+        self.h += mz.transpose() * &wmz;
+        self.f += mt.transpose() * &wmz;
+        self.q += mz.transpose() * &wm0;
+        self.y += mt.transpose() * w * mt;
+        self.c += mt.transpose() * &wm0;
+        self.c0 += 0.5 * m0.dot(&wm0);
+    }
 }
 
 /// The matrices of a [`DiscreteLinearModel`] as nalgebra matrices, checked
@@ -166,78 +176,93 @@ impl ModelMatrices {
 }
 
 impl MpcProblem {
-    /// Builds the condensed problem for a model (inputs in deviations from
-    /// the trim), input bounds and settings.
+    /// Builds the condensed problem of a model (inputs in deviations from
+    /// the trim) with these settings.
     ///
-    /// A size whose condensing would exceed a documented limit
+    /// Settings are checked first ([`MpcSettings::validate`]); a size whose
+    /// condensing would exceed a documented limit
     /// ([`MAX_DECISION_VARIABLES`](crate::MAX_DECISION_VARIABLES) decision
     /// variables, or the memory and time of [`CondensingCost`](crate::CondensingCost))
     /// is refused with [`MpcError::TooLarge`] before anything is allocated.
     ///
     /// ```
     /// use kestrel_core::{Matrix, StateSpace};
-    /// use kestrel_mpc::{InputBounds, MpcProblem, MpcSettings, Terminal, Weight};
+    /// use kestrel_mpc::{Bounds, MpcProblem, MpcSettings, Terminal, Weight};
     /// use nalgebra::dvector;
     /// // A double integrator sampled at 0.1 s, |u| <= 1.
     /// let m = StateSpace::new(
     ///     Matrix::from_rows([[1.0, 0.1], [0.0, 1.0]]), Matrix::from_rows([[0.005], [0.1]]),
     ///     Matrix::from_rows([[1.0, 0.0]]), Matrix::from_rows([[0.0]]), 0.1);
     /// let settings = MpcSettings { horizon: 5, terminal: Terminal::StageWeight,
-    ///     q2: Weight::Scalar(0.1), ..MpcSettings::default() };
-    /// let p = MpcProblem::build(&m, &InputBounds::new(dvector![-1.0], dvector![1.0]), &settings).unwrap();
+    ///     q2: Weight::Scalar(0.1), input_bounds: Some(Bounds::new(dvector![-1.0], dvector![1.0])),
+    ///     ..MpcSettings::default() };
+    /// let p = MpcProblem::build(&m, &settings).unwrap();
     /// assert_eq!((p.n(), p.m(), p.p()), (5, 10, 3)); // theta = [x1, x2, r]
+    /// assert_eq!(p.row_label(7), "input 0 lower bound at step 2");
     /// let mpqp = p.to_mpqp();
     /// assert_eq!(mpqp.h, p.h);
     /// ```
     pub fn build<M: DiscreteLinearModel>(
         model: &M,
-        bounds: &InputBounds,
         settings: &MpcSettings,
     ) -> Result<Self, MpcError> {
         let mm = ModelMatrices::from_model(model)?;
-        let (nx, ny) = (mm.a.nrows(), mm.c.nrows());
+        let (nx, nu, ny) = (mm.a.nrows(), mm.b.ncols(), mm.c.nrows());
+        settings.validate(nu, ny, nx)?;
         let layout = ThetaLayout {
             nx,
-            nr: ny,
-            throttle: bounds.throttle.is_some(),
+            nu_prev: if settings.uses_previous_input() {
+                nu
+            } else {
+                0
+            },
+            ny,
+            preview: settings.preview,
+            nu_target: if settings.input_target == InputTarget::Parameter {
+                nu
+            } else {
+                0
+            },
+            np: settings.parameters.len(),
         };
         let p = layout.len();
-        // Terminal reference map C^+ r (7.19); u_ref = 0 (the thesis weighs
-        // the deviation from the trim).
+        // Terminal reference map C^+ r_P (7.19).
         let pinv =
             mm.c.clone()
                 .pseudo_inverse(1e-12)
                 .map_err(|e| MpcError::setting("C", format!("pseudo-inverse failed: {e}")))?;
         let mut x_ref = DMatrix::zeros(nx, p);
-        x_ref.view_mut((0, nx), (nx, ny)).copy_from(&pinv);
+        x_ref
+            .view_mut((0, layout.reference(layout.preview - 1).start), (nx, ny))
+            .copy_from(&pinv);
+        let (u_ref, u_ref_const) = input_target_maps(settings, layout, nu);
         let pred = Prediction {
             a: mm.a.clone(),
             b: mm.b.clone(),
             c: mm.c.clone(),
             terminal_sel: DMatrix::identity(nx, nx),
             x_ref,
-            u_ref: DMatrix::zeros(mm.b.ncols(), p),
+            u_ref,
+            u_ref_const,
             lq_model: (mm.a, mm.b, mm.c),
         };
-        Self::condense(&pred, layout, bounds, settings)
+        Self::condense(&pred, layout, settings)
     }
 
     /// The general condensing, shared by the plain and the offset-free builds.
     pub(crate) fn condense(
         pred: &Prediction,
         layout: ThetaLayout,
-        bounds: &InputBounds,
         settings: &MpcSettings,
     ) -> Result<Self, MpcError> {
         let (nx, nu, ny) = (pred.a.nrows(), pred.b.ncols(), pred.c.nrows());
+        let nt = pred.terminal_sel.nrows();
         let p = layout.len();
         let n_h = settings.horizon;
-        if n_h == 0 {
-            return Err(MpcError::setting("horizon", "must be at least 1"));
-        }
         // The size is checked before the blocking (N ones) is allocated.
         let nb = settings.blocking.as_ref().map_or(n_h, |b| b.count());
         crate::limits::CondensingCost::of(nx, nu, ny, p, n_h, nb).check(n_h, nb)?;
+        settings.validate(nu, ny, nt)?;
         let blocking = settings.blocking();
         if blocking.total() != n_h {
             return Err(MpcError::setting(
@@ -249,25 +274,17 @@ impl MpcProblem {
                 ),
             ));
         }
-        bounds.validate(nu)?;
-        for (what, v) in [
-            ("state_bound", settings.state_bound),
-            ("reference_bound", settings.reference_bound),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(MpcError::setting(
-                    what,
-                    format!("must be finite and > 0, found {v}"),
-                ));
-            }
-        }
         let q1 = settings.q1.resolve(ny, "Q1")?;
         let q2 = settings.q2.resolve(nu, "Q2")?;
-        let nt = pred.terminal_sel.nrows();
+        let qdu = match &settings.du_weight {
+            Some(w) => Some(w.resolve(nu, "du_weight")?),
+            None => None,
+        };
         // Terminal weight on the state error T x_N - x_ref, or on the output error.
         enum Term {
             Output(DMatrix<f64>),
             State(DMatrix<f64>),
+            None,
         }
         let term = match &settings.terminal {
             Terminal::StageWeight => Term::Output(q1.clone()),
@@ -287,13 +304,39 @@ impl MpcProblem {
                 let (a, b, c) = &pred.lq_model;
                 Term::State(crate::lq::lq_terminal_weight(a, b, c, &q1, &q2)?)
             }
+            Terminal::None => Term::None,
         };
+
+        // Slack variables: one per bounded entry of each soft family.
+        let nb = blocking.count();
+        let nm = nb * nu;
+        let families = [
+            (ConstraintKind::Input, &settings.input_bounds),
+            (ConstraintKind::InputMove, &settings.du_bounds),
+            (ConstraintKind::Output, &settings.output_bounds),
+            (ConstraintKind::State, &settings.state_bounds),
+        ];
+        let mut n_slack = 0;
+        let mut slack_of: Vec<Vec<Option<usize>>> = Vec::new();
+        for (_, b) in &families {
+            let mut map = Vec::new();
+            if let Some(b) = b {
+                for i in 0..b.len() {
+                    if b.soft.is_some() && b.is_bounded(i) {
+                        map.push(Some(nm + n_slack));
+                        n_slack += 1;
+                    } else {
+                        map.push(None);
+                    }
+                }
+            }
+            slack_of.push(map);
+        }
+        let n = nm + n_slack;
 
         // Prediction x_j = A^j x0 + sum_{i<j} A^(j-1-i) B u_i, with
         // u_i = z_{block(i)} and x0 = theta[0..nx]. The first block column
         // of S_u is [0; B; AB; ...] (errata for (6.13)).
-        let nb = blocking.count();
-        let n = nb * nu;
         let block_of = blocking.block_of_step();
         let mut xz: Vec<DMatrix<f64>> = Vec::with_capacity(n_h + 1); // nx x n
         let mut xt: Vec<DMatrix<f64>> = Vec::with_capacity(n_h + 1); // nx x p
@@ -310,104 +353,208 @@ impl MpcProblem {
             xz.push(next_z);
             xt.push(next_t);
         }
-        // Reference selection r = theta[nx..nx+ny].
-        let mut r_sel = DMatrix::zeros(ny, p);
-        r_sel
-            .view_mut((0, layout.nx), (ny, ny))
-            .copy_from(&DMatrix::identity(ny, ny));
-
-        // Accumulate residual terms e = Mz z + Mt theta with weight Q:
-        // H += Mz'Q Mz, F += Mt'Q Mz, Y += Mt'Q Mt.
-        let mut h = DMatrix::zeros(n, n);
-        let mut f = DMatrix::zeros(p, n);
-        let mut y = DMatrix::zeros(p, p);
-        let mut add = |mz: &DMatrix<f64>, mt: &DMatrix<f64>, q: &DMatrix<f64>| {
-            let qmz = q * mz;
-            h += mz.transpose() * &qmz;
-            f += mt.transpose() * &qmz;
-            y += mt.transpose() * q * mt;
+        // Reference of step j: r_min(max(j, 1), P).
+        let r_sel = |j: usize| {
+            let k = j.clamp(1, layout.preview) - 1;
+            let mut s = DMatrix::zeros(ny, p);
+            s.view_mut((0, layout.reference(k).start), (ny, ny))
+                .copy_from(&DMatrix::identity(ny, ny));
+            s
         };
-        for j in 0..n_h {
-            // Output error C x_j - r (j = 0 is constant in z but part of J).
-            add(&(&pred.c * &xz[j]), &(&pred.c * &xt[j] - &r_sel), &q1);
-            // Input u_j - u_ref.
+        // The input of step j as a map of z, and the previous input's
+        // selection in theta.
+        let u_of = |j: usize| {
             let mut uz = DMatrix::zeros(nu, n);
             uz.view_mut((0, block_of[j] * nu), (nu, nu))
                 .copy_from(&DMatrix::identity(nu, nu));
-            add(&uz, &(-&pred.u_ref), &q2);
+            uz
+        };
+        let mut uprev_sel = DMatrix::zeros(nu, p);
+        if layout.nu_prev > 0 {
+            uprev_sel
+                .view_mut((0, layout.previous_input().start), (nu, nu))
+                .copy_from(&DMatrix::identity(nu, nu));
+        }
+
+        let mut sum = CostSum::new(n, p);
+        let zero_ny = DVector::zeros(ny);
+        let zero_nu = DVector::zeros(nu);
+        for j in 0..n_h {
+            // Output error C x_j - r_j (j = 0 is constant in z but part of J).
+            sum.add(
+                &(&pred.c * &xz[j]),
+                &(&pred.c * &xt[j] - r_sel(j)),
+                &zero_ny,
+                &q1,
+            );
+            // Input u_j - u_ref.
+            sum.add(&u_of(j), &(-&pred.u_ref), &(-&pred.u_ref_const), &q2);
+            // Input move u_j - u_{j-1}: non-zero at the start of a block.
+            if let Some(qdu) = &qdu {
+                if j == 0 {
+                    sum.add(&u_of(0), &(-&uprev_sel), &zero_nu, qdu);
+                } else if block_of[j] != block_of[j - 1] {
+                    sum.add(
+                        &(u_of(j) - u_of(j - 1)),
+                        &DMatrix::zeros(nu, p),
+                        &zero_nu,
+                        qdu,
+                    );
+                }
+            }
         }
         let terminal_weight = match &term {
             Term::Output(q1n) => {
-                add(&(&pred.c * &xz[n_h]), &(&pred.c * &xt[n_h] - &r_sel), q1n);
+                sum.add(
+                    &(&pred.c * &xz[n_h]),
+                    &(&pred.c * &xt[n_h] - r_sel(n_h)),
+                    &zero_ny,
+                    q1n,
+                );
                 pred.c.transpose() * q1n * &pred.c
             }
             Term::State(pm) => {
-                add(
+                sum.add(
                     &(&pred.terminal_sel * &xz[n_h]),
                     &(&pred.terminal_sel * &xt[n_h] - &pred.x_ref),
+                    &DVector::zeros(nt),
                     pm,
                 );
                 pm.clone()
             }
+            Term::None => DMatrix::zeros(nt, nt),
         };
-        let h = (&h + h.transpose()) * 0.5;
-        let y = (&y + y.transpose()) * 0.5;
-        check_hessian(&h)?;
-
-        // Constraints (6.22d/e), (6.23) with the errata: G = [I; -I] over the
-        // blocked inputs, W = [upper...; -lower...], E = [c; -c] in the
-        // throttle column.
-        let m = 2 * n;
-        let mut g = DMatrix::zeros(m, n);
-        let mut w = DVector::zeros(m);
-        let mut e = DMatrix::zeros(m, p);
-        for b in 0..nb {
-            for i in 0..nu {
-                let k = b * nu + i;
-                g[(k, k)] = 1.0;
-                g[(n + k, k)] = -1.0;
-                w[k] = bounds.upper[i];
-                w[n + k] = -bounds.lower[i];
-                if let (Some(t), Some(ti)) = (&bounds.throttle, layout.throttle_index()) {
-                    e[(k, ti)] = t.coupling[i];
-                    e[(n + k, ti)] = -t.coupling[i];
+        // Slack penalties.
+        for ((_, b), map) in families.iter().zip(&slack_of) {
+            if let Some(Some(sp)) = b.as_ref().map(|b| b.soft) {
+                for s in map.iter().flatten() {
+                    sum.h[(*s, *s)] += sp.quadratic;
+                    sum.q[*s] += sp.linear;
                 }
             }
         }
+        let h = (&sum.h + sum.h.transpose()) * 0.5;
+        let y = (&sum.y + sum.y.transpose()) * 0.5;
+        check_hessian(&h)?;
 
-        let mut theta_lb = DVector::zeros(p);
-        let mut theta_ub = DVector::zeros(p);
-        for i in 0..layout.nx {
-            theta_lb[i] = -settings.state_bound;
-            theta_ub[i] = settings.state_bound;
+        // Constraints.
+        let step_x = |j: usize| (&pred.terminal_sel * &xz[j], &pred.terminal_sel * &xt[j]);
+        let mut rows = RowSet::new();
+        let ctx = RowContext { layout, n, p };
+        let block_start = blocking_starts(blocking.lengths());
+        if let Some(b) = &settings.input_bounds {
+            ctx.bound_rows(
+                &mut rows,
+                b,
+                &slack_of[0],
+                ConstraintKind::Input,
+                |blk| {
+                    (
+                        u_of(block_start[blk]),
+                        DMatrix::zeros(nu, p),
+                        block_start[blk],
+                    )
+                },
+                nb,
+            );
         }
-        for i in layout.nx..layout.nx + layout.nr {
-            theta_lb[i] = -settings.reference_bound;
-            theta_ub[i] = settings.reference_bound;
+        if let Some(b) = &settings.du_bounds {
+            ctx.bound_rows(
+                &mut rows,
+                b,
+                &slack_of[1],
+                ConstraintKind::InputMove,
+                |blk| {
+                    let j = block_start[blk];
+                    if blk == 0 {
+                        (u_of(0), -&uprev_sel, 0)
+                    } else {
+                        (u_of(j) - u_of(j - 1), DMatrix::zeros(nu, p), j)
+                    }
+                },
+                nb,
+            );
         }
-        if let (Some(t), Some(ti)) = (&bounds.throttle, layout.throttle_index()) {
-            theta_lb[ti] = t.min;
-            theta_ub[ti] = t.max;
+        if let Some(b) = &settings.output_bounds {
+            ctx.bound_rows(
+                &mut rows,
+                b,
+                &slack_of[2],
+                ConstraintKind::Output,
+                |k| (&pred.c * &xz[k + 1], &pred.c * &xt[k + 1], k + 1),
+                n_h,
+            );
         }
+        if let Some(b) = &settings.state_bounds {
+            ctx.bound_rows(
+                &mut rows,
+                b,
+                &slack_of[3],
+                ConstraintKind::State,
+                |k| {
+                    let (vz, vt) = step_x(k + 1);
+                    (vz, vt, k + 1)
+                },
+                n_h,
+            );
+        }
+        if let Some(ts) = &settings.terminal_set {
+            let (vz, vt) = step_x(n_h);
+            let (az, at) = (&ts.a * vz, &ts.a * vt);
+            for i in 0..ts.a.nrows() {
+                let label = RowLabel {
+                    kind: ConstraintKind::TerminalSet,
+                    side: Side::Upper,
+                    index: i,
+                    step: n_h,
+                    soft: false,
+                };
+                rows.push(
+                    az.row(i).transpose(),
+                    ts.b[i],
+                    -at.row(i).transpose(),
+                    label,
+                );
+            }
+        }
+        for s in 0..n_slack {
+            let mut g = DVector::zeros(n);
+            g[nm + s] = -1.0;
+            let label = RowLabel {
+                kind: ConstraintKind::Slack,
+                side: Side::Lower,
+                index: s,
+                step: 0,
+                soft: false,
+            };
+            rows.push(g, 0.0, DVector::zeros(p), label);
+        }
+        let (g, w, e) = rows.matrices(n, p);
+        let (theta_lb, theta_ub) = theta_box(layout, settings);
         Ok(MpcProblem {
             h,
-            f,
+            f: sum.f,
+            q: sum.q,
             g,
             w,
             e,
             y,
+            c: sum.c,
+            c0: sum.c0,
             theta_lb,
             theta_ub,
             layout,
             nu,
             horizon: n_h,
             blocks: blocking.lengths().to_vec(),
+            n_slack,
             terminal_weight,
-            bounds: bounds.clone(),
+            rows: rows.labels,
+            settings: settings.clone(),
         })
     }
 
-    /// Number of decision variables `n` (blocks times inputs).
+    /// Number of decision variables `n` (blocks times inputs, plus slacks).
     pub fn n(&self) -> usize {
         self.h.nrows()
     }
@@ -420,11 +567,35 @@ impl MpcProblem {
         self.g.nrows()
     }
 
-    /// `theta = [x; r; throttle]` from its parts (`r` holds the references
-    /// and, if the problem has a throttle parameter, the throttle last).
+    /// What row `i` of `G` states, e.g. `"output 1 upper bound at step 3
+    /// (soft)"` (empty past the last row).
+    pub fn row_label(&self, i: usize) -> String {
+        self.rows.get(i).map_or_else(String::new, |l| l.to_string())
+    }
+
+    /// `theta = [x; r]` for a problem without the previous input in it
+    /// (`r` is the law's reference vector: references, input target,
+    /// parameters); a problem with input-move terms needs
+    /// [`MpcProblem::theta_with_previous`].
     pub fn theta(&self, x: &[f64], r: &[f64]) -> Result<DVector<f64>, MpcError> {
+        if self.layout.nu_prev > 0 {
+            return Err(MpcError::setting(
+                "theta",
+                "this problem has the previous input in theta (input-move weight or bounds): use theta_with_previous",
+            ));
+        }
+        self.theta_with_previous(x, &[], r)
+    }
+
+    /// `theta = [x; u_prev; r]` ([`ThetaLayout`]).
+    pub fn theta_with_previous(
+        &self,
+        x: &[f64],
+        u_prev: &[f64],
+        r: &[f64],
+    ) -> Result<DVector<f64>, MpcError> {
         let mut t = DVector::zeros(self.p());
-        self.layout.assemble_into(x, r, t.as_mut_slice())?;
+        self.layout.assemble_into(x, u_prev, r, t.as_mut_slice())?;
         Ok(t)
     }
 
@@ -432,7 +603,10 @@ impl MpcProblem {
     pub fn cost(&self, z: &DVector<f64>, theta: &DVector<f64>) -> f64 {
         0.5 * z.dot(&(&self.h * z))
             + theta.dot(&(&self.f * z))
+            + self.q.dot(z)
             + 0.5 * theta.dot(&(&self.y * theta))
+            + self.c.dot(theta)
+            + self.c0
     }
 
     /// The first input move (the `nu` inputs applied now) of a solution `z`.
@@ -445,7 +619,7 @@ impl MpcProblem {
         MpqpProblem {
             h: self.h.clone(),
             f_theta: self.f.clone(),
-            f: DVector::zeros(self.n()),
+            f: self.q.clone(),
             g: self.g.clone(),
             w: self.w.clone(),
             e: self.e.clone(),
@@ -456,515 +630,148 @@ impl MpcProblem {
     }
 }
 
-#[cfg(test)]
-pub(crate) mod tests {
-    use super::*;
-    use crate::design::{Blocking, Weight};
-    use crate::qp::{QpSettings, ReferenceSolver, kkt_residuals, solve_dense};
-    use kestrel_core::formats::SsModel;
-    use proptest::prelude::*;
-    use rand::{RngExt, SeedableRng};
-    use rand_xoshiro::SplitMix64;
-
-    /// Reproducible random data from the workspace's seeded generator,
-    /// `rand_xoshiro::SplitMix64`.
-    pub(crate) struct Rng(SplitMix64);
-    impl Rng {
-        pub(crate) fn new(seed: u64) -> Self {
-            Rng(SplitMix64::seed_from_u64(seed))
-        }
-        /// Uniform in [-1, 1).
-        pub(crate) fn next(&mut self) -> f64 {
-            self.0.random::<f64>() * 2.0 - 1.0
-        }
-        pub(crate) fn mat(&mut self, r: usize, c: usize) -> DMatrix<f64> {
-            DMatrix::from_fn(r, c, |_, _| self.next())
-        }
-        pub(crate) fn psd(&mut self, n: usize, floor: f64) -> DMatrix<f64> {
-            let l = self.mat(n, n);
-            &l * l.transpose() + DMatrix::identity(n, n) * floor
+/// The input target as `u_ref = U theta + u0`.
+pub(crate) fn input_target_maps(
+    settings: &MpcSettings,
+    layout: ThetaLayout,
+    nu: usize,
+) -> (DMatrix<f64>, DVector<f64>) {
+    let mut u_ref = DMatrix::zeros(nu, layout.len());
+    let mut u_const = DVector::zeros(nu);
+    match &settings.input_target {
+        InputTarget::Zero => {}
+        InputTarget::Fixed(t) => u_const.copy_from(t),
+        InputTarget::Parameter => {
+            u_ref
+                .view_mut((0, layout.input_target().start), (nu, nu))
+                .copy_from(&DMatrix::identity(nu, nu));
         }
     }
+    (u_ref, u_const)
+}
 
-    /// A random discrete model with spectral radius about 0.95.
-    pub(crate) fn random_model(rng: &mut Rng, nx: usize, nu: usize, ny: usize) -> SsModel {
-        let a0 = rng.mat(nx, nx);
-        let rho = kestrel_core::eig::spectral_radius(&a0).unwrap();
-        let a = a0 * (0.95 / rho.max(1e-3));
-        SsModel::new(
-            0.02,
-            a,
-            rng.mat(nx, nu),
-            rng.mat(ny, nx),
-            DMatrix::zeros(ny, nu),
-        )
-        .unwrap()
+/// The first step of each block.
+fn blocking_starts(lengths: &[usize]) -> Vec<usize> {
+    lengths
+        .iter()
+        .scan(0, |s, &l| {
+            let start = *s;
+            *s += l;
+            Some(start)
+        })
+        .collect()
+}
+
+/// The parameter box: states, previous input, references, input target,
+/// parameters.
+fn theta_box(layout: ThetaLayout, settings: &MpcSettings) -> (DVector<f64>, DVector<f64>) {
+    let p = layout.len();
+    let mut lb = DVector::zeros(p);
+    let mut ub = DVector::zeros(p);
+    for i in layout.state() {
+        lb[i] = -settings.state_bound;
+        ub[i] = settings.state_bound;
     }
-
-    /// The direct (uncondensed) problem in the variables
-    /// `v = [x_0, ..., x_N, u_0, ..., u_{N-1}]`, built from the model and
-    /// weights only, and solved with clarabel. Returns the inputs of each
-    /// block and the optimal cost (constant included).
-    #[allow(clippy::too_many_arguments)]
-    fn solve_uncondensed(
-        m: &SsModel,
-        q1: &DMatrix<f64>,
-        q2: &DMatrix<f64>,
-        term_state: &DMatrix<f64>,
-        term_lin: &DVector<f64>,
-        term_const: f64,
-        blocks: &[usize],
-        bounds: &InputBounds,
-        x0: &DVector<f64>,
-        r: &DVector<f64>,
-        throttle: f64,
-    ) -> (DVector<f64>, f64) {
-        let (nx, nu) = (m.nx(), m.nu());
-        let n_h: usize = blocks.iter().sum();
-        let nv = (n_h + 1) * nx + n_h * nu;
-        let xi = |j: usize| j * nx;
-        let ui = |j: usize| (n_h + 1) * nx + j * nu;
-        let mut p = DMatrix::zeros(nv, nv);
-        let mut q = DVector::zeros(nv);
-        let mut cst = term_const;
-        let cqc = m.c.transpose() * q1 * &m.c;
-        let cqr = m.c.transpose() * q1 * r;
-        for j in 0..n_h {
-            p.view_mut((xi(j), xi(j)), (nx, nx)).copy_from(&cqc);
-            q.rows_mut(xi(j), nx).copy_from(&(-&cqr));
-            cst += 0.5 * r.dot(&(q1 * r));
-            p.view_mut((ui(j), ui(j)), (nu, nu)).copy_from(q2);
-        }
-        p.view_mut((xi(n_h), xi(n_h)), (nx, nx))
-            .copy_from(term_state);
-        q.rows_mut(xi(n_h), nx).copy_from(term_lin);
-        let block_of = Blocking::new(blocks.to_vec()).unwrap().block_of_step();
-        let n_eq =
-            nx + n_h * nx + (1..n_h).filter(|&j| block_of[j] == block_of[j - 1]).count() * nu;
-        let mut a_eq = DMatrix::zeros(n_eq, nv);
-        let mut b_eq = DVector::zeros(n_eq);
-        a_eq.view_mut((0, 0), (nx, nx))
-            .copy_from(&DMatrix::identity(nx, nx));
-        b_eq.rows_mut(0, nx).copy_from(x0);
-        let mut row = nx;
-        for j in 0..n_h {
-            a_eq.view_mut((row, xi(j + 1)), (nx, nx))
-                .copy_from(&DMatrix::identity(nx, nx));
-            a_eq.view_mut((row, xi(j)), (nx, nx)).copy_from(&(-&m.a));
-            a_eq.view_mut((row, ui(j)), (nx, nu)).copy_from(&(-&m.b));
-            row += nx;
-        }
-        for j in 1..n_h {
-            if block_of[j] == block_of[j - 1] {
-                a_eq.view_mut((row, ui(j)), (nu, nu))
-                    .copy_from(&DMatrix::identity(nu, nu));
-                a_eq.view_mut((row, ui(j - 1)), (nu, nu))
-                    .copy_from(&(-DMatrix::identity(nu, nu)));
-                row += nu;
-            }
-        }
-        let at = bounds.at(throttle);
-        let mut a_in = DMatrix::zeros(2 * n_h * nu, nv);
-        let mut b_in = DVector::zeros(2 * n_h * nu);
-        for j in 0..n_h {
-            for i in 0..nu {
-                a_in[(j * nu + i, ui(j) + i)] = 1.0;
-                b_in[j * nu + i] = at.upper[i];
-                a_in[(n_h * nu + j * nu + i, ui(j) + i)] = -1.0;
-                b_in[n_h * nu + j * nu + i] = -at.lower[i];
-            }
-        }
-        let v = solve_dense(&p, &q, &a_eq, &b_eq, &a_in, &b_in).unwrap();
-        let obj = 0.5 * v.dot(&(&p * &v)) + q.dot(&v) + cst;
-        let mut starts = Vec::new();
-        let mut s = 0;
-        for &l in blocks {
-            starts.push(s);
-            s += l;
-        }
-        let z = DVector::from_iterator(
-            starts.len() * nu,
-            starts
-                .iter()
-                .flat_map(|&j| v.rows(ui(j), nu).iter().copied().collect::<Vec<_>>()),
-        );
-        (z, obj)
+    for i in layout.references() {
+        lb[i] = -settings.reference_bound;
+        ub[i] = settings.reference_bound;
     }
-
-    #[test]
-    fn condensed_matches_uncondensed_clarabel() {
-        let mut rng = Rng::new(7);
-        let cases: &[(usize, &[usize])] = &[
-            (1, &[1]),
-            (2, &[2]),
-            (2, &[1, 1]),
-            (4, &[1, 3]),
-            (5, &[1, 1, 1, 1, 1]),
-            (10, &[1, 1, 2, 6]),
-        ];
-        let (mut checked, mut active) = (0, 0);
-        for (case, &(n_h, blocks)) in cases.iter().enumerate() {
-            for terminal_kind in 0..3 {
-                let (nx, nu, ny) = (3 + case % 2, 2, 2);
-                let m = random_model(&mut rng, nx, nu, ny);
-                let q1 = rng.psd(ny, 0.5) * 10.0;
-                let q2 = rng.psd(nu, 0.1) * 0.1;
-                let pinv = m.c.clone().pseudo_inverse(1e-12).unwrap();
-                let (terminal, pt) = match terminal_kind {
-                    0 => (Terminal::StageWeight, None),
-                    1 => {
-                        let q1n = rng.psd(ny, 0.2);
-                        (Terminal::Output(Weight::Matrix(q1n.clone())), Some(q1n))
-                    }
-                    _ => {
-                        let pm = rng.psd(nx, 0.1);
-                        (Terminal::State(pm.clone()), None)
-                    }
-                };
-                // Tight, loose and medium bounds, so both regimes occur.
-                let wide = [1.0, 30.0, 4.0][terminal_kind];
-                let mut bounds = InputBounds::new(
-                    DVector::from_fn(nu, |_, _| wide * (-0.5 - 0.3 * rng.next().abs())),
-                    DVector::from_fn(nu, |_, _| wide * (0.4 + 0.3 * rng.next().abs())),
-                );
-                if case % 2 == 0 {
-                    bounds = bounds.with_throttle(
-                        DVector::from_fn(nu, |i, _| -0.2 * i as f64),
-                        -1.0,
-                        1.0,
-                    );
-                }
-                let settings = MpcSettings {
-                    horizon: n_h,
-                    blocking: Some(Blocking::new(blocks.to_vec()).unwrap()),
-                    q1: Weight::Matrix(q1.clone()),
-                    q2: Weight::Matrix(q2.clone()),
-                    terminal: terminal.clone(),
-                    state_bound: 3.0,
-                    reference_bound: 2.0,
-                };
-                let prob = MpcProblem::build(&m, &bounds, &settings).unwrap();
-                let mpqp = prob.to_mpqp();
-                let mut solver = ReferenceSolver::new(&mpqp, QpSettings::default()).unwrap();
-                for _ in 0..4 {
-                    let x0 = DVector::from_fn(nx, |_, _| 3.0 * rng.next());
-                    let r = DVector::from_fn(ny, |_, _| 2.0 * rng.next());
-                    let th = rng.next();
-                    let mut rr: Vec<f64> = r.iter().copied().collect();
-                    if bounds.throttle.is_some() {
-                        rr.push(th);
-                    }
-                    let theta = prob.theta(x0.as_slice(), &rr).unwrap();
-                    let sol = solver.solve(&theta).unwrap();
-                    let kkt = kkt_residuals(&mpqp, &theta, &sol.z, &sol.lambda);
-                    assert!(kkt.max() < 1e-6, "KKT residuals {kkt:?}");
-                    active += usize::from(sol.lambda.amax() > 1e-6);
-                    let (pterm, lin, cst) = match (&terminal, &pt) {
-                        (Terminal::StageWeight, _) => (
-                            m.c.transpose() * &q1 * &m.c,
-                            -(m.c.transpose() * &q1 * &r),
-                            0.5 * r.dot(&(&q1 * &r)),
-                        ),
-                        (Terminal::Output(_), Some(q1n)) => (
-                            m.c.transpose() * q1n * &m.c,
-                            -(m.c.transpose() * q1n * &r),
-                            0.5 * r.dot(&(q1n * &r)),
-                        ),
-                        (Terminal::State(pm), _) => {
-                            let xr = &pinv * &r;
-                            (pm.clone(), -(pm * &xr), 0.5 * xr.dot(&(pm * &xr)))
-                        }
-                        _ => unreachable!(),
-                    };
-                    let (z_ref, j_ref) = solve_uncondensed(
-                        &m, &q1, &q2, &pterm, &lin, cst, blocks, &bounds, &x0, &r, th,
-                    );
-                    let scale = z_ref.amax().max(1.0);
-                    assert!(
-                        (&sol.z - &z_ref).amax() < 1e-5 * scale,
-                        "N = {n_h}, blocks {blocks:?}, terminal {terminal_kind}: condensed {} vs direct {}",
-                        sol.z,
-                        z_ref
-                    );
-                    let j = prob.cost(&sol.z, &theta);
-                    assert!(
-                        (j - j_ref).abs() < 1e-6 * j_ref.abs().max(1.0),
-                        "cost {j} vs direct {j_ref}"
-                    );
-                    checked += 1;
-                }
-            }
-        }
-        assert_eq!(checked, 6 * 3 * 4);
-        // Both regimes are exercised: some solutions with active bounds, some without.
-        assert!(
-            active > 10 && active < checked - 10,
-            "{active} of {checked} active"
-        );
-    }
-
-    #[test]
-    fn lq_terminal_weight_solves_riccati_and_gives_lqr_law() {
-        let mut rng = Rng::new(21);
-        for n_h in [1, 2, 5] {
-            let m = random_model(&mut rng, 4, 2, 2);
-            let q1 = rng.psd(2, 0.5);
-            let q2 = rng.psd(2, 0.2);
-            let settings = MpcSettings {
-                horizon: n_h,
-                q1: Weight::Matrix(q1.clone()),
-                q2: Weight::Matrix(q2.clone()),
-                terminal: Terminal::Lq,
-                ..MpcSettings::default()
-            };
-            let wide = InputBounds::new(
-                DVector::from_element(2, -1e3),
-                DVector::from_element(2, 1e3),
-            );
-            let p = MpcProblem::build(&m, &wide, &settings).unwrap();
-            // (7.18) corrected: A'SA - S - A'SB (Q2 + B'SB)^-1 B'SA + C'Q1C = 0.
-            let (a, b, s) = (&m.a, &m.b, &p.terminal_weight);
-            let bsb = q2 + b.transpose() * s * b;
-            let k = bsb
-                .clone()
-                .cholesky()
-                .unwrap()
-                .solve(&(b.transpose() * s * a));
-            let res = a.transpose() * s * a - s - a.transpose() * s * b * &k
-                + m.c.transpose() * &q1 * &m.c;
-            assert!(
-                res.amax() < 1e-9 * s.amax().max(1.0),
-                "Riccati residual {}",
-                res.amax()
-            );
-            // With the cost-to-go as terminal weight and no active bound, the
-            // MPC's first move is the LQ law u = -K x (principle of optimality).
-            let mut solver = ReferenceSolver::new(&p.to_mpqp(), QpSettings::default()).unwrap();
-            for _ in 0..3 {
-                let x = DVector::from_fn(4, |_, _| rng.next());
-                let sol = solver
-                    .solve(&p.theta(x.as_slice(), &[0.0, 0.0]).unwrap())
-                    .unwrap();
-                let u_lq = -(&k * &x);
-                assert!((sol.z.rows(0, 2) - &u_lq).amax() < 1e-6, "N = {n_h}");
-            }
-        }
-    }
-
-    /// Direct rollout of the cost (6.3a) for the output terminal weight.
-    fn rollout_cost(
-        m: &SsModel,
-        q1: &DMatrix<f64>,
-        q2: &DMatrix<f64>,
-        blocks: &[usize],
-        x0: &DVector<f64>,
-        r: &DVector<f64>,
-        z: &DVector<f64>,
-    ) -> f64 {
-        let nu = m.nu();
-        let mut x = x0.clone();
-        let mut j = 0.0;
-        for (b, &l) in blocks.iter().enumerate() {
-            let u = z.rows(b * nu, nu).into_owned();
-            for _ in 0..l {
-                let e = &m.c * &x - r;
-                j += 0.5 * e.dot(&(q1 * &e)) + 0.5 * u.dot(&(q2 * &u));
-                x = &m.a * &x + &m.b * &u;
-            }
-        }
-        let e = &m.c * &x - r;
-        j + 0.5 * e.dot(&(q1 * &e))
-    }
-
-    proptest! {
-        #![proptest_config(ProptestConfig::with_cases(32))]
-        /// J(z, theta) from H, F, Y equals the cost of simulating the model,
-        /// for every z and theta (the condensing is exact, not just at the optimum).
-        #[test]
-        fn cost_equals_rollout(seed in 0u64..1000, n_h in 1usize..6, split in 0usize..3) {
-            let mut rng = Rng::new(seed);
-            let m = random_model(&mut rng, 3, 2, 2);
-            let blocks = match split.min(n_h - 1) {
-                0 => vec![n_h],
-                k => { let mut v = vec![1; k]; v.push(n_h - k); v }
-            };
-            let q1 = rng.psd(2, 0.1);
-            let q2 = rng.psd(2, 0.1);
-            let settings = MpcSettings {
-                horizon: n_h,
-                blocking: Some(Blocking::new(blocks.clone()).unwrap()),
-                q1: Weight::Matrix(q1.clone()),
-                q2: Weight::Matrix(q2.clone()),
-                terminal: Terminal::StageWeight,
-                ..MpcSettings::default()
-            };
-            let bounds = InputBounds::new(DVector::from_element(2, -1.0), DVector::from_element(2, 1.0));
-            let prob = MpcProblem::build(&m, &bounds, &settings).unwrap();
-            let x0 = DVector::from_fn(3, |_, _| rng.next());
-            let r = DVector::from_fn(2, |_, _| rng.next());
-            let z = DVector::from_fn(prob.n(), |_, _| rng.next());
-            let theta = prob.theta(x0.as_slice(), r.as_slice()).unwrap();
-            let j = prob.cost(&z, &theta);
-            let want = rollout_cost(&m, &q1, &q2, &blocks, &x0, &r, &z);
-            prop_assert!((j - want).abs() < 1e-10 * want.abs().max(1.0), "{} vs {}", j, want);
-        }
-    }
-
-    #[test]
-    fn thesis_bound_structure_6_23() {
-        // Tricopter bounds: E has -1 in the motor rows of the upper block and
-        // +1 in the lower block, 0 for the servo; W holds the PWM limits
-        // minus the trim.
-        let mut rng = Rng::new(3);
-        let m = random_model(&mut rng, 5, 4, 3);
-        let u0 = [15.63, 0.85, -16.01, -32.3];
-        let bounds = InputBounds::new(
-            DVector::from_fn(4, |i, _| if i < 3 { 1000.0 } else { -300.0 } - u0[i]),
-            DVector::from_fn(4, |i, _| if i < 3 { 2000.0 } else { 300.0 } - u0[i]),
-        )
-        .with_throttle(
-            DVector::from_column_slice(&[-1.0, -1.0, -1.0, 0.0]),
-            1000.0,
-            2000.0,
-        );
-        let settings = MpcSettings {
-            horizon: 3,
-            blocking: Some(Blocking::new(vec![1, 2]).unwrap()),
-            terminal: Terminal::StageWeight,
-            ..MpcSettings::default()
-        };
-        let p = MpcProblem::build(&m, &bounds, &settings).unwrap();
-        assert_eq!((p.n(), p.m(), p.p()), (8, 16, 9));
-        let ti = 8;
-        for b in 0..2 {
-            for (i, u0i) in u0.iter().enumerate() {
-                let k = b * 4 + i;
-                let c = if i < 3 { -1.0 } else { 0.0 };
-                assert_eq!(p.e[(k, ti)], c);
-                assert_eq!(p.e[(8 + k, ti)], -c);
-                let (lo, hi) = if i < 3 {
-                    (1000.0, 2000.0)
+    let input_range = settings
+        .input_bounds
+        .as_ref()
+        .map(|b| b.range_over(&settings.parameters));
+    for range in [layout.previous_input(), layout.input_target()] {
+        for (k, i) in range.enumerate() {
+            let fallback = settings.input_parameter_bound;
+            let (lo, hi) = input_range.as_ref().map_or((-fallback, fallback), |r| {
+                let lo = if r.lower[k].is_finite() {
+                    r.lower[k]
                 } else {
-                    (-300.0, 300.0)
+                    -fallback
                 };
-                assert_eq!(p.w[k], hi - u0i);
-                assert_eq!(p.w[8 + k], -(lo - u0i));
+                let hi = if r.upper[k].is_finite() {
+                    r.upper[k]
+                } else {
+                    fallback
+                };
+                (lo, hi)
+            });
+            lb[i] = lo;
+            ub[i] = hi;
+        }
+    }
+    for (k, i) in layout.parameters().enumerate() {
+        lb[i] = settings.parameters[k].min;
+        ub[i] = settings.parameters[k].max;
+    }
+    (lb, ub)
+}
+
+/// `sign * v` with every zero a positive zero.
+fn signed(v: &DVector<f64>, sign: f64) -> DVector<f64> {
+    v.map(|x| if x == 0.0 { 0.0 } else { sign * x })
+}
+
+/// What the bound rows of one family need.
+struct RowContext {
+    layout: ThetaLayout,
+    n: usize,
+    p: usize,
+}
+
+impl RowContext {
+    /// The rows of one bound family over `count` items (blocks or steps):
+    /// `at(item)` gives the bounded vector as `Vz z + Vt theta` and the
+    /// step it belongs to. All upper rows first, then all lower rows.
+    fn bound_rows(
+        &self,
+        rows: &mut RowSet,
+        b: &Bounds,
+        slack: &[Option<usize>],
+        kind: ConstraintKind,
+        at: impl Fn(usize) -> (DMatrix<f64>, DMatrix<f64>, usize),
+        count: usize,
+    ) {
+        let items: Vec<_> = (0..count).map(&at).collect();
+        let params = self.layout.parameters();
+        for side in [Side::Upper, Side::Lower] {
+            let (base, shift, sign) = match side {
+                Side::Upper => (&b.upper, &b.upper_shift, 1.0),
+                Side::Lower => (&b.lower, &b.lower_shift, -1.0),
+            };
+            for (vz, vt, step) in &items {
+                for i in 0..b.len() {
+                    if !base[i].is_finite() {
+                        continue;
+                    }
+                    // sign (Vz z + Vt theta) <= sign (base + shift p) (+ s).
+                    // Zeros stay +0 and a shift is stored as given, so the
+                    // thesis's problems come out bit for bit as before.
+                    let mut g = signed(&vz.row(i).transpose(), sign);
+                    let mut e = signed(&vt.row(i).transpose(), -sign);
+                    if let Some(s) = shift {
+                        for (k, col) in params.clone().enumerate() {
+                            let v = sign * s[(i, k)];
+                            e[col] = if e[col] == 0.0 { v } else { e[col] + v };
+                        }
+                    }
+                    if let Some(s) = slack[i] {
+                        g[s] = -1.0;
+                    }
+                    debug_assert_eq!((g.len(), e.len()), (self.n, self.p));
+                    let label = RowLabel {
+                        kind,
+                        side,
+                        index: i,
+                        step: *step,
+                        soft: slack[i].is_some(),
+                    };
+                    rows.push(g, sign * base[i], e, label);
+                }
             }
         }
-        // Only the throttle column of E is non-zero, and F's throttle row is zero.
-        assert_eq!(p.e.columns(0, 8).amax(), 0.0);
-        assert_eq!(p.f.row(ti).amax(), 0.0);
-        // Feasible point at throttle 1500: motors 1000 - 1500 - u0 <= z <= 2000 - 1500 - u0.
-        let theta = p.theta(&[0.0; 5], &[0.0, 0.0, 0.0, 1500.0]).unwrap();
-        let rhs = &p.w + &p.e * &theta;
-        assert!((rhs[0] - (500.0 - 15.63)).abs() < 1e-12);
-        assert!((rhs[8] - (500.0 + 15.63)).abs() < 1e-12);
-    }
-
-    #[test]
-    fn bad_designs_are_clear_errors() {
-        let mut rng = Rng::new(11);
-        let m = random_model(&mut rng, 3, 2, 2);
-        let ok = InputBounds::new(
-            DVector::from_element(2, -1.0),
-            DVector::from_element(2, 1.0),
-        );
-        let base = MpcSettings {
-            horizon: 3,
-            terminal: Terminal::StageWeight,
-            ..MpcSettings::default()
-        };
-        let err = |b: &InputBounds, s: &MpcSettings| MpcProblem::build(&m, b, s).unwrap_err();
-        // Infeasible bounds.
-        let bad = InputBounds::new(
-            DVector::from_vec(vec![-1.0, 2.0]),
-            DVector::from_element(2, 1.0),
-        );
-        let e = err(&bad, &base);
-        assert!(
-            matches!(e, MpcError::InfeasibleBounds { input: 1, .. }),
-            "{e}"
-        );
-        assert!(e.to_string().contains("infeasible input bounds"));
-        // Wrong bound length.
-        let short = InputBounds::new(
-            DVector::from_element(1, -1.0),
-            DVector::from_element(1, 1.0),
-        );
-        assert!(matches!(err(&short, &base), MpcError::Dimension { .. }));
-        // NaN bound.
-        let nan = InputBounds::new(
-            DVector::from_vec(vec![-1.0, f64::NAN]),
-            DVector::from_element(2, 1.0),
-        );
-        assert!(matches!(err(&nan, &base), MpcError::NonFinite(_)));
-        // Mismatched weight dimensions.
-        let s = MpcSettings {
-            q1: Weight::Matrix(DMatrix::identity(3, 3)),
-            ..base.clone()
-        };
-        let e = err(&ok, &s);
-        assert!(
-            e.to_string().starts_with("Q1: expected a 2 x 2 matrix"),
-            "{e}"
-        );
-        let s = MpcSettings {
-            q2: Weight::Diagonal(vec![1.0]),
-            ..base.clone()
-        };
-        assert!(matches!(err(&ok, &s), MpcError::Dimension { .. }));
-        let s = MpcSettings {
-            terminal: Terminal::State(DMatrix::identity(2, 2)),
-            ..base.clone()
-        };
-        assert!(matches!(err(&ok, &s), MpcError::Dimension { .. }));
-        // Indefinite weight.
-        let s = MpcSettings {
-            q1: Weight::Diagonal(vec![1.0, -1.0]),
-            ..base.clone()
-        };
-        assert!(matches!(err(&ok, &s), MpcError::NotPositiveDefinite { .. }));
-        // Non-positive-definite H: no input weight and an output weight that
-        // does not see every input direction.
-        let s = MpcSettings {
-            q2: Weight::Scalar(0.0),
-            q1: Weight::Diagonal(vec![1.0, 0.0]),
-            horizon: 1,
-            ..base.clone()
-        };
-        let e = err(&ok, &s);
-        assert!(
-            matches!(e, MpcError::NotPositiveDefinite { kind: "", .. }),
-            "{e}"
-        );
-        assert!(e.to_string().contains("Hessian H"));
-        // Blocking that does not fit the horizon; zero horizon.
-        let s = MpcSettings {
-            blocking: Some(Blocking::new(vec![1, 1]).unwrap()),
-            ..base.clone()
-        };
-        assert!(
-            err(&ok, &s)
-                .to_string()
-                .contains("sum to 2, but the horizon is N = 3")
-        );
-        let s = MpcSettings {
-            horizon: 0,
-            ..base.clone()
-        };
-        assert!(matches!(err(&ok, &s), MpcError::InvalidSetting { .. }));
-        // Feed-through and non-finite models.
-        let mut md = m.clone();
-        md.d[(0, 0)] = 0.5;
-        assert!(matches!(
-            MpcProblem::build(&md, &ok, &base),
-            Err(MpcError::FeedThrough { .. })
-        ));
-        let mut mn = m.clone();
-        mn.a[(1, 1)] = f64::INFINITY;
-        assert!(matches!(
-            MpcProblem::build(&mn, &ok, &base),
-            Err(MpcError::NonFinite(_))
-        ));
     }
 }
+
+#[cfg(test)]
+pub(crate) mod tests;

@@ -1,5 +1,6 @@
-//! Design-time settings: weights, terminal cost, move blocking, input bounds.
+//! Design-time settings: weights, terminal cost, move blocking, constraints.
 
+use crate::constraints::{Bounds, InputTarget, Parameter, TerminalSet};
 use crate::error::MpcError;
 use nalgebra::{DMatrix, DVector};
 
@@ -105,126 +106,8 @@ pub enum Terminal {
     /// `A'SA - S - A'SB (Q2 + B'SB)^-1 B'SA + C'Q1C = 0`), on the state
     /// error `x_N - C^+ r` with the pseudo-inverse reference map.
     Lq,
-}
-
-/// Which inputs move with the throttle parameter, and the range of the throttle.
-///
-/// The bounds on input `i` at throttle `t` are
-/// `lower_i + coupling_i t <= u_i - u0_i <= upper_i + coupling_i t`, (6.7).
-#[derive(Clone, Debug, PartialEq)]
-pub struct ThrottleParameter {
-    /// Shift of each input's bounds per unit of throttle (e.g. `-1` for a
-    /// motor whose pulse is the throttle plus the input, `0` for an input
-    /// the throttle does not move), `nu` entries.
-    pub coupling: DVector<f64>,
-    /// Smallest throttle (parameter box).
-    pub min: f64,
-    /// Largest throttle (parameter box).
-    pub max: f64,
-}
-
-/// Input bounds as deviations from the trim `u0` (the model's input
-/// coordinates), optionally moving with the throttle.
-#[derive(Clone, Debug, PartialEq)]
-pub struct InputBounds {
-    /// Lower bounds at zero throttle, `nu` entries.
-    pub lower: DVector<f64>,
-    /// Upper bounds at zero throttle, `nu` entries.
-    pub upper: DVector<f64>,
-    /// The throttle dependence; `None` for fixed bounds and no throttle
-    /// entry in `theta`.
-    pub throttle: Option<ThrottleParameter>,
-}
-
-impl InputBounds {
-    /// Fixed bounds (no throttle parameter), as deviations from the trim.
-    pub fn new(lower: DVector<f64>, upper: DVector<f64>) -> Self {
-        InputBounds {
-            lower,
-            upper,
-            throttle: None,
-        }
-    }
-
-    /// Adds a throttle parameter to fixed bounds.
-    pub fn with_throttle(mut self, coupling: DVector<f64>, min: f64, max: f64) -> Self {
-        self.throttle = Some(ThrottleParameter { coupling, min, max });
-        self
-    }
-
-    /// Number of inputs.
-    pub fn nu(&self) -> usize {
-        self.lower.len()
-    }
-
-    /// The bounds at a throttle value (ignored without a throttle parameter).
-    pub fn at(&self, throttle: f64) -> BoundsAt {
-        match &self.throttle {
-            Some(t) => BoundsAt {
-                lower: &self.lower + &t.coupling * throttle,
-                upper: &self.upper + &t.coupling * throttle,
-            },
-            None => BoundsAt {
-                lower: self.lower.clone(),
-                upper: self.upper.clone(),
-            },
-        }
-    }
-
-    /// Checks sizes, finiteness and feasibility for `nu` inputs.
-    pub fn validate(&self, nu: usize) -> Result<(), MpcError> {
-        for (what, v) in [
-            ("input bounds lower", &self.lower),
-            ("input bounds upper", &self.upper),
-        ] {
-            if v.len() != nu {
-                return Err(MpcError::dim(
-                    what,
-                    format!("{nu} entries (one per input)"),
-                    format!("{}", v.len()),
-                ));
-            }
-            if v.iter().any(|x| !x.is_finite()) {
-                return Err(MpcError::NonFinite(what.into()));
-            }
-        }
-        if let Some(i) = (0..nu).find(|&i| self.lower[i] > self.upper[i]) {
-            return Err(MpcError::InfeasibleBounds {
-                input: i,
-                lower: self.lower[i],
-                upper: self.upper[i],
-            });
-        }
-        if let Some(t) = &self.throttle {
-            if t.coupling.len() != nu {
-                return Err(MpcError::dim(
-                    "throttle coupling",
-                    format!("{nu} entries (one per input)"),
-                    format!("{}", t.coupling.len()),
-                ));
-            }
-            if t.coupling.iter().any(|x| !x.is_finite()) || !t.min.is_finite() || !t.max.is_finite()
-            {
-                return Err(MpcError::NonFinite("throttle parameter".into()));
-            }
-            if t.min > t.max {
-                return Err(MpcError::setting(
-                    "throttle range",
-                    format!("min {} exceeds max {}", t.min, t.max),
-                ));
-            }
-        }
-        Ok(())
-    }
-}
-
-/// Input bounds evaluated at one throttle value.
-#[derive(Clone, Debug, PartialEq)]
-pub struct BoundsAt {
-    /// Lower bounds (deviation from the trim).
-    pub lower: DVector<f64>,
-    /// Upper bounds (deviation from the trim).
-    pub upper: DVector<f64>,
+    /// No terminal cost: the prediction ends with the last stage cost.
+    None,
 }
 
 /// Move blocking (6.24)-(6.25) generalised: the horizon is cut into blocks
@@ -293,8 +176,42 @@ impl Blocking {
     }
 }
 
-/// Settings of the MPC design: horizon, blocking, weights, terminal cost and
-/// the parameter box written to `kestrel.mpqp.v1`.
+/// Settings of the MPC design: horizon, blocking, weights, terminal cost,
+/// constraints, and the parameter box written to `kestrel.mpqp.v1`.
+///
+/// Everything is in the model's coordinates: inputs as deviations from the
+/// trim `u0`, outputs `y = C x`. The cost over the horizon `N` is
+///
+/// ```text
+/// sum_{j=0}^{N-1} 1/2 |C x_j - r_j|^2_Q1 + 1/2 |u_j - u_t|^2_Q2 + 1/2 |u_j - u_{j-1}|^2_Qdu
+///   + terminal cost on x_N,
+/// ```
+///
+/// with `u_{-1}` the input applied last (a parameter when `du_weight` or
+/// `du_bounds` is set), `r_j` the reference of step `j` (held after the
+/// preview) and `u_t` the input target. See [`ThetaLayout`](crate::ThetaLayout)
+/// for the parameter vector.
+///
+/// ```
+/// use kestrel_mpc::{Bounds, MpcSettings, SoftPenalty, Terminal, Weight};
+/// use nalgebra::dvector;
+/// // |u| <= 1, |du| <= 0.2 per step, y <= 1.5 (soft), 5 reference steps.
+/// let settings = MpcSettings {
+///     horizon: 10,
+///     q2: Weight::Scalar(0.1),
+///     du_weight: Some(Weight::Scalar(1.0)),
+///     input_bounds: Some(Bounds::new(dvector![-1.0], dvector![1.0])),
+///     du_bounds: Some(Bounds::new(dvector![-0.2], dvector![0.2])),
+///     output_bounds: Some(Bounds::new(dvector![f64::NEG_INFINITY], dvector![1.5])
+///         .with_soft(SoftPenalty::default())),
+///     preview: 5,
+///     terminal: Terminal::Lq,
+///     ..MpcSettings::default()
+/// };
+/// assert!(settings.validate(1, 1, 2).is_ok());
+/// let bad = MpcSettings { preview: 11, ..settings };
+/// assert!(bad.validate(1, 1, 2).unwrap_err().to_string().contains("preview"));
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct MpcSettings {
     /// Prediction horizon `N` (steps).
@@ -303,7 +220,8 @@ pub struct MpcSettings {
     pub blocking: Option<Blocking>,
     /// Output-error weight `Q1` (`ny x ny`).
     pub q1: Weight,
-    /// Input weight `Q2` (`nu x nu`), on the deviation from the trim.
+    /// Input weight `Q2` (`nu x nu`), on the deviation from the input
+    /// target ([`MpcSettings::input_target`]).
     pub q2: Weight,
     /// Terminal cost.
     pub terminal: Terminal,
@@ -311,11 +229,38 @@ pub struct MpcSettings {
     pub state_bound: f64,
     /// Parameter box of the references: `|r_i| <= reference_bound`.
     pub reference_bound: f64,
+    /// Weight on the input moves `du_j = u_j - u_{j-1}` (`nu x nu`); with
+    /// move blocking only the first step of each block moves. Setting it
+    /// (or [`MpcSettings::du_bounds`]) puts the previous input in `theta`.
+    pub du_weight: Option<Weight>,
+    /// Reference steps in `theta`, `1..=horizon`: `y_j` is compared with
+    /// `r_min(j, P)` (`y_0` with `r_1`), the terminal cost with `r_P`.
+    /// `1` (the default) is a constant reference.
+    pub preview: usize,
+    /// What `Q2` pulls the inputs towards.
+    pub input_target: InputTarget,
+    /// Bounds on the inputs `u_j`, `j = 0..N-1` (deviations from the trim).
+    pub input_bounds: Option<Bounds>,
+    /// Bounds on the input moves `du_j`, `j = 0..N-1` (`du_0 = u_0 - u_prev`).
+    pub du_bounds: Option<Bounds>,
+    /// Bounds on the predicted outputs `y_j = C x_j`, `j = 1..N`.
+    pub output_bounds: Option<Bounds>,
+    /// Bounds on the predicted states `x_j`, `j = 1..N`.
+    pub state_bounds: Option<Bounds>,
+    /// A hard terminal set `A x_N <= b`.
+    pub terminal_set: Option<TerminalSet>,
+    /// Extra parameters in `theta`, last (the bounds' shifts read them).
+    pub parameters: Vec<Parameter>,
+    /// Parameter box of the previous input and of an input target in
+    /// `theta` where the input bounds do not give one: `|u_i| <= this`.
+    pub input_parameter_bound: f64,
 }
 
 impl Default for MpcSettings {
     /// `N = 2` without blocking, `Q1 = I`, `Q2 = 1e-4 I`, LQ terminal
-    /// weight, states within +-10 and references within +-3.
+    /// weight, states within +-10 and references within +-3, no
+    /// constraints, no input-move weight, a constant reference, the trim
+    /// as input target, no extra parameters.
     fn default() -> Self {
         MpcSettings {
             horizon: 2,
@@ -325,6 +270,16 @@ impl Default for MpcSettings {
             terminal: Terminal::Lq,
             state_bound: 10.0,
             reference_bound: 3.0,
+            du_weight: None,
+            preview: 1,
+            input_target: InputTarget::Zero,
+            input_bounds: None,
+            du_bounds: None,
+            output_bounds: None,
+            state_bounds: None,
+            terminal_set: None,
+            parameters: Vec::new(),
+            input_parameter_bound: 10.0,
         }
     }
 }
@@ -335,5 +290,103 @@ impl MpcSettings {
         self.blocking
             .clone()
             .unwrap_or_else(|| Blocking::none(self.horizon))
+    }
+
+    /// Whether the previous input is a parameter (an input-move weight or
+    /// bound is set).
+    pub fn uses_previous_input(&self) -> bool {
+        self.du_weight.is_some() || self.du_bounds.is_some()
+    }
+
+    /// Checks every setting against a model of `nu` inputs, `ny` outputs
+    /// and `nx` states (the weights' definiteness is checked when they are
+    /// resolved). Errors name the setting.
+    pub fn validate(&self, nu: usize, ny: usize, nx: usize) -> Result<(), MpcError> {
+        if self.horizon == 0 {
+            return Err(MpcError::setting("horizon", "must be at least 1"));
+        }
+        if self.preview == 0 || self.preview > self.horizon {
+            return Err(MpcError::setting(
+                "preview",
+                format!(
+                    "must satisfy 1 <= preview <= horizon N = {}, found {}",
+                    self.horizon, self.preview
+                ),
+            ));
+        }
+        for (what, v) in [
+            ("state_bound", self.state_bound),
+            ("reference_bound", self.reference_bound),
+            ("input_parameter_bound", self.input_parameter_bound),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(MpcError::setting(
+                    what,
+                    format!("must be finite and > 0, found {v}"),
+                ));
+            }
+        }
+        for (i, p) in self.parameters.iter().enumerate() {
+            if !(p.min.is_finite() && p.max.is_finite()) {
+                return Err(MpcError::NonFinite(format!("parameter {i} ({})", p.name)));
+            }
+            if p.min > p.max {
+                return Err(MpcError::setting(
+                    format!("parameter {i} ({})", p.name),
+                    format!("min {} exceeds max {}", p.min, p.max),
+                ));
+            }
+        }
+        if let InputTarget::Fixed(t) = &self.input_target {
+            if t.len() != nu {
+                return Err(MpcError::dim(
+                    "input_target",
+                    format!("{nu} entries (one per input)"),
+                    format!("{}", t.len()),
+                ));
+            }
+            if t.iter().any(|v| !v.is_finite()) {
+                return Err(MpcError::NonFinite("input_target".into()));
+            }
+        }
+        if let Some(b) = &self.input_bounds
+            && b.len() == nu
+            && let Some(i) = (0..nu).find(|&i| b.lower[i] > b.upper[i])
+        {
+            return Err(MpcError::InfeasibleBounds {
+                input: i,
+                lower: b.lower[i],
+                upper: b.upper[i],
+            });
+        }
+        let families = [
+            ("input_bounds", &self.input_bounds, nu),
+            ("du_bounds", &self.du_bounds, nu),
+            ("output_bounds", &self.output_bounds, ny),
+            ("state_bounds", &self.state_bounds, nx),
+        ];
+        for (what, b, k) in families {
+            if let Some(b) = b {
+                b.validate(k, &self.parameters, what)?;
+            }
+        }
+        if let Some(b) = &self.du_bounds {
+            let at = b.tightest_over(&self.parameters);
+            for i in 0..nu {
+                if at.lower[i] > 0.0 || at.upper[i] < 0.0 {
+                    return Err(MpcError::setting(
+                        "du_bounds",
+                        format!(
+                            "entry {i}: the bounds [{}, {}] exclude a zero move, so holding the input would be infeasible",
+                            at.lower[i], at.upper[i]
+                        ),
+                    ));
+                }
+            }
+        }
+        if let Some(t) = &self.terminal_set {
+            t.validate(nx)?;
+        }
+        Ok(())
     }
 }

@@ -1,8 +1,9 @@
 //! MPC control laws: a receding-horizon wrapper around any solver of the
 //! condensed parametric QP.
 
-use crate::condense::{MpcProblem, ThetaLayout};
+use crate::condense::MpcProblem;
 use crate::error::MpcError;
+use crate::layout::ThetaLayout;
 use crate::qp::{QpSettings, ReferenceSolver};
 use kestrel_core::{ControlLaw, Error};
 use nalgebra::DVector;
@@ -71,26 +72,42 @@ impl ParametricQpSolver for ReferenceSolver {
     }
 }
 
-/// The receding-horizon MPC law: assembles `theta = [x; r; throttle]`,
-/// solves the QP with any [`ParametricQpSolver`], and applies the first
-/// move (the `nu` inputs of the first block, deviations from the trim).
+/// The receding-horizon MPC law: assembles `theta = [x; u_prev; r]`
+/// ([`ThetaLayout`]), solves the QP with any [`ParametricQpSolver`], and
+/// applies the first move (the `nu` inputs of the first block, deviations
+/// from the trim). It keeps its last input as `u_prev` when the problem
+/// has input-move terms.
 ///
 /// As a [`ControlLaw`]: `x` the state estimate (`nx`), `r` the output
-/// references followed by the throttle when the problem has one, `u` the
+/// references of the preview, then the input target and the extra
+/// parameters when the problem has them (the thesis: `[r; throttle]`), `u` the
 /// input deviation from the trim (`nu`).
 ///
 /// ```
 /// use kestrel_core::{ControlLaw, Matrix, StateSpace};
-/// use kestrel_mpc::{InputBounds, MpcLaw, MpcProblem, MpcSettings, QpSettings, Terminal};
+/// use kestrel_mpc::{Bounds, MpcLaw, MpcProblem, MpcSettings, QpSettings, Terminal, Weight};
 /// use nalgebra::dvector;
 /// let m = StateSpace::new(Matrix::from_rows([[0.9]]), Matrix::from_rows([[0.1]]),
 ///     Matrix::from_rows([[1.0]]), Matrix::from_rows([[0.0]]), 0.02);
-/// let p = MpcProblem::build(&m, &InputBounds::new(dvector![-0.5], dvector![0.5]),
-///     &MpcSettings { horizon: 5, terminal: Terminal::Lq, ..MpcSettings::default() }).unwrap();
+/// let p = MpcProblem::build(&m, &MpcSettings { horizon: 5, terminal: Terminal::Lq,
+///     input_bounds: Some(Bounds::new(dvector![-0.5], dvector![0.5])),
+///     ..MpcSettings::default() }).unwrap();
 /// let mut law = MpcLaw::clarabel(&p, QpSettings::default()).unwrap();
 /// let mut u = [0.0];
 /// law.control(&[0.0], &[2.0], &mut u).unwrap(); // far below the reference
 /// assert!((u[0] - 0.5).abs() < 1e-6);           // full push, at the bound
+///
+/// // With an input-move bound the law remembers its last input: from rest
+/// // it can move by at most 0.1 per step.
+/// let p = MpcProblem::build(&m, &MpcSettings { horizon: 5, terminal: Terminal::Lq,
+///     du_weight: Some(Weight::Scalar(0.0)),
+///     du_bounds: Some(Bounds::new(dvector![-0.1], dvector![0.1])),
+///     ..MpcSettings::default() }).unwrap();
+/// let mut law = MpcLaw::clarabel(&p, QpSettings::default()).unwrap();
+/// law.control(&[0.0], &[2.0], &mut u).unwrap();
+/// assert!((u[0] - 0.1).abs() < 1e-9);
+/// law.control(&[0.0], &[2.0], &mut u).unwrap();
+/// assert!((u[0] - 0.2).abs() < 1e-9);
 /// ```
 #[derive(Debug)]
 pub struct MpcLaw<S> {
@@ -99,6 +116,9 @@ pub struct MpcLaw<S> {
     solver: S,
     theta: Vec<f64>,
     z: Vec<f64>,
+    /// The input applied last (deviation from the trim), when `theta`
+    /// holds it.
+    u_prev: Vec<f64>,
 }
 
 /// The MPC law with the clarabel reference solver.
@@ -128,6 +148,7 @@ impl<S: ParametricQpSolver> MpcLaw<S> {
             nu: problem.nu,
             theta: vec![0.0; problem.p()],
             z: vec![0.0; problem.n()],
+            u_prev: vec![0.0; problem.layout.nu_prev],
             solver,
         })
     }
@@ -151,6 +172,24 @@ impl<S: ParametricQpSolver> MpcLaw<S> {
     pub fn last_z(&self) -> &[f64] {
         &self.z
     }
+    /// The previous input the next call puts in `theta` (empty when the
+    /// problem has no input-move terms): the law's last output, zero (the
+    /// trim) before the first call.
+    pub fn previous_input(&self) -> &[f64] {
+        &self.u_prev
+    }
+    /// Sets the previous input (deviation from the trim), e.g. the input
+    /// actually applied when it differed from the law's (saturation,
+    /// manual flight). A problem without input-move terms has none:
+    /// `u_prev` must then be empty.
+    pub fn set_previous_input(&mut self, u_prev: &[f64]) -> Result<(), Error> {
+        kestrel_core::check_len(u_prev, self.u_prev.len())?;
+        if !kestrel_core::all_finite(u_prev) {
+            return Err(Error::NonFinite);
+        }
+        self.u_prev.copy_from_slice(u_prev);
+        Ok(())
+    }
 }
 
 impl<S: ParametricQpSolver> ControlLaw for MpcLaw<S> {
@@ -169,9 +208,13 @@ impl<S: ParametricQpSolver> ControlLaw for MpcLaw<S> {
         if !kestrel_core::all_finite(x) || !kestrel_core::all_finite(r) {
             return Err(Error::NonFinite);
         }
-        self.layout.assemble_into(x, r, &mut self.theta)?;
+        self.layout
+            .assemble_into(x, &self.u_prev, r, &mut self.theta)?;
         self.solver.solve_into(&self.theta, &mut self.z)?;
         u.copy_from_slice(&self.z[..self.nu]);
+        if !self.u_prev.is_empty() {
+            self.u_prev.copy_from_slice(&self.z[..self.nu]);
+        }
         Ok(())
     }
 }

@@ -4,11 +4,15 @@
 #[cfg(feature = "std")]
 mod condense;
 #[cfg(feature = "std")]
+mod constraints;
+#[cfg(feature = "std")]
 mod design;
 #[cfg(feature = "std")]
 mod error;
 #[cfg(feature = "std")]
 mod law;
+#[cfg(feature = "std")]
+mod layout;
 #[cfg(feature = "std")]
 mod limits;
 #[cfg(feature = "std")]
@@ -19,17 +23,21 @@ mod offset_free;
 mod polish;
 #[cfg(feature = "std")]
 mod qp;
+#[cfg(feature = "std")]
+mod rows;
 
 #[cfg(feature = "std")]
-pub use condense::{ModelMatrices, MpcProblem, ThetaLayout};
+pub use condense::{ModelMatrices, MpcProblem};
 #[cfg(feature = "std")]
-pub use design::{
-    Blocking, BoundsAt, InputBounds, MpcSettings, Terminal, ThrottleParameter, Weight,
-};
+pub use constraints::{Bounds, BoundsAt, InputTarget, Parameter, SoftPenalty, TerminalSet};
+#[cfg(feature = "std")]
+pub use design::{Blocking, MpcSettings, Terminal, Weight};
 #[cfg(feature = "std")]
 pub use error::MpcError;
 #[cfg(feature = "std")]
 pub use law::{MpcLaw, ParametricQpSolver, QpMpc};
+#[cfg(feature = "std")]
+pub use layout::ThetaLayout;
 #[cfg(feature = "std")]
 pub use limits::{
     CondensingCost, MAX_CONDENSING_BYTES, MAX_CONDENSING_FLOPS, MAX_DECISION_VARIABLES, human_bytes,
@@ -38,3 +46,5 @@ pub use limits::{
 pub use offset_free::{DisturbanceModel, OffsetFreeDesign};
 #[cfg(feature = "std")]
 pub use qp::{KktResiduals, QpSettings, QpSolution, ReferenceSolver, kkt_residuals};
+#[cfg(feature = "std")]
+pub use rows::{ConstraintKind, RowLabel, Side};

@@ -12,9 +12,11 @@
 //! apply. When the disturbance estimate has converged and the target is
 //! feasible, the outputs reach the reference without offset.
 
-use crate::condense::{ModelMatrices, MpcProblem, Prediction, ThetaLayout};
-use crate::design::{InputBounds, MpcSettings};
+use crate::condense::{ModelMatrices, MpcProblem, Prediction};
+use crate::constraints::InputTarget;
+use crate::design::MpcSettings;
 use crate::error::MpcError;
+use crate::layout::ThetaLayout;
 use kestrel_core::formats::SsModel;
 use kestrel_kalman::{AugmentedModel, Disturbance, KalmanError};
 use nalgebra::DMatrix;
@@ -45,7 +47,8 @@ pub struct OffsetFreeDesign {
     /// with the same inputs, outputs, `u0` and `y0` (`x0`, if any,
     /// extended by a zero disturbance).
     pub augmented: SsModel,
-    /// The condensed problem, `theta = [x; d; r; throttle]`.
+    /// The condensed problem, `theta = [x; d; u_prev; r; u_target; p]`
+    /// ([`ThetaLayout`] with the disturbances counted as states).
     pub problem: MpcProblem,
     /// Number of disturbance states.
     pub nd: usize,
@@ -57,17 +60,17 @@ impl MpcProblem {
     /// detectable, i.e. `rank [A - I, Bd; C, Cd] < nx + nd`.
     ///
     /// ```
-    /// use kestrel_mpc::{DisturbanceModel, InputBounds, MpcProblem, MpcSettings, Terminal};
+    /// use kestrel_mpc::{Bounds, DisturbanceModel, MpcProblem, MpcSettings};
     /// use kestrel_core::formats::SsModel;
     /// use nalgebra::{dmatrix, dvector};
     /// let m = SsModel::new(0.1, dmatrix![0.9], dmatrix![0.1], dmatrix![1.0], dmatrix![0.0]).unwrap();
-    /// let d = MpcProblem::build_offset_free(&m, &InputBounds::new(dvector![-5.0], dvector![5.0]),
-    ///     &MpcSettings { horizon: 3, ..MpcSettings::default() }, &DisturbanceModel::Output).unwrap();
+    /// let settings = MpcSettings { horizon: 3,
+    ///     input_bounds: Some(Bounds::new(dvector![-5.0], dvector![5.0])), ..MpcSettings::default() };
+    /// let d = MpcProblem::build_offset_free(&m, &settings, &DisturbanceModel::Output).unwrap();
     /// assert_eq!((d.augmented.nx(), d.problem.p()), (2, 3)); // theta = [x, d, r]
     /// ```
     pub fn build_offset_free(
         model: &SsModel,
-        bounds: &InputBounds,
         settings: &MpcSettings,
         disturbance: &DisturbanceModel,
     ) -> Result<OffsetFreeDesign, MpcError> {
@@ -95,12 +98,28 @@ impl MpcProblem {
             ..
         } = aug;
         let na = nx + nd;
+        if settings.input_target != InputTarget::Zero {
+            return Err(MpcError::setting(
+                "input_target",
+                "the offset-free design steers the inputs to its own steady-state target; leave the input target at zero",
+            ));
+        }
+        settings.validate(nu, ny, nx)?;
         let layout = ThetaLayout {
             nx: na,
-            nr: ny,
-            throttle: bounds.throttle.is_some(),
+            nu_prev: if settings.uses_previous_input() {
+                nu
+            } else {
+                0
+            },
+            ny,
+            preview: settings.preview,
+            nu_target: 0,
+            np: settings.parameters.len(),
         };
         let p = layout.len();
+        // The steady-state target follows the last reference of the preview.
+        let r_last = layout.reference(layout.preview - 1).start;
         // Target map: [x_s; u_s] = M [-Bd d; r - Cd d].
         let mut kkt = DMatrix::zeros(nx + ny, nx + nu);
         kkt.view_mut((0, 0), (nx, nx))
@@ -113,7 +132,7 @@ impl MpcProblem {
         let mut rhs = DMatrix::zeros(nx + ny, p);
         rhs.view_mut((0, nx), (nx, nd)).copy_from(&(-&bd));
         rhs.view_mut((nx, nx), (ny, nd)).copy_from(&(-&cd));
-        rhs.view_mut((nx, na), (ny, ny))
+        rhs.view_mut((nx, r_last), (ny, ny))
             .copy_from(&DMatrix::identity(ny, ny));
         let target = m * rhs;
         let mut terminal_sel = DMatrix::zeros(nx, na);
@@ -127,9 +146,10 @@ impl MpcProblem {
             terminal_sel,
             x_ref: target.rows(0, nx).into_owned(),
             u_ref: target.rows(nx, nu).into_owned(),
+            u_ref_const: nalgebra::DVector::zeros(nu),
             lq_model: (mm.a, mm.b, mm.c),
         };
-        let problem = MpcProblem::condense(&pred, layout, bounds, settings)?;
+        let problem = MpcProblem::condense(&pred, layout, settings)?;
         Ok(OffsetFreeDesign {
             augmented,
             problem,
@@ -185,6 +205,7 @@ fn augmentation_error(e: KalmanError) -> MpcError {
 mod tests {
     use super::*;
     use crate::condense::tests::{Rng, random_model};
+    use crate::constraints::Bounds;
     use crate::design::Terminal;
     use crate::law::MpcLaw;
     use crate::qp::QpSettings;
@@ -197,18 +218,18 @@ mod tests {
         // known here (perfect estimate) to isolate the target map.
         let mut rng = Rng::new(5);
         let m = random_model(&mut rng, 3, 2, 2);
-        let bounds = InputBounds::new(
+        let bounds = Bounds::new(
             DVector::from_element(2, -50.0),
             DVector::from_element(2, 50.0),
         );
         let settings = MpcSettings {
             horizon: 5,
             terminal: Terminal::Lq,
+            input_bounds: Some(bounds),
             ..MpcSettings::default()
         };
         let design = MpcProblem::build_offset_free(
             &m,
-            &bounds,
             &settings,
             &DisturbanceModel::Custom {
                 bd: m.b.clone(),
@@ -216,7 +237,7 @@ mod tests {
             },
         )
         .unwrap();
-        let plain = MpcProblem::build(&m, &bounds, &settings).unwrap();
+        let plain = MpcProblem::build(&m, &settings).unwrap();
         let mut law = MpcLaw::clarabel(&design.problem, QpSettings::default()).unwrap();
         let mut plain_law = MpcLaw::clarabel(&plain, QpSettings::default()).unwrap();
         let bias = DVector::from_vec(vec![0.3, -0.2]);
@@ -253,14 +274,16 @@ mod tests {
             DMatrix::zeros(1, 1),
         )
         .unwrap();
-        let bounds = InputBounds::new(
+        let bounds = Bounds::new(
             DVector::from_element(1, -1.0),
             DVector::from_element(1, 1.0),
         );
         let e = MpcProblem::build_offset_free(
             &m,
-            &bounds,
-            &MpcSettings::default(),
+            &MpcSettings {
+                input_bounds: Some(bounds.clone()),
+                ..MpcSettings::default()
+            },
             &DisturbanceModel::Output,
         )
         .unwrap_err();
@@ -277,15 +300,17 @@ mod tests {
             DMatrix::zeros(1, 1),
         )
         .unwrap();
-        let bounds = InputBounds::new(
+        let bounds = Bounds::new(
             DVector::from_element(1, -1.0),
             DVector::from_element(1, 1.0),
         );
         let custom = |bd, cd| DisturbanceModel::Custom { bd, cd };
         let e = MpcProblem::build_offset_free(
             &m,
-            &bounds,
-            &MpcSettings::default(),
+            &MpcSettings {
+                input_bounds: Some(bounds.clone()),
+                ..MpcSettings::default()
+            },
             &custom(DMatrix::zeros(2, 1), DMatrix::zeros(1, 1)),
         )
         .unwrap_err();
@@ -296,8 +321,10 @@ mod tests {
         );
         let e = MpcProblem::build_offset_free(
             &m,
-            &bounds,
-            &MpcSettings::default(),
+            &MpcSettings {
+                input_bounds: Some(bounds.clone()),
+                ..MpcSettings::default()
+            },
             &custom(DMatrix::from_element(1, 1, f64::NAN), DMatrix::zeros(1, 1)),
         )
         .unwrap_err();

@@ -72,8 +72,7 @@ fn main() -> Result<(), TricopterError> {
             );
             let design = MpcProblem::build_offset_free(
                 &model,
-                &trim.bounds(),
-                &size.settings(q1.clone(), q2.clone()),
+                &trim.constrain(size.settings(q1.clone(), q2.clone())),
                 &DisturbanceModel::OutputStates,
             )?;
             let mut law = MpcLaw::clarabel(&design.problem, QpSettings::default())?;

@@ -12,5 +12,6 @@ pub mod problems;
 pub use error::TricopterError;
 pub use problems::{
     Actuation, IDENTIFIED_MODEL_JSON, ProblemSize, TricopterTrim, default_weights,
-    delay_feedthrough, design_model, identified_model, tricopter_problem, tricopter_trim,
+    delay_feedthrough, design_model, identified_model, throttle_parameter, tricopter_problem,
+    tricopter_trim,
 };

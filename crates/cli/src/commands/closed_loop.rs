@@ -233,8 +233,7 @@ fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunRes
         Design::OffsetFree(Box::new(
             MpcProblem::build_offset_free(
                 model,
-                &trim.bounds(),
-                &s,
+                &trim.constrain(s.clone()),
                 &DisturbanceModel::OutputStates,
             )
             .map_err(|e| crate::guards::mpc(e, "--horizon"))
@@ -242,7 +241,7 @@ fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunRes
         ))
     } else {
         Design::Plain(Box::new(
-            MpcProblem::build(model, &trim.bounds(), &s)
+            MpcProblem::build(model, &trim.constrain(s.clone()))
                 .map_err(|e| crate::guards::mpc(e, "--horizon"))
                 .context("building the MPC problem")?,
         ))

@@ -4,10 +4,8 @@
 use crate::io;
 use anyhow::{Context, bail};
 use kestrel_core::formats::{SsModel, matrix_from_text};
-use kestrel_mpc::{
-    Blocking, InputBounds, MpcProblem, MpcSettings, Terminal, ThrottleParameter, Weight,
-};
-use kestrel_tricopter::tricopter_trim;
+use kestrel_mpc::{Blocking, Bounds, MpcProblem, MpcSettings, Terminal, Weight};
+use kestrel_tricopter::{throttle_parameter, tricopter_trim};
 use nalgebra::{DMatrix, DVector};
 use std::path::{Path, PathBuf};
 
@@ -151,6 +149,7 @@ pub fn build(args: &Args) -> anyhow::Result<MpcProblem> {
         terminal,
         state_bound: args.x_max,
         reference_bound: args.r_max,
+        ..MpcSettings::default()
     };
     let named_tricopter = model
         .inputs
@@ -169,11 +168,14 @@ pub fn build(args: &Args) -> anyhow::Result<MpcProblem> {
             }
         }
     }
-    let bounds = match (&args.u_min, &args.u_max) {
-        (Some(lo), Some(hi)) => InputBounds::new(
-            DVector::from_column_slice(lo),
-            DVector::from_column_slice(hi),
-        ),
+    let settings = match (&args.u_min, &args.u_max) {
+        (Some(lo), Some(hi)) => MpcSettings {
+            input_bounds: Some(Bounds::new(
+                DVector::from_column_slice(lo),
+                DVector::from_column_slice(hi),
+            )),
+            ..settings
+        },
         (None, None) if tricopter => {
             if model.nu() != 4 {
                 bail!(
@@ -181,17 +183,16 @@ pub fn build(args: &Args) -> anyhow::Result<MpcProblem> {
                     model.nu()
                 );
             }
-            let mut b = tricopter_trim(&model)
+            let mut s = tricopter_trim(&model)
                 .with_context(|| format!("{}: u0", args.model.display()))?
-                .bounds();
-            if let Some(t) = &mut b.throttle {
-                *t = ThrottleParameter {
-                    min: args.throttle_min.unwrap_or(1000.0),
-                    max: args.throttle_max.unwrap_or(2000.0),
-                    ..t.clone()
-                };
-            }
-            b
+                .constrain(settings);
+            let default = throttle_parameter();
+            s.parameters = vec![kestrel_mpc::Parameter {
+                min: args.throttle_min.unwrap_or(default.min),
+                max: args.throttle_max.unwrap_or(default.max),
+                ..default
+            }];
+            s
         }
         (None, None) => bail!(
             "the model's {} inputs ({}) are not the tricopter's pwm1, pwm2, pwm3, servo: give --u-min and --u-max (bounds as deviations from u0), or --tricopter for the thesis PWM window and throttle parameter",
@@ -203,7 +204,7 @@ pub fn build(args: &Args) -> anyhow::Result<MpcProblem> {
         ),
         _ => bail!("give both --u-min and --u-max, or neither"),
     };
-    MpcProblem::build(&model, &bounds, &settings)
+    MpcProblem::build(&model, &settings)
         .map_err(|e| crate::guards::mpc(e, "--horizon"))
         .with_context(|| format!("building the MPC problem of {}", args.model.display()))
 }

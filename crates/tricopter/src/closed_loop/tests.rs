@@ -133,8 +133,7 @@ fn offset_free_option_reduces_steady_error_on_the_nonlinear_plant() {
     let trim = crate::tricopter_trim(&model).unwrap();
     let design = MpcProblem::build_offset_free(
         &model,
-        &trim.bounds(),
-        &ProblemSize::Thesis.settings(q1.clone(), q2.clone()),
+        &trim.constrain(ProblemSize::Thesis.settings(q1.clone(), q2.clone())),
         &DisturbanceModel::OutputStates,
     )
     .unwrap();

@@ -17,8 +17,9 @@ fn offset_free(model: &SsModel) -> (kestrel_kalman::KalmanDesign, ProblemFile) {
     let (q1, q2) = default_weights();
     let d = MpcProblem::build_offset_free(
         model,
-        &tricopter_trim(model).unwrap().bounds(),
-        &ProblemSize::Thesis.settings(q1, q2),
+        &tricopter_trim(model)
+            .unwrap()
+            .constrain(ProblemSize::Thesis.settings(q1, q2)),
         &DisturbanceModel::OutputStates,
     )
     .unwrap();

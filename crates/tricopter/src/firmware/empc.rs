@@ -21,7 +21,7 @@ pub fn ns2_problem(model: &SsModel) -> Result<MpqpProblem, DesignError> {
         ..ProblemSize::Thesis.settings(q1, q2)
     };
     let trim = tricopter_trim(model)?;
-    Ok(MpcProblem::build(model, &trim.bounds(), &settings)?.to_mpqp())
+    Ok(MpcProblem::build(model, &trim.constrain(settings.clone()))?.to_mpqp())
 }
 
 /// The explicit controller of an MPC problem for the firmware: kestrel-empc's

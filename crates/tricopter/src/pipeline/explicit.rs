@@ -119,7 +119,8 @@ fn partition_slice(
         )));
     }
     let mut theta0 = DVector::zeros(p);
-    if let Some(t) = problem.problem.layout.throttle_index() {
+    // The thesis's one extra parameter is the throttle.
+    for t in problem.problem.layout.parameters() {
         theta0[t] = cfg.empc.slice_throttle;
     }
     let [xr, yr] = cfg.empc.slice_range;

@@ -85,7 +85,7 @@ impl Problems {
             format!("x{}", k + 1)
         } else if k < na {
             format!("d{}", k - nx + 1)
-        } else if Some(k) == layout.throttle_index() {
+        } else if layout.parameters().contains(&k) {
             "throttle [us]".into()
         } else {
             REFS.get(k - na)
@@ -101,7 +101,6 @@ impl Problems {
 pub fn run(cfg: &Config, id: &Identification) -> Result<Problems> {
     let model = id.blackbox.ss.clone();
     let trim = tricopter_trim(&model).ctx(|| "the black-box model's u0".into())?;
-    let bounds = trim.bounds();
     let m = &cfg.mpc;
     let disturbance = m.offset_free.then_some(DisturbanceModel::OutputStates);
     let (mut estimator_model, mut nd) = (model.clone(), 0);
@@ -115,16 +114,18 @@ pub fn run(cfg: &Config, id: &Identification) -> Result<Problems> {
             terminal: Terminal::Lq,
             state_bound: m.state_bound,
             reference_bound: m.reference_bound,
+            ..MpcSettings::default()
         };
+        let settings = trim.constrain(settings);
         let problem = match &disturbance {
             Some(dm) => {
-                let d = MpcProblem::build_offset_free(&model, &bounds, &settings, dm)
+                let d = MpcProblem::build_offset_free(&model, &settings, dm)
                     .ctx(|| format!("building the offset-free {key} MPC problem"))?;
                 estimator_model = d.augmented;
                 nd = d.nd;
                 d.problem
             }
-            None => MpcProblem::build(&model, &bounds, &settings)
+            None => MpcProblem::build(&model, &settings)
                 .ctx(|| format!("building the {key} MPC problem"))?,
         };
         let mpqp = problem.to_mpqp();

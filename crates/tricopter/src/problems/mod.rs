@@ -9,4 +9,4 @@ mod trim;
 
 pub use models::{IDENTIFIED_MODEL_JSON, delay_feedthrough, design_model, identified_model};
 pub use size::{ProblemSize, default_weights, tricopter_problem, tricopter_trim};
-pub use trim::{Actuation, TricopterTrim, pwm_bounds};
+pub use trim::{Actuation, TricopterTrim, pwm_bounds, throttle_parameter};

@@ -72,8 +72,7 @@ pub fn tricopter_problem(
     let trim = tricopter_trim(model)?;
     Ok(MpcProblem::build(
         model,
-        &trim.bounds(),
-        &size.settings(q1, q2),
+        &trim.constrain(size.settings(q1, q2)),
     )?)
 }
 
@@ -104,7 +103,7 @@ mod tests {
         let trim = tricopter_trim(&model).unwrap();
         let b = trim.bounds();
         for th in [1100.0, 1450.0, 1900.0] {
-            let at = b.at(th);
+            let at = b.at(&[th]);
             let lo = trim.actuate(at.lower.as_slice(), th).unwrap();
             let hi = trim.actuate(at.upper.as_slice(), th).unwrap();
             for i in 0..3 {

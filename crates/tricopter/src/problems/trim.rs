@@ -3,9 +3,9 @@
 
 use crate::constants::pwm;
 use crate::error::TricopterError;
-use kestrel_mpc::InputBounds;
+use kestrel_mpc::{Bounds, MpcSettings, Parameter};
 use kestrel_tricopter_model::{ESC_PWM_RANGE, SERVO_PWM_RANGE};
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 
 /// The hover trim of a 4-input tricopter model (`[motor 1, motor 2,
 /// motor 3, servo]`) in the thesis's convention (7.2): motor offsets from
@@ -89,8 +89,20 @@ impl TricopterTrim {
 
     /// The input bounds (6.5)-(6.7) around this trim ([`pwm_bounds`] of
     /// the offsets).
-    pub fn bounds(&self) -> InputBounds {
+    pub fn bounds(&self) -> Bounds {
         pwm_bounds(&self.offsets)
+    }
+
+    /// `settings` with the thesis's constraints: the PWM window around
+    /// this trim as input bounds ([`TricopterTrim::bounds`]) and the
+    /// throttle as the one extra parameter ([`throttle_parameter`]), so
+    /// `theta = [x; r; throttle]`.
+    pub fn constrain(&self, settings: MpcSettings) -> MpcSettings {
+        MpcSettings {
+            input_bounds: Some(self.bounds()),
+            parameters: vec![throttle_parameter()],
+            ..settings
+        }
     }
 
     /// The pulses for the move `z` (deviation from the trim) at `throttle`:
@@ -135,15 +147,16 @@ impl TricopterTrim {
 /// for the motors and `-300 <= u_4 <= 300` for the servo, so in
 /// deviations `z = u - u0`:
 /// `1000 - u0_i - throttle <= z_i <= 2000 - u0_i - throttle`,
-/// `-300 - u0_4 <= z_4 <= 300 - u0_4`. The throttle ranges over `[1000, 2000]`.
+/// `-300 - u0_4 <= z_4 <= 300 - u0_4`: bounds shifted by `-1` per unit of
+/// the throttle parameter on the motors ([`throttle_parameter`]).
 ///
 /// ```
 /// let b = kestrel_tricopter::problems::pwm_bounds(&[15.63, 0.85, -16.01, 0.0]);
-/// let at = b.at(1500.0);
+/// let at = b.at(&[1500.0]);
 /// assert!((at.upper[0] - (2000.0 - 15.63 - 1500.0)).abs() < 1e-12);
 /// assert_eq!(at.lower[3], -300.0);
 /// ```
-pub fn pwm_bounds(offsets: &[f64; 4]) -> InputBounds {
+pub fn pwm_bounds(offsets: &[f64; 4]) -> Bounds {
     let raw_lo = [
         pwm::MOTOR_MIN,
         pwm::MOTOR_MIN,
@@ -156,15 +169,17 @@ pub fn pwm_bounds(offsets: &[f64; 4]) -> InputBounds {
         pwm::MOTOR_MAX,
         pwm::SERVO_TRAVEL,
     ];
-    InputBounds::new(
+    Bounds::new(
         DVector::from_fn(4, |i, _| raw_lo[i] - offsets[i]),
         DVector::from_fn(4, |i, _| raw_hi[i] - offsets[i]),
     )
-    .with_throttle(
-        DVector::from_column_slice(&[-1.0, -1.0, -1.0, 0.0]),
-        pwm::MOTOR_MIN,
-        pwm::MOTOR_MAX,
-    )
+    .shifted(DMatrix::from_column_slice(4, 1, &[-1.0, -1.0, -1.0, 0.0]))
+}
+
+/// The throttle as an MPC parameter: the common motor pulse in us, over
+/// the ESC range 1000-2000 us (the parameter box of `kestrel.mpqp.v1`).
+pub fn throttle_parameter() -> Parameter {
+    Parameter::new("throttle", pwm::MOTOR_MIN, pwm::MOTOR_MAX)
 }
 
 #[cfg(test)]
