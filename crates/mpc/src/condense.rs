@@ -774,4 +774,6 @@ impl RowContext {
 }
 
 #[cfg(test)]
+mod feature_tests;
+#[cfg(test)]
 pub(crate) mod tests;
