@@ -18,7 +18,7 @@ use nalgebra::{DMatrix, DVector};
 /// minimise over `z = [input moves (one per block, nu each); slacks]`:
 /// `1/2 z'Hz + theta'F z + q'z`, subject to `G z <= W + E theta`, where
 /// `theta` is laid out as [`ThetaLayout`] says (the thesis's problems:
-/// `[x; r; throttle]`).
+/// `[x; r; throttle]` with the throttle an extra parameter).
 ///
 /// The full cost (6.3a) including the part that does not depend on `z` is
 /// `J = 1/2 z'Hz + theta'F z + q'z + 1/2 theta'Y theta + c'theta + c0`

@@ -7,7 +7,7 @@
 //! `(x_s, u_s)` of the estimated disturbance:
 //! `[A - I, B; C, 0] [x_s; u_s] = [-Bd d; r - Cd d]` (least-norm solution),
 //! with the input cost on `u - u_s` and the terminal cost on `x_N - x_s`.
-//! Both targets are linear in `theta = [x; d; r; throttle]`, so the
+//! Both targets are linear in `theta = [x; d; ...; r; ...]`, so the
 //! problem stays a parametric QP of the same form and the same solvers
 //! apply. When the disturbance estimate has converged and the target is
 //! feasible, the outputs reach the reference without offset.
