@@ -375,6 +375,60 @@ mod tests {
     }
 
     #[test]
+    fn takes_a_constant_linear_term_and_sign_rows() {
+        // Three variables, rows in any order and scaling, as kestrel-mpc
+        // writes them: z0 in [-1, 0.5 + 0.5 theta] (a bound moving with the
+        // parameter), z1 in [theta - 1, theta + 1] (an input move around a
+        // previous input), z2 >= 0 (a sign row, as a slack's) with z2 <= 2;
+        // a constant linear term f, as a linear penalty or an input target
+        // make.
+        let p = MpqpProblem {
+            h: DMatrix::from_row_slice(3, 3, &[2.0, 0.5, 0.0, 0.5, 1.0, 0.2, 0.0, 0.2, 1.5]),
+            f_theta: DMatrix::from_row_slice(1, 3, &[1.0, -1.0, 0.5]),
+            f: DVector::from_vec(vec![0.3, -0.2, -1.0]),
+            g: DMatrix::from_row_slice(
+                6,
+                3,
+                &[
+                    0.0, 0.0, -1.0, // -z2 <= 0
+                    2.0, 0.0, 0.0, // 2 z0 <= 1 + theta
+                    0.0, -3.0, 0.0, // -3 z1 <= 3 - 3 theta
+                    0.0, 0.0, 4.0, // 4 z2 <= 8
+                    -0.5, 0.0, 0.0, // -0.5 z0 <= 0.5
+                    0.0, 1.0, 0.0, // z1 <= 1 + theta
+                ],
+            ),
+            w: DVector::from_vec(vec![0.0, 1.0, 3.0, 8.0, 0.5, 1.0]),
+            e: DMatrix::from_row_slice(6, 1, &[0.0, 1.0, -3.0, 0.0, 0.0, 1.0]),
+            theta_lb: DVector::from_vec(vec![-1.0]),
+            theta_ub: DVector::from_vec(vec![1.0]),
+            theta_poly: None,
+        };
+        let b = BoxQp::from_mpqp(&p).unwrap();
+        assert_eq!(b.f, p.f);
+        let at = b.bounds(&DVector::from_vec(vec![0.5]));
+        assert_eq!(at.lo.as_slice(), &[-1.0, -0.5, 0.0]);
+        assert_eq!(at.hi.as_slice(), &[0.75, 1.5, 2.0]);
+        // The fast gradient method converges to the optimum of the original
+        // problem, constant term included.
+        let design = crate::FgmDesign::new(b.clone(), crate::FgmSettings::default()).unwrap();
+        let cert = design.certify(1e-12).unwrap();
+        let mut reference = crate::reference::ReferenceSolver::new(&b).unwrap();
+        for th in [-1.0, -0.3, 0.4, 1.0] {
+            let z = design.solve(&cert, &[th], None, cert.iterations).unwrap();
+            let best = reference.solve(&DVector::from_vec(vec![th])).unwrap();
+            let z = DVector::from_vec(z);
+            let theta = DVector::from_vec(vec![th]);
+            assert!(
+                b.cost(&z, &theta) - best.cost <= 1e-10,
+                "{th}: {z} vs {}",
+                best.z
+            );
+            assert!((&z - &best.z).amax() < 1e-5, "{th}: {z} vs {}", best.z);
+        }
+    }
+
+    #[test]
     fn refuses_crossing_and_empty_boxes() {
         // Two upper bounds on z0: 1 and 0.5 + theta cross at theta = 0.5.
         let crossing = mpqp(
