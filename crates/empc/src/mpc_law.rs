@@ -123,8 +123,10 @@ impl ParametricQpSolver for ExplicitSolver {
 mod tests {
     use super::*;
     use kestrel_core::{ControlLaw, Matrix, StateSpace};
-    use kestrel_mpc::{Bounds, MpcSettings, QpSettings, Terminal, Weight};
-    use nalgebra::dvector;
+    use kestrel_mpc::{
+        Bounds, MpcSettings, Parameter, QpSettings, ReferenceSolver, SoftPenalty, Terminal, Weight,
+    };
+    use nalgebra::{dmatrix, dvector};
 
     /// A double integrator sampled at 0.1 s, |u| <= 1, horizon 3.
     fn problem() -> MpcProblem {
@@ -176,5 +178,87 @@ mod tests {
         assert!(s.solve_into(&theta[..1], &mut z).is_err());
         theta[0] = f64::NAN;
         assert!(s.solve_into(&theta, &mut z).is_err());
+    }
+
+    /// A double integrator with input-move bounds, soft output bounds and
+    /// an input window that moves with a parameter, horizon 3:
+    /// `theta = [x (2); u_prev; r; p]`, `z = [u_0, u_1, u_2; s]`.
+    fn general_problem() -> MpcProblem {
+        let m = StateSpace::new(
+            Matrix::from_rows([[1.0, 0.1], [0.0, 1.0]]),
+            Matrix::from_rows([[0.005], [0.1]]),
+            Matrix::from_rows([[1.0, 0.0]]),
+            Matrix::from_rows([[0.0]]),
+            0.1,
+        );
+        let settings = MpcSettings {
+            horizon: 3,
+            q2: Weight::Scalar(1e-2),
+            terminal: Terminal::Lq,
+            state_bound: 2.0,
+            reference_bound: 1.0,
+            du_weight: Some(Weight::Scalar(0.1)),
+            du_bounds: Some(Bounds::new(dvector![-0.3], dvector![0.3])),
+            output_bounds: Some(Bounds::new(dvector![-0.5], dvector![0.5]).with_soft(
+                SoftPenalty {
+                    quadratic: 10.0,
+                    linear: 1.0,
+                },
+            )),
+            // u in [-1 - p, 1 - p], p in [0, 0.5].
+            input_bounds: Some(Bounds::new(dvector![-1.0], dvector![1.0]).shifted(dmatrix![-1.0])),
+            parameters: vec![Parameter::new("p", 0.0, 0.5)],
+            ..MpcSettings::default()
+        };
+        MpcProblem::build(&m, &settings).unwrap()
+    }
+
+    #[test]
+    fn explicit_law_solves_rate_soft_and_parameter_dependent_bounds() {
+        let p = general_problem();
+        let mp = p.to_mpqp();
+        // The new pieces are in the mpQP: a constant linear term (the
+        // linear soft penalty), a slack variable, more rows than 2 n.
+        assert_eq!(p.n_slack, 1);
+        assert!(mp.f.iter().any(|v| *v != 0.0), "{}", mp.f);
+        assert!(mp.m() > 2 * mp.n());
+        // E moves the rows with the state, the previous input and the
+        // parameter.
+        let l = p.layout;
+        for j in [
+            l.state().start,
+            l.previous_input().start,
+            l.parameters().start,
+        ] {
+            assert!(mp.e.column(j).iter().any(|v| *v != 0.0), "column {j} of E");
+        }
+        let mut explicit = ExplicitSolver::build(&mp, &Settings::default()).unwrap();
+        let mut qp = ReferenceSolver::new(&mp, QpSettings::default()).unwrap();
+        assert!(explicit.regions() > 100, "{}", explicit.regions());
+        let mut rng = crate::rng::Rng::new(22);
+        let (mut ze, mut zq) = (vec![0.0; p.n()], vec![0.0; p.n()]);
+        let (mut worst, mut soft, mut rate) = (0.0_f64, 0, 0);
+        for _ in 0..400 {
+            let mut theta = vec![0.0; p.p()];
+            for v in &mut theta[l.state()] {
+                *v = 2.0 * rng.sym();
+            }
+            theta[l.references()][0] = rng.sym();
+            let par = 0.25 * (1.0 + rng.sym());
+            theta[l.parameters()][0] = par;
+            // A previous input inside the window at p, so that the
+            // input-move bound leaves a feasible first move.
+            theta[l.previous_input()][0] = -par + rng.sym();
+            explicit.solve_into(&theta, &mut ze).unwrap();
+            qp.solve_into(&theta, &mut zq).unwrap();
+            let d = (ze[0] - zq[0]).abs() / (1.0 + zq[0].abs());
+            worst = worst.max(d);
+            soft += usize::from(zq[3] > 1e-9);
+            rate += usize::from((zq[0] - theta[l.previous_input()][0]).abs() > 0.3 - 1e-9);
+        }
+        assert!(worst < 1e-8, "largest first-move difference {worst:e}");
+        // Both the softened and the rate-limited pieces were visited.
+        assert!(soft > 0 && rate > 0, "soft {soft}, rate {rate}");
+        assert_eq!(explicit.outside(), 0);
     }
 }
