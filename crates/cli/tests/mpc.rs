@@ -67,6 +67,18 @@ fn writes_tricopter_problem_with_throttle_parameter() {
     .to_mpqp();
     assert!((&lib.h - &p.h).amax() < 1e-9 * lib.h.amax());
     assert!((&lib.f_theta - &p.f_theta).amax() < 1e-9 * lib.f_theta.amax().max(1.0));
+    // Byte for byte: the general settings behind the command build the
+    // thesis's problem exactly as kestrel-tricopter does.
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(
+        text == lib.to_json_string_for_model(&model),
+        "the files differ"
+    );
+    // The implied tricopter is said on standard error, in one line.
+    assert!(
+        err.contains("note:") && err.contains("--u-min") && err.lines().count() == 1,
+        "{err}"
+    );
 }
 
 #[test]
