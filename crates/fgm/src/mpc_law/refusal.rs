@@ -12,7 +12,7 @@ const OTHER_SOLVERS: &str =
 
 /// Decision variable `j` of `problem`: an input of a block (named by the
 /// block's first step) or a slack variable.
-pub(crate) fn variable_label(problem: &MpcProblem, j: usize) -> String {
+fn variable_label(problem: &MpcProblem, j: usize) -> String {
     let moves = problem.n().saturating_sub(problem.n_slack);
     if j >= moves || problem.nu == 0 {
         return format!("slack variable {}", j - moves.min(j));
