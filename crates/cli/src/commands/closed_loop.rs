@@ -298,8 +298,7 @@ fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunRes
                 },
                 ..FgmOptions::default()
             };
-            let solver =
-                kestrel_fgm::FastGradientSolver::new(&mpqp, &opts)?.with_shift(design.problem().nu);
+            let solver = kestrel_fgm::FastGradientSolver::for_problem(design.problem(), &opts)?;
             Ok(fly_law(model, &design, solver, run)?.0)
         }
         Controller::Pid => unreachable!("handled above"),
