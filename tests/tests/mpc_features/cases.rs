@@ -89,6 +89,9 @@ pub enum Feature {
     TerminalLq,
     TerminalState,
     TerminalSet,
+    /// Soft bounds with the default penalty (`SoftPenalty::default()`,
+    /// an exact penalty) instead of a random small one.
+    DefaultPenalty,
     /// Few parameters (for the explicit law): one extra parameter, a
     /// preview of two steps.
     SmallTheta,
@@ -152,7 +155,10 @@ fn shift(rng: &mut Rng, b: Bounds, np: usize, size: f64) -> Bounds {
     }
 }
 
-fn soft(rng: &mut Rng) -> SoftPenalty {
+fn soft(rng: &mut Rng, default: bool) -> SoftPenalty {
+    if default {
+        return SoftPenalty::default();
+    }
     SoftPenalty {
         quadratic: rng.uniform(1.0, 50.0),
         linear: if rng.chance(0.3) {
@@ -207,7 +213,7 @@ pub fn settings(
             b = shift(rng, b, np, 0.25);
         }
         if has(Feature::InputSoft) {
-            b = b.with_soft(soft(rng));
+            b = b.with_soft(soft(rng, has(Feature::DefaultPenalty)));
         }
         s.input_bounds = Some(b);
     }
@@ -221,7 +227,7 @@ pub fn settings(
             b = shift(rng, b, np, 0.04);
         }
         if has(Feature::DuSoft) {
-            b = b.with_soft(soft(rng));
+            b = b.with_soft(soft(rng, has(Feature::DefaultPenalty)));
         }
         s.du_bounds = Some(b);
     }
@@ -243,7 +249,7 @@ pub fn settings(
             b = shift(rng, b, np, 0.3);
         }
         if has(soft_f) {
-            b = b.with_soft(soft(rng));
+            b = b.with_soft(soft(rng, has(Feature::DefaultPenalty)));
         }
         if state {
             s.state_bounds = Some(b);
