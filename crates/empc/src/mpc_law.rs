@@ -128,15 +128,20 @@ mod tests {
     };
     use nalgebra::{dmatrix, dvector};
 
-    /// A double integrator sampled at 0.1 s, |u| <= 1, horizon 3.
-    fn problem() -> MpcProblem {
-        let m = StateSpace::new(
+    /// A double integrator sampled at 0.1 s.
+    fn double_integrator() -> StateSpace<f64, 2, 1, 1> {
+        StateSpace::new(
             Matrix::from_rows([[1.0, 0.1], [0.0, 1.0]]),
             Matrix::from_rows([[0.005], [0.1]]),
             Matrix::from_rows([[1.0, 0.0]]),
             Matrix::from_rows([[0.0]]),
             0.1,
-        );
+        )
+    }
+
+    /// The double integrator with |u| <= 1, horizon 3.
+    fn problem() -> MpcProblem {
+        let m = double_integrator();
         let settings = MpcSettings {
             horizon: 3,
             q2: Weight::Scalar(1e-3),
@@ -184,13 +189,7 @@ mod tests {
     /// an input window that moves with a parameter, horizon 3:
     /// `theta = [x (2); u_prev; r; p]`, `z = [u_0, u_1, u_2; s]`.
     fn general_problem() -> MpcProblem {
-        let m = StateSpace::new(
-            Matrix::from_rows([[1.0, 0.1], [0.0, 1.0]]),
-            Matrix::from_rows([[0.005], [0.1]]),
-            Matrix::from_rows([[1.0, 0.0]]),
-            Matrix::from_rows([[0.0]]),
-            0.1,
-        );
+        let m = double_integrator();
         let settings = MpcSettings {
             horizon: 3,
             q2: Weight::Scalar(1e-2),
