@@ -76,6 +76,9 @@ pub enum CodegenError {
     /// kestrel-fgm refused a problem.
     #[error("fast gradient: {0}")]
     Fgm(#[from] kestrel_fgm::FgmError),
+    /// cbindgen could not generate kestrel-ffi's header.
+    #[error("C header (cbindgen): {0}")]
+    Header(String),
     /// kestrel-avr-rt has no 16-bit table for an explicit controller.
     #[error("16-bit explicit-MPC table: {0}")]
     Quantize(#[from] kestrel_avr_rt::explicit::quantize::QuantizeError),

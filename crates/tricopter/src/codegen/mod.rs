@@ -2,7 +2,8 @@
 //!
 //! [`generated_files`] lists them: the example firmware's tables
 //! (`avr/firmware/src/generated*.rs`, [`firmware`]), the libraries' golden
-//! tables and the fixtures derived from the design model ([`golden`]).
+//! tables and the fixtures derived from the design model ([`golden`]),
+//! and kestrel-ffi's C header ([`header`]).
 //! Inputs are read from the workspace root given (the design model
 //! `models/tricopter-blackbox-5.json`, the golden problems in the
 //! libraries' `tests/` folders); nothing is written here. `kestrel codegen`
@@ -22,6 +23,7 @@
 mod file;
 pub mod firmware;
 pub mod golden;
+pub mod header;
 
 pub use file::{CodegenError, GeneratedFile, Status};
 
@@ -29,16 +31,17 @@ use std::path::{Path, PathBuf};
 
 /// Every generated file of the workspace rooted at `root`, computed from
 /// the inputs under `root`: the firmware tables first, then the golden
-/// files and model fixtures, in a fixed order.
+/// files and model fixtures, then the C header, in a fixed order.
 ///
 /// # Errors
 /// The first [`CodegenError`] of [`firmware::files`], [`golden::empc_files`],
-/// [`golden::fgm_file`] and [`golden::model_files`].
+/// [`golden::fgm_file`], [`golden::model_files`] and [`header::header_file`].
 pub fn generated_files(root: &Path) -> Result<Vec<GeneratedFile>, CodegenError> {
     let mut files = firmware::files(root)?;
     files.extend(golden::empc_files(root)?);
     files.push(golden::fgm_file(root)?);
     files.extend(golden::model_files(root)?);
+    files.push(header::header_file(root)?);
     Ok(files)
 }
 
