@@ -25,6 +25,7 @@
 mod mpc_features {
     pub mod cases;
     pub mod exact;
+    pub mod identity;
     pub mod reference;
 }
 
@@ -36,6 +37,7 @@ use kestrel_mpc::{
 };
 use mpc_features::cases::{Feature, Rng, plain, random_model, settings};
 use mpc_features::exact::{Outcome, least_violation, lp_min, solve_exact};
+use mpc_features::identity;
 use mpc_features::reference::Family;
 use nalgebra::{DVector, dmatrix, dvector};
 
@@ -91,6 +93,9 @@ struct Stats {
     worst_cost: f64,
     worst_move: f64,
     worst_slack: f64,
+    /// At random `z`: the cost and the constraint rows, condensed vs uncondensed.
+    worst_fn_cost: f64,
+    worst_fn_row: f64,
     corrections: usize,
 }
 
@@ -156,10 +161,27 @@ fn check_combination(
         let mpqp = prob.to_mpqp();
         let mut solver = ReferenceSolver::new(&mpqp, QpSettings::default())
             .unwrap_or_else(|e| panic!("{what}: {e}"));
-        for _ in 0..per_model {
+        for k in 0..per_model {
             let theta = rng.in_box(&prob.theta_lb, &prob.theta_ub);
             st.thetas += 1;
             let qp = pl.qp(&theta);
+            if k < 20 {
+                let nm = nb * dims.1;
+                let z = DVector::from_fn(prob.n(), |i, _| {
+                    if i < nm {
+                        rng.uniform(-1.5, 1.5)
+                    } else {
+                        rng.uniform(0.0, 1.0)
+                    }
+                });
+                let (dc, dr) = identity::compare_at(&prob, &pl, &qp, &theta, &z);
+                assert!(
+                    dc <= 1e-8 && dr <= 1e-8,
+                    "{what}: at z = {z}, theta = {theta}: cost differs by {dc:e}, rows by {dr:e}\n{s:?}"
+                );
+                st.worst_fn_cost = st.worst_fn_cost.max(dc);
+                st.worst_fn_row = st.worst_fn_row.max(dr);
+            }
             let reference = solve_exact(&qp);
             let condensed = solver.solve(&theta);
             match (condensed, reference) {
@@ -202,10 +224,14 @@ fn check_combination(
                 }
                 (c, r) => {
                     // Different verdicts: acceptable only at the edge of
-                    // feasibility (least violation within rounding of zero).
+                    // feasibility, where the least (row-normalised) violation
+                    // is within 1e-5 of zero: an interior-point method may
+                    // then stop with a numerical error (seen once in 58,000
+                    // at another seed: violation 3e-6, clarabel's
+                    // NumericalError on the condensed problem).
                     let t = least_violation(&qp);
                     assert!(
-                        t.abs() < 1e-7,
+                        t.abs() < 1e-5,
                         "{what}: verdicts differ at theta {theta}: condensed {:?}, uncondensed {}, least violation {t:e}\n{s:?}\nmodel {model:?}",
                         c.map(|s| s.z),
                         match r {
@@ -317,13 +343,14 @@ fn condensed_equals_uncondensed_for_every_feature_combination() {
     let per_model = per_combination.div_ceil(n_models);
     let start = std::time::Instant::now();
     let (mut worst_cost, mut worst_move, mut worst_slack) = (0.0_f64, 0.0_f64, 0.0_f64);
+    let (mut worst_fn_cost, mut worst_fn_row) = (0.0_f64, 0.0_f64);
     let (mut total, mut combos) = (0, 0);
     for (ci, (name, features)) in combinations().into_iter().enumerate() {
         for (bi, blocking) in [None, Some(&[1usize, 2, 2][..])].into_iter().enumerate() {
             let seed = 1000 + 10 * ci as u64 + bi as u64 + seed_offset();
             let st = check_combination(seed, &features, blocking, n_models, per_model);
             eprintln!(
-                "{name:<48} blocks {:<9} {:>5} parameters: {:>5} optimal ({:>5} with an active bound, {:?} per feature), {:>4} infeasible for both, {} at the edge; worst rel. diff cost {:.1e}, moves {:.1e}, slack sum {:.1e}; {} active-set corrections",
+                "{name:<48} blocks {:<9} {:>5} parameters: {:>5} optimal ({:>5} with an active bound, {:?} per feature), {:>4} infeasible for both, {} at the edge; worst rel. diff cost {:.1e}, moves {:.1e}, slack sum {:.1e}; {} active-set corrections; at random z: cost {:.1e}, rows {:.1e}",
                 format!("{blocking:?}").replace("Some", ""),
                 st.thetas,
                 st.optimal,
@@ -334,7 +361,9 @@ fn condensed_equals_uncondensed_for_every_feature_combination() {
                 st.worst_cost,
                 st.worst_move,
                 st.worst_slack,
-                st.corrections
+                st.corrections,
+                st.worst_fn_cost,
+                st.worst_fn_row
             );
             // Mostly feasible, and the constraints were exercised.
             assert!(st.optimal * 5 >= st.thetas * 2, "{name}: {st:?}");
@@ -349,12 +378,14 @@ fn condensed_equals_uncondensed_for_every_feature_combination() {
             worst_cost = worst_cost.max(st.worst_cost);
             worst_move = worst_move.max(st.worst_move);
             worst_slack = worst_slack.max(st.worst_slack);
+            worst_fn_cost = worst_fn_cost.max(st.worst_fn_cost);
+            worst_fn_row = worst_fn_row.max(st.worst_fn_row);
             total += st.thetas;
             combos += 1;
         }
     }
     eprintln!(
-        "{combos} combinations, {total} parameters in {:.1} s; worst relative differences: cost {worst_cost:.1e}, moves {worst_move:.1e}, slack sum {worst_slack:.1e}",
+        "{combos} combinations, {total} parameters in {:.1} s; worst relative differences: cost {worst_cost:.1e}, moves {worst_move:.1e}, slack sum {worst_slack:.1e}; as functions at random z: cost {worst_fn_cost:.1e}, constraint rows {worst_fn_row:.1e}",
         start.elapsed().as_secs_f64()
     );
 }

@@ -81,6 +81,23 @@ pub enum Family {
     SlackSign,
 }
 
+/// What an inequality row of the uncondensed problem states.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RowKey {
+    pub family: Family,
+    /// `v <= upper` (terminal-set rows too); `false`: `v >= lower` (slack signs too).
+    pub upper: bool,
+    /// The component (input, output, state, terminal-set row, slack number).
+    pub index: usize,
+    /// The step of the horizon (0 for slack signs).
+    pub step: usize,
+    /// Whether the row is softened by a slack.
+    pub soft: bool,
+    /// `false` for an input or input-move row inside a block (implied by
+    /// the block's first row, so a condensed problem leaves it out).
+    pub canonical: bool,
+}
+
 /// A dense QP `min 1/2 v'Pv + q'v + c0` s.t. `A_eq v = b_eq`, `A_in v <= b_in`.
 #[derive(Clone, Debug)]
 pub struct DenseQp {
@@ -93,6 +110,10 @@ pub struct DenseQp {
     pub b_in: DVector<f64>,
     /// The family of each inequality row.
     pub family: Vec<Family>,
+    /// What each inequality row states.
+    pub keys: Vec<RowKey>,
+    /// The family and component of each slack variable.
+    pub slack_of: Vec<(Family, usize)>,
 }
 
 /// `theta` split by the reference's own reading of the layout.
@@ -295,7 +316,8 @@ impl Plain {
         }
 
         // Inequalities.
-        let mut in_rows: Vec<(DVector<f64>, f64, Family)> = Vec::new();
+        let mut in_rows: Vec<(DVector<f64>, f64, RowKey)> = Vec::new();
+        let mut slack_of = Vec::new();
         let mut slack = self.si();
         for (fam, bnd) in self.bounded_families() {
             let lo = &bnd.lower + &bnd.lower_shift * &t.params;
@@ -311,6 +333,7 @@ impl Plain {
                 let s_idx = bnd.soft.map(|(qs, ls)| {
                     p[(slack, slack)] += qs;
                     q[slack] += ls;
+                    slack_of.push((fam, i));
                     slack += 1;
                     slack - 1
                 });
@@ -346,7 +369,15 @@ impl Plain {
                         if let Some(k) = s_idx {
                             row[k] = -1.0;
                         }
-                        in_rows.push((row, sign * (bound - cst), fam));
+                        let key = RowKey {
+                            family: fam,
+                            upper: sign > 0.0,
+                            index: i,
+                            step: j,
+                            soft: s_idx.is_some(),
+                            canonical: !matches!(fam, Family::Input | Family::Du) || block_start[j],
+                        };
+                        in_rows.push((row, sign * (bound - cst), key));
                     }
                 }
             }
@@ -357,16 +388,33 @@ impl Plain {
                 for k in 0..nx {
                     r[self.xi(n_h) + k] = at[(i, k)];
                 }
-                in_rows.push((r, bt[i], Family::TerminalSet));
+                let key = RowKey {
+                    family: Family::TerminalSet,
+                    upper: true,
+                    index: i,
+                    step: n_h,
+                    soft: false,
+                    canonical: true,
+                };
+                in_rows.push((r, bt[i], key));
             }
         }
         for k in self.si()..nv {
-            in_rows.push((-unit(k), 0.0, Family::SlackSign));
+            let key = RowKey {
+                family: Family::SlackSign,
+                upper: false,
+                index: k - self.si(),
+                step: 0,
+                soft: false,
+                canonical: true,
+            };
+            in_rows.push((-unit(k), 0.0, key));
         }
         let stack = |rows: Vec<DVector<f64>>| DMatrix::from_fn(rows.len(), nv, |i, k| rows[i][k]);
         let b_eq = DVector::from_iterator(eq_rows.len(), eq_rows.iter().map(|r| r.1));
         let b_in = DVector::from_iterator(in_rows.len(), in_rows.iter().map(|r| r.1));
-        let family = in_rows.iter().map(|r| r.2).collect();
+        let keys: Vec<RowKey> = in_rows.iter().map(|r| r.2).collect();
+        let family = keys.iter().map(|k| k.family).collect();
         DenseQp {
             p: (&p + p.transpose()) * 0.5,
             q,
@@ -376,6 +424,8 @@ impl Plain {
             a_in: stack(in_rows.into_iter().map(|r| r.0).collect()),
             b_in,
             family,
+            keys,
+            slack_of,
         }
     }
 
