@@ -1,5 +1,7 @@
 //! `kestrel export`: the example firmware's controller tables from design files.
 
+mod c_files;
+
 use crate::io;
 use anyhow::{Context, anyhow, bail};
 use kestrel_core::formats::SsModel;
@@ -8,7 +10,7 @@ use kestrel_kalman::KalmanDesign;
 use kestrel_tricopter::ProblemSize;
 use kestrel_tricopter::firmware::{
     DesignError, DesignPart, DesignSettings, FirmwareDesign, IterationBudget, ProblemCheck,
-    ProblemFile, Realization, generate_tables,
+    ProblemFile, Realization, c_tables, generate_tables,
 };
 use std::path::PathBuf;
 
@@ -35,7 +37,12 @@ use std::path::PathBuf;
 ///
 /// Out: Rust source with the dimensions, the iteration counts, the offset
 /// of each part and the flat table (Kalman A, B, C, M, y0; fast-gradient
-/// data; mixer trim; gyro bias) in f32 and in Q15.16 raw bits.
+/// data; mixer trim; gyro bias) in f32 and in Q15.16 raw bits. With
+/// `--lang c`, the same tables as C in the folder `--out`:
+/// `kestrel_design.h` (sizes, offsets and the design checksums as macros,
+/// declarations) and `kestrel_design.c` (`const` tables, `PROGMEM` on the
+/// AVR, and kestrel-ffi's `KestrelDesign` for them); files there that
+/// `kestrel export --lang c` did not write are never replaced.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Design model (`kestrel.ss.v1`, discrete, 4 inputs, 3 outputs).
@@ -66,10 +73,26 @@ pub struct Args {
     /// Kalman step skips the zeros of the quasi-triangular A) or `as-given`.
     #[arg(long, value_enum, default_value_t = Coordinates::Schur)]
     pub realization: Coordinates,
-    /// Output file: the Rust source of the firmware tables (default:
-    /// standard output).
+    /// Output: with `--lang rust`, the file for the Rust source of the
+    /// firmware tables (default: standard output); with `--lang c`, the
+    /// folder for `kestrel_design.h` and `kestrel_design.c` (created if
+    /// missing; required).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Language of the tables: `rust` (the firmware's `generated.rs`) or
+    /// `c` (`kestrel_design.h` and `kestrel_design.c` for C and C++
+    /// firmware with kestrel-ffi).
+    #[arg(long, value_enum, default_value_t = Lang::Rust)]
+    pub lang: Lang,
+}
+
+/// `--lang`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lang {
+    /// Rust source (`avr/firmware/src/generated.rs`).
+    Rust,
+    /// A C header and source.
+    C,
 }
 
 /// `--realization`.
@@ -103,6 +126,13 @@ pub enum Precond {
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if let (Lang::C, None) = (args.lang, &args.out) {
+        bail!(
+            "--lang c writes two files ({} and {}): give the folder for them with --out DIR",
+            c_tables::C_HEADER_NAME,
+            c_tables::C_SOURCE_NAME
+        );
+    }
     let model = SsModel::read(&args.model).with_context(|| format!("{}", args.model.display()))?;
     if model.ts <= 0.0 {
         bail!(
@@ -153,8 +183,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             design
         }
     };
-    let source = generate_tables(&design)?;
-    io::write_output(args.out.as_deref(), &source)?;
+    match (args.lang, &args.out) {
+        (Lang::C, Some(dir)) => {
+            let c = c_tables::generate_c_tables(&design)?;
+            c_files::write(dir, &c)?;
+            eprintln!(
+                "export: wrote {} and {} in {} (checksums f32 0x{:04X}, Q15.16 0x{:04X})",
+                c_tables::C_HEADER_NAME,
+                c_tables::C_SOURCE_NAME,
+                dir.display(),
+                c.checksum_f32,
+                c.checksum_q16
+            );
+        }
+        (Lang::C, None) | (Lang::Rust, _) => {
+            let source = generate_tables(&design)?;
+            io::write_output(args.out.as_deref(), &source)?;
+        }
+    }
     eprintln!(
         "export: {} states, {} variables, {} parameters; fast gradient eps {:.3e}, condition {:.3}, {} certified iterations, {} per period",
         design.nx(),

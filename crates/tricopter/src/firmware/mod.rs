@@ -23,6 +23,7 @@
 //! assert!(source.contains("pub const NX: usize = 5;"));
 //! ```
 
+pub mod c_tables;
 mod consistency;
 mod design;
 mod empc;
