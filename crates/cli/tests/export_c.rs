@@ -625,3 +625,61 @@ fn rust_stays_the_default() {
     let (ok, help, _) = kestrel(&["export", "--help"]);
     assert!(ok && help.contains("--lang") && help.contains("kestrel_design.h"));
 }
+
+#[test]
+fn an_even_state_count_keeps_kestrel_ffis_byte_layout() {
+    use kestrel_tricopter::firmware::c_tables::{c_design, write_c};
+    use kestrel_tricopter::firmware::{DesignSettings, FirmwareDesign};
+    // The thesis tables cut to 4 states: y0 then starts at byte 30, where
+    // an int32_t would be padded to 32; the writer uses 16-bit halves.
+    let model = kestrel_core::formats::SsModel::read(Path::new(MODEL)).unwrap();
+    let design = FirmwareDesign::from_model(&model, &DesignSettings::default()).unwrap();
+    let mut c = c_design(&design).unwrap();
+    for r in c.kf_c.iter_mut().chain(c.kf_a.iter_mut()) {
+        r.c.pop();
+        r.start = r.start.min(4);
+    }
+    c.kf_m.pop();
+    c.kf_a.pop();
+    c.kf_b.pop();
+    let bytes = c.kalman16_bytes();
+    for (name, _, v) in c.macros.iter_mut() {
+        match name.as_str() {
+            "NX" => *v = 4,
+            "KALMAN16_BYTES" => *v = bytes.len(),
+            _ => {}
+        }
+    }
+    let t = write_c(&c);
+    assert!(t.header.contains("int16_t y0[KESTREL_DESIGN_NY][2];"));
+    let out = dir("nx4");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("kestrel_design.h"), &t.header).unwrap();
+    std::fs::write(out.join("kestrel_design.c"), &t.source).unwrap();
+    std::fs::write(out.join("dump.c"), DUMP_C).unwrap();
+    if !have("cc") {
+        println!("note: no host C compiler (cc): C build not checked");
+        return;
+    }
+    let exe = out.join("dump");
+    run(Command::new("cc")
+        .args([
+            "-std=c99",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-DKESTREL_DESIGN_NO_ABI",
+        ])
+        .arg(format!("-I{}", out.display()))
+        .arg(out.join("dump.c"))
+        .arg(out.join("kestrel_design.c"))
+        .arg("-o")
+        .arg(&exe));
+    let text = run(&mut Command::new(&exe));
+    let kf = text
+        .lines()
+        .find_map(|l| l.strip_prefix("kalman16 "))
+        .unwrap();
+    assert_eq!(unhex(kf), bytes);
+    assert_eq!(bytes.len(), 3 * 10 + 12 + 4 * 8 + 4 * 10 + 4 * 10);
+}
