@@ -11,12 +11,16 @@
 //! the settings only ([`mpc_features::reference`]), solved by clarabel and
 //! made exact by solving the KKT system of its active set
 //! ([`mpc_features::exact`]). Infeasible hard problems must be infeasible
-//! for both.
+//! for both. Away from the optimum too, at random `z`, the condensed cost
+//! and each labelled constraint row equal the uncondensed ones
+//! ([`mpc_features::identity`]).
 //!
 //! Also: the soft output bound of a problem whose hard version is
 //! infeasible returns the least violation (analytically on a scalar
-//! example, by an LP elsewhere), and the explicit law (kestrel-empc) of
-//! small combinations equals both references.
+//! example, by an LP elsewhere); the explicit law (kestrel-empc) of small
+//! combinations equals both references; the MPC law in closed loop (its
+//! own previous input, preview, target and parameters in theta) applies
+//! the reference's first move ([`mpc_features::laws`]).
 //!
 //! `MPC_FEATURES_SEED=k` draws other models, settings and parameters.
 //! 10^3 parameters per combination (58 of them: 58,000 parameters) and per
@@ -24,48 +28,26 @@
 
 mod mpc_features {
     pub mod cases;
+    pub mod common;
     pub mod exact;
     pub mod identity;
+    pub mod laws;
     pub mod reference;
 }
 
 use kestrel_core::formats::SsModel;
-use kestrel_empc::ExplicitSolver;
 use kestrel_mpc::{
-    Bounds, MpcError, MpcProblem, MpcSettings, ParametricQpSolver, QpSettings, ReferenceSolver,
-    SoftPenalty, Terminal, Weight,
+    Bounds, MpcError, MpcProblem, MpcSettings, QpSettings, ReferenceSolver, SoftPenalty, Terminal,
+    Weight,
 };
 use mpc_features::cases::{Feature, Rng, plain, random_model, settings};
+use mpc_features::common::{SAMPLES, rel, rel_vec, seed_offset};
 use mpc_features::exact::{Outcome, least_violation, lp_min, solve_exact};
 use mpc_features::identity;
 use mpc_features::reference::Family;
 use nalgebra::{DVector, dmatrix, dvector};
 
 use Feature::*;
-
-/// Random parameters per combination (the count).
-const SAMPLES: usize = 1000;
-
-/// Offset of every seed: `MPC_FEATURES_SEED=k` explores other models,
-/// settings and parameters (0, the default, is what CI runs).
-fn seed_offset() -> u64 {
-    std::env::var("MPC_FEATURES_SEED")
-        .ok()
-        .and_then(|v| v.parse::<u64>().ok())
-        .unwrap_or(0)
-        .wrapping_mul(100_003)
-}
-
-/// Relative difference against `1 + |b|`.
-fn rel(a: f64, b: f64) -> f64 {
-    (a - b).abs() / (1.0 + b.abs())
-}
-
-/// The largest entrywise [`rel`] of two vectors.
-fn rel_vec(a: &[f64], b: &[f64]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    a.iter().zip(b).fold(0.0, |m, (x, y)| m.max(rel(*x, *y)))
-}
 
 /// The constraint family a feature adds (for counting that it was active).
 fn family_of(f: Feature) -> Option<Family> {
@@ -525,134 +507,5 @@ fn soft_output_bound_returns_the_least_violation_where_the_hard_one_is_infeasibl
     assert!(
         infeasible >= 40 && feasible >= 40,
         "{infeasible} / {feasible}"
-    );
-}
-
-#[test]
-fn explicit_law_equals_both_references() {
-    // (name, features, (nx, nu, ny), blocks): at most 6 decision variables.
-    type Combo = (
-        &'static str,
-        Vec<Feature>,
-        (usize, usize, usize),
-        &'static [usize],
-    );
-    let combos: [Combo; 8] = [
-        (
-            "du weight + du bounds",
-            vec![DuWeight, DuBounds],
-            (2, 1, 1),
-            &[1, 2, 2],
-        ),
-        (
-            "soft output bounds",
-            vec![OutputSoft],
-            (2, 1, 1),
-            &[1, 2, 2],
-        ),
-        (
-            "hard output bounds + terminal set, LQ terminal",
-            vec![OutputHard, TerminalSet, TerminalLq],
-            (2, 1, 1),
-            &[1, 2, 2],
-        ),
-        (
-            "preview + input target parameter + parameter-dependent input bounds",
-            vec![Preview, TargetParameter, ParamInputBounds, SmallTheta],
-            (2, 1, 1),
-            &[1, 2, 2],
-        ),
-        (
-            "soft state bounds, no terminal cost",
-            vec![StateSoft, TerminalNone],
-            (2, 1, 1),
-            &[1, 2, 2],
-        ),
-        (
-            "hard state bounds, terminal state matrix, no blocking",
-            vec![StateHard, TerminalState],
-            (2, 1, 2),
-            &[1, 1, 1, 1],
-        ),
-        (
-            "du bounds + soft output bounds + fixed target, no blocking",
-            vec![DuBounds, OutputSoft, TargetFixed],
-            (3, 1, 1),
-            &[1, 1, 1],
-        ),
-        (
-            "two inputs: du weight + parameter-dependent input bounds",
-            vec![DuWeight, ParamInputBounds, SmallTheta],
-            (2, 2, 1),
-            &[1, 2],
-        ),
-    ];
-    let n = SAMPLES;
-    let start = std::time::Instant::now();
-    let mut worst = 0.0_f64;
-    for (ci, (name, features, dims, blocks)) in combos.iter().enumerate() {
-        let mut rng = Rng::new(500 + ci as u64 + seed_offset());
-        let dims = *dims;
-        let model = random_model(&mut rng, dims.0, dims.1, dims.2);
-        let s = settings(&mut rng, dims, Some(blocks), features);
-        let prob = MpcProblem::build(&model, &s).unwrap();
-        assert!(prob.n() <= 6, "{name}: n = {}", prob.n());
-        let mpqp = prob.to_mpqp();
-        let t0 = std::time::Instant::now();
-        let mut explicit = ExplicitSolver::build(&mpqp, &kestrel_empc::Settings::default())
-            .unwrap_or_else(|e| panic!("{name}: {e}"));
-        let build_s = t0.elapsed().as_secs_f64();
-        let mut qp = ReferenceSolver::new(&mpqp, QpSettings::default()).unwrap();
-        let pl = plain(&model, &s);
-        let (mut optimal, mut active, mut w) = (0, 0, 0.0_f64);
-        let mut ze = vec![0.0; prob.n()];
-        for _ in 0..n {
-            let theta = rng.in_box(&prob.theta_lb, &prob.theta_ub);
-            let qpr = pl.qp(&theta);
-            let (sol, exact) = match (qp.solve(&theta), solve_exact(&qpr)) {
-                (Ok(sol), Outcome::Optimal(e)) => (sol, e),
-                (Err(MpcError::Infeasible), Outcome::Infeasible) => continue,
-                (c, r) => panic!(
-                    "{name}: verdicts differ at {theta}: {:?} vs {r:?}",
-                    c.map(|s| s.z)
-                ),
-            };
-            assert!(sol.polished);
-            explicit.solve_into(theta.as_slice(), &mut ze).unwrap();
-            let nu = dims.1;
-            let d = rel_vec(&ze[..nu], &sol.z.as_slice()[..nu])
-                .max(rel_vec(&ze[..nu], &pl.moves(&exact.v).as_slice()[..nu]))
-                .max(rel_vec(&ze, sol.z.as_slice()));
-            assert!(
-                d <= 1e-8,
-                "{name}: explicit {ze:?} vs condensed {} vs uncondensed {} at theta {theta}",
-                sol.z,
-                pl.moves(&exact.v)
-            );
-            w = w.max(d);
-            optimal += 1;
-            active += usize::from(
-                (0..qpr.family.len())
-                    .any(|i| exact.active[i] && qpr.family[i] != Family::SlackSign),
-            );
-        }
-        eprintln!(
-            "explicit law, {name} (n = {}, p = {}, m = {}): {} regions built in {build_s:.2} s; {optimal} of {n} parameters feasible, {active} with an active bound; worst relative difference {w:.1e}; {} outside",
-            prob.n(),
-            prob.p(),
-            prob.m(),
-            explicit.regions(),
-            explicit.outside()
-        );
-        assert_eq!(explicit.outside(), 0, "{name}");
-        assert!(
-            optimal * 5 >= n && active * 10 >= optimal,
-            "{name}: {optimal} feasible of {n}, {active} with an active bound"
-        );
-        worst = worst.max(w);
-    }
-    eprintln!(
-        "explicit laws: worst relative difference {worst:.1e} in {:.1} s",
-        start.elapsed().as_secs_f64()
     );
 }

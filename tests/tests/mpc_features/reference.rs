@@ -157,6 +157,29 @@ impl Plain {
             + self.np
     }
 
+    /// `theta` from its parts, in the reference's reading of the layout
+    /// (the previous input and the target only where the layout has them).
+    pub fn assemble(
+        &self,
+        x: &DVector<f64>,
+        u_prev: &DVector<f64>,
+        refs: &[f64],
+        u_target: &DVector<f64>,
+        params: &[f64],
+    ) -> DVector<f64> {
+        let mut v: Vec<f64> = x.iter().copied().collect();
+        if self.has_prev() {
+            v.extend(u_prev.iter());
+        }
+        v.extend_from_slice(refs);
+        if matches!(self.target, PlainTarget::Parameter) {
+            v.extend(u_target.iter());
+        }
+        v.extend_from_slice(params);
+        assert_eq!(v.len(), self.theta_len());
+        DVector::from_vec(v)
+    }
+
     /// Splits `theta` into its parts.
     pub fn split(&self, theta: &DVector<f64>) -> ThetaParts {
         assert_eq!(theta.len(), self.theta_len(), "theta length");
