@@ -56,7 +56,7 @@
 
 // Rows of the explicit law's value cache: at most this many affine rows
 // in a narrow table; the cache of a wide one.
-#define KESTREL_EMPC_CACHE_ROWS 128
+#define KESTREL_EMPC_CACHE_ROWS 256
 
 // Pulses: ESC 1-3, then the servo.
 #define KESTREL_N_PWM 4
@@ -84,7 +84,7 @@
 #define KESTREL_FLAG_TIMEOUT 16
 
 // Words of an explicit law's state.
-#define KESTREL_EMPC16_WORDS 150
+#define KESTREL_EMPC16_WORDS 260
 
 // Words of a fast gradient law's state.
 #define KESTREL_FGM16_WORDS 90
@@ -93,7 +93,7 @@
 #define KESTREL_KALMAN16_WORDS 32
 
 // Words of a rate loop's state.
-#define KESTREL_RATE_LOOP_WORDS 200
+#define KESTREL_RATE_LOOP_WORDS 310
 
 // What a function returns: [`KestrelStatus::Ok`] or why it did nothing
 // useful. No function panics or aborts; on an error the outputs are left

@@ -14,7 +14,7 @@ use kestrel_avr_rt::progmem::TableRead;
 use kestrel_core::ControlLaw;
 
 /// Words of an explicit law's state.
-pub const KESTREL_EMPC16_WORDS: usize = 150;
+pub const KESTREL_EMPC16_WORDS: usize = 260;
 
 /// The explicit MPC law in f32 (caller-owned; initialise it with
 /// `kestrel_empc16_init_f32`). It reads its table at every call: the

@@ -76,7 +76,7 @@ pub const KESTREL_KALMAN16_BYTES: usize = 198;
 pub const KESTREL_FGM16_BYTES: usize = 42;
 /// Rows of the explicit law's value cache: at most this many affine rows
 /// in a narrow table; the cache of a wide one.
-pub const KESTREL_EMPC_CACHE_ROWS: usize = 128;
+pub const KESTREL_EMPC_CACHE_ROWS: usize = 256;
 /// Pulses: ESC 1-3, then the servo.
 pub const KESTREL_N_PWM: usize = 4;
 

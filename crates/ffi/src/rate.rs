@@ -19,7 +19,7 @@ use kestrel_avr_rt::output::{PwmLimits, SafeOutput};
 use kestrel_core::{ControlLaw, Error, Matrix};
 
 /// Words of a rate loop's state.
-pub const KESTREL_RATE_LOOP_WORDS: usize = 200;
+pub const KESTREL_RATE_LOOP_WORDS: usize = 310;
 
 /// The rate loop in f32 (caller-owned; initialise it with
 /// `kestrel_rate_loop_init_fgm_f32` or `kestrel_rate_loop_init_empc_f32`).
