@@ -20,7 +20,9 @@
 //! example, by an LP elsewhere); the explicit law (kestrel-empc) of small
 //! combinations equals both references; the MPC law in closed loop (its
 //! own previous input, preview, target and parameters in theta) applies
-//! the reference's first move ([`mpc_features::laws`]).
+//! the reference's first move ([`mpc_features::laws`]); the offset-free
+//! design (each disturbance model) equals the reference with the
+//! disturbance as a known constant and its steady-state target.
 //!
 //! `MPC_FEATURES_SEED=k` draws other models, settings and parameters.
 //! 10^3 parameters per combination (58 of them: 58,000 parameters) and per
@@ -37,10 +39,10 @@ mod mpc_features {
 
 use kestrel_core::formats::SsModel;
 use kestrel_mpc::{
-    Bounds, MpcError, MpcProblem, MpcSettings, QpSettings, ReferenceSolver, SoftPenalty, Terminal,
-    Weight,
+    Bounds, DisturbanceModel, MpcError, MpcProblem, MpcSettings, QpSettings, ReferenceSolver,
+    SoftPenalty, Terminal, Weight,
 };
-use mpc_features::cases::{Feature, Rng, plain, random_model, settings};
+use mpc_features::cases::{Feature, Rng, plain, plain_offset_free, random_model, settings};
 use mpc_features::common::{SAMPLES, rel, rel_vec, seed_offset};
 use mpc_features::exact::{Outcome, least_violation, lp_min, solve_exact};
 use mpc_features::identity;
@@ -81,6 +83,14 @@ struct Stats {
     corrections: usize,
 }
 
+/// Which design is built: `MpcProblem::build`, or the offset-free one with
+/// a disturbance model (0: `Output`, 1: `OutputStates`, 2: a random `Custom`).
+#[derive(Clone, Copy, Debug)]
+enum Design {
+    Plain,
+    OffsetFree(u8),
+}
+
 /// Checks `n_models` random models of one combination at `per_model`
 /// parameters each.
 fn check_combination(
@@ -89,6 +99,7 @@ fn check_combination(
     blocking: Option<&[usize]>,
     n_models: usize,
     per_model: usize,
+    design: Design,
 ) -> Stats {
     let mut rng = Rng::new(seed);
     let mut st = Stats {
@@ -100,13 +111,39 @@ fn check_combination(
         ..Stats::default()
     };
     for _ in 0..n_models {
-        let dims = (rng.int(2, 4), rng.int(1, 3), rng.int(1, 3));
+        let mut dims = (rng.int(2, 4), rng.int(1, 3), rng.int(1, 3));
+        if let Design::OffsetFree(_) = design {
+            // A disturbance per output is detectable only with ny <= nx.
+            dims.2 = dims.2.min(dims.0);
+        }
         let model = random_model(&mut rng, dims.0, dims.1, dims.2);
         let s = settings(&mut rng, dims, blocking, features);
-        let what = format!("{features:?}, blocks {blocking:?}, dims {dims:?}");
-        let prob = MpcProblem::build(&model, &s)
-            .unwrap_or_else(|e| panic!("{what}: build failed: {e}\n{s:?}"));
-        let pl = plain(&model, &s);
+        let what = format!("{features:?}, blocks {blocking:?}, dims {dims:?}, {design:?}");
+        let (prob, pl) = match design {
+            Design::Plain => (
+                MpcProblem::build(&model, &s)
+                    .unwrap_or_else(|e| panic!("{what}: build failed: {e}\n{s:?}")),
+                plain(&model, &s),
+            ),
+            Design::OffsetFree(kind) => {
+                let dm = match kind {
+                    0 => DisturbanceModel::Output,
+                    1 => DisturbanceModel::OutputStates,
+                    _ => {
+                        let nd = rng.int(1, dims.2);
+                        DisturbanceModel::Custom {
+                            bd: rng.mat(dims.0, nd),
+                            cd: rng.mat(dims.2, nd),
+                        }
+                    }
+                };
+                let d = MpcProblem::build_offset_free(&model, &s, &dm)
+                    .unwrap_or_else(|e| panic!("{what}: build failed: {e}\n{s:?}"));
+                let pl = plain_offset_free(&model, &s, &d.augmented);
+                assert_eq!(d.nd, pl.nd(), "{what}: nd");
+                (d.problem, pl)
+            }
+        };
         assert_eq!(prob.p(), pl.theta_len(), "{what}: theta length");
         assert_eq!(prob.n_slack, pl.n_slack(), "{what}: slack count");
         let nb = pl.blocks.len();
@@ -120,7 +157,7 @@ fn check_combination(
             assert!(d < 1e-8, "{what}: LQ terminal weight differs by {d:e}");
         }
         // The parameter box of the states, references and extra parameters.
-        let refs = pl.nx() + if pl.has_prev() { pl.nu() } else { 0 };
+        let refs = pl.nx() + pl.nd() + if pl.has_prev() { pl.nu() } else { 0 };
         for i in 0..prob.p() {
             let (lb, ub) = (prob.theta_lb[i], prob.theta_ub[i]);
             if i < pl.nx() {
@@ -330,7 +367,14 @@ fn condensed_equals_uncondensed_for_every_feature_combination() {
     for (ci, (name, features)) in combinations().into_iter().enumerate() {
         for (bi, blocking) in [None, Some(&[1usize, 2, 2][..])].into_iter().enumerate() {
             let seed = 1000 + 10 * ci as u64 + bi as u64 + seed_offset();
-            let st = check_combination(seed, &features, blocking, n_models, per_model);
+            let st = check_combination(
+                seed,
+                &features,
+                blocking,
+                n_models,
+                per_model,
+                Design::Plain,
+            );
             eprintln!(
                 "{name:<48} blocks {:<9} {:>5} parameters: {:>5} optimal ({:>5} with an active bound, {:?} per feature), {:>4} infeasible for both, {} at the edge; worst rel. diff cost {:.1e}, moves {:.1e}, slack sum {:.1e}; {} active-set corrections; at random z: cost {:.1e}, rows {:.1e}",
                 format!("{blocking:?}").replace("Some", ""),
@@ -368,6 +412,60 @@ fn condensed_equals_uncondensed_for_every_feature_combination() {
     }
     eprintln!(
         "{combos} combinations, {total} parameters in {:.1} s; worst relative differences: cost {worst_cost:.1e}, moves {worst_move:.1e}, slack sum {worst_slack:.1e}; as functions at random z: cost {worst_fn_cost:.1e}, constraint rows {worst_fn_row:.1e}",
+        start.elapsed().as_secs_f64()
+    );
+}
+
+#[test]
+fn offset_free_condensed_equals_uncondensed() {
+    // The offset-free design (a constant disturbance d in theta after x,
+    // inputs weighed against the steady-state target u_s, the terminal
+    // state against x_s) with the general settings, for each disturbance
+    // model, against the reference with d as a known constant.
+    let combos: [(&str, Vec<Feature>); 3] = [
+        (
+            "du weight and bounds, soft outputs, preview, LQ terminal",
+            vec![DuWeight, DuBounds, OutputSoft, Preview, TerminalLq],
+        ),
+        (
+            "hard states, terminal set, terminal state matrix",
+            vec![StateHard, TerminalSet, TerminalState],
+        ),
+        (
+            "hard outputs, parameter-dependent bounds",
+            vec![OutputHard, ParamInputBounds, ParamOtherBounds],
+        ),
+    ];
+    let start = std::time::Instant::now();
+    let (mut total, mut worst_cost, mut worst_move, mut worst_fn) = (0, 0.0_f64, 0.0_f64, 0.0_f64);
+    for (ci, (name, features)) in combos.iter().enumerate() {
+        for kind in 0..3u8 {
+            let blocking = [None, Some(&[1usize, 2, 2][..])][usize::from(kind) % 2];
+            let seed = 5000 + 10 * ci as u64 + u64::from(kind) + seed_offset();
+            let st = check_combination(seed, features, blocking, 10, 30, Design::OffsetFree(kind));
+            eprintln!(
+                "offset-free ({}), {name}: {} parameters, {} optimal ({} with an active bound), {} infeasible for both, {} at the edge; worst rel. diff cost {:.1e}, moves {:.1e}; at random z: cost {:.1e}, rows {:.1e}",
+                ["Output", "OutputStates", "Custom"][usize::from(kind)],
+                st.thetas,
+                st.optimal,
+                st.any_active,
+                st.infeasible,
+                st.borderline,
+                st.worst_cost,
+                st.worst_move,
+                st.worst_fn_cost,
+                st.worst_fn_row
+            );
+            assert!(st.optimal * 4 >= st.thetas, "{name}: {st:?}");
+            assert!(st.any_active * 10 >= st.optimal, "{name}: {st:?}");
+            total += st.thetas;
+            worst_cost = worst_cost.max(st.worst_cost);
+            worst_move = worst_move.max(st.worst_move);
+            worst_fn = worst_fn.max(st.worst_fn_cost).max(st.worst_fn_row);
+        }
+    }
+    eprintln!(
+        "offset-free: {total} parameters in {:.1} s; worst relative differences: cost {worst_cost:.1e}, moves {worst_move:.1e}, as functions {worst_fn:.1e}",
         start.elapsed().as_secs_f64()
     );
 }

@@ -357,5 +357,33 @@ pub fn plain(model: &SsModel, s: &MpcSettings) -> Plain {
         state: s.state_bounds.as_ref().map(|b| plain_bounds(b, np)),
         terminal_set: s.terminal_set.as_ref().map(|t| (t.a.clone(), t.b.clone())),
         np,
+        disturbance: None,
+    }
+}
+
+/// The reference's statement of an offset-free design: the disturbance
+/// maps `(Bd, Cd)` read off the augmented model `[A, Bd; 0, I]`,
+/// `[C, Cd]` (whose other blocks must be the model's).
+pub fn plain_offset_free(model: &SsModel, s: &MpcSettings, augmented: &SsModel) -> Plain {
+    let (nx, ny) = (model.a.nrows(), model.c.nrows());
+    let na = augmented.a.nrows();
+    let nd = na - nx;
+    assert_eq!(
+        augmented.a.view((0, 0), (nx, nx)),
+        model.a.view((0, 0), (nx, nx))
+    );
+    assert_eq!(
+        augmented.a.view((nx, nx), (nd, nd)),
+        DMatrix::identity(nd, nd)
+    );
+    assert_eq!(augmented.a.view((nx, 0), (nd, nx)).amax(), 0.0);
+    assert_eq!(augmented.b.rows(0, nx), model.b.rows(0, nx));
+    assert_eq!(augmented.b.rows(nx, nd).amax(), 0.0);
+    assert_eq!(augmented.c.columns(0, nx), model.c.columns(0, nx));
+    let bd = augmented.a.view((0, nx), (nx, nd)).into_owned();
+    let cd = augmented.c.view((0, nx), (ny, nd)).into_owned();
+    Plain {
+        disturbance: Some((bd, cd)),
+        ..plain(model, s)
     }
 }

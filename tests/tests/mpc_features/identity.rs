@@ -64,8 +64,11 @@ pub fn compare_at(
             let u = z.rows(b * nu, nu).into_owned();
             let x = v.rows(pl.xi(j), nx).into_owned();
             v.rows_mut(pl.ui(j), nu).copy_from(&u);
-            v.rows_mut(pl.xi(j + 1), nx)
-                .copy_from(&(&pl.a * x + &pl.b * u));
+            let mut next = &pl.a * x + &pl.b * u;
+            if let Some((bd, _)) = &pl.disturbance {
+                next += bd * &t.d;
+            }
+            v.rows_mut(pl.xi(j + 1), nx).copy_from(&next);
             j += 1;
         }
     }

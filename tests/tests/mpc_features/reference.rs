@@ -68,6 +68,12 @@ pub struct Plain {
     pub terminal_set: Option<(DMatrix<f64>, DVector<f64>)>,
     /// Number of extra parameters.
     pub np: usize,
+    /// Offset-free design: a constant disturbance `d` (in `theta` after
+    /// `x`) with `x+ = A x + B u + Bd d`, `y = C x + Cd d`; the inputs are
+    /// weighed against `u_s` and the terminal state against `x_s`, the
+    /// least-norm solution of `[A - I, B; C, 0] [x_s; u_s] = [-Bd d; r_P - Cd d]`.
+    /// `(Bd, Cd)`.
+    pub disturbance: Option<(DMatrix<f64>, DMatrix<f64>)>,
 }
 
 /// Which constraint a row of the uncondensed problem comes from.
@@ -120,6 +126,8 @@ pub struct DenseQp {
 #[derive(Clone, Debug)]
 pub struct ThetaParts {
     pub x: DVector<f64>,
+    /// The disturbance (empty without one).
+    pub d: DVector<f64>,
     pub u_prev: DVector<f64>,
     /// `r_1, ..., r_P`.
     pub refs: Vec<DVector<f64>>,
@@ -137,6 +145,10 @@ impl Plain {
     pub fn ny(&self) -> usize {
         self.c.nrows()
     }
+    /// Number of disturbance entries in `theta`.
+    pub fn nd(&self) -> usize {
+        self.disturbance.as_ref().map_or(0, |(bd, _)| bd.ncols())
+    }
     pub fn horizon(&self) -> usize {
         self.blocks.iter().sum()
     }
@@ -147,6 +159,7 @@ impl Plain {
     /// Length of `theta`: `[x; u_prev; r_1..r_P; u_target; params]`.
     pub fn theta_len(&self) -> usize {
         self.nx()
+            + self.nd()
             + if self.has_prev() { self.nu() } else { 0 }
             + self.preview * self.ny()
             + if matches!(self.target, PlainTarget::Parameter) {
@@ -167,6 +180,7 @@ impl Plain {
         u_target: &DVector<f64>,
         params: &[f64],
     ) -> DVector<f64> {
+        // `x` holds the disturbance after the states in an offset-free design.
         let mut v: Vec<f64> = x.iter().copied().collect();
         if self.has_prev() {
             v.extend(u_prev.iter());
@@ -176,7 +190,7 @@ impl Plain {
             v.extend(u_target.iter());
         }
         v.extend_from_slice(params);
-        assert_eq!(v.len(), self.theta_len());
+        assert_eq!(v.len(), self.theta_len(), "theta length");
         DVector::from_vec(v)
     }
 
@@ -191,6 +205,7 @@ impl Plain {
             v
         };
         let x = take(nx);
+        let d = take(self.nd());
         let u_prev = if self.has_prev() {
             take(nu)
         } else {
@@ -205,6 +220,7 @@ impl Plain {
         let params = take(self.np);
         ThetaParts {
             x,
+            d,
             u_prev,
             refs,
             u_target,
@@ -261,8 +277,31 @@ impl Plain {
         let mut p = DMatrix::zeros(nv, nv);
         let mut q = DVector::zeros(nv);
         let mut c0 = 0.0;
-        // The reference of output step j: r_min(j, P), step 0 with r_1.
-        let r_of = |j: usize| &t.refs[j.clamp(1, self.preview) - 1];
+        // The disturbance's effect on the states and the outputs, and the
+        // steady-state target it asks for.
+        let (bd_d, cd_d) = match &self.disturbance {
+            Some((bd, cd)) => (bd * &t.d, cd * &t.d),
+            None => (DVector::zeros(nx), DVector::zeros(self.ny())),
+        };
+        let r_last = &t.refs[self.preview - 1];
+        let steady = self.disturbance.as_ref().map(|_| {
+            let mut k = DMatrix::zeros(nx + self.ny(), nx + nu);
+            k.view_mut((0, 0), (nx, nx))
+                .copy_from(&(&self.a - DMatrix::identity(nx, nx)));
+            k.view_mut((0, nx), (nx, nu)).copy_from(&self.b);
+            k.view_mut((nx, 0), (self.ny(), nx)).copy_from(&self.c);
+            let mut rhs = DVector::zeros(nx + self.ny());
+            rhs.rows_mut(0, nx).copy_from(&(-&bd_d));
+            rhs.rows_mut(nx, self.ny()).copy_from(&(r_last - &cd_d));
+            // Least norm: the SVD's solve with tiny singular values dropped.
+            let xu = k.svd(true, true).solve(&rhs, 1e-10).unwrap();
+            (xu.rows(0, nx).into_owned(), xu.rows(nx, nu).into_owned())
+        });
+        let u_target = steady.as_ref().map_or(&t.u_target, |s| &s.1);
+        // The output references net of the disturbance: r_min(j, P) - Cd d,
+        // step 0 with r_1.
+        let refs: Vec<DVector<f64>> = t.refs.iter().map(|r| r - &cd_d).collect();
+        let r_of = |j: usize| &refs[j.clamp(1, self.preview) - 1];
 
         let mut quad = |at: usize, m: &DMatrix<f64>, r: &DVector<f64>, w: &DMatrix<f64>| {
             add_quad(&mut p, &mut q, &mut c0, at, m, r, w)
@@ -271,7 +310,7 @@ impl Plain {
         let eye_x = DMatrix::identity(nx, nx);
         for j in 0..n_h {
             quad(self.xi(j), &self.c, r_of(j), &self.q1);
-            quad(self.ui(j), &eye_u, &t.u_target, &self.q2);
+            quad(self.ui(j), &eye_u, u_target, &self.q2);
         }
         if let Some(rw) = &self.du_weight {
             quad(self.ui(0), &eye_u, &t.u_prev, rw);
@@ -290,17 +329,20 @@ impl Plain {
                 quad(a, &stacked, &DVector::zeros(nu), rw);
             }
         }
-        let r_last = &t.refs[self.preview - 1];
         match &self.terminal {
             PlainTerminal::Zero => {}
-            PlainTerminal::Output(w) => quad(self.xi(n_h), &self.c, r_last, w),
+            PlainTerminal::Output(w) => quad(self.xi(n_h), &self.c, r_of(n_h), w),
             PlainTerminal::State(pm) => {
-                let pinv = self.c.clone().pseudo_inverse(1e-13).unwrap();
-                quad(self.xi(n_h), &eye_x, &(pinv * r_last), pm);
+                let x_ref = match &steady {
+                    Some((x_s, _)) => x_s.clone(),
+                    None => self.c.clone().pseudo_inverse(1e-13).unwrap() * r_last,
+                };
+                quad(self.xi(n_h), &eye_x, &x_ref, pm);
             }
         }
 
-        // Equalities: x_0 = x, x_{j+1} = A x_j + B u_j, u_j = u_{j-1} inside a block.
+        // Equalities: x_0 = x, x_{j+1} = A x_j + B u_j (+ Bd d), u_j = u_{j-1}
+        // inside a block.
         let mut eq_rows: Vec<(DVector<f64>, f64)> = Vec::new();
         let unit = |i: usize| {
             let mut r = DVector::zeros(nv);
@@ -319,7 +361,7 @@ impl Plain {
                 for k in 0..nu {
                     r[self.ui(j) + k] -= self.b[(i, k)];
                 }
-                eq_rows.push((r, 0.0));
+                eq_rows.push((r, bd_d[i]));
             }
         }
         let mut block_start = vec![false; n_h];
@@ -376,6 +418,7 @@ impl Plain {
                             }
                         }
                         Family::Output => {
+                            cst = cd_d[i];
                             for k in 0..nx {
                                 r[self.xi(j) + k] = self.c[(i, k)];
                             }
