@@ -683,3 +683,95 @@ fn an_even_state_count_keeps_kestrel_ffis_byte_layout() {
     assert_eq!(unhex(kf), bytes);
     assert_eq!(bytes.len(), 3 * 10 + 12 + 4 * 8 + 4 * 10 + 4 * 10);
 }
+
+#[test]
+fn explicit_law_in_c_equals_the_firmwares_table() {
+    let out = dir("empc");
+    let mut args = vec!["export", "--model", MODEL, "--lang", "c", "--empc"];
+    args.extend(["--out", out.to_str().unwrap()]);
+    let (ok, _, err) = kestrel(&args);
+    assert!(ok, "{err}");
+    let h = std::fs::read_to_string(out.join("kestrel_empc.h")).unwrap();
+    let c = std::fs::read_to_string(out.join("kestrel_empc.c")).unwrap();
+    let rs = std::fs::read_to_string(repo("avr/firmware/src/generated_empc.rs")).unwrap();
+    let rust: Vec<u8> = numbers(bracketed(&rs, "pub const EMPC16:"))
+        .iter()
+        .map(|s| s.parse().unwrap())
+        .collect();
+    let bytes: Vec<u8> = numbers(braced(&c, "kestrel_empc_chunk_0["))
+        .iter()
+        .map(|s| s.parse().unwrap())
+        .collect();
+    assert_eq!(bytes.len(), 7992);
+    assert_eq!(bytes, rust);
+    // The layout as generated_empc.rs's EMPC16_LAYOUT.
+    let layout = braced(&rs, "pub const EMPC16_LAYOUT");
+    let mut tail = Vec::new();
+    for (key, name) in [
+        ("n_params", "N_PARAMS"),
+        ("n_outputs", "N_OUTPUTS"),
+        ("n_nodes", "N_NODES"),
+        ("n_laws", "N_LAWS"),
+        ("n_rows", "N_ROWS"),
+        ("root", "ROOT"),
+        ("scale", "SCALE"),
+    ] {
+        let v = layout.split(&format!("{key}: ")).nth(1).unwrap();
+        let v: u16 = v.split(',').next().unwrap().trim().parse().unwrap();
+        let key = format!("#define KESTREL_EMPC_{name} ");
+        let at = h.find(&key).unwrap() + key.len();
+        assert_eq!(h[at..].lines().next().unwrap(), v.to_string(), "{name}");
+        if name == "SCALE" {
+            tail.push(v as u8);
+        } else {
+            tail.extend(v.to_le_bytes());
+        }
+    }
+    assert!(layout.contains("wide: false") && h.contains("#define KESTREL_EMPC_WIDE 0\n"));
+    tail.push(0);
+    // kestrel-ffi's KestrelEmpc16Tables checksum, recomputed here.
+    let mut all = rust.clone();
+    all.extend(tail);
+    let want = format!("#define KESTREL_EMPC_CHECKSUM 0x{:04X}u", crc16(&all));
+    assert!(h.contains(&want), "{want}");
+    // Host and AVR builds, with kestrel.h when it is there.
+    let mut variants: Vec<Vec<String>> = vec![vec!["-DKESTREL_EMPC_NO_ABI".into()]];
+    if let Some(i) = ffi_include() {
+        variants.push(vec![format!("-I{}", i.display())]);
+    }
+    for flags in &variants {
+        if have("cc") {
+            run(Command::new("cc")
+                .args(["-c", "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic"])
+                .args(flags)
+                .arg(out.join("kestrel_empc.c"))
+                .arg("-o")
+                .arg(out.join("kestrel_empc.o")));
+        } else {
+            println!("note: no host C compiler (cc): C build not checked");
+        }
+        if have("avr-gcc") {
+            run(Command::new("avr-gcc")
+                .args(["-mmcu=atmega2560", "-Os", "-c", "-Wall", "-Werror"])
+                .args(flags)
+                .arg(out.join("kestrel_empc.c"))
+                .arg("-o")
+                .arg(out.join("kestrel_empc.avr.o")));
+            let symbols = run(Command::new("avr-objdump")
+                .arg("-t")
+                .arg(out.join("kestrel_empc.avr.o")));
+            let line = symbols
+                .lines()
+                .find(|l| l.ends_with(" kestrel_empc_chunk_0"))
+                .unwrap();
+            assert!(line.contains(".progmem.data"), "{line}");
+        } else {
+            println!(
+                "note: avr-gcc not installed: the AVR build of the explicit law is not checked"
+            );
+        }
+    }
+    // Only with --lang c.
+    let (ok, _, err) = kestrel(&["export", "--model", MODEL, "--empc"]);
+    assert!(!ok && err.contains("--lang c"), "{err}");
+}

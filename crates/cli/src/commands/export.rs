@@ -41,8 +41,9 @@ use std::path::PathBuf;
 /// `--lang c`, the same tables as C in the folder `--out`:
 /// `kestrel_design.h` (sizes, offsets and the design checksums as macros,
 /// declarations) and `kestrel_design.c` (`const` tables, `PROGMEM` on the
-/// AVR, and kestrel-ffi's `KestrelDesign` for them); files there that
-/// `kestrel export --lang c` did not write are never replaced.
+/// AVR, and kestrel-ffi's `KestrelDesign` for them), with `--empc` also
+/// the explicit law's table (`kestrel_empc.h`, `kestrel_empc.c`); files
+/// there that `kestrel export --lang c` did not write are never replaced.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Design model (`kestrel.ss.v1`, discrete, 4 inputs, 3 outputs).
@@ -84,6 +85,11 @@ pub struct Args {
     /// firmware with kestrel-ffi).
     #[arg(long, value_enum, default_value_t = Lang::Rust)]
     pub lang: Lang,
+    /// With `--lang c`: also the explicit law of the MPC problem
+    /// (kestrel-empc's exact solution as the firmware's 16-bit search
+    /// tree) as `kestrel_empc.h` and `kestrel_empc.c`.
+    #[arg(long)]
+    pub empc: bool,
 }
 
 /// `--lang`.
@@ -131,6 +137,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "--lang c writes two files ({} and {}): give the folder for them with --out DIR",
             c_tables::C_HEADER_NAME,
             c_tables::C_SOURCE_NAME
+        );
+    }
+    if args.empc && args.lang != Lang::C {
+        bail!(
+            "--empc writes C tables: add --lang c (the firmware's Rust explicit tables are written by `kestrel codegen`)"
         );
     }
     let model = SsModel::read(&args.model).with_context(|| format!("{}", args.model.display()))?;
@@ -186,14 +197,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     match (args.lang, &args.out) {
         (Lang::C, Some(dir)) => {
             let c = c_tables::generate_c_tables(&design)?;
-            c_files::write(dir, &c)?;
+            let mut files = vec![
+                (c_tables::C_HEADER_NAME, c.header.as_str()),
+                (c_tables::C_SOURCE_NAME, c.source.as_str()),
+            ];
+            let e = match args.empc {
+                true => Some(c_tables::generate_c_empc_of(&design)?),
+                false => None,
+            };
+            if let Some(e) = &e {
+                files.push((c_tables::empc::C_EMPC_HEADER_NAME, e.header.as_str()));
+                files.push((c_tables::empc::C_EMPC_SOURCE_NAME, e.source.as_str()));
+            }
+            c_files::write(dir, &files)?;
+            let names: Vec<&str> = files.iter().map(|(n, _)| *n).collect();
             eprintln!(
-                "export: wrote {} and {} in {} (checksums f32 0x{:04X}, Q15.16 0x{:04X})",
-                c_tables::C_HEADER_NAME,
-                c_tables::C_SOURCE_NAME,
+                "export: wrote {} in {} (design checksums f32 0x{:04X}, Q15.16 0x{:04X}{})",
+                names.join(", "),
                 dir.display(),
                 c.checksum_f32,
-                c.checksum_q16
+                c.checksum_q16,
+                e.map(|e| format!(", explicit law 0x{:04X}", e.checksum))
+                    .unwrap_or_default()
             );
         }
         (Lang::C, None) | (Lang::Rust, _) => {

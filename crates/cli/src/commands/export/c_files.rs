@@ -3,9 +3,7 @@
 
 use crate::io::Outputs;
 use anyhow::{Context, bail};
-use kestrel_tricopter::firmware::c_tables::{
-    C_GENERATED_MARKER, C_HEADER_NAME, C_SOURCE_NAME, CTables,
-};
+use kestrel_tricopter::firmware::c_tables::{C_GENERATED_MARKER, C_HEADER_NAME, C_SOURCE_NAME};
 use std::path::Path;
 
 /// Whether `path` may be written: nothing there, or a regular file (or a
@@ -42,9 +40,9 @@ fn check_replaceable(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Writes `kestrel_design.h` and `kestrel_design.c` into the folder `dir`
-/// (created when missing, with its parent existing): both or neither.
-pub fn write(dir: &Path, c: &CTables) -> anyhow::Result<()> {
+/// Writes `files` (name, text) into the folder `dir` (created when
+/// missing, with its parent existing): all or none.
+pub fn write(dir: &Path, files: &[(&str, &str)]) -> anyhow::Result<()> {
     let shown = dir.display();
     let made = match std::fs::metadata(dir) {
         Ok(m) if m.is_dir() => false,
@@ -60,12 +58,13 @@ pub fn write(dir: &Path, c: &CTables) -> anyhow::Result<()> {
         Err(e) => return Err(e).with_context(|| format!("--out {shown}")),
     };
     let result = (|| {
-        let (h, s) = (dir.join(C_HEADER_NAME), dir.join(C_SOURCE_NAME));
-        check_replaceable(&h)?;
-        check_replaceable(&s)?;
+        for (name, _) in files {
+            check_replaceable(&dir.join(name))?;
+        }
         let mut out = Outputs::new();
-        out.add(Some(&h), &c.header)?;
-        out.add(Some(&s), &c.source)?;
+        for (name, text) in files {
+            out.add(Some(&dir.join(name)), text)?;
+        }
         out.commit()
     })();
     if result.is_err() && made {
@@ -79,25 +78,22 @@ pub fn write(dir: &Path, c: &CTables) -> anyhow::Result<()> {
 mod tests {
     use super::*;
 
-    fn tables(text: &str) -> CTables {
-        CTables {
-            header: format!("{C_GENERATED_MARKER} h {text}"),
-            source: format!("{C_GENERATED_MARKER} c {text}"),
-            checksum_f32: 0,
-            checksum_q16: 0,
-        }
+    fn write_texts(dir: &Path, text: &str) -> anyhow::Result<()> {
+        let h = format!("{C_GENERATED_MARKER} h {text}");
+        let c = format!("{C_GENERATED_MARKER} c {text}");
+        write(dir, &[(C_HEADER_NAME, &h), (C_SOURCE_NAME, &c)])
     }
 
     #[test]
     fn writes_a_new_folder_and_replaces_its_own_files_only() {
         let root = tempfile::tempdir().unwrap();
         let dir = root.path().join("out");
-        write(&dir, &tables("1")).unwrap();
-        write(&dir, &tables("2")).unwrap();
+        write_texts(&dir, "1").unwrap();
+        write_texts(&dir, "2").unwrap();
         let h = dir.join(C_HEADER_NAME);
         assert!(std::fs::read_to_string(&h).unwrap().ends_with(" 2"));
         std::fs::write(&h, "/* mine */").unwrap();
-        let err = format!("{:#}", write(&dir, &tables("3")).unwrap_err());
+        let err = format!("{:#}", write_texts(&dir, "3").unwrap_err());
         assert!(err.contains("was not written by"), "{err}");
         assert_eq!(std::fs::read_to_string(&h).unwrap(), "/* mine */");
         let c = std::fs::read_to_string(dir.join(C_SOURCE_NAME)).unwrap();
@@ -110,9 +106,9 @@ mod tests {
         let root = tempfile::tempdir().unwrap();
         let file = root.path().join("f");
         std::fs::write(&file, "x").unwrap();
-        assert!(write(&file, &tables("1")).is_err());
+        assert!(write_texts(&file, "1").is_err());
         let deep = root.path().join("no/such");
-        assert!(write(&deep, &tables("1")).is_err());
+        assert!(write_texts(&deep, "1").is_err());
         assert!(!root.path().join("no").exists());
     }
 }
