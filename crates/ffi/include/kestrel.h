@@ -20,7 +20,7 @@
 #define KESTREL_ABI_VERSION 1
 
 // States of the design model (the thesis design; other sizes are
-// [`KestrelStatus::BadSize`]).
+// `KESTREL_STATUS_BAD_SIZE`).
 #define KESTREL_NX 5
 
 // Inputs: the law's outputs, the Kalman filter's inputs (pwm1-3, servo).
@@ -41,17 +41,17 @@
 // Fast gradient momentum table length.
 #define KESTREL_FGM_T 1
 
-// Values in the design's flat table ([`KestrelDesign::values`]).
+// Values in the design's flat table (`KestrelDesign.values`).
 #define KESTREL_N_VALUES 152
 
 // Bytes of the design's flat table (4 per value).
 #define KESTREL_VALUES_BYTES (4 * KESTREL_N_VALUES)
 
-// Bytes of the 16-bit Kalman tables ([`KestrelDesign::kalman16`]).
+// Bytes of the 16-bit Kalman tables (`KestrelDesign.kalman16`).
 #define KESTREL_KALMAN16_BYTES 198
 
 // Bytes of the fast gradient's 16-bit `M` rows and momentum
-// ([`KestrelDesign::fgm16`]).
+// (`KestrelDesign.fgm16`).
 #define KESTREL_FGM16_BYTES 42
 
 // Rows of the explicit law's value cache: at most this many affine rows
@@ -61,25 +61,25 @@
 // Pulses: ESC 1-3, then the servo.
 #define KESTREL_N_PWM 4
 
-// [`KestrelDesign::values_format`]: little-endian IEEE-754 `f32`.
+// `KestrelDesign.values_format`: little-endian IEEE-754 `f32`.
 #define KESTREL_FORMAT_F32 0
 
-// [`KestrelDesign::values_format`]: little-endian Q15.16 (`int32_t`
+// `KestrelDesign.values_format`: little-endian Q15.16 (`int32_t`
 // raw bits, value = bits / 65536).
 #define KESTREL_FORMAT_Q16 1
 
-// [`KestrelRateOutput::flags`]: the failsafe's pulses are out.
+// `KestrelRateOutput.flags`: the failsafe's pulses are out.
 #define KESTREL_FLAG_FAILSAFE 1
 
-// [`KestrelRateOutput::flags`]: no fresh input this period, the last
+// `KestrelRateOutput.flags`: no fresh input this period, the last
 // pulses are held (first missing period).
 #define KESTREL_FLAG_HOLD 2
 
-// [`KestrelRateOutput::flags`]: a non-finite input or result (with
+// `KestrelRateOutput.flags`: a non-finite input or result (with
 // `FAILSAFE`).
 #define KESTREL_FLAG_NON_FINITE 4
 
-// [`KestrelRateOutput::flags`]: no fresh input for two periods or more
+// `KestrelRateOutput.flags`: no fresh input for two periods or more
 // (with `FAILSAFE`).
 #define KESTREL_FLAG_TIMEOUT 16
 
@@ -95,7 +95,7 @@
 // Words of a rate loop's state.
 #define KESTREL_RATE_LOOP_WORDS 310
 
-// What a function returns: [`KestrelStatus::Ok`] or why it did nothing
+// What a function returns: `KESTREL_STATUS_OK` or why it did nothing
 // useful. No function panics or aborts; on an error the outputs are left
 // as they were unless the function says otherwise.
 typedef enum KestrelStatus {
@@ -155,10 +155,10 @@ typedef enum KestrelStatus {
 //   read with `ELPM`, as the Rust firmware reads its tables). Declare it
 //   `const uint8_t table[] PROGMEM` (or in a `.progmem.data`/
 //   `.text.kestrel_tables` section); a C object is limited to 32 kB, so
-//   bigger data goes in chunks ([`crate::KestrelEmpc16Tables`]).
+//   bigger data goes in chunks (`KestrelEmpc16Tables`).
 //
 // `data == NULL` with `flash == 0` (or any flash address on a target
-// other than the AVR) is [`KestrelStatus::NullPointer`]. The bytes are
+// other than the AVR) is `KESTREL_STATUS_NULL_POINTER`. The bytes are
 // borrowed: they must stay unchanged for as long as a state made from
 // them is used (the explicit law reads its table at every call; the
 // other states copy what they need at init).
@@ -181,15 +181,15 @@ typedef struct KestrelEmpc16F32 {
 // Counts of an explicit law's 16-bit tree table (kestrel-avr-rt's
 // `Tree16Layout`, the `EMPC16_LAYOUT` of `generated_empc.rs`).
 typedef struct KestrelTree16Layout {
-  // Parameters (must be [`KESTREL_NP`]).
+  // Parameters (must be `KESTREL_NP`).
   uint16_t n_params;
-  // Outputs (must be [`KESTREL_NU`]).
+  // Outputs (must be `KESTREL_NU`).
   uint16_t n_outputs;
   // Tree nodes.
   uint16_t n_nodes;
   // Laws.
   uint16_t n_laws;
-  // Affine rows (narrow: at most [`crate::KESTREL_EMPC_CACHE_ROWS`]).
+  // Affine rows (narrow: at most `KESTREL_EMPC_CACHE_ROWS`).
   uint16_t n_rows;
   // The root child code.
   uint16_t root;
@@ -206,7 +206,7 @@ typedef struct KestrelTree16Layout {
 // `n_chunks` descriptors that must stay valid (and unchanged) while a
 // law made from them is used: declare them `static const`.
 //
-// `checksum` is [`crate::kestrel_checksum`] over the chunks' bytes in
+// `checksum` is `kestrel_checksum` over the chunks' bytes in
 // order, then the layout's 14 bytes: `n_params`, `n_outputs`, `n_nodes`,
 // `n_laws`, `n_rows`, `root` (each `uint16_t`, little-endian), `scale`,
 // `wide`.
@@ -223,7 +223,7 @@ typedef struct KestrelEmpc16Tables {
   uint16_t checksum;
 } KestrelEmpc16Tables;
 
-// The explicit MPC law in Q15.16; see [`KestrelEmpc16F32`].
+// The explicit MPC law in Q15.16; see `KestrelEmpc16F32`.
 typedef struct KestrelEmpc16Q16 {
   uint64_t _opaque[KESTREL_EMPC16_WORDS];
 } KestrelEmpc16Q16;
@@ -238,7 +238,7 @@ typedef struct KestrelFgm16F32 {
 // numbers of the Rust firmware's `generated.rs`): what the Kalman
 // filter, the fast gradient law and the rate loop read.
 //
-// - `values`: the flat table, [`KESTREL_N_VALUES`] numbers of 4 bytes in
+// - `values`: the flat table, `KESTREL_N_VALUES` numbers of 4 bytes in
 //   `values_format`: the fast gradient's set-up data `M` (NZ x NZ, row
 //   major), `K` (NZ x NP), `k0` (NZ), `lo_theta` (NZ x NP), `lo0` (NZ),
 //   `hi_theta` (NZ x NP), `hi0` (NZ), `d` (NZ), `d_inv` (NZ), `betas`
@@ -252,18 +252,18 @@ typedef struct KestrelFgm16F32 {
 // - `fgm16`: the fast gradient's `M` in 16 bits (`FGM16_M`: NZ rows of
 //   NZ, shift 15) and the momentum in Q1.15 (`FGM16_BETAS`: T `int16_t`).
 //
-// All values little-endian. `checksum` is [`crate::kestrel_checksum`]
+// All values little-endian. `checksum` is `kestrel_checksum`
 // (CRC-16/CCITT-FALSE) over the bytes of `values`, `kalman16`, `fgm16`
 // and then the four bytes `values_format`, `fgm_warm`, `fgm_iterations`
 // (low byte, high byte).
 typedef struct KestrelDesign {
-  // The flat table ([`KESTREL_VALUES_BYTES`] bytes).
+  // The flat table (`KESTREL_VALUES_BYTES` bytes).
   struct KestrelBytes values;
-  // The 16-bit Kalman rows ([`KESTREL_KALMAN16_BYTES`] bytes).
+  // The 16-bit Kalman rows (`KESTREL_KALMAN16_BYTES` bytes).
   struct KestrelBytes kalman16;
-  // The fast gradient's 16-bit rows and momentum ([`KESTREL_FGM16_BYTES`] bytes).
+  // The fast gradient's 16-bit rows and momentum (`KESTREL_FGM16_BYTES` bytes).
   struct KestrelBytes fgm16;
-  // [`KESTREL_FORMAT_F32`] or [`KESTREL_FORMAT_Q16`]: the format of `values`.
+  // `KESTREL_FORMAT_F32` or `KESTREL_FORMAT_Q16`: the format of `values`.
   uint8_t values_format;
   // 1: each period's solve starts from the previous solution; 0: cold.
   uint8_t fgm_warm;
@@ -273,7 +273,7 @@ typedef struct KestrelDesign {
   uint16_t checksum;
 } KestrelDesign;
 
-// The firmware's fast gradient law in Q15.16; see [`KestrelFgm16F32`].
+// The firmware's fast gradient law in Q15.16; see `KestrelFgm16F32`.
 typedef struct KestrelFgm16Q16 {
   uint64_t _opaque[KESTREL_FGM16_WORDS];
 } KestrelFgm16Q16;
@@ -286,7 +286,7 @@ typedef struct KestrelKalman16F32 {
 } KestrelKalman16F32;
 
 // A stationary Kalman filter working in Q15.16 (`int32_t` raw bits);
-// see [`KestrelKalman16F32`].
+// see `KestrelKalman16F32`.
 typedef struct KestrelKalman16Q16 {
   uint64_t _opaque[KESTREL_KALMAN16_WORDS];
 } KestrelKalman16Q16;
@@ -357,7 +357,7 @@ typedef struct KestrelRateOutput {
   uint32_t solver_cycles;
 } KestrelRateOutput;
 
-// The rate loop in Q15.16; see [`KestrelRateLoopF32`].
+// The rate loop in Q15.16; see `KestrelRateLoopF32`.
 typedef struct KestrelRateLoopQ16 {
   uint64_t _opaque[KESTREL_RATE_LOOP_WORDS];
 } KestrelRateLoopQ16;
@@ -366,7 +366,7 @@ typedef struct KestrelRateLoopQ16 {
 extern "C" {
 #endif // __cplusplus
 
-// The ABI version this library was built with ([`KESTREL_ABI_VERSION`]);
+// The ABI version this library was built with (`KESTREL_ABI_VERSION`);
 // compare it with the header's macro at start-up.
 uint16_t kestrel_abi_version(void);
 
@@ -375,12 +375,12 @@ uint16_t kestrel_abi_version(void);
 // `kestrel_avr_rt::crc16`, check value 0x29B1 for "123456789") over the
 // bytes of `tables[0]`, then `tables[1]`, ... continued, each table's
 // `len` bytes as stored (the little-endian values). The checksum fields
-// of [`crate::KestrelDesign`] and [`crate::KestrelEmpc16Tables`] are
+// of `KestrelDesign` and `KestrelEmpc16Tables` are
 // defined by it (see there which tables, in which order). Writes the
 // checksum to `*out`.
 //
 // # Errors
-// [`KestrelStatus::NullPointer`] for a NULL `tables` (with `n > 0`) or
+// `KESTREL_STATUS_NULL_POINTER` for a NULL `tables` (with `n > 0`) or
 // `out`, or a table without bytes.
 enum KestrelStatus kestrel_checksum(const struct KestrelBytes *tables,
                                     uint16_t n,
@@ -408,11 +408,11 @@ enum KestrelStatus kestrel_empc16_eval_f32(struct KestrelEmpc16F32 *law,
                                            float *u,
                                            uint16_t *nodes);
 
-// [`kestrel_empc16_init_f32`] for the Q15.16 law.
+// `kestrel_empc16_init_f32` for the Q15.16 law.
 enum KestrelStatus kestrel_empc16_init_q16(struct KestrelEmpc16Q16 *law,
                                            const struct KestrelEmpc16Tables *tables);
 
-// [`kestrel_empc16_eval_f32`] in Q15.16 (`int32_t` raw bits).
+// `kestrel_empc16_eval_f32` in Q15.16 (`int32_t` raw bits).
 enum KestrelStatus kestrel_empc16_eval_q16(struct KestrelEmpc16Q16 *law,
                                            const int32_t *x,
                                            const int32_t *r,
@@ -440,12 +440,12 @@ enum KestrelStatus kestrel_fgm16_solve_f32(struct KestrelFgm16F32 *law,
                                            float *z,
                                            uint16_t *iterations);
 
-// [`kestrel_fgm16_init_f32`] for the Q15.16 law (`values_format` must be
+// `kestrel_fgm16_init_f32` for the Q15.16 law (`values_format` must be
 // `KESTREL_FORMAT_Q16`).
 enum KestrelStatus kestrel_fgm16_init_q16(struct KestrelFgm16Q16 *law,
                                           const struct KestrelDesign *design);
 
-// [`kestrel_fgm16_solve_f32`] in Q15.16 (`int32_t` raw bits).
+// `kestrel_fgm16_solve_f32` in Q15.16 (`int32_t` raw bits).
 enum KestrelStatus kestrel_fgm16_solve_q16(struct KestrelFgm16Q16 *law,
                                            const int32_t *theta,
                                            int32_t *z,
@@ -462,7 +462,7 @@ enum KestrelStatus kestrel_fgm_solve_f32(const struct KestrelDesign *design,
                                          const float *z_warm,
                                          float *z);
 
-// [`kestrel_fgm_solve_f32`] in Q15.16 (`int32_t` raw bits, format Q16).
+// `kestrel_fgm_solve_f32` in Q15.16 (`int32_t` raw bits, format Q16).
 enum KestrelStatus kestrel_fgm_solve_q16(const struct KestrelDesign *design,
                                          const int32_t *theta,
                                          const int32_t *z_warm,
@@ -497,21 +497,21 @@ enum KestrelStatus kestrel_kalman16_predict_f32(struct KestrelKalman16F32 *state
 enum KestrelStatus kestrel_kalman16_reset_f32(struct KestrelKalman16F32 *state,
                                               const float *x0);
 
-// [`kestrel_kalman16_init_f32`] for the Q15.16 filter.
+// `kestrel_kalman16_init_f32` for the Q15.16 filter.
 enum KestrelStatus kestrel_kalman16_init_q16(struct KestrelKalman16Q16 *state,
                                              const struct KestrelDesign *design);
 
-// [`kestrel_kalman16_measure_f32`] in Q15.16 (`int32_t` raw bits).
+// `kestrel_kalman16_measure_f32` in Q15.16 (`int32_t` raw bits).
 enum KestrelStatus kestrel_kalman16_measure_q16(struct KestrelKalman16Q16 *state,
                                                 const int32_t *y,
                                                 int32_t *x);
 
-// [`kestrel_kalman16_predict_f32`] in Q15.16 (`int32_t` raw bits).
+// `kestrel_kalman16_predict_f32` in Q15.16 (`int32_t` raw bits).
 enum KestrelStatus kestrel_kalman16_predict_q16(struct KestrelKalman16Q16 *state,
                                                 const int32_t *u,
                                                 int32_t *x);
 
-// [`kestrel_kalman16_reset_f32`] in Q15.16 (`int32_t` raw bits).
+// `kestrel_kalman16_reset_f32` in Q15.16 (`int32_t` raw bits).
 enum KestrelStatus kestrel_kalman16_reset_q16(struct KestrelKalman16Q16 *state,
                                               const int32_t *x0);
 
@@ -535,8 +535,8 @@ enum KestrelStatus kestrel_rate_loop_init_fgm_f32(struct KestrelRateLoopF32 *rat
 
 // Initialises `rate_loop` with the explicit law of `tables` (which must
 // outlive the loop) and the design's filter, mixer offsets and bias;
-// returns as [`kestrel_rate_loop_init_fgm_f32`] and
-// [`crate::kestrel_empc16_init_f32`].
+// returns as `kestrel_rate_loop_init_fgm_f32` and
+// `kestrel_empc16_init_f32`.
 enum KestrelStatus kestrel_rate_loop_init_empc_f32(struct KestrelRateLoopF32 *rate_loop,
                                                    const struct KestrelDesign *design,
                                                    const struct KestrelEmpc16Tables *tables,
@@ -554,18 +554,18 @@ enum KestrelStatus kestrel_rate_loop_step_f32(struct KestrelRateLoopF32 *rate_lo
                                               const struct KestrelClock *clock,
                                               struct KestrelRateOutput *out);
 
-// [`kestrel_rate_loop_init_fgm_f32`] in Q15.16 (`values_format` Q16).
+// `kestrel_rate_loop_init_fgm_f32` in Q15.16 (`values_format` Q16).
 enum KestrelStatus kestrel_rate_loop_init_fgm_q16(struct KestrelRateLoopQ16 *rate_loop,
                                                   const struct KestrelDesign *design,
                                                   const struct KestrelLoopConfig *config);
 
-// [`kestrel_rate_loop_init_empc_f32`] in Q15.16 (`values_format` Q16).
+// `kestrel_rate_loop_init_empc_f32` in Q15.16 (`values_format` Q16).
 enum KestrelStatus kestrel_rate_loop_init_empc_q16(struct KestrelRateLoopQ16 *rate_loop,
                                                    const struct KestrelDesign *design,
                                                    const struct KestrelEmpc16Tables *tables,
                                                    const struct KestrelLoopConfig *config);
 
-// [`kestrel_rate_loop_step_f32`] for the Q15.16 loop (the same f32
+// `kestrel_rate_loop_step_f32` for the Q15.16 loop (the same f32
 // input and output: the conversion is the firmware's).
 enum KestrelStatus kestrel_rate_loop_step_q16(struct KestrelRateLoopQ16 *rate_loop,
                                               const struct KestrelRateInput *input,

@@ -16,10 +16,10 @@ use kestrel_avr_rt::progmem::TableRead;
 ///   read with `ELPM`, as the Rust firmware reads its tables). Declare it
 ///   `const uint8_t table[] PROGMEM` (or in a `.progmem.data`/
 ///   `.text.kestrel_tables` section); a C object is limited to 32 kB, so
-///   bigger data goes in chunks ([`crate::KestrelEmpc16Tables`]).
+///   bigger data goes in chunks (`KestrelEmpc16Tables`).
 ///
 /// `data == NULL` with `flash == 0` (or any flash address on a target
-/// other than the AVR) is [`KestrelStatus::NullPointer`]. The bytes are
+/// other than the AVR) is `KESTREL_STATUS_NULL_POINTER`. The bytes are
 /// borrowed: they must stay unchanged for as long as a state made from
 /// them is used (the explicit law reads its table at every call; the
 /// other states copy what they need at init).
@@ -34,7 +34,7 @@ pub struct KestrelBytes {
     pub len: u32,
 }
 
-/// A [`KestrelBytes`] checked once: where its bytes are read from.
+/// A `KestrelBytes` checked once: where its bytes are read from.
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Table {
     /// Bytes in RAM.
@@ -45,7 +45,7 @@ pub(crate) enum Table {
 }
 
 impl Table {
-    /// The table of `b`, or [`KestrelStatus::NullPointer`].
+    /// The table of `b`, or `KESTREL_STATUS_NULL_POINTER`.
     ///
     /// # Safety
     /// `b.data`, when not NULL, points at `b.len` readable bytes; on the
@@ -75,7 +75,7 @@ impl Table {
         crc
     }
 
-    /// Fails with [`KestrelStatus::BadSize`] unless the table holds `len` bytes.
+    /// Fails with `KESTREL_STATUS_BAD_SIZE` unless the table holds `len` bytes.
     pub(crate) fn expect_len(&self, len: usize) -> Result<(), KestrelStatus> {
         if self.len_bytes() as usize == len {
             Ok(())
@@ -125,12 +125,12 @@ impl TableRead for Table {
 /// `kestrel_avr_rt::crc16`, check value 0x29B1 for "123456789") over the
 /// bytes of `tables[0]`, then `tables[1]`, ... continued, each table's
 /// `len` bytes as stored (the little-endian values). The checksum fields
-/// of [`crate::KestrelDesign`] and [`crate::KestrelEmpc16Tables`] are
+/// of `KestrelDesign` and `KestrelEmpc16Tables` are
 /// defined by it (see there which tables, in which order). Writes the
 /// checksum to `*out`.
 ///
 /// # Errors
-/// [`KestrelStatus::NullPointer`] for a NULL `tables` (with `n > 0`) or
+/// `KESTREL_STATUS_NULL_POINTER` for a NULL `tables` (with `n > 0`) or
 /// `out`, or a table without bytes.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_checksum(

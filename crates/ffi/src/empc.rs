@@ -24,7 +24,7 @@ pub struct KestrelEmpc16F32 {
     _opaque: [u64; KESTREL_EMPC16_WORDS],
 }
 
-/// The explicit MPC law in Q15.16; see [`KestrelEmpc16F32`].
+/// The explicit MPC law in Q15.16; see `KestrelEmpc16F32`.
 #[repr(C)]
 pub struct KestrelEmpc16Q16 {
     _opaque: [u64; KESTREL_EMPC16_WORDS],
@@ -54,7 +54,7 @@ impl TreeTable {
     ///
     /// # Safety
     /// `t.chunks` points at `t.n_chunks` descriptors that keep their
-    /// contract ([`Table::new`]).
+    /// contract (`Table.new`).
     unsafe fn new(t: &KestrelEmpc16Tables) -> Result<(Self, u16), KestrelStatus> {
         if t.chunks.is_null() {
             return Err(KestrelStatus::NullPointer);
@@ -219,7 +219,7 @@ pub unsafe extern "C" fn kestrel_empc16_eval_f32(
     unsafe { eval::<f32, _>(law, x, r, u, nodes) }
 }
 
-/// [`kestrel_empc16_init_f32`] for the Q15.16 law.
+/// `kestrel_empc16_init_f32` for the Q15.16 law.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_empc16_init_q16(
     law: *mut KestrelEmpc16Q16,
@@ -229,7 +229,7 @@ pub unsafe extern "C" fn kestrel_empc16_init_q16(
     unsafe { init::<Q16Mac, _>(law, tables) }
 }
 
-/// [`kestrel_empc16_eval_f32`] in Q15.16 (`int32_t` raw bits).
+/// `kestrel_empc16_eval_f32` in Q15.16 (`int32_t` raw bits).
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_empc16_eval_q16(
     law: *mut KestrelEmpc16Q16,

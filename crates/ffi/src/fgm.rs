@@ -22,7 +22,7 @@ pub struct KestrelFgm16F32 {
     _opaque: [u64; KESTREL_FGM16_WORDS],
 }
 
-/// The firmware's fast gradient law in Q15.16; see [`KestrelFgm16F32`].
+/// The firmware's fast gradient law in Q15.16; see `KestrelFgm16F32`.
 #[repr(C)]
 pub struct KestrelFgm16Q16 {
     _opaque: [u64; KESTREL_FGM16_WORDS],
@@ -135,7 +135,7 @@ pub unsafe extern "C" fn kestrel_fgm16_solve_f32(
     unsafe { solve::<f32, _>(law, theta, z, iterations) }
 }
 
-/// [`kestrel_fgm16_init_f32`] for the Q15.16 law (`values_format` must be
+/// `kestrel_fgm16_init_f32` for the Q15.16 law (`values_format` must be
 /// `KESTREL_FORMAT_Q16`).
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_fgm16_init_q16(
@@ -146,7 +146,7 @@ pub unsafe extern "C" fn kestrel_fgm16_init_q16(
     unsafe { init::<Q16Mac, _>(law, design) }
 }
 
-/// [`kestrel_fgm16_solve_f32`] in Q15.16 (`int32_t` raw bits).
+/// `kestrel_fgm16_solve_f32` in Q15.16 (`int32_t` raw bits).
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_fgm16_solve_q16(
     law: *mut KestrelFgm16Q16,
@@ -175,7 +175,7 @@ pub unsafe extern "C" fn kestrel_fgm_solve_f32(
     unsafe { solve_ref::<f32>(design, theta, z_warm, z) }
 }
 
-/// [`kestrel_fgm_solve_f32`] in Q15.16 (`int32_t` raw bits, format Q16).
+/// `kestrel_fgm_solve_f32` in Q15.16 (`int32_t` raw bits, format Q16).
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_fgm_solve_q16(
     design: *const KestrelDesign,

@@ -23,7 +23,7 @@ pub struct KestrelKalman16F32 {
 }
 
 /// A stationary Kalman filter working in Q15.16 (`int32_t` raw bits);
-/// see [`KestrelKalman16F32`].
+/// see `KestrelKalman16F32`.
 #[repr(C)]
 pub struct KestrelKalman16Q16 {
     _opaque: [u64; KESTREL_KALMAN16_WORDS],
@@ -141,7 +141,7 @@ pub unsafe extern "C" fn kestrel_kalman16_reset_f32(
     unsafe { reset::<f32, _>(state, x0) }
 }
 
-/// [`kestrel_kalman16_init_f32`] for the Q15.16 filter.
+/// `kestrel_kalman16_init_f32` for the Q15.16 filter.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_kalman16_init_q16(
     state: *mut KestrelKalman16Q16,
@@ -151,7 +151,7 @@ pub unsafe extern "C" fn kestrel_kalman16_init_q16(
     unsafe { init::<Q16Mac, _>(state, design) }
 }
 
-/// [`kestrel_kalman16_measure_f32`] in Q15.16 (`int32_t` raw bits).
+/// `kestrel_kalman16_measure_f32` in Q15.16 (`int32_t` raw bits).
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_kalman16_measure_q16(
     state: *mut KestrelKalman16Q16,
@@ -162,7 +162,7 @@ pub unsafe extern "C" fn kestrel_kalman16_measure_q16(
     unsafe { measure::<Q16Mac, _>(state, y.cast(), x.cast()) }
 }
 
-/// [`kestrel_kalman16_predict_f32`] in Q15.16 (`int32_t` raw bits).
+/// `kestrel_kalman16_predict_f32` in Q15.16 (`int32_t` raw bits).
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_kalman16_predict_q16(
     state: *mut KestrelKalman16Q16,
@@ -173,7 +173,7 @@ pub unsafe extern "C" fn kestrel_kalman16_predict_q16(
     unsafe { predict::<Q16Mac, _>(state, u.cast(), x.cast()) }
 }
 
-/// [`kestrel_kalman16_reset_f32`] in Q15.16 (`int32_t` raw bits).
+/// `kestrel_kalman16_reset_f32` in Q15.16 (`int32_t` raw bits).
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_kalman16_reset_q16(
     state: *mut KestrelKalman16Q16,

@@ -51,7 +51,7 @@ pub use tables::{KestrelDesign, KestrelEmpc16Tables, KestrelTree16Layout};
 pub const KESTREL_ABI_VERSION: u16 = 1;
 
 /// States of the design model (the thesis design; other sizes are
-/// [`KestrelStatus::BadSize`]).
+/// `KESTREL_STATUS_BAD_SIZE`).
 pub const KESTREL_NX: usize = 5;
 /// Inputs: the law's outputs, the Kalman filter's inputs (pwm1-3, servo).
 pub const KESTREL_NU: usize = 4;
@@ -65,14 +65,14 @@ pub const KESTREL_NR: usize = KESTREL_NP - KESTREL_NX;
 pub const KESTREL_NZ: usize = 4;
 /// Fast gradient momentum table length.
 pub const KESTREL_FGM_T: usize = 1;
-/// Values in the design's flat table ([`KestrelDesign::values`]).
+/// Values in the design's flat table (`KestrelDesign.values`).
 pub const KESTREL_N_VALUES: usize = 152;
 /// Bytes of the design's flat table (4 per value).
 pub const KESTREL_VALUES_BYTES: usize = 4 * KESTREL_N_VALUES;
-/// Bytes of the 16-bit Kalman tables ([`KestrelDesign::kalman16`]).
+/// Bytes of the 16-bit Kalman tables (`KestrelDesign.kalman16`).
 pub const KESTREL_KALMAN16_BYTES: usize = 198;
 /// Bytes of the fast gradient's 16-bit `M` rows and momentum
-/// ([`KestrelDesign::fgm16`]).
+/// (`KestrelDesign.fgm16`).
 pub const KESTREL_FGM16_BYTES: usize = 42;
 /// Rows of the explicit law's value cache: at most this many affine rows
 /// in a narrow table; the cache of a wide one.
@@ -80,21 +80,21 @@ pub const KESTREL_EMPC_CACHE_ROWS: usize = 256;
 /// Pulses: ESC 1-3, then the servo.
 pub const KESTREL_N_PWM: usize = 4;
 
-/// [`KestrelDesign::values_format`]: little-endian IEEE-754 `f32`.
+/// `KestrelDesign.values_format`: little-endian IEEE-754 `f32`.
 pub const KESTREL_FORMAT_F32: u8 = 0;
-/// [`KestrelDesign::values_format`]: little-endian Q15.16 (`int32_t`
+/// `KestrelDesign.values_format`: little-endian Q15.16 (`int32_t`
 /// raw bits, value = bits / 65536).
 pub const KESTREL_FORMAT_Q16: u8 = 1;
 
-/// [`KestrelRateOutput::flags`]: the failsafe's pulses are out.
+/// `KestrelRateOutput.flags`: the failsafe's pulses are out.
 pub const KESTREL_FLAG_FAILSAFE: u8 = 1;
-/// [`KestrelRateOutput::flags`]: no fresh input this period, the last
+/// `KestrelRateOutput.flags`: no fresh input this period, the last
 /// pulses are held (first missing period).
 pub const KESTREL_FLAG_HOLD: u8 = 2;
-/// [`KestrelRateOutput::flags`]: a non-finite input or result (with
+/// `KestrelRateOutput.flags`: a non-finite input or result (with
 /// `FAILSAFE`).
 pub const KESTREL_FLAG_NON_FINITE: u8 = 4;
-/// [`KestrelRateOutput::flags`]: no fresh input for two periods or more
+/// `KestrelRateOutput.flags`: no fresh input for two periods or more
 /// (with `FAILSAFE`).
 pub const KESTREL_FLAG_TIMEOUT: u8 = 16;
 
@@ -107,7 +107,7 @@ const _: () = {
     assert!(KESTREL_FLAG_TIMEOUT == status::TIMEOUT);
 };
 
-/// The ABI version this library was built with ([`KESTREL_ABI_VERSION`]);
+/// The ABI version this library was built with (`KESTREL_ABI_VERSION`);
 /// compare it with the header's macro at start-up.
 #[unsafe(no_mangle)]
 pub extern "C" fn kestrel_abi_version() -> u16 {
@@ -116,7 +116,7 @@ pub extern "C" fn kestrel_abi_version() -> u16 {
 
 /// The staticlib's panic handler on no_std targets (feature
 /// `panic-handler`): no function of this crate panics (every error is a
-/// [`KestrelStatus`]); this only satisfies the linker, and stops.
+/// `KestrelStatus`); this only satisfies the linker, and stops.
 #[cfg(all(
     feature = "panic-handler",
     any(target_os = "none", target_arch = "avr")

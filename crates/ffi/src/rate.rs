@@ -28,7 +28,7 @@ pub struct KestrelRateLoopF32 {
     _opaque: [u64; KESTREL_RATE_LOOP_WORDS],
 }
 
-/// The rate loop in Q15.16; see [`KestrelRateLoopF32`].
+/// The rate loop in Q15.16; see `KestrelRateLoopF32`.
 #[repr(C)]
 pub struct KestrelRateLoopQ16 {
     _opaque: [u64; KESTREL_RATE_LOOP_WORDS],
@@ -329,8 +329,8 @@ pub unsafe extern "C" fn kestrel_rate_loop_init_fgm_f32(
 
 /// Initialises `rate_loop` with the explicit law of `tables` (which must
 /// outlive the loop) and the design's filter, mixer offsets and bias;
-/// returns as [`kestrel_rate_loop_init_fgm_f32`] and
-/// [`crate::kestrel_empc16_init_f32`].
+/// returns as `kestrel_rate_loop_init_fgm_f32` and
+/// `kestrel_empc16_init_f32`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_rate_loop_init_empc_f32(
     rate_loop: *mut KestrelRateLoopF32,
@@ -360,7 +360,7 @@ pub unsafe extern "C" fn kestrel_rate_loop_step_f32(
     unsafe { step::<f32, _>(rate_loop, input, clock, out) }
 }
 
-/// [`kestrel_rate_loop_init_fgm_f32`] in Q15.16 (`values_format` Q16).
+/// `kestrel_rate_loop_init_fgm_f32` in Q15.16 (`values_format` Q16).
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_rate_loop_init_fgm_q16(
     rate_loop: *mut KestrelRateLoopQ16,
@@ -371,7 +371,7 @@ pub unsafe extern "C" fn kestrel_rate_loop_init_fgm_q16(
     unsafe { init_fgm::<Q16Mac, _>(rate_loop, design, config) }
 }
 
-/// [`kestrel_rate_loop_init_empc_f32`] in Q15.16 (`values_format` Q16).
+/// `kestrel_rate_loop_init_empc_f32` in Q15.16 (`values_format` Q16).
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_rate_loop_init_empc_q16(
     rate_loop: *mut KestrelRateLoopQ16,
@@ -383,7 +383,7 @@ pub unsafe extern "C" fn kestrel_rate_loop_init_empc_q16(
     unsafe { init_empc::<Q16Mac, _>(rate_loop, design, tables, config) }
 }
 
-/// [`kestrel_rate_loop_step_f32`] for the Q15.16 loop (the same f32
+/// `kestrel_rate_loop_step_f32` for the Q15.16 loop (the same f32
 /// input and output: the conversion is the firmware's).
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_rate_loop_step_q16(

@@ -15,7 +15,7 @@ struct Slot<T> {
     value: MaybeUninit<T>,
 }
 
-/// Whether `Slot<T>` fits in `O` (checked at compile time by [`init`]).
+/// Whether `Slot<T>` fits in `O` (checked at compile time by `init`).
 const fn fits<T, O>() -> bool {
     size_of::<Slot<T>>() <= size_of::<O>() && align_of::<Slot<T>>() <= align_of::<O>()
 }
@@ -50,10 +50,10 @@ pub(crate) unsafe fn init<T, O>(
     }
 }
 
-/// The value in the opaque state `p`, if [`init`] put one there.
+/// The value in the opaque state `p`, if `init` put one there.
 ///
 /// # Safety
-/// `p` is NULL or points at an `O` that is either initialised by [`init`]
+/// `p` is NULL or points at an `O` that is either initialised by `init`
 /// with a `T` or whose first four bytes are not the marker (zeroed
 /// memory, or a state whose init failed), and no other reference to it
 /// is live.
@@ -73,7 +73,7 @@ pub(crate) unsafe fn get<'a, T, O>(p: *mut O) -> Result<&'a mut T, KestrelStatus
     Ok(unsafe { (*slot).value.assume_init_mut() })
 }
 
-/// The `N` values at `p` (a C array), or [`KestrelStatus::NullPointer`].
+/// The `N` values at `p` (a C array), or `KESTREL_STATUS_NULL_POINTER`.
 ///
 /// # Safety
 /// `p` is NULL or points at `N` readable values.

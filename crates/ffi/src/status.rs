@@ -3,7 +3,7 @@
 
 use kestrel_core::Error;
 
-/// What a function returns: [`KestrelStatus::Ok`] or why it did nothing
+/// What a function returns: `KESTREL_STATUS_OK` or why it did nothing
 /// useful. No function panics or aborts; on an error the outputs are left
 /// as they were unless the function says otherwise.
 #[repr(C)]
@@ -55,7 +55,7 @@ pub enum KestrelStatus {
     Other = 14,
 }
 
-/// The status of a run-time error: one code per [`Error`] variant.
+/// The status of a run-time error: one code per `Error` variant.
 pub fn status_of(e: Error) -> KestrelStatus {
     match e {
         Error::DimensionMismatch { .. } => KestrelStatus::BadSize,

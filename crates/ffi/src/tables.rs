@@ -21,7 +21,7 @@ use kestrel_fgm::FgmTables;
 /// numbers of the Rust firmware's `generated.rs`): what the Kalman
 /// filter, the fast gradient law and the rate loop read.
 ///
-/// - `values`: the flat table, [`KESTREL_N_VALUES`] numbers of 4 bytes in
+/// - `values`: the flat table, `KESTREL_N_VALUES` numbers of 4 bytes in
 ///   `values_format`: the fast gradient's set-up data `M` (NZ x NZ, row
 ///   major), `K` (NZ x NP), `k0` (NZ), `lo_theta` (NZ x NP), `lo0` (NZ),
 ///   `hi_theta` (NZ x NP), `hi0` (NZ), `d` (NZ), `d_inv` (NZ), `betas`
@@ -35,20 +35,20 @@ use kestrel_fgm::FgmTables;
 /// - `fgm16`: the fast gradient's `M` in 16 bits (`FGM16_M`: NZ rows of
 ///   NZ, shift 15) and the momentum in Q1.15 (`FGM16_BETAS`: T `int16_t`).
 ///
-/// All values little-endian. `checksum` is [`crate::kestrel_checksum`]
+/// All values little-endian. `checksum` is `kestrel_checksum`
 /// (CRC-16/CCITT-FALSE) over the bytes of `values`, `kalman16`, `fgm16`
 /// and then the four bytes `values_format`, `fgm_warm`, `fgm_iterations`
 /// (low byte, high byte).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct KestrelDesign {
-    /// The flat table ([`KESTREL_VALUES_BYTES`] bytes).
+    /// The flat table (`KESTREL_VALUES_BYTES` bytes).
     pub values: KestrelBytes,
-    /// The 16-bit Kalman rows ([`KESTREL_KALMAN16_BYTES`] bytes).
+    /// The 16-bit Kalman rows (`KESTREL_KALMAN16_BYTES` bytes).
     pub kalman16: KestrelBytes,
-    /// The fast gradient's 16-bit rows and momentum ([`KESTREL_FGM16_BYTES`] bytes).
+    /// The fast gradient's 16-bit rows and momentum (`KESTREL_FGM16_BYTES` bytes).
     pub fgm16: KestrelBytes,
-    /// [`KESTREL_FORMAT_F32`] or [`KESTREL_FORMAT_Q16`]: the format of `values`.
+    /// `KESTREL_FORMAT_F32` or `KESTREL_FORMAT_Q16`: the format of `values`.
     pub values_format: u8,
     /// 1: each period's solve starts from the previous solution; 0: cold.
     pub fgm_warm: u8,
@@ -63,15 +63,15 @@ pub struct KestrelDesign {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct KestrelTree16Layout {
-    /// Parameters (must be [`KESTREL_NP`]).
+    /// Parameters (must be `KESTREL_NP`).
     pub n_params: u16,
-    /// Outputs (must be [`KESTREL_NU`]).
+    /// Outputs (must be `KESTREL_NU`).
     pub n_outputs: u16,
     /// Tree nodes.
     pub n_nodes: u16,
     /// Laws.
     pub n_laws: u16,
-    /// Affine rows (narrow: at most [`crate::KESTREL_EMPC_CACHE_ROWS`]).
+    /// Affine rows (narrow: at most `KESTREL_EMPC_CACHE_ROWS`).
     pub n_rows: u16,
     /// The root child code.
     pub root: u16,
@@ -88,7 +88,7 @@ pub struct KestrelTree16Layout {
 /// `n_chunks` descriptors that must stay valid (and unchanged) while a
 /// law made from them is used: declare them `static const`.
 ///
-/// `checksum` is [`crate::kestrel_checksum`] over the chunks' bytes in
+/// `checksum` is `kestrel_checksum` over the chunks' bytes in
 /// order, then the layout's 14 bytes: `n_params`, `n_outputs`, `n_nodes`,
 /// `n_laws`, `n_rows`, `root` (each `uint16_t`, little-endian), `scale`,
 /// `wide`.
@@ -186,7 +186,7 @@ impl Design {
     ///
     /// # Safety
     /// `d` is NULL or points at a design whose descriptors keep their
-    /// contract ([`Table::new`]).
+    /// contract (`Table.new`).
     pub(crate) unsafe fn new(
         d: *const KestrelDesign,
         format: Option<u8>,
