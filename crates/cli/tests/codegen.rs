@@ -17,7 +17,15 @@ const FOLDERS: &[&str] = &[
     "crates/empc/tests/data",
     "crates/fgm/tests/data",
     "crates/tricopter/data",
+    // kestrel-ffi's sources and cbindgen.toml: the C header's inputs.
+    "crates/ffi",
+    "crates/ffi/src",
+    "crates/ffi/src/tests",
+    "crates/ffi/include",
 ];
+
+/// kestrel-ffi's generated C header.
+const HEADER: &str = "crates/ffi/include/kestrel.h";
 
 /// The table made stale.
 const TABLE: &str = "avr/firmware/src/generated.rs";
@@ -116,6 +124,17 @@ fn check_fails_on_a_stale_table_and_codegen_rewrites_it() {
 
     let (ok, out, err) = codegen(&anywhere, &["--check", "--root", &root_arg]);
     assert!(ok, "still stale after `kestrel codegen`:\n{out}\n{err}");
+
+    // A C header that no longer matches the sources (a function added to
+    // kestrel-ffi) is stale too.
+    let lib = root.join("crates/ffi/src/lib.rs");
+    let mut src = std::fs::read_to_string(&lib).unwrap();
+    src.push_str(
+        "\n/// New.\n#[unsafe(no_mangle)]\npub extern \"C\" fn kestrel_new() -> u8 {\n    0\n}\n",
+    );
+    std::fs::write(&lib, src).unwrap();
+    let (ok, _, err) = codegen(&anywhere, &["--check", "--root", &root_arg]);
+    assert!(!ok && err.contains(&format!("{HEADER}: stale")), "{err}");
     std::fs::remove_dir_all(&root).unwrap();
 }
 
