@@ -204,7 +204,9 @@ typedef struct KestrelTree16Layout {
 // last holds exactly `2^chunk_bits` bytes, the last at most that; read as
 // one table. With one chunk `chunk_bits` is not used. `chunks` points at
 // `n_chunks` descriptors that must stay valid (and unchanged) while a
-// law made from them is used: declare them `static const`.
+// law made from them is used: declare them `static const`, in RAM (on
+// the AVR not `PROGMEM`: the descriptors are read as data, the tables
+// they describe may be in flash).
 //
 // `checksum` is `kestrel_checksum` over the chunks' bytes in
 // order, then the layout's 14 bytes: `n_params`, `n_outputs`, `n_nodes`,
@@ -252,7 +254,9 @@ typedef struct KestrelFgm16F32 {
 // - `fgm16`: the fast gradient's `M` in 16 bits (`FGM16_M`: NZ rows of
 //   NZ, shift 15) and the momentum in Q1.15 (`FGM16_BETAS`: T `int16_t`).
 //
-// All values little-endian. `checksum` is `kestrel_checksum`
+// The struct itself is read from RAM (on the AVR not `PROGMEM`); the
+// tables it describes may be in flash. All values little-endian.
+// `checksum` is `kestrel_checksum`
 // (CRC-16/CCITT-FALSE) over the bytes of `values`, `kalman16`, `fgm16`
 // and then the four bytes `values_format`, `fgm_warm`, `fgm_iterations`
 // (low byte, high byte).
