@@ -93,7 +93,7 @@
 #define KESTREL_KALMAN16_WORDS 32
 
 // Words of a rate loop's state.
-#define KESTREL_RATE_LOOP_WORDS 310
+#define KESTREL_RATE_LOOP_WORDS 311
 
 // What a function returns: `KESTREL_STATUS_OK` or why it did nothing
 // useful. No function panics or aborts; on an error the outputs are left
@@ -316,6 +316,13 @@ typedef struct KestrelLoopConfig {
   // Repeats of a bit-identical reading that make an axis stuck; 0: no
   // gyro check.
   uint8_t gyro_stuck_periods;
+  // The fast gradient's cycle budget: clock cycles from the start of
+  // the step to the end of the law's last iteration (asked every 4th
+  // iteration, with the step's clock); a solve that would overrun stops
+  // early with its current iterate, inside the input box, and reports
+  // fewer iterations. 0, or no clock: every iteration runs. The Rust
+  // firmware gives 240000 (15 ms at 16 MHz).
+  uint32_t fgm_cycle_budget;
 } KestrelLoopConfig;
 
 // The rate loop in f32 (caller-owned; initialise it with
@@ -522,7 +529,8 @@ enum KestrelStatus kestrel_kalman16_reset_q16(struct KestrelKalman16Q16 *state,
 // Fills `config` with the thesis's values (the Rust firmware's): ESC
 // 1000-2000 us, servo 1200-1800 us, failsafe 1000 us (motors stopped)
 // and 1500 us (servo centred), gyro check at 34.9 rad/s (2000 deg/s)
-// with 10 repeats (200 ms at 50 Hz). `KESTREL_STATUS_NULL_POINTER` for NULL.
+// with 10 repeats (200 ms at 50 Hz), no cycle budget (set
+// `fgm_cycle_budget` for one). `KESTREL_STATUS_NULL_POINTER` for NULL.
 enum KestrelStatus kestrel_loop_config_default(struct KestrelLoopConfig *config);
 
 // Initialises `rate_loop` with the fast gradient law: the design

@@ -10,7 +10,8 @@ use crate::tables::{Design, KestrelDesign, KestrelEmpc16Tables, ValueScalar};
 use crate::{KESTREL_NU, KESTREL_NX, KESTREL_NY};
 use core::ffi::c_void;
 use kestrel_avr_rt::control::{GyroCheck, Mixer, RateLoop};
-use kestrel_avr_rt::cycles::CycleClock;
+use kestrel_avr_rt::cycles::{CycleBudget, CycleClock, Deadline};
+use kestrel_avr_rt::fgm16::Fgm16Deadline;
 use kestrel_avr_rt::frame::Command;
 use kestrel_avr_rt::kalman16::Kalman16;
 use kestrel_avr_rt::law::LawInfo;
@@ -19,7 +20,7 @@ use kestrel_avr_rt::output::{PwmLimits, SafeOutput};
 use kestrel_core::{ControlLaw, Error, Matrix};
 
 /// Words of a rate loop's state.
-pub const KESTREL_RATE_LOOP_WORDS: usize = 310;
+pub const KESTREL_RATE_LOOP_WORDS: usize = 311;
 
 /// The rate loop in f32 (caller-owned; initialise it with
 /// `kestrel_rate_loop_init_fgm_f32` or `kestrel_rate_loop_init_empc_f32`).
@@ -57,6 +58,13 @@ pub struct KestrelLoopConfig {
     /// Repeats of a bit-identical reading that make an axis stuck; 0: no
     /// gyro check.
     pub gyro_stuck_periods: u8,
+    /// The fast gradient's cycle budget: clock cycles from the start of
+    /// the step to the end of the law's last iteration (asked every 4th
+    /// iteration, with the step's clock); a solve that would overrun stops
+    /// early with its current iterate, inside the input box, and reports
+    /// fewer iterations. 0, or no clock: every iteration runs. The Rust
+    /// firmware gives 240000 (15 ms at 16 MHz).
+    pub fgm_cycle_budget: u32,
 }
 
 /// One period's input.
@@ -112,12 +120,32 @@ impl CycleClock for KestrelClock {
     }
 }
 
+/// The fast gradient's deadline for one step: none, or a cycle budget on
+/// the step's clock.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Budget {
+    /// Every iteration runs.
+    Off,
+    /// kestrel-avr-rt's budget, asked every 4th iteration (the firmware's).
+    On(CycleBudget<KestrelClock, 4>),
+}
+
+impl Deadline for Budget {
+    const STRIDE: u16 = 4;
+    fn expired(&mut self) -> bool {
+        match self {
+            Budget::Off => false,
+            Budget::On(b) => b.expired(),
+        }
+    }
+}
+
 /// The rate loop's law: the fast gradient or the explicit MPC.
 #[derive(Clone, Debug)]
 #[allow(clippy::large_enum_variant)] // the state is caller-owned, sized for the larger
 pub(crate) enum LoopLaw<S: ValueScalar> {
-    /// kestrel-avr-rt's `Fgm16Law`.
-    Fgm(fgm::Law<S>),
+    /// kestrel-avr-rt's `Fgm16Law` with a deadline.
+    Fgm(Fgm16Deadline<fgm::Law<S>, Budget>),
     /// kestrel-avr-rt's `Empc16Law`.
     Empc(empc::Law<S>),
 }
@@ -165,9 +193,14 @@ impl<S: ValueScalar> LawInfo for LoopLaw<S> {
     }
 }
 
-/// The loop in `S`.
-pub(crate) type Loop<S> =
-    RateLoop<S, Kalman16<S, KESTREL_NX, KESTREL_NU, KESTREL_NY>, LoopLaw<S>, KESTREL_NU>;
+/// The loop in `S`, with its fast gradient's cycle budget.
+pub(crate) struct Loop<S: ValueScalar> {
+    /// kestrel-avr-rt's loop.
+    pub(crate) inner:
+        RateLoop<S, Kalman16<S, KESTREL_NX, KESTREL_NU, KESTREL_NY>, LoopLaw<S>, KESTREL_NU>,
+    /// `KestrelLoopConfig.fgm_cycle_budget`.
+    pub(crate) budget: u32,
+}
 
 /// The loop of the checked design with `law`, as the firmware builds it:
 /// identity mixer with the design's offsets, throttle into the ESCs.
@@ -198,6 +231,7 @@ pub(crate) fn build<S: ValueScalar>(
     };
     let filter = Kalman16::new(d.kalman16()?);
     let mut l = RateLoop::new(filter, law, bias, mixer, limits, safe)?;
+    let budget = config.fgm_cycle_budget;
     if config.gyro_stuck_periods > 0 {
         if !config.gyro_full_scale.is_finite() || config.gyro_full_scale <= 0.0 {
             return Err(KestrelStatus::InvalidTable);
@@ -207,7 +241,7 @@ pub(crate) fn build<S: ValueScalar>(
             config.gyro_stuck_periods,
         ));
     }
-    Ok(l)
+    Ok(Loop { inner: l, budget })
 }
 
 unsafe fn init_fgm<S: ValueScalar, O>(
@@ -220,7 +254,11 @@ unsafe fn init_fgm<S: ValueScalar, O>(
         slot::init(out, || {
             let config = config.as_ref().ok_or(KestrelStatus::NullPointer)?;
             let d = Design::new(design, Some(S::FORMAT))?;
-            build::<S>(&d, LoopLaw::Fgm(fgm::law(&d)?), config)
+            let law = Fgm16Deadline {
+                law: fgm::law(&d)?,
+                deadline: Budget::Off,
+            };
+            build::<S>(&d, LoopLaw::Fgm(law), config)
         })
     }
 }
@@ -265,7 +303,13 @@ unsafe fn step<S: ValueScalar, O>(
                 ctx: core::ptr::null_mut(),
             };
             let clock = clock.as_ref().unwrap_or(&none);
-            let p = l.period(fresh, clock);
+            if let LoopLaw::Fgm(f) = &mut l.inner.law {
+                f.deadline = match (l.budget, clock.now) {
+                    (0, _) | (_, None) => Budget::Off,
+                    (b, Some(_)) => Budget::On(CycleBudget::new(*clock, b)),
+                };
+            }
+            let p = l.inner.period(fresh, clock);
             out.write(KestrelRateOutput {
                 pwm: p.pwm,
                 flags: p.status,
@@ -282,7 +326,8 @@ unsafe fn step<S: ValueScalar, O>(
 /// Fills `config` with the thesis's values (the Rust firmware's): ESC
 /// 1000-2000 us, servo 1200-1800 us, failsafe 1000 us (motors stopped)
 /// and 1500 us (servo centred), gyro check at 34.9 rad/s (2000 deg/s)
-/// with 10 repeats (200 ms at 50 Hz). `KESTREL_STATUS_NULL_POINTER` for NULL.
+/// with 10 repeats (200 ms at 50 Hz), no cycle budget (set
+/// `fgm_cycle_budget` for one). `KESTREL_STATUS_NULL_POINTER` for NULL.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_loop_config_default(
     config: *mut KestrelLoopConfig,
@@ -304,6 +349,7 @@ pub unsafe extern "C" fn kestrel_loop_config_default(
             safe_servo: safe.servo,
             gyro_full_scale: check.full_scale,
             gyro_stuck_periods: check.stuck_periods,
+            fgm_cycle_budget: 0,
         })
     };
     KestrelStatus::Ok

@@ -244,3 +244,74 @@ fn explicit_loop_equals_the_firmware_loop_f32_and_q16() {
         4,
     );
 }
+
+#[test]
+fn the_cycle_budget_cuts_the_fast_gradient_short_and_stays_in_limits() {
+    let owned = Owned::new(KESTREL_FORMAT_F32);
+    let d = owned.design();
+    let input = KestrelRateInput {
+        gyro: [0.3, -0.2, 0.1],
+        reference: [1.0, -1.0, 0.5],
+        throttle: 1400.0,
+        fresh: 1,
+    };
+    // Pulses and iterations of a few periods with `budget` on a clock
+    // that advances 1000 cycles per read.
+    let run = |budget: u32, with_clock: bool| {
+        let mut l = std::boxed::Box::new(core::mem::MaybeUninit::<KestrelRateLoopF32>::zeroed());
+        let mut cfg = config();
+        cfg.fgm_cycle_budget = budget;
+        let mut counter = 0u32;
+        let clock = KestrelClock {
+            now: Some(count_1000),
+            ctx: (&raw mut counter).cast(),
+        };
+        let clock: *const KestrelClock = if with_clock {
+            &clock
+        } else {
+            core::ptr::null()
+        };
+        // SAFETY: valid pointers to live values.
+        unsafe {
+            assert_eq!(
+                kestrel_rate_loop_init_fgm_f32(l.as_mut_ptr(), &d, &cfg),
+                KestrelStatus::Ok
+            );
+            (0..5)
+                .map(|_| {
+                    let mut out = KestrelRateOutput::default();
+                    assert_eq!(
+                        kestrel_rate_loop_step_f32(l.as_mut_ptr(), &input, clock, &mut out),
+                        KestrelStatus::Ok
+                    );
+                    (out.pwm, out.iterations, out.flags)
+                })
+                .collect::<std::vec::Vec<_>>()
+        }
+    };
+    let full = run(0, true);
+    let k = g::FGM_LOOP_ITERATIONS as u16;
+    assert!(full.iter().all(|r| r.1 == k && r.2 == 0));
+    // A budget never reached, or no clock: the same periods.
+    assert_eq!(run(u32::MAX / 2, true), full);
+    assert_eq!(run(20_000, false), full);
+    // A budget of 5.5 reads (3 of them before the solve): fewer
+    // iterations, pulses in the limits.
+    for (pwm, it, flags) in run(5_500, true) {
+        assert!(it < k && it > 0, "{it} iterations");
+        assert_eq!(flags, 0);
+        assert!(
+            pwm[..3].iter().all(|p| (1000..=2000).contains(p)) && (1200..=1800).contains(&pwm[3])
+        );
+    }
+}
+
+/// A clock that advances 1000 cycles per read.
+unsafe extern "C" fn count_1000(ctx: *mut c_void) -> u32 {
+    // SAFETY: the context is a live `u32` (the test's own).
+    unsafe {
+        let c = ctx.cast::<u32>();
+        *c = c.read().wrapping_add(1000);
+        c.read()
+    }
+}
