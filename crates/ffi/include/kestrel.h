@@ -535,7 +535,7 @@ enum KestrelStatus kestrel_loop_config_default(struct KestrelLoopConfig *config)
 
 // Initialises `rate_loop` with the fast gradient law: the design
 // (`values_format` f32) and the limits in `config`. The loop starts in
-// the failsafe until its first fresh input.
+// the failsafe (its pulses) until its first fresh, finite input.
 //
 // Returns `KESTREL_STATUS_NULL_POINTER`, `KESTREL_STATUS_BAD_SIZE`,
 // `KESTREL_STATUS_BAD_CHECKSUM`, `KESTREL_STATUS_BAD_FORMAT`, `KESTREL_STATUS_NON_FINITE` or
@@ -556,6 +556,10 @@ enum KestrelStatus kestrel_rate_loop_init_empc_f32(struct KestrelRateLoopF32 *ra
 
 // One period: failsafe decision (and gyro check), bias removal, Kalman
 // measurement update, the law, Kalman time update, mixer, saturation.
+// The failsafe is active from init until the first fresh, finite
+// input; one period without a fresh input holds the last pulses, two or
+// more give the failsafe's; after a failsafe the first good input
+// restarts the estimator at the state 0 and clears the law's memory.
 // Writes `*out` (the pulses are within the limits whatever the input:
 // a non-finite input or result gives the failsafe's pulses and flags).
 // `clock` may be NULL (no cycle counts). Returns `KESTREL_STATUS_OK`, or
