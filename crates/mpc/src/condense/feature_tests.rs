@@ -115,7 +115,10 @@ fn soft_bound_with_exact_penalty_equals_the_hard_solution_where_that_is_feasible
         assert!((h.z.rows(0, 8) - s.z.rows(0, 8)).amax() < 1e-8);
         active += usize::from(h.lambda.amax() > 1e-6);
     }
-    assert!(active >= 2, "the output bound should be active in some cases");
+    assert!(
+        active >= 2,
+        "the output bound should be active in some cases"
+    );
 }
 
 #[test]
@@ -205,7 +208,10 @@ fn preview_input_target_and_parameters_sit_where_the_layout_says() {
             input_bounds: Some(
                 Bounds::new(dvector![-1.0], dvector![1.0]).shifted(dmatrix![0.5, 0.0]),
             ),
-            parameters: vec![Parameter::new("a", 0.0, 1.0), Parameter::new("b", -1.0, 1.0)],
+            parameters: vec![
+                Parameter::new("a", 0.0, 1.0),
+                Parameter::new("b", -1.0, 1.0),
+            ],
             ..MpcSettings::default()
         },
     )
