@@ -9,4 +9,8 @@ for c in "${crates[@]}"; do
   echo "== avr-none build: $c"
   cargo build --release --manifest-path "$root/Cargo.toml" -p "$c" --no-default-features
 done
-echo "avr-check: ${#crates[@]} crate(s) built for avr-none"
+# The C ABI as a staticlib for avr-gcc firmware: a no_std staticlib must
+# abort on panic (the workspace's release profile unwinds on the host).
+echo "== avr-none staticlib: kestrel-ffi"
+CARGO_PROFILE_RELEASE_PANIC=abort cargo build --release --manifest-path "$root/Cargo.toml" -p kestrel-ffi --no-default-features --features panic-handler
+echo "avr-check: ${#crates[@]} crate(s) and the kestrel-ffi staticlib built for avr-none"
