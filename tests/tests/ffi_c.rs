@@ -12,9 +12,10 @@
 //! pointers, uninitialised states) give their error codes, tested from C
 //! (`examples/c/check.c errors`).
 //!
-//! The AVR half (`ffi_c/avr.rs`: `avr/c-example` built by avr-gcc for the
-//! ATmega2560 against kestrel-ffi's `avr-none` staticlib, run in simavr)
-//! joins once kestrel-ffi's loop initialisation fits the chip's stack.
+//! The AVR half (`ffi_c/avr.rs`, `avr_example_in_simavr`) builds
+//! `avr/c-example` with avr-gcc for the ATmega2560 against kestrel-ffi's
+//! `avr-none` staticlib and runs it in simavr; it is skipped (with a
+//! message) when avr-gcc or simavr is missing.
 //!
 //! The C compiler is the system's `cc` (or `$CC`), run as a process: the
 //! `cc` crate is made for build scripts (it reads cargo's build-script
@@ -44,7 +45,9 @@ mod generated {
 }
 use generated::*;
 
-// mod ffi_c { pub mod avr; }
+mod ffi_c {
+    pub mod avr;
+}
 
 /// Random inputs per comparison.
 const N: usize = 10_000;

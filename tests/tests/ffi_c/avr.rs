@@ -1,0 +1,318 @@
+//! The AVR half of the test: `avr/c-example` built by avr-gcc for the
+//! ATmega2560 against kestrel-ffi's `avr-none` staticlib (the pinned
+//! nightly) and the exported tables in flash, run in simavr at 16 MHz.
+//! Every period's pulses are checked against their limits and against
+//! kestrel-avr-rt's rate loop on the host (the same fixed input sequence;
+//! equal in every period: pulses, flags and iterations), the
+//! bad-table codes from flash are checked, and the cycles per stage
+//! (Timer1, as the Rust firmware counts them), flash and RAM are printed
+//! (and one `C-AVR-REPORT {json}` line).
+
+use crate::{NoClock, Scalar, rate_loop, repo_root, write_design};
+use kestrel_avr_rt::cycles::CycleStats;
+use kestrel_avr_rt::frame::{Command, status};
+use std::path::Path;
+use std::process::{Command as Process, Stdio};
+use std::time::{Duration, Instant};
+
+/// Periods of the fixed sequence (`PERIODS` in avr/c-example/main.c).
+const PERIODS: usize = 300;
+/// The reference steps here (`STEP_AT`).
+const STEP_AT: usize = 100;
+
+/// The inputs of avr/c-example/main.c, in the same integer arithmetic.
+fn inputs() -> Vec<(bool, Command)> {
+    let mut seed: u32 = 0x2545_F491;
+    let mut rate = [2048i32; 3];
+    let step = [1024i32, -1024, 512];
+    (0..PERIODS)
+        .map(|k| {
+            let mut cmd = Command {
+                gyro: [0.0; 3],
+                reference: [0.0; 3],
+                throttle: 1500.0,
+            };
+            for i in 0..3 {
+                let r = if k < STEP_AT { 0 } else { step[i] };
+                seed ^= seed << 13;
+                seed ^= seed >> 17;
+                seed ^= seed << 5;
+                let noise = (seed >> 26) as i32 - 32;
+                cmd.gyro[i] = (rate[i] + noise) as f32 * (1.0 / 1024.0);
+                cmd.reference[i] = r as f32 * (1.0 / 1024.0);
+                rate[i] += (r - rate[i]) / 8;
+            }
+            if k == 250 {
+                cmd.gyro[1] = f32::NAN;
+            }
+            (!matches!(k, 150 | 200 | 201), cmd)
+        })
+        .collect()
+}
+
+fn have(tool: &str, arg: &str) -> bool {
+    Process::new(tool)
+        .arg(arg)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok()
+}
+
+/// Builds the example; the ELF.
+fn build(design: &Path) -> std::path::PathBuf {
+    let root = repo_root();
+    let out = Process::new("make")
+        .arg("-C")
+        .arg(root.join("avr/c-example"))
+        .arg(format!("DESIGN={}", design.display()))
+        .output()
+        .expect("run make");
+    assert!(
+        out.status.success(),
+        "make -C avr/c-example failed:\n{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    root.join("avr/target/c-example/kestrel-c-example.elf")
+}
+
+/// Runs the ELF in simavr (at most 30 s: a crashed program leaves simavr
+/// waiting for a debugger); its USART0 lines, and whether it ended.
+fn simulate(elf: &Path) -> (Vec<String>, bool) {
+    let mut child = Process::new("simavr")
+        .args(["-m", "atmega2560", "-f", "16000000"])
+        .arg(elf)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run simavr");
+    let read = |mut r: Box<dyn std::io::Read + Send>| {
+        std::thread::spawn(move || {
+            let mut s = String::new();
+            let _ = r.read_to_string(&mut s);
+            s
+        })
+    };
+    let out = read(Box::new(child.stdout.take().unwrap()));
+    let err = read(Box::new(child.stderr.take().unwrap()));
+    let start = Instant::now();
+    let mut ended = true;
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > Duration::from_secs(30) {
+            let _ = child.kill();
+            let _ = child.wait();
+            ended = false;
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let text = out.join().unwrap() + &err.join().unwrap();
+    // simavr wraps each line of the UART in colour escapes.
+    let lines = text
+        .lines()
+        .map(|l| {
+            let mut s = String::new();
+            let mut esc = false;
+            for c in l.chars() {
+                match (esc, c) {
+                    (false, '\x1b') => esc = true,
+                    (true, 'm') => esc = false,
+                    (true, _) => {}
+                    (false, c) => s.push(c),
+                }
+            }
+            // and ends each with a '.'.
+            s.trim().trim_end_matches('.').to_string()
+        })
+        .filter(|l| !l.is_empty())
+        .collect();
+    (lines, ended)
+}
+
+/// Flash (text + data) and RAM (data + bss) bytes.
+fn avr_size(elf: &Path) -> (u64, u64) {
+    let out = Process::new("avr-size")
+        .arg(elf)
+        .output()
+        .expect("avr-size");
+    let text = String::from_utf8_lossy(&out.stdout);
+    let f: Vec<u64> = text
+        .lines()
+        .nth(1)
+        .expect("avr-size output")
+        .split_whitespace()
+        .take(3)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    (f[0] + f[1], f[1] + f[2])
+}
+
+fn json(s: &CycleStats) -> String {
+    format!(
+        "{{\"min\": {}, \"mean\": {:.1}, \"max\": {}}}",
+        s.min,
+        s.mean().unwrap_or(0.0),
+        s.max
+    )
+}
+
+/// One line `P k status pwm1 pwm2 pwm3 servo flags iterations kalman solver step`.
+struct Period {
+    status: u32,
+    pwm: [u16; 4],
+    flags: u8,
+    iterations: u16,
+    cycles: [u32; 3],
+}
+
+fn parse_period(l: &str) -> (usize, Period) {
+    let v: Vec<u64> = l
+        .split_whitespace()
+        .skip(1)
+        .map(|x| x.parse().unwrap_or_else(|_| panic!("bad line `{l}`")))
+        .collect();
+    assert_eq!(v.len(), 11, "bad line `{l}`");
+    (
+        v[0] as usize,
+        Period {
+            status: v[1] as u32,
+            pwm: [v[2] as u16, v[3] as u16, v[4] as u16, v[5] as u16],
+            flags: v[6] as u8,
+            iterations: v[7] as u16,
+            cycles: [v[8] as u32, v[9] as u32, v[10] as u32],
+        },
+    )
+}
+
+fn check_scalar<S: Scalar>(scalar: &str, design: &Path, tolerance: u16) {
+    let elf = build(design);
+    let started = Instant::now();
+    let (lines, ended) = simulate(&elf);
+    let sim_time = started.elapsed();
+    assert!(
+        ended,
+        "{scalar}: simavr did not end within 30 s (a crash?): {:#?}",
+        &lines[lines.len().saturating_sub(8)..]
+    );
+    let init = lines
+        .iter()
+        .find(|l| l.starts_with("INIT"))
+        .unwrap_or_else(|| panic!("{scalar}: no INIT line in {lines:#?}"));
+    assert!(init.starts_with("INIT 0 "), "{scalar}: {init}");
+    assert!(
+        lines.iter().any(|l| l == "END"),
+        "{scalar}: the program did not finish: {:#?}",
+        &lines[lines.len().saturating_sub(5)..]
+    );
+    let periods: Vec<Period> = lines
+        .iter()
+        .filter(|l| l.starts_with("P "))
+        .enumerate()
+        .map(|(k, l)| {
+            let (i, p) = parse_period(l);
+            assert_eq!(i, k, "{scalar}: period numbers");
+            p
+        })
+        .collect();
+    assert_eq!(periods.len(), PERIODS, "{scalar}: periods");
+    let errors: Vec<&String> = lines.iter().filter(|l| l.starts_with("E ")).collect();
+    assert_eq!(errors.len(), 5, "{scalar}: bad-table checks {errors:#?}");
+    for e in &errors {
+        assert!(e.starts_with("E ok "), "{scalar}: {e}");
+    }
+
+    let mut host = rate_loop::<S>();
+    let (mut kal, mut sol, mut step) = (CycleStats::new(), CycleStats::new(), CycleStats::new());
+    let mut max_diff = 0u16;
+    let mut exact = 0;
+    for (k, ((fresh, cmd), p)) in inputs().iter().zip(&periods).enumerate() {
+        assert_eq!(p.status, 0, "{scalar}: step status at period {k}");
+        for w in &p.pwm[..3] {
+            assert!(
+                (1000..=2000).contains(w),
+                "{scalar}: ESC pulse {w} at period {k}"
+            );
+        }
+        assert!(
+            (1200..=1800).contains(&p.pwm[3]),
+            "{scalar}: servo pulse {} at period {k}",
+            p.pwm[3]
+        );
+        let h = host.period(fresh.then_some(cmd), &NoClock);
+        assert_eq!(p.flags, h.status, "{scalar}: flags at period {k}");
+        assert_eq!(
+            p.iterations, h.iterations,
+            "{scalar}: iterations at period {k}"
+        );
+        let d = p
+            .pwm
+            .iter()
+            .zip(h.pwm)
+            .map(|(a, b)| a.abs_diff(b))
+            .max()
+            .unwrap();
+        max_diff = max_diff.max(d);
+        exact += usize::from(d == 0);
+        if p.flags & (status::FAILSAFE | status::HOLD) == 0 {
+            kal.add(p.cycles[0]);
+            sol.add(p.cycles[1]);
+            step.add(p.cycles[2]);
+        }
+    }
+    assert!(
+        max_diff <= tolerance,
+        "{scalar}: pulses differ from the Rust library's by up to {max_diff} us"
+    );
+    let flag = |k: usize| periods[k].flags;
+    assert_eq!(
+        flag(150),
+        status::HOLD,
+        "{scalar}: one missing sample holds"
+    );
+    assert_ne!(
+        flag(201) & status::TIMEOUT,
+        0,
+        "{scalar}: two missing: failsafe"
+    );
+    assert_eq!(flag(202), 0, "{scalar}: recovery");
+    assert_ne!(flag(250) & status::NON_FINITE, 0, "{scalar}: NaN gyro");
+    let (flash, ram) = avr_size(&elf);
+    let m = |s: &CycleStats| format!("{}/{:.0}/{}", s.min, s.mean().unwrap_or(0.0), s.max);
+    println!(
+        "C on the ATmega2560, {scalar}: kalman {} cycles, solver {} cycles, whole step {} cycles (min/mean/max over {} periods); flash {flash} B, RAM {ram} B (static); pulses equal to the Rust library's in {exact} of {PERIODS} periods (max difference {max_diff} us); simavr {:.1} s",
+        m(&kal),
+        m(&sol),
+        m(&step),
+        step.count,
+        sim_time.as_secs_f64()
+    );
+    println!(
+        "C-AVR-REPORT {{\"scalar\": \"{scalar}\", \"kalman\": {}, \"solver\": {}, \"step\": {}, \"flash\": {flash}, \"ram\": {ram}, \"exact_periods\": {exact}, \"max_pwm_diff\": {max_diff}}}",
+        json(&kal),
+        json(&sol),
+        json(&step)
+    );
+}
+
+#[test]
+fn avr_example_in_simavr() {
+    let missing: Vec<&str> = [
+        ("avr-gcc", "--version"),
+        ("simavr", "--help"),
+        ("avr-size", "--version"),
+        ("make", "--version"),
+        ("rustup", "--version"),
+    ]
+    .into_iter()
+    .filter(|(t, a)| !have(t, a))
+    .map(|(t, _)| t)
+    .collect();
+    if !missing.is_empty() {
+        println!("avr_example_in_simavr skipped: {missing:?} not installed");
+        return;
+    }
+    let design = crate::work_dir("avr-design");
+    write_design(&design);
+    check_scalar::<f32>("f32", &design, 0);
+}
