@@ -26,7 +26,9 @@
  *
  * the cycles counted by Timer1 at the CPU clock (the counter the Rust
  * firmware uses, kestrel_avr_rt::cycles::timer1), then the error codes of
- * bad tables read from flash ("E ok ..."), and "END". tests/tests/ffi_c.rs
+ * bad tables read from flash ("E ok ..."), and "END". Built with
+ * -DKESTREL_EXAMPLE_Q16 (make SCALAR=q16) it runs the Q15.16 functions on
+ * the Q15.16 tables. tests/tests/ffi_c.rs
  * builds it (Makefile here), runs it and checks every line against the
  * Rust library's rate loop.
  */
@@ -115,8 +117,47 @@ static uint32_t xorshift32(void) {
     return seed;
 }
 
+#ifdef KESTREL_EXAMPLE_Q16
+/* The Q15.16 loop: values are int32_t raw bits (value = bits / 65536). */
+typedef int32_t S;
+static KestrelKalman16Q16 filter;
+static KestrelFgm16Q16 law;
+#define DESIGN kestrel_design_q16
+#define KALMAN_INIT kestrel_kalman16_init_q16
+#define KALMAN_RESET kestrel_kalman16_reset_q16
+#define KALMAN_MEASURE kestrel_kalman16_measure_q16
+#define KALMAN_PREDICT kestrel_kalman16_predict_q16
+#define FGM_INIT kestrel_fgm16_init_q16
+#define FGM_SOLVE kestrel_fgm16_solve_q16
+/* As kestrel-avr-rt's from_f32_fast: scaled by 2^16 (exact), truncated. */
+static S from_f32(float v) { return (int32_t)(v * 65536.0f); }
+static S value(uint8_t i) { return (int32_t)pgm_read_dword(&kestrel_design_values_q16[i]); }
+/* Rounds to whole microseconds (half up, as kestrel-avr-rt's Q15.16
+ * to_us) and clamps to [lo, hi]. */
+static uint16_t pulse(S v, uint16_t lo, uint16_t hi) {
+    int32_t us = (int32_t)(((int64_t)v + 32768) >> 16);
+    return us < lo ? lo : us > hi ? hi : (uint16_t)us;
+}
+#else
+typedef float S;
 static KestrelKalman16F32 filter;
 static KestrelFgm16F32 law;
+#define DESIGN kestrel_design_f32
+#define KALMAN_INIT kestrel_kalman16_init_f32
+#define KALMAN_RESET kestrel_kalman16_reset_f32
+#define KALMAN_MEASURE kestrel_kalman16_measure_f32
+#define KALMAN_PREDICT kestrel_kalman16_predict_f32
+#define FGM_INIT kestrel_fgm16_init_f32
+#define FGM_SOLVE kestrel_fgm16_solve_f32
+static S from_f32(float v) { return v; }
+static S value(uint8_t i) { return pgm_read_float(&kestrel_design_values_f32[i]); }
+/* Rounds to whole microseconds as kestrel-avr-rt does (half away from zero)
+ * and clamps to [lo, hi]. */
+static uint16_t pulse(S v, uint16_t lo, uint16_t hi) {
+    int32_t us = v >= 0.0f ? (int32_t)(v + 0.5f) : (int32_t)(v - 0.5f);
+    return us < lo ? lo : us > hi ? hi : (uint16_t)us;
+}
+#endif
 
 static void expect(const char *what, KestrelStatus got, KestrelStatus want) {
     put_str(got == want ? "E ok " : "E FAIL ");
@@ -125,14 +166,6 @@ static void expect(const char *what, KestrelStatus got, KestrelStatus want) {
     put('\n');
 }
 
-static float value(uint8_t i) { return pgm_read_float(&kestrel_design_values_f32[i]); }
-
-/* Rounds to whole microseconds as kestrel-avr-rt does (half away from zero)
- * and clamps to [lo, hi]. */
-static uint16_t pulse(float v, uint16_t lo, uint16_t hi) {
-    int32_t us = v >= 0.0f ? (int32_t)(v + 0.5f) : (int32_t)(v - 0.5f);
-    return us < lo ? lo : us > hi ? hi : (uint16_t)us;
-}
 
 int main(void) {
     uart_init();
@@ -141,14 +174,14 @@ int main(void) {
 
     KestrelLoopConfig config; /* the limits and failsafe pulses */
     kestrel_loop_config_default(&config);
-    KestrelDesign design = kestrel_design_f32();
-    KestrelStatus st = kestrel_kalman16_init_f32(&filter, &design);
-    KestrelStatus st2 = kestrel_fgm16_init_f32(&law, &design);
+    KestrelDesign design = DESIGN();
+    KestrelStatus st = KALMAN_INIT(&filter, &design);
+    KestrelStatus st2 = FGM_INIT(&law, &design);
     put_str("INIT");
     put_u32((uint32_t)st | (uint32_t)st2);
     put_u32(design.values.flash);
     put('\n');
-    float bias[3], offset[4];
+    S bias[3], offset[4];
     for (uint8_t i = 0; i < 3; i++) bias[i] = value(KESTREL_DESIGN_OFF_BIAS + i);
     for (uint8_t i = 0; i < 4; i++) offset[i] = value(KESTREL_DESIGN_OFF_MIX_OFFSET + i);
 
@@ -159,15 +192,16 @@ int main(void) {
     static const int16_t step[3] = {1024, -1024, 512};
     for (uint16_t k = 0; k < PERIODS; k++) {
         int32_t ref[3];
-        float gyro[3], theta[KESTREL_NP];
+        float gyro[3];
+        S theta[KESTREL_NP];
         for (uint8_t i = 0; i < 3; i++) {
             ref[i] = k < STEP_AT ? 0 : step[i];
             int32_t noise = (int32_t)(xorshift32() >> 26) - 32; /* +-32/1024 rad/s */
             gyro[i] = (float)(rate[i] + noise) * (1.0f / 1024.0f);
-            theta[KESTREL_NX + i] = (float)ref[i] * (1.0f / 1024.0f);
+            theta[KESTREL_NX + i] = from_f32((float)ref[i] * (1.0f / 1024.0f));
             rate[i] += (ref[i] - rate[i]) / 8;
         }
-        float throttle = 1500.0f;
+        S throttle = from_f32(1500.0f);
         theta[KESTREL_NX + 3] = throttle;
         uint8_t fresh = !(k == 150 || k == 200 || k == 201);
         if (k == 250) gyro[1] = NAN;
@@ -190,21 +224,21 @@ int main(void) {
             missing = 0;
             if (failsafe) {
                 /* Recovery: restart the estimator at the operating point. */
-                static const float x0[KESTREL_NX];
-                st = kestrel_kalman16_reset_f32(&filter, x0);
+                static const S x0[KESTREL_NX];
+                st = KALMAN_RESET(&filter, x0);
                 failsafe = 0;
             }
-            float y[3], u[KESTREL_NZ];
-            for (uint8_t i = 0; i < 3; i++) y[i] = gyro[i] - bias[i];
+            S y[3], u[KESTREL_NZ];
+            for (uint8_t i = 0; i < 3; i++) y[i] = from_f32(gyro[i]) - bias[i];
             t0 = timer1_now(NULL);
-            st |= kestrel_kalman16_measure_f32(&filter, y, theta); /* x into theta[0..NX] */
+            st |= KALMAN_MEASURE(&filter, y, theta); /* x into theta[0..NX] */
             t1 = timer1_now(NULL);
-            st |= kestrel_fgm16_solve_f32(&law, theta, u, &iterations);
+            st |= FGM_SOLVE(&law, theta, u, &iterations);
             t2 = timer1_now(NULL);
-            st |= kestrel_kalman16_predict_f32(&filter, u, NULL);
+            st |= KALMAN_PREDICT(&filter, u, NULL);
             t3 = timer1_now(NULL);
             for (uint8_t i = 0; i < 4; i++) {
-                float v = offset[i] + u[i];
+                S v = offset[i] + u[i];
                 if (i < 3) v = v + throttle;
                 pwm[i] = i < 3 ? pulse(v, config.esc_min, config.esc_max)
                                : pulse(v, config.servo_min, config.servo_max);
@@ -230,18 +264,18 @@ int main(void) {
     /* Bad tables, read from flash. */
     KestrelDesign d = design;
     d.values.flash = 0;
-    expect("no table address", kestrel_fgm16_init_f32(&law, &d), KESTREL_STATUS_NULL_POINTER);
+    expect("no table address", FGM_INIT(&law, &d), KESTREL_STATUS_NULL_POINTER);
     d = design;
     d.kalman16.len -= 2;
-    expect("kalman16 short", kestrel_kalman16_init_f32(&filter, &d), KESTREL_STATUS_BAD_SIZE);
+    expect("kalman16 short", KALMAN_INIT(&filter, &d), KESTREL_STATUS_BAD_SIZE);
     d = design;
     d.checksum ^= 0x8000u;
-    expect("checksum", kestrel_fgm16_init_f32(&law, &d), KESTREL_STATUS_BAD_CHECKSUM);
+    expect("checksum", FGM_INIT(&law, &d), KESTREL_STATUS_BAD_CHECKSUM);
     d = design;
     d.values.flash += 4; /* the table one value further on: its bytes differ */
-    expect("moved table", kestrel_fgm16_init_f32(&law, &d), KESTREL_STATUS_BAD_CHECKSUM);
-    float y[3] = {0, 0, 0};
-    expect("measure after a failed init", kestrel_kalman16_measure_f32(&filter, y, NULL), KESTREL_STATUS_NOT_INITIALISED);
+    expect("moved table", FGM_INIT(&law, &d), KESTREL_STATUS_BAD_CHECKSUM);
+    S y[3] = {0, 0, 0};
+    expect("measure after a failed init", KALMAN_MEASURE(&filter, y, NULL), KESTREL_STATUS_NOT_INITIALISED);
     put_str("END\n");
     /* Ends the simulation (simavr: sleeping with interrupts off). */
     cli();

@@ -1,16 +1,18 @@
 //! The AVR half of the test: `avr/c-example` built by avr-gcc for the
 //! ATmega2560 against kestrel-ffi's `avr-none` staticlib (the pinned
-//! nightly) and the exported tables in flash, run in simavr at 16 MHz.
+//! nightly) and the exported tables in flash, f32 and Q15.16, run in
+//! simavr at 16 MHz.
 //! Every period's pulses are checked against their limits and against
 //! kestrel-avr-rt's rate loop on the host (the same fixed input sequence;
 //! equal in every period: pulses, flags and iterations), the
 //! bad-table codes from flash are checked, and the cycles per stage
 //! (Timer1, as the Rust firmware counts them), flash and RAM are printed
-//! (and one `C-AVR-REPORT {json}` line).
+//! (and one `C-AVR-REPORT {json}` line per scalar).
 
 use crate::{NoClock, Scalar, rate_loop, repo_root, write_design};
 use kestrel_avr_rt::cycles::CycleStats;
 use kestrel_avr_rt::frame::{Command, status};
+use kestrel_avr_rt::mac::Q16Mac;
 use std::path::Path;
 use std::process::{Command as Process, Stdio};
 use std::time::{Duration, Instant};
@@ -59,22 +61,25 @@ fn have(tool: &str, arg: &str) -> bool {
         .is_ok()
 }
 
-/// Builds the example; the ELF.
-fn build(design: &Path) -> std::path::PathBuf {
+/// Builds the example for `scalar` (`f32` or `q16`); the ELF.
+fn build(scalar: &str, design: &Path) -> std::path::PathBuf {
     let root = repo_root();
     let out = Process::new("make")
         .arg("-C")
         .arg(root.join("avr/c-example"))
+        .arg(format!("SCALAR={scalar}"))
         .arg(format!("DESIGN={}", design.display()))
         .output()
         .expect("run make");
     assert!(
         out.status.success(),
-        "make -C avr/c-example failed:\n{}{}",
+        "make -C avr/c-example SCALAR={scalar} failed:\n{}{}",
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
     );
-    root.join("avr/target/c-example/kestrel-c-example.elf")
+    root.join(format!(
+        "avr/target/c-example/kestrel-c-example-{scalar}.elf"
+    ))
 }
 
 /// Runs the ELF in simavr (at most 30 s: a crashed program leaves simavr
@@ -186,7 +191,7 @@ fn parse_period(l: &str) -> (usize, Period) {
 }
 
 fn check_scalar<S: Scalar>(scalar: &str, design: &Path, tolerance: u16) {
-    let elf = build(design);
+    let elf = build(scalar, design);
     let started = Instant::now();
     let (lines, ended) = simulate(&elf);
     let sim_time = started.elapsed();
@@ -315,4 +320,5 @@ fn avr_example_in_simavr() {
     let design = crate::work_dir("avr-design");
     write_design(&design);
     check_scalar::<f32>("f32", &design, 0);
+    check_scalar::<Q16Mac>("q16", &design, 0);
 }
