@@ -13,6 +13,8 @@
  *                                    out:   "status z0..z3 iterations"
  *     check fgm-f32 | fgm-q16        stdin: "theta0..theta8": the reference solve (cold start)
  *                                    out:   "status z0..z3"
+ *     check empc-f32 | empc-q16      stdin: "x0..x4 r0..r3" (hex bits): the explicit law
+ *                                    out:   "status u0..u3 nodes"
  *     check errors                   bad tables, NULL pointers, uninitialised states:
  *                                    one "ok <what>" or "FAIL <what> ..." line each;
  *                                    exit status = number of failures
@@ -25,6 +27,7 @@
 
 #include "kestrel.h"
 #include "kestrel_design.h"
+#include "kestrel_empc.h"
 
 static uint32_t f2u(float f) { uint32_t u; memcpy(&u, &f, 4); return u; }
 static float u2f(uint32_t u) { float f; memcpy(&f, &u, 4); return f; }
@@ -49,6 +52,8 @@ static KestrelKalman16F32 kf_f32;
 static KestrelKalman16Q16 kf_q16;
 static KestrelFgm16F32 fgm_f32;
 static KestrelFgm16Q16 fgm_q16;
+static KestrelEmpc16F32 empc_f32;
+static KestrelEmpc16Q16 empc_q16;
 
 static int run_loop(int q16) {
     KestrelLoopConfig config;
@@ -132,6 +137,32 @@ static int run_fgm(int q16, int reference) {
         for (int i = 0; i < KESTREL_NZ; i++) printf(" %08x", (unsigned)z[i]);
         if (!reference) printf(" %u", iterations);
         printf("\n");
+    }
+    return 0;
+}
+
+static int run_empc(int q16) {
+    KestrelEmpc16Tables t = kestrel_empc_tables();
+    KestrelStatus st = q16 ? kestrel_empc16_init_q16(&empc_q16, &t) : kestrel_empc16_init_f32(&empc_f32, &t);
+    if (st != KESTREL_STATUS_OK) { fprintf(stderr, "init: %d\n", (int)st); return 1; }
+    uint32_t w[KESTREL_NP];
+    while (read_words(w, KESTREL_NP)) {
+        uint32_t u[KESTREL_NU];
+        uint16_t nodes = 0;
+        memset(u, 0, sizeof u);
+        if (q16) {
+            st = kestrel_empc16_eval_q16(&empc_q16, (const int32_t *)w, (const int32_t *)(w + KESTREL_NX),
+                                         (int32_t *)u, &nodes);
+        } else {
+            float p[KESTREL_NP], uf[KESTREL_NU];
+            for (int i = 0; i < KESTREL_NP; i++) p[i] = u2f(w[i]);
+            memset(uf, 0, sizeof uf);
+            st = kestrel_empc16_eval_f32(&empc_f32, p, p + KESTREL_NX, uf, &nodes);
+            for (int i = 0; i < KESTREL_NU; i++) u[i] = f2u(uf[i]);
+        }
+        printf("%d", (int)st);
+        for (int i = 0; i < KESTREL_NU; i++) printf(" %08x", (unsigned)u[i]);
+        printf(" %u\n", nodes);
     }
     return 0;
 }
@@ -269,6 +300,28 @@ static int run_errors(void) {
         expect("fgm16 infinite theta", kestrel_fgm16_solve_f32(&fgm_f32, theta, z, NULL), KESTREL_STATUS_NON_FINITE);
         expect("fgm16 NULL theta", kestrel_fgm16_solve_f32(&fgm_f32, NULL, z, NULL), KESTREL_STATUS_NULL_POINTER);
     }
+    /* The explicit law's tables. */
+    {
+        KestrelEmpc16Tables t = kestrel_empc_tables(), b;
+        expect("empc init", kestrel_empc16_init_f32(&empc_f32, &t), KESTREL_STATUS_OK);
+        expect("empc init NULL state", kestrel_empc16_init_f32(NULL, &t), KESTREL_STATUS_NULL_POINTER);
+        expect("empc init NULL tables", kestrel_empc16_init_f32(&empc_f32, NULL), KESTREL_STATUS_NULL_POINTER);
+        b = t; b.chunks = NULL;
+        expect("empc NULL chunks", kestrel_empc16_init_f32(&empc_f32, &b), KESTREL_STATUS_NULL_POINTER);
+        b = t; b.n_chunks = 0;
+        expect("empc no chunks", kestrel_empc16_init_f32(&empc_f32, &b), KESTREL_STATUS_BAD_SIZE);
+        b = t; b.checksum ^= 0x0100u;
+        expect("empc checksum", kestrel_empc16_init_q16(&empc_q16, &b), KESTREL_STATUS_BAD_CHECKSUM);
+        b = t; b.layout.n_nodes += 1;
+        expect("empc layout off by one node", kestrel_empc16_init_f32(&empc_f32, &b), KESTREL_STATUS_BAD_CHECKSUM);
+        {
+            float x[KESTREL_NX], r[KESTREL_NR], u[KESTREL_NU];
+            memset(x, 0, sizeof x);
+            memset(r, 0, sizeof r);
+            expect("empc eval after a failed init", kestrel_empc16_eval_f32(&empc_f32, x, r, u, NULL),
+                   KESTREL_STATUS_NOT_INITIALISED);
+        }
+    }
     printf("%d failure(s)\n", failures);
     return failures;
 }
@@ -283,7 +336,9 @@ int main(int argc, char **argv) {
     if (!strcmp(m, "fgm16-q16")) return run_fgm(1, 0);
     if (!strcmp(m, "fgm-f32")) return run_fgm(0, 1);
     if (!strcmp(m, "fgm-q16")) return run_fgm(1, 1);
+    if (!strcmp(m, "empc-f32")) return run_empc(0);
+    if (!strcmp(m, "empc-q16")) return run_empc(1);
     if (!strcmp(m, "errors")) return run_errors();
-    fprintf(stderr, "usage: check loop-f32|loop-q16|kalman-f32|kalman-q16|fgm16-f32|fgm16-q16|fgm-f32|fgm-q16|errors\n");
+    fprintf(stderr, "usage: check loop-f32|loop-q16|kalman-f32|kalman-q16|fgm16-f32|fgm16-q16|fgm-f32|fgm-q16|empc-f32|empc-q16|errors\n");
     return 2;
 }

@@ -5,9 +5,10 @@
 //! --lang c` (`kestrel_design.h`/`.c`, written here by the export's library
 //! function `kestrel_tricopter::firmware::c_tables::generate_c_tables` for
 //! the committed design), run at 10^4 random inputs and compared with the
-//! Rust library bit for bit: the rate loop, the 16-bit Kalman filter and
-//! the fast gradient law of kestrel-avr-rt built in Rust exactly as the Rust
-//! firmware builds them from its tables (`avr/firmware/src/generated.rs`),
+//! Rust library bit for bit: the rate loop, the 16-bit Kalman filter, the
+//! fast gradient law and the explicit law (`kestrel export --lang c --empc`)
+//! of kestrel-avr-rt built in Rust exactly as the Rust firmware builds them
+//! from its tables (`avr/firmware/src/generated.rs`, `generated_empc.rs`),
 //! in f32 and in Q15.16. Bad tables (wrong checksum, wrong sizes, NULL
 //! pointers, uninitialised states) give their error codes, tested from C
 //! (`examples/c/check.c errors`).
@@ -42,6 +43,11 @@ use std::sync::OnceLock;
 #[allow(dead_code)]
 mod generated {
     include!("../../avr/firmware/src/generated.rs");
+}
+
+#[allow(dead_code)]
+mod generated_empc {
+    include!("../../avr/firmware/src/generated_empc.rs");
 }
 use generated::*;
 
@@ -107,13 +113,26 @@ fn host_staticlib() -> &'static Path {
     })
 }
 
+/// The committed design (once per test binary).
+fn design() -> &'static kestrel_tricopter::firmware::FirmwareDesign {
+    static D: OnceLock<kestrel_tricopter::firmware::FirmwareDesign> = OnceLock::new();
+    D.get_or_init(|| kestrel_tricopter::codegen::firmware::design(&repo_root()).expect("design"))
+}
+
 /// `kestrel_design.h` and `kestrel_design.c` of the committed design, as
 /// `kestrel export --lang c` writes them, in `dir`.
 fn write_design(dir: &Path) {
-    let design = kestrel_tricopter::codegen::firmware::design(&repo_root()).expect("design");
-    let c = kestrel_tricopter::firmware::c_tables::generate_c_tables(&design).expect("C tables");
+    let c = kestrel_tricopter::firmware::c_tables::generate_c_tables(design()).expect("C tables");
     std::fs::write(dir.join("kestrel_design.h"), c.header).unwrap();
     std::fs::write(dir.join("kestrel_design.c"), c.source).unwrap();
+}
+
+/// `kestrel_empc.h` and `kestrel_empc.c` (`kestrel export --lang c
+/// --empc`): the design's explicit law, in `dir`.
+fn write_empc(dir: &Path) {
+    let c = kestrel_tricopter::firmware::c_tables::generate_c_empc_of(design()).expect("C tables");
+    std::fs::write(dir.join("kestrel_empc.h"), c.header).unwrap();
+    std::fs::write(dir.join("kestrel_empc.c"), c.source).unwrap();
 }
 
 /// `examples/c/check.c`, built once per test binary.
@@ -127,6 +146,11 @@ fn check_exe() -> &'static Path {
 fn build_c(name: &str) -> PathBuf {
     let dir = work_dir(&format!("host-{name}"));
     write_design(&dir);
+    let mut sources = vec![dir.join("kestrel_design.c")];
+    if name == "check" {
+        write_empc(&dir);
+        sources.push(dir.join("kestrel_empc.c"));
+    }
     let root = repo_root();
     let exe = dir.join(name);
     let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
@@ -146,7 +170,7 @@ fn build_c(name: &str) -> PathBuf {
         .arg("-o")
         .arg(&exe)
         .arg(root.join(format!("examples/c/{name}.c")))
-        .arg(dir.join("kestrel_design.c"))
+        .args(&sources)
         .arg(host_staticlib())
         .args(["-lm", "-lpthread", "-ldl"])
         .output()
@@ -552,6 +576,44 @@ fn fgm_reference_f32_equals_rust() {
 #[test]
 fn fgm_reference_q16_equals_rust() {
     check_fgm_reference::<Q16Mac>(check_exe(), "fgm-q16", 8);
+}
+
+fn check_empc<S: Scalar>(exe: &Path, mode: &str, seed: u64) {
+    use kestrel_avr_rt::explicit::tree16::{Empc16Law, Tree16};
+    use kestrel_core::ControlLaw;
+    let thetas = thetas::<S>(seed);
+    let stdin: String = thetas
+        .iter()
+        .map(|t| hex_line(t.iter().map(|v| v.bits())))
+        .collect();
+    let (status, out) = run(exe, &[mode], &stdin);
+    assert_eq!(status, 0, "{mode}");
+    // The firmware's `empc` build: EMPC16 of generated_empc.rs.
+    let tree = Tree16::new(&generated_empc::EMPC16[..], generated_empc::EMPC16_LAYOUT).unwrap();
+    let mut law = Empc16Law::<S, _, NP, 4, { generated_empc::EMPC16_ROWS }>::new(tree, NX).unwrap();
+    let rust: Vec<String> = thetas
+        .iter()
+        .map(|t| {
+            let mut u = [S::ZERO; 4];
+            let r = law.control(&t[..NX], &t[NX..], &mut u);
+            let nodes = if r.is_ok() { law.iterations() } else { 0 };
+            let u = if r.is_ok() { u } else { [S::ZERO; 4] };
+            let mut s = format!("{} {}", code(r), hex_line(u.iter().map(|v| v.bits())));
+            s.pop();
+            format!("{s} {nodes}")
+        })
+        .collect();
+    assert_same_lines(mode, &out, &rust);
+}
+
+#[test]
+fn empc16_f32_equals_rust() {
+    check_empc::<f32>(check_exe(), "empc-f32", 10);
+}
+
+#[test]
+fn empc16_q16_equals_rust() {
+    check_empc::<Q16Mac>(check_exe(), "empc-q16", 11);
 }
 
 #[test]
