@@ -15,10 +15,14 @@ printf '0.1 -0.2 0.05  0 0 0  1500\n0.12 -0.18 0.04  1 -1 0.5  1500\n-\n' | targ
 
 if command -v avr-gcc >/dev/null && command -v simavr >/dev/null; then
   echo "== ATmega2560: avr/c-example (avr-gcc, kestrel-ffi for avr-none) in simavr"
-  for scalar in f32 q16; do
-    make --no-print-directory -C avr/c-example SCALAR=$scalar
-    simavr -m atmega2560 -f 16000000 avr/target/c-example/kestrel-c-example-$scalar.elf 2>&1 \
-      | sed 's/\x1b\[[0-9;]*m//g' | grep -E '^(INIT|E |END)|^P (0|100|150|201|250|299) '
+  for build in f32 q16 empc-f32 empc-q16; do
+    law=fgm scalar=$build
+    if [ "${build#empc-}" != "$build" ]; then law=empc scalar=${build#empc-}; fi
+    echo "-- $law $scalar"
+    make --no-print-directory -s -C avr/c-example LAW=$law SCALAR=$scalar >/dev/null
+    avr-size avr/target/c-example/kestrel-c-example-$build.elf | tail -1
+    simavr -m atmega2560 -f 16000000 avr/target/c-example/kestrel-c-example-$build.elf 2>&1 \
+      | sed 's/\x1b\[[0-9;]*m//g' | grep -E '^(INIT|E FAIL|END)|^P (0|100|150|201|250|299) '
   done
 else
   echo "== ATmega2560: skipped (avr-gcc or simavr not installed)"

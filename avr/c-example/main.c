@@ -28,7 +28,9 @@
  * firmware uses, kestrel_avr_rt::cycles::timer1), then the error codes of
  * bad tables read from flash ("E ok ..."), and "END". Built with
  * -DKESTREL_EXAMPLE_Q16 (make SCALAR=q16) it runs the Q15.16 functions on
- * the Q15.16 tables. tests/tests/ffi_c.rs
+ * the Q15.16 tables; with -DKESTREL_EXAMPLE_EMPC (make LAW=empc) the
+ * explicit law of `kestrel export --lang c --empc` (kestrel_empc.c, in
+ * flash) instead of the fast gradient. tests/tests/ffi_c.rs
  * builds it (Makefile here), runs it and checks every line against the
  * Rust library's rate loop.
  */
@@ -117,18 +119,41 @@ static uint32_t xorshift32(void) {
     return seed;
 }
 
+#ifdef KESTREL_EXAMPLE_EMPC
+/* The explicit law (kestrel export --lang c --empc) instead of the fast gradient. */
+#include "kestrel_empc.h"
+#ifdef KESTREL_EXAMPLE_Q16
+static KestrelEmpc16Q16 law;
+#define LAW_INIT(l, d) kestrel_empc16_init_q16((l), &empc_tables)
+#define LAW_SOLVE(l, theta, u, n) kestrel_empc16_eval_q16((l), (theta), (theta) + KESTREL_NX, (u), (n))
+#else
+static KestrelEmpc16F32 law;
+#define LAW_INIT(l, d) kestrel_empc16_init_f32((l), &empc_tables)
+#define LAW_SOLVE(l, theta, u, n) kestrel_empc16_eval_f32((l), (theta), (theta) + KESTREL_NX, (u), (n))
+#endif
+/* The chunk descriptors stay in RAM while the law is used. */
+static KestrelEmpc16Tables empc_tables;
+#else
+#ifdef KESTREL_EXAMPLE_Q16
+static KestrelFgm16Q16 law;
+#define LAW_INIT(l, d) kestrel_fgm16_init_q16((l), (d))
+#define LAW_SOLVE(l, theta, u, n) kestrel_fgm16_solve_q16((l), (theta), (u), (n))
+#else
+static KestrelFgm16F32 law;
+#define LAW_INIT(l, d) kestrel_fgm16_init_f32((l), (d))
+#define LAW_SOLVE(l, theta, u, n) kestrel_fgm16_solve_f32((l), (theta), (u), (n))
+#endif
+#endif
+
 #ifdef KESTREL_EXAMPLE_Q16
 /* The Q15.16 loop: values are int32_t raw bits (value = bits / 65536). */
 typedef int32_t S;
 static KestrelKalman16Q16 filter;
-static KestrelFgm16Q16 law;
 #define DESIGN kestrel_design_q16
 #define KALMAN_INIT kestrel_kalman16_init_q16
 #define KALMAN_RESET kestrel_kalman16_reset_q16
 #define KALMAN_MEASURE kestrel_kalman16_measure_q16
 #define KALMAN_PREDICT kestrel_kalman16_predict_q16
-#define FGM_INIT kestrel_fgm16_init_q16
-#define FGM_SOLVE kestrel_fgm16_solve_q16
 /* As kestrel-avr-rt's from_f32_fast: scaled by 2^16 (exact), truncated. */
 static S from_f32(float v) { return (int32_t)(v * 65536.0f); }
 static S value(uint8_t i) { return (int32_t)pgm_read_dword(&kestrel_design_values_q16[i]); }
@@ -141,14 +166,11 @@ static uint16_t pulse(S v, uint16_t lo, uint16_t hi) {
 #else
 typedef float S;
 static KestrelKalman16F32 filter;
-static KestrelFgm16F32 law;
 #define DESIGN kestrel_design_f32
 #define KALMAN_INIT kestrel_kalman16_init_f32
 #define KALMAN_RESET kestrel_kalman16_reset_f32
 #define KALMAN_MEASURE kestrel_kalman16_measure_f32
 #define KALMAN_PREDICT kestrel_kalman16_predict_f32
-#define FGM_INIT kestrel_fgm16_init_f32
-#define FGM_SOLVE kestrel_fgm16_solve_f32
 static S from_f32(float v) { return v; }
 static S value(uint8_t i) { return pgm_read_float(&kestrel_design_values_f32[i]); }
 /* Rounds to whole microseconds as kestrel-avr-rt does (half away from zero)
@@ -176,7 +198,10 @@ int main(void) {
     kestrel_loop_config_default(&config);
     KestrelDesign design = DESIGN();
     KestrelStatus st = KALMAN_INIT(&filter, &design);
-    KestrelStatus st2 = FGM_INIT(&law, &design);
+#ifdef KESTREL_EXAMPLE_EMPC
+    empc_tables = kestrel_empc_tables();
+#endif
+    KestrelStatus st2 = LAW_INIT(&law, &design);
     put_str("INIT");
     put_u32((uint32_t)st | (uint32_t)st2);
     put_u32(design.values.flash);
@@ -233,7 +258,7 @@ int main(void) {
             t0 = timer1_now(NULL);
             st |= KALMAN_MEASURE(&filter, y, theta); /* x into theta[0..NX] */
             t1 = timer1_now(NULL);
-            st |= FGM_SOLVE(&law, theta, u, &iterations);
+            st |= LAW_SOLVE(&law, theta, u, &iterations);
             t2 = timer1_now(NULL);
             st |= KALMAN_PREDICT(&filter, u, NULL);
             t3 = timer1_now(NULL);
@@ -264,16 +289,16 @@ int main(void) {
     /* Bad tables, read from flash. */
     KestrelDesign d = design;
     d.values.flash = 0;
-    expect("no table address", FGM_INIT(&law, &d), KESTREL_STATUS_NULL_POINTER);
+    expect("no table address", KALMAN_INIT(&filter, &d), KESTREL_STATUS_NULL_POINTER);
     d = design;
     d.kalman16.len -= 2;
     expect("kalman16 short", KALMAN_INIT(&filter, &d), KESTREL_STATUS_BAD_SIZE);
     d = design;
     d.checksum ^= 0x8000u;
-    expect("checksum", FGM_INIT(&law, &d), KESTREL_STATUS_BAD_CHECKSUM);
+    expect("checksum", KALMAN_INIT(&filter, &d), KESTREL_STATUS_BAD_CHECKSUM);
     d = design;
     d.values.flash += 4; /* the table one value further on: its bytes differ */
-    expect("moved table", FGM_INIT(&law, &d), KESTREL_STATUS_BAD_CHECKSUM);
+    expect("moved table", KALMAN_INIT(&filter, &d), KESTREL_STATUS_BAD_CHECKSUM);
     S y[3] = {0, 0, 0};
     expect("measure after a failed init", KALMAN_MEASURE(&filter, y, NULL), KESTREL_STATUS_NOT_INITIALISED);
     put_str("END\n");

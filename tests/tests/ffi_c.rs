@@ -24,6 +24,7 @@
 
 use kestrel_avr_rt::control::{GyroCheck, Mixer, RateLoop};
 use kestrel_avr_rt::cycles::CycleClock;
+use kestrel_avr_rt::explicit::tree16::{Empc16Law, Tree16};
 use kestrel_avr_rt::fgm16::Fgm16Law;
 use kestrel_avr_rt::frame::Command;
 use kestrel_avr_rt::kalman16::Kalman16;
@@ -322,6 +323,14 @@ type Loop<S> = RateLoop<S, Kalman16<S, NX, 4, 3>, Law<S>, 4>;
 
 /// The firmware's rate loop (its main.rs), with the gyro check.
 fn rate_loop<S: Scalar>() -> Loop<S> {
+    rate_loop_with(fgm16_law())
+}
+
+/// The firmware's rate loop with the law `law`.
+fn rate_loop_with<S: Scalar, L>(law: L) -> RateLoop<S, Kalman16<S, NX, 4, 3>, L, 4>
+where
+    L: kestrel_core::ControlLaw<Scalar = S> + LawInfo,
+{
     let one = S::from_f32_fast(1.0);
     let mixer = Mixer::<S, 4> {
         m: Matrix::from_fn(|i, j| if i == j { one } else { S::ZERO }),
@@ -330,7 +339,7 @@ fn rate_loop<S: Scalar>() -> Loop<S> {
     };
     let mut l = RateLoop::new(
         Kalman16::new(KF16),
-        fgm16_law(),
+        law,
         va(BIAS),
         mixer,
         PwmLimits::default(),
@@ -578,8 +587,13 @@ fn fgm_reference_q16_equals_rust() {
     check_fgm_reference::<Q16Mac>(check_exe(), "fgm-q16", 8);
 }
 
+/// The firmware's `empc` law: EMPC16 of generated_empc.rs.
+fn empc16_law<S: Scalar>() -> Empc16Law<S, &'static [u8], NP, 4, { generated_empc::EMPC16_ROWS }> {
+    let tree = Tree16::new(&generated_empc::EMPC16[..], generated_empc::EMPC16_LAYOUT).unwrap();
+    Empc16Law::new(tree, NX).unwrap()
+}
+
 fn check_empc<S: Scalar>(exe: &Path, mode: &str, seed: u64) {
-    use kestrel_avr_rt::explicit::tree16::{Empc16Law, Tree16};
     use kestrel_core::ControlLaw;
     let thetas = thetas::<S>(seed);
     let stdin: String = thetas

@@ -1,20 +1,26 @@
 //! The AVR half of the test: `avr/c-example` built by avr-gcc for the
 //! ATmega2560 against kestrel-ffi's `avr-none` staticlib (the pinned
-//! nightly) and the exported tables in flash, f32 and Q15.16, run in
-//! simavr at 16 MHz.
+//! nightly) and the exported tables in flash, with the fast gradient and
+//! with the explicit law, f32 and Q15.16, run in simavr at 16 MHz.
 //! Every period's pulses are checked against their limits and against
 //! kestrel-avr-rt's rate loop on the host (the same fixed input sequence;
 //! equal in every period: pulses, flags and iterations), the
 //! bad-table codes from flash are checked, and the cycles per stage
 //! (Timer1, as the Rust firmware counts them), flash and RAM are printed
-//! (and one `C-AVR-REPORT {json}` line per scalar). Skipped when avr-gcc,
+//! (and one `C-AVR-REPORT {json}` line per build). Skipped when avr-gcc,
 //! simavr, avr-size, make or rustup is missing, unless `KESTREL_REQUIRE_AVR`
 //! is set (then it fails).
 
-use crate::{NoClock, Scalar, rate_loop, repo_root, write_design};
+use crate::{
+    NoClock, Scalar, empc16_law, fgm16_law, rate_loop_with, repo_root, write_design, write_empc,
+};
+use kestrel_avr_rt::control::RateLoop;
 use kestrel_avr_rt::cycles::CycleStats;
 use kestrel_avr_rt::frame::{Command, status};
+use kestrel_avr_rt::kalman16::Kalman16;
+use kestrel_avr_rt::law::LawInfo;
 use kestrel_avr_rt::mac::Q16Mac;
+use kestrel_core::ControlLaw;
 use std::path::Path;
 use std::process::{Command as Process, Stdio};
 use std::time::{Duration, Instant};
@@ -63,25 +69,29 @@ fn have(tool: &str, arg: &str) -> bool {
         .is_ok()
 }
 
-/// Builds the example for `scalar` (`f32` or `q16`); the ELF.
-fn build(scalar: &str, design: &Path) -> std::path::PathBuf {
+/// Builds the example for `law` (`fgm` or `empc`) and `scalar` (`f32` or
+/// `q16`); the ELF.
+fn build(law: &str, scalar: &str, design: &Path) -> std::path::PathBuf {
     let root = repo_root();
     let out = Process::new("make")
         .arg("-C")
         .arg(root.join("avr/c-example"))
         .arg(format!("SCALAR={scalar}"))
+        .arg(format!("LAW={law}"))
         .arg(format!("DESIGN={}", design.display()))
         .output()
         .expect("run make");
     assert!(
         out.status.success(),
-        "make -C avr/c-example SCALAR={scalar} failed:\n{}{}",
+        "make -C avr/c-example LAW={law} SCALAR={scalar} failed:\n{}{}",
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
     );
-    root.join(format!(
-        "avr/target/c-example/kestrel-c-example-{scalar}.elf"
-    ))
+    root.join(if law == "fgm" {
+        format!("avr/target/c-example/kestrel-c-example-{scalar}.elf")
+    } else {
+        format!("avr/target/c-example/kestrel-c-example-{law}-{scalar}.elf")
+    })
 }
 
 /// Runs the ELF in simavr (at most 30 s: a crashed program leaves simavr
@@ -192,8 +202,17 @@ fn parse_period(l: &str) -> (usize, Period) {
     )
 }
 
-fn check_scalar<S: Scalar>(scalar: &str, design: &Path, tolerance: u16) {
-    let elf = build(scalar, design);
+/// Flies the build of `law_name` and `scalar` and checks it against
+/// `host`, the same loop with `law` on the host.
+fn check_scalar<S: Scalar, L: ControlLaw<Scalar = S> + LawInfo>(
+    law_name: &str,
+    scalar: &str,
+    mut host: RateLoop<S, Kalman16<S, { crate::NX }, 4, 3>, L, 4>,
+    design: &Path,
+    tolerance: u16,
+) {
+    let elf = build(law_name, scalar, design);
+    let scalar = &format!("{law_name} {scalar}");
     let started = Instant::now();
     let (lines, ended) = simulate(&elf);
     let sim_time = started.elapsed();
@@ -229,7 +248,6 @@ fn check_scalar<S: Scalar>(scalar: &str, design: &Path, tolerance: u16) {
         assert!(e.starts_with("E ok "), "{scalar}: {e}");
     }
 
-    let mut host = rate_loop::<S>();
     let (mut kal, mut sol, mut step) = (CycleStats::new(), CycleStats::new(), CycleStats::new());
     let mut max_diff = 0u16;
     let mut exact = 0;
@@ -295,7 +313,7 @@ fn check_scalar<S: Scalar>(scalar: &str, design: &Path, tolerance: u16) {
         sim_time.as_secs_f64()
     );
     println!(
-        "C-AVR-REPORT {{\"scalar\": \"{scalar}\", \"kalman\": {}, \"solver\": {}, \"step\": {}, \"flash\": {flash}, \"ram\": {ram}, \"exact_periods\": {exact}, \"max_pwm_diff\": {max_diff}}}",
+        "C-AVR-REPORT {{\"build\": \"{scalar}\", \"kalman\": {}, \"solver\": {}, \"step\": {}, \"flash\": {flash}, \"ram\": {ram}, \"exact_periods\": {exact}, \"max_pwm_diff\": {max_diff}}}",
         json(&kal),
         json(&sol),
         json(&step)
@@ -326,6 +344,33 @@ fn avr_example_in_simavr() {
     }
     let design = crate::work_dir("avr-design");
     write_design(&design);
-    check_scalar::<f32>("f32", &design, 0);
-    check_scalar::<Q16Mac>("q16", &design, 0);
+    write_empc(&design);
+    check_scalar(
+        "fgm",
+        "f32",
+        rate_loop_with::<f32, _>(fgm16_law()),
+        &design,
+        0,
+    );
+    check_scalar(
+        "fgm",
+        "q16",
+        rate_loop_with::<Q16Mac, _>(fgm16_law()),
+        &design,
+        0,
+    );
+    check_scalar(
+        "empc",
+        "f32",
+        rate_loop_with::<f32, _>(empc16_law()),
+        &design,
+        0,
+    );
+    check_scalar(
+        "empc",
+        "q16",
+        rate_loop_with::<Q16Mac, _>(empc16_law()),
+        &design,
+        0,
+    );
 }
