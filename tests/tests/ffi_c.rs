@@ -640,10 +640,9 @@ fn bad_tables_give_error_codes_from_c() {
     assert!(ok >= 40, "only {ok} checks ran:\n{out}");
 }
 
-/// The example itself: text in, pulses out, the same as the Rust loop.
-#[test]
-fn rate_loop_example_prints_the_rust_pulses() {
-    let exe = build_c("rate_loop");
+/// 200 periods as text lines (`-`: no fresh sample) and the Rust loop's
+/// `pwm1 pwm2 pwm3 servo flags` for them.
+fn text_periods() -> (String, Vec<String>) {
     let mut stdin = String::new();
     let mut l = rate_loop::<f32>();
     let mut rust = Vec::new();
@@ -677,7 +676,91 @@ fn rate_loop_example_prints_the_rust_pulses() {
             p.pwm[0], p.pwm[1], p.pwm[2], p.pwm[3], p.status
         ));
     }
+    (stdin, rust)
+}
+
+/// The example itself: text in, pulses out, the same as the Rust loop.
+#[test]
+fn rate_loop_example_prints_the_rust_pulses() {
+    let exe = build_c("rate_loop");
+    let (stdin, rust) = text_periods();
     let (status, out) = run(&exe, &[], &stdin);
     assert_eq!(status, 0);
     assert_same_lines("examples/c/rate_loop.c", &out, &rust);
+}
+
+/// The C++ wrapper of kestrel-ffi's README (its ```cpp block, compiled as
+/// it stands) with the same main loop as `examples/c/rate_loop.c`.
+#[test]
+fn cpp_wrapper_of_the_readme_gives_the_rust_pulses() {
+    let root = repo_root();
+    let readme = std::fs::read_to_string(root.join("crates/ffi/README.md")).unwrap();
+    let start = readme
+        .find("```cpp\n")
+        .expect("a ```cpp block in crates/ffi/README.md")
+        + 7;
+    let len = readme[start..].find("```").expect("the block's end");
+    let wrapper = &readme[start..start + len];
+    let dir = work_dir("cpp");
+    write_design(&dir);
+    let source = format!(
+        "{wrapper}\n#include <cstdio>\n#include \"kestrel_design.h\"\n\
+         int main() {{\n\
+             KestrelLoopConfig config;\n\
+             kestrel_loop_config_default(&config);\n\
+             static RateLoop loop(kestrel_design_f32(), config);\n\
+             char line[256];\n\
+             while (std::fgets(line, sizeof line, stdin)) {{\n\
+                 KestrelRateInput in{{}};\n\
+                 in.fresh = std::sscanf(line, \"%f %f %f %f %f %f %f\", &in.gyro[0], &in.gyro[1],\n\
+                     &in.gyro[2], &in.reference[0], &in.reference[1], &in.reference[2], &in.throttle) == 7;\n\
+                 KestrelRateOutput out{{}};\n\
+                 if (loop.step(in, out) != KESTREL_STATUS_OK) return 1;\n\
+                 std::printf(\"%u %u %u %u %u\\n\", out.pwm[0], out.pwm[1], out.pwm[2], out.pwm[3], out.flags);\n\
+             }}\n\
+             return 0;\n\
+         }}\n"
+    );
+    std::fs::write(dir.join("loop.cpp"), source).unwrap();
+    let include = [
+        "-I".to_string() + &root.join("crates/ffi/include").display().to_string(),
+        "-I".to_string() + &dir.display().to_string(),
+    ];
+    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
+    let cxx = std::env::var("CXX").unwrap_or_else(|_| "c++".into());
+    let object = dir.join("kestrel_design.o");
+    let out = Process::new(&cc)
+        .args(["-std=c99", "-O2", "-c"])
+        .args(&include)
+        .arg("-o")
+        .arg(&object)
+        .arg(dir.join("kestrel_design.c"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let exe = dir.join("loop");
+    let out = Process::new(&cxx)
+        .args(["-std=c++17", "-O2", "-Wall", "-Wextra", "-Werror"])
+        .args(&include)
+        .arg("-o")
+        .arg(&exe)
+        .arg(dir.join("loop.cpp"))
+        .arg(&object)
+        .arg(host_staticlib())
+        .args(["-lm", "-lpthread", "-ldl"])
+        .output()
+        .unwrap_or_else(|e| panic!("run {cxx}: {e}"));
+    assert!(
+        out.status.success(),
+        "{cxx} failed on the README's wrapper:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (stdin, rust) = text_periods();
+    let (status, out) = run(&exe, &[], &stdin);
+    assert_eq!(status, 0);
+    assert_same_lines("crates/ffi/README.md's C++ wrapper", &out, &rust);
 }
