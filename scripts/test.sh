@@ -12,6 +12,9 @@ bash scripts/setup.sh
 # Property tests draw from a fixed seed so a CI run is reproducible; set
 # PROPTEST_RNG_SEED to explore other inputs.
 export PROPTEST_RNG_SEED="${PROPTEST_RNG_SEED:-20261121}"
+# setup.sh installed avr-gcc and simavr: the C example's AVR builds in
+# tests/tests/ffi_c.rs must run here, not skip.
+export KESTREL_REQUIRE_AVR=1
 
 echo "== cargo fmt --all --check"
 cargo fmt --all --check
