@@ -3,7 +3,7 @@
 //! clarabel reference.
 
 use crate::{
-    EmpcError, OwnedTables, Settings, TreeSettings, build_controller, evaluate_with, solve,
+    AnyTables, EmpcError, OwnedTables, Settings, TreeSettings, build_any, evaluate_with, solve,
 };
 use kestrel_core::Error;
 use kestrel_core::formats::MpqpProblem;
@@ -42,7 +42,7 @@ pub type ExplicitMpc = MpcLaw<ExplicitSolver>;
 /// ```
 #[derive(Clone, Debug)]
 pub struct ExplicitSolver {
-    tables: OwnedTables<f64>,
+    tables: AnyTables,
     scratch: Vec<f64>,
     outside: usize,
     regions: usize,
@@ -52,8 +52,17 @@ impl ExplicitSolver {
     /// A solver from the tables of an explicit controller over all of `z`
     /// ([`crate::Outputs::All`]).
     pub fn new(tables: OwnedTables<f64>) -> Self {
+        Self::from_any(AnyTables::Narrow(tables))
+    }
+
+    /// A solver from tables in either layout ([`crate::build_any`]).
+    pub fn from_any(tables: AnyTables) -> Self {
+        let p = match &tables {
+            AnyTables::Narrow(t) => t.n_params,
+            AnyTables::Wide(t) => t.n_params,
+        };
         ExplicitSolver {
-            scratch: vec![0.0; tables.n_params],
+            scratch: vec![0.0; p],
             tables,
             outside: 0,
             regions: 0,
@@ -61,20 +70,32 @@ impl ExplicitSolver {
     }
 
     /// Solves `problem` multi-parametrically and builds the search tree
-    /// over all of `z`.
+    /// over all of `z` ([`crate::build_any`] with the default settings: the
+    /// `u16` tables when the tree fits them, else the `u32` ones).
     ///
     /// # Errors
     /// [`MpcError::ExternalSolver`] when the mpQP solve or the tree
-    /// construction fails (too many regions, a degenerate problem).
+    /// construction fails (too many regions, a degenerate problem), or
+    /// when the tree has a leaf it could not narrow to one law
+    /// ([`TreeStats::ambiguous_leaves`](crate::tree::TreeStats::ambiguous_leaves)):
+    /// its answers would not be the QP's everywhere.
     pub fn build(problem: &MpqpProblem, settings: &Settings) -> Result<Self, MpcError> {
         let err = |e: EmpcError| MpcError::ExternalSolver {
             solver: "explicit MPC",
             reason: e.to_string(),
         };
         let solution = solve(problem, settings).map_err(err)?;
-        let controller =
-            build_controller(problem, &solution, &TreeSettings::default()).map_err(err)?;
-        let mut s = ExplicitSolver::new(controller.tables);
+        let controller = build_any(problem, &solution, &TreeSettings::default()).map_err(err)?;
+        let ambiguous = controller.stats.ambiguous_leaves;
+        if ambiguous > 0 {
+            return Err(MpcError::ExternalSolver {
+                solver: "explicit MPC",
+                reason: format!(
+                    "the search tree has {ambiguous} leaves that hold regions of different laws (numerically degenerate regions): it would not give the QP's z everywhere"
+                ),
+            });
+        }
+        let mut s = ExplicitSolver::from_any(controller.tables);
         s.regions = solution.regions.len();
         Ok(s)
     }
@@ -100,21 +121,29 @@ impl ExplicitSolver {
     }
 
     /// The tree tables.
-    pub fn tables(&self) -> &OwnedTables<f64> {
+    pub fn tables(&self) -> &AnyTables {
         &self.tables
     }
 }
 
 impl ParametricQpSolver for ExplicitSolver {
     fn n(&self) -> usize {
-        self.tables.n_outputs
+        match &self.tables {
+            AnyTables::Narrow(t) => t.n_outputs,
+            AnyTables::Wide(t) => t.n_outputs,
+        }
     }
     fn p(&self) -> usize {
-        self.tables.n_params
+        self.scratch.len()
     }
     fn solve_into(&mut self, theta: &[f64], z: &mut [f64]) -> Result<(), Error> {
-        let e = evaluate_with(&self.tables.tables(), theta, &mut self.scratch, z)?;
-        self.outside += usize::from(e.outside);
+        let outside = match &self.tables {
+            AnyTables::Narrow(t) => {
+                evaluate_with(&t.tables(), theta, &mut self.scratch, z)?.outside
+            }
+            AnyTables::Wide(t) => evaluate_with(&t.tables(), theta, &mut self.scratch, z)?.outside,
+        };
+        self.outside += usize::from(outside);
         Ok(())
     }
 }

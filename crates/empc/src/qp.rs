@@ -74,11 +74,18 @@ pub(crate) fn solve(
         }
     }
     let max_iter = 20 * (n + m) + 50;
+    // After a full step (no constraint blocked it) `z` minimises on the
+    // working set, and so it does with `n` working rows (a vertex): the
+    // multipliers decide. Recomputing the step there gives a residual of
+    // the working rows' conditioning (1e-11 at near-dependent slack rows),
+    // and stepping by it again and again never converges.
+    let mut stationary = false;
     for _ in 0..max_iter {
         let grad = h * &z + q;
         let (p, lambda) = eqp_step(hinv, g, &working, &grad).ok_or(QpFailure::NotConverged)?;
         let pnorm = p.amax();
-        if pnorm <= 1e-12 * (1.0 + z.amax()) {
+        if stationary || working.len() >= n || pnorm <= 1e-12 * (1.0 + z.amax()) {
+            stationary = false;
             // Stationary on the working set: check the multipliers.
             let mut worst = None;
             let mut wv = -1e-12 * (1.0 + grad.amax());
@@ -114,8 +121,9 @@ pub(crate) fn solve(
             }
         }
         z += alpha * &p;
-        if let Some(i) = block {
-            working.push(i);
+        match block {
+            Some(i) => working.push(i),
+            None => stationary = true,
         }
     }
     Err(QpFailure::NotConverged)

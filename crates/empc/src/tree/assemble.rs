@@ -13,23 +13,36 @@ use crate::tree::tables::{WideTables, widen_row};
 use kestrel_core::formats::MpqpProblem;
 use std::collections::HashMap;
 
-/// Dedupes `row` into `rows` (width p + 1) and returns its index.
+/// Dedupes `row` into `rows` (width p + 1) and returns its index: a row
+/// within `10 tol` (relative to its size) of a stored row is that row.
+///
+/// The key quantises the row relative to its own largest entry, so every
+/// positive multiple of a row has the same key (the constant rows `1.19`
+/// and `1.0017` once did, and two different moves became one law): the
+/// rows under a key are candidates, compared entry by entry.
 pub(super) fn intern(
     rows: &mut Vec<f64>,
-    index: &mut HashMap<Vec<i64>, usize>,
+    index: &mut HashMap<Vec<i64>, Vec<usize>>,
     row: &[f64],
     tol: f64,
 ) -> usize {
     let scale = row.iter().fold(1.0_f64, |s, v| s.max(v.abs()));
-    let q = |v: f64| (v / (scale * tol * 10.0)).round() as i64;
-    let key: Vec<i64> = row.iter().map(|&v| q(v)).collect();
-    if let Some(&i) = index.get(&key) {
+    let quantum = scale * tol * 10.0;
+    let key: Vec<i64> = row.iter().map(|&v| (v / quantum).round() as i64).collect();
+    let width = row.len();
+    let same = |i: usize| {
+        rows[i * width..(i + 1) * width]
+            .iter()
+            .zip(row)
+            .all(|(a, b)| (a - b).abs() <= quantum)
+    };
+    let candidates = index.entry(key).or_default();
+    if let Some(&i) = candidates.iter().find(|&&i| same(i)) {
         return i;
     }
-    let width = row.len();
     let i = rows.len() / width;
     rows.extend_from_slice(row);
-    index.insert(key, i);
+    candidates.push(i);
     i
 }
 

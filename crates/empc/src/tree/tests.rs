@@ -110,3 +110,65 @@ fn node_cap_gives_too_large() {
     assert!(matches!(e, EmpcError::TooLarge(_)), "{e}");
     assert!(e.to_string().contains("max_nodes"), "{e}");
 }
+
+#[test]
+fn intern_keeps_multiples_of_a_row_apart() {
+    use crate::tree::assemble::intern;
+    use std::collections::HashMap;
+    let (mut rows, mut index) = (Vec::new(), HashMap::new());
+    let mut add = |r: &[f64]| intern(&mut rows, &mut index, r, 1e-9);
+    // Constant rows above 1 (input bounds): multiples, not the same row.
+    let a = add(&[0.0, 1.1903455374414478]);
+    assert_ne!(a, add(&[0.0, 1.001737213000038]));
+    assert_ne!(add(&[2.0, 0.0]), add(&[3.0, 0.0]));
+    assert_ne!(add(&[0.5, 0.0]), add(&[0.25, 0.0]));
+    // Rounding noise: the same row.
+    assert_eq!(a, add(&[3e-16, 1.1903455374414473]));
+}
+
+/// Three intervals of one parameter, the outer two with one law (z = 0),
+/// the middle one z = theta: no facet leaves fewer laws on both sides, the
+/// tree must still separate them (it splits the cell).
+#[test]
+fn separates_regions_of_one_law_around_another() {
+    use crate::mpqp::CriticalRegion;
+    use nalgebra::{DMatrix, DVector};
+    let prob = MpqpProblem::from_json_str(
+        r#"{"format": "kestrel.mpqp.v1", "H": [[1]], "F": [[1]], "G": [[0]], "W": [1],
+            "E": [[0]], "theta_lb": [-3], "theta_ub": [3]}"#,
+    )
+    .unwrap();
+    let region = |lo: f64, hi: f64, gain: f64| CriticalRegion {
+        active_set: Vec::new(),
+        a: DMatrix::from_row_slice(2, 1, &[1.0, -1.0]),
+        b: DVector::from_vec(vec![hi, -lo]),
+        fz: DMatrix::from_element(1, 1, gain),
+        gz: DVector::zeros(1),
+        center: DVector::from_element(1, 0.5 * (lo + hi)),
+        radius: 0.5 * (hi - lo),
+    };
+    let sol = MpqpSolution {
+        n: 1,
+        p: 1,
+        regions: vec![
+            region(-3.0, -1.0, 0.0),
+            region(-1.0, 1.0, 1.0),
+            region(1.0, 3.0, 0.0),
+        ],
+        hull_a: DMatrix::zeros(0, 1),
+        hull_b: DVector::zeros(0),
+        theta_lb: DVector::from_element(1, -3.0),
+        theta_ub: DVector::from_element(1, 3.0),
+        stats: Default::default(),
+    };
+    for method in [TreeMethod::Lp, TreeMethod::Sampled] {
+        let settings = TreeSettings {
+            method,
+            ..TreeSettings::default()
+        };
+        let ctl = build_controller(&prob, &sol, &settings).unwrap();
+        assert_eq!(ctl.stats.distinct_laws, 2);
+        assert_eq!(ctl.stats.ambiguous_leaves, 0, "{method:?}");
+        assert_eq!(mismatches(&sol, &ctl.tables, 500, 3), 0, "{method:?}");
+    }
+}

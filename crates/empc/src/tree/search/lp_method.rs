@@ -7,6 +7,10 @@ use crate::lp::LpStatus;
 use crate::tree::search::state::{Ball, Builder, meets_lp};
 use std::collections::HashMap;
 
+/// The key of a split ([`Builder::score`]): whether it separates only in
+/// the cell (no side with fewer laws), then the counts; smaller is better.
+type SplitKey = (bool, (usize, usize));
+
 /// Candidates per node scored exactly (with LPs in the cell), after a cheap ranking.
 const EXACT_CANDIDATES: usize = 12;
 
@@ -134,10 +138,15 @@ impl Builder<'_> {
         out
     }
 
-    /// The split key of hyperplane `h` (distinct laws on the larger side,
-    /// then on both), `None` if it makes no progress. With `exact`, a
-    /// straddling region counts on a side only if it meets that side of the
-    /// cell in a full-dimensional set.
+    /// The split key of hyperplane `h`: first whether it leaves all the
+    /// set's laws on one side (`true`, a worse key), then the distinct laws
+    /// on the larger side and on both; `None` if it makes no progress. With
+    /// `exact`, a straddling region counts on a side only if it meets that
+    /// side of the cell in a full-dimensional set, and a split that keeps
+    /// every law on one side counts as progress only if both sides keep
+    /// regions and one loses some (the key is then the regions on the
+    /// larger side and on both): the cell shrinks and `h` is not chosen
+    /// again below, so repeated such splits end in leaves of one law.
     fn score(
         &mut self,
         h: usize,
@@ -146,7 +155,7 @@ impl Builder<'_> {
         cell: &mut Vec<(Vec<f64>, f64)>,
         exact: bool,
         n_laws: usize,
-    ) -> Option<(usize, usize)> {
+    ) -> Option<SplitKey> {
         let mut seen_l: Vec<u16> = Vec::new();
         let mut seen_r: Vec<u16> = Vec::new();
         let (mut nl, mut nr) = (0, 0);
@@ -182,9 +191,10 @@ impl Builder<'_> {
         }
         let (ll, lr) = (seen_l.len(), seen_r.len());
         if exact && (ll >= n_laws || lr >= n_laws) {
-            return None; // no progress on one side
+            // No fewer laws on one side: progress only in the cell.
+            return (nl > 0 && nr > 0).then_some((true, (nl.max(nr), nl + nr)));
         }
-        Some((ll.max(lr), ll + lr))
+        Some((false, (ll.max(lr), ll + lr)))
     }
 
     pub(in crate::tree) fn build(
@@ -230,7 +240,7 @@ impl Builder<'_> {
         };
         // Cheap scores (cell-free sides, straddlers on both sides) for all
         // candidates; the best few are then scored exactly within the cell.
-        let mut scored: Vec<((usize, usize), usize)> = cands
+        let mut scored: Vec<(SplitKey, usize)> = cands
             .iter()
             .filter_map(|&(h, _)| {
                 self.score(h, &set, &wits, cell, false, n_laws)
@@ -238,12 +248,14 @@ impl Builder<'_> {
             })
             .collect();
         scored.sort_unstable();
-        let mut best: Option<((usize, usize), usize)> = None;
+        let mut best: Option<(SplitKey, usize)> = None;
         if exact {
             for round in 0..2 {
+                // The rest is scored when the best few leave every law on
+                // one side (or make no progress at all).
                 let range = if round == 0 {
                     0..scored.len().min(EXACT_CANDIDATES)
-                } else if best.is_none() {
+                } else if best.is_none_or(|((cell_only, _), _)| cell_only) {
                     scored.len().min(EXACT_CANDIDATES)..scored.len()
                 } else {
                     break;
@@ -260,8 +272,7 @@ impl Builder<'_> {
         } else {
             best = scored.first().copied();
         }
-        let best = best.map(|(k, h)| (h, k.0, k.1));
-        let Some((h, _, _)) = best else {
+        let Some((_, h)) = best else {
             // No facet separates the laws: majority law.
             self.ambiguous += 1;
             return WIDE_LEAF | u32::from(first_law);
