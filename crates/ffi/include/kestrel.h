@@ -17,7 +17,7 @@
 
 // The version of this C ABI: changes whenever a struct, a function or a
 // table format changes incompatibly. `kestrel_abi_version()` returns it.
-#define KESTREL_ABI_VERSION 1
+#define KESTREL_ABI_VERSION 2
 
 // States of the design model (the thesis design; other sizes are
 // `KESTREL_STATUS_BAD_SIZE`).
@@ -92,8 +92,14 @@
 // Words of a Kalman state.
 #define KESTREL_KALMAN16_WORDS 32
 
-// Words of a rate loop's state.
-#define KESTREL_RATE_LOOP_WORDS 311
+// Words of the fast gradient rate loop's state (`KestrelRateLoopF32`,
+// `KestrelRateLoopQ16`).
+#define KESTREL_RATE_LOOP_WORDS 145
+
+// Words of the explicit-law rate loop's state (`KestrelRateLoopEmpcF32`,
+// `KestrelRateLoopEmpcQ16`): the law's value cache of
+// `KESTREL_EMPC_CACHE_ROWS` rows is most of it.
+#define KESTREL_RATE_LOOP_EMPC_WORDS 312
 
 // What a function returns: `KESTREL_STATUS_OK` or why it did nothing
 // useful. No function panics or aborts; on an error the outputs are left
@@ -325,11 +331,19 @@ typedef struct KestrelLoopConfig {
   uint32_t fgm_cycle_budget;
 } KestrelLoopConfig;
 
-// The rate loop in f32 (caller-owned; initialise it with
-// `kestrel_rate_loop_init_fgm_f32` or `kestrel_rate_loop_init_empc_f32`).
+// The fast gradient rate loop in f32 (caller-owned; initialise it with
+// `kestrel_rate_loop_init_fgm_f32`, step it with
+// `kestrel_rate_loop_step_f32`).
 typedef struct KestrelRateLoopF32 {
   uint64_t _opaque[KESTREL_RATE_LOOP_WORDS];
 } KestrelRateLoopF32;
+
+// The explicit-law rate loop in f32 (caller-owned; initialise it with
+// `kestrel_rate_loop_init_empc_f32`, step it with
+// `kestrel_rate_loop_step_empc_f32`).
+typedef struct KestrelRateLoopEmpcF32 {
+  uint64_t _opaque[KESTREL_RATE_LOOP_EMPC_WORDS];
+} KestrelRateLoopEmpcF32;
 
 // One period's input.
 typedef struct KestrelRateInput {
@@ -368,10 +382,15 @@ typedef struct KestrelRateOutput {
   uint32_t solver_cycles;
 } KestrelRateOutput;
 
-// The rate loop in Q15.16; see `KestrelRateLoopF32`.
+// The fast gradient rate loop in Q15.16; see `KestrelRateLoopF32`.
 typedef struct KestrelRateLoopQ16 {
   uint64_t _opaque[KESTREL_RATE_LOOP_WORDS];
 } KestrelRateLoopQ16;
+
+// The explicit-law rate loop in Q15.16; see `KestrelRateLoopEmpcF32`.
+typedef struct KestrelRateLoopEmpcQ16 {
+  uint64_t _opaque[KESTREL_RATE_LOOP_EMPC_WORDS];
+} KestrelRateLoopEmpcQ16;
 
 #ifdef __cplusplus
 extern "C" {
@@ -549,7 +568,7 @@ enum KestrelStatus kestrel_rate_loop_init_fgm_f32(struct KestrelRateLoopF32 *rat
 // outlive the loop) and the design's filter, mixer offsets and bias;
 // returns as `kestrel_rate_loop_init_fgm_f32` and
 // `kestrel_empc16_init_f32`.
-enum KestrelStatus kestrel_rate_loop_init_empc_f32(struct KestrelRateLoopF32 *rate_loop,
+enum KestrelStatus kestrel_rate_loop_init_empc_f32(struct KestrelRateLoopEmpcF32 *rate_loop,
                                                    const struct KestrelDesign *design,
                                                    const struct KestrelEmpc16Tables *tables,
                                                    const struct KestrelLoopConfig *config);
@@ -576,7 +595,7 @@ enum KestrelStatus kestrel_rate_loop_init_fgm_q16(struct KestrelRateLoopQ16 *rat
                                                   const struct KestrelLoopConfig *config);
 
 // `kestrel_rate_loop_init_empc_f32` in Q15.16 (`values_format` Q16).
-enum KestrelStatus kestrel_rate_loop_init_empc_q16(struct KestrelRateLoopQ16 *rate_loop,
+enum KestrelStatus kestrel_rate_loop_init_empc_q16(struct KestrelRateLoopEmpcQ16 *rate_loop,
                                                    const struct KestrelDesign *design,
                                                    const struct KestrelEmpc16Tables *tables,
                                                    const struct KestrelLoopConfig *config);
@@ -587,6 +606,19 @@ enum KestrelStatus kestrel_rate_loop_step_q16(struct KestrelRateLoopQ16 *rate_lo
                                               const struct KestrelRateInput *input,
                                               const struct KestrelClock *clock,
                                               struct KestrelRateOutput *out);
+
+// `kestrel_rate_loop_step_f32` for the explicit-law loop (`iterations`:
+// the tree nodes visited).
+enum KestrelStatus kestrel_rate_loop_step_empc_f32(struct KestrelRateLoopEmpcF32 *rate_loop,
+                                                   const struct KestrelRateInput *input,
+                                                   const struct KestrelClock *clock,
+                                                   struct KestrelRateOutput *out);
+
+// `kestrel_rate_loop_step_empc_f32` for the Q15.16 explicit-law loop.
+enum KestrelStatus kestrel_rate_loop_step_empc_q16(struct KestrelRateLoopEmpcQ16 *rate_loop,
+                                                   const struct KestrelRateInput *input,
+                                                   const struct KestrelClock *clock,
+                                                   struct KestrelRateOutput *out);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -153,6 +153,21 @@ pub(crate) unsafe fn law<S: ValueScalar>(
     Ok(Law::<S>::new(tree, KESTREL_NX)?)
 }
 
+/// [`law`] written into `dst` (its own frame, for the rate loop's
+/// in-place build).
+///
+/// # Safety
+/// As [`law`].
+#[inline(never)]
+pub(crate) unsafe fn law_into<S: ValueScalar>(
+    t: *const KestrelEmpc16Tables,
+    dst: &mut core::mem::MaybeUninit<Law<S>>,
+) -> Result<(), KestrelStatus> {
+    // SAFETY: the contract.
+    dst.write(unsafe { law::<S>(t)? });
+    Ok(())
+}
+
 unsafe fn init<S: ValueScalar, O>(out: *mut O, t: *const KestrelEmpc16Tables) -> KestrelStatus {
     // SAFETY: the C contract of the callers.
     unsafe { slot::init(out, || law::<S>(t)) }

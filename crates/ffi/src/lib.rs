@@ -37,10 +37,12 @@ pub use kalman::{
     kestrel_kalman16_reset_q16,
 };
 pub use rate::{
-    KESTREL_RATE_LOOP_WORDS, KestrelClock, KestrelLoopConfig, KestrelRateInput, KestrelRateLoopF32,
+    KESTREL_RATE_LOOP_EMPC_WORDS, KESTREL_RATE_LOOP_WORDS, KestrelClock, KestrelLoopConfig,
+    KestrelRateInput, KestrelRateLoopEmpcF32, KestrelRateLoopEmpcQ16, KestrelRateLoopF32,
     KestrelRateLoopQ16, KestrelRateOutput, kestrel_loop_config_default,
     kestrel_rate_loop_init_empc_f32, kestrel_rate_loop_init_empc_q16,
-    kestrel_rate_loop_init_fgm_f32, kestrel_rate_loop_init_fgm_q16, kestrel_rate_loop_step_f32,
+    kestrel_rate_loop_init_fgm_f32, kestrel_rate_loop_init_fgm_q16,
+    kestrel_rate_loop_step_empc_f32, kestrel_rate_loop_step_empc_q16, kestrel_rate_loop_step_f32,
     kestrel_rate_loop_step_q16,
 };
 pub use status::{KestrelStatus, status_of};
@@ -48,7 +50,7 @@ pub use tables::{KestrelDesign, KestrelEmpc16Tables, KestrelTree16Layout};
 
 /// The version of this C ABI: changes whenever a struct, a function or a
 /// table format changes incompatibly. `kestrel_abi_version()` returns it.
-pub const KESTREL_ABI_VERSION: u16 = 1;
+pub const KESTREL_ABI_VERSION: u16 = 2;
 
 /// States of the design model (the thesis design; other sizes are
 /// `KESTREL_STATUS_BAD_SIZE`).

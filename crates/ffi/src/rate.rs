@@ -9,6 +9,7 @@ use crate::status::{KestrelStatus, code};
 use crate::tables::{Design, KestrelDesign, KestrelEmpc16Tables, ValueScalar};
 use crate::{KESTREL_NU, KESTREL_NX, KESTREL_NY};
 use core::ffi::c_void;
+use core::mem::MaybeUninit;
 use kestrel_avr_rt::control::{GyroCheck, Mixer, RateLoop};
 use kestrel_avr_rt::cycles::{CycleBudget, CycleClock, Deadline};
 use kestrel_avr_rt::fgm16::Fgm16Deadline;
@@ -19,20 +20,41 @@ use kestrel_avr_rt::mac::Q16Mac;
 use kestrel_avr_rt::output::{PwmLimits, SafeOutput};
 use kestrel_core::{ControlLaw, Error, Matrix};
 
-/// Words of a rate loop's state.
-pub const KESTREL_RATE_LOOP_WORDS: usize = 311;
+/// Words of the fast gradient rate loop's state (`KestrelRateLoopF32`,
+/// `KestrelRateLoopQ16`).
+pub const KESTREL_RATE_LOOP_WORDS: usize = 145;
 
-/// The rate loop in f32 (caller-owned; initialise it with
-/// `kestrel_rate_loop_init_fgm_f32` or `kestrel_rate_loop_init_empc_f32`).
+/// Words of the explicit-law rate loop's state (`KestrelRateLoopEmpcF32`,
+/// `KestrelRateLoopEmpcQ16`): the law's value cache of
+/// `KESTREL_EMPC_CACHE_ROWS` rows is most of it.
+pub const KESTREL_RATE_LOOP_EMPC_WORDS: usize = 312;
+
+/// The fast gradient rate loop in f32 (caller-owned; initialise it with
+/// `kestrel_rate_loop_init_fgm_f32`, step it with
+/// `kestrel_rate_loop_step_f32`).
 #[repr(C)]
 pub struct KestrelRateLoopF32 {
     _opaque: [u64; KESTREL_RATE_LOOP_WORDS],
 }
 
-/// The rate loop in Q15.16; see `KestrelRateLoopF32`.
+/// The fast gradient rate loop in Q15.16; see `KestrelRateLoopF32`.
 #[repr(C)]
 pub struct KestrelRateLoopQ16 {
     _opaque: [u64; KESTREL_RATE_LOOP_WORDS],
+}
+
+/// The explicit-law rate loop in f32 (caller-owned; initialise it with
+/// `kestrel_rate_loop_init_empc_f32`, step it with
+/// `kestrel_rate_loop_step_empc_f32`).
+#[repr(C)]
+pub struct KestrelRateLoopEmpcF32 {
+    _opaque: [u64; KESTREL_RATE_LOOP_EMPC_WORDS],
+}
+
+/// The explicit-law rate loop in Q15.16; see `KestrelRateLoopEmpcF32`.
+#[repr(C)]
+pub struct KestrelRateLoopEmpcQ16 {
+    _opaque: [u64; KESTREL_RATE_LOOP_EMPC_WORDS],
 }
 
 /// The loop's limits and failsafe (`kestrel_loop_config_default` fills
@@ -140,75 +162,130 @@ impl Deadline for Budget {
     }
 }
 
-/// The rate loop's law: the fast gradient or the explicit MPC.
-#[derive(Clone, Debug)]
-#[allow(clippy::large_enum_variant)] // the state is caller-owned, sized for the larger
-pub(crate) enum LoopLaw<S: ValueScalar> {
-    /// kestrel-avr-rt's `Fgm16Law` with a deadline.
-    Fgm(Fgm16Deadline<fgm::Law<S>, Budget>),
-    /// kestrel-avr-rt's `Empc16Law`.
-    Empc(empc::Law<S>),
+/// The fast gradient law of the loop, with its deadline.
+pub(crate) type FgmLaw<S> = Fgm16Deadline<fgm::Law<S>, Budget>;
+
+/// A law the loop runs: it is told the step's cycle budget.
+pub(crate) trait StepLaw: ControlLaw + LawInfo {
+    /// Sets the deadline of the coming step (`budget` 0: none).
+    fn arm(&mut self, budget: u32, clock: &KestrelClock);
 }
 
-impl<S: ValueScalar> ControlLaw for LoopLaw<S> {
-    type Scalar = S;
+impl<S: ValueScalar> StepLaw for FgmLaw<S> {
+    fn arm(&mut self, budget: u32, clock: &KestrelClock) {
+        self.deadline = match (budget, clock.now) {
+            (0, _) | (_, None) => Budget::Off,
+            (b, Some(_)) => Budget::On(CycleBudget::new(*clock, b)),
+        };
+    }
+}
+
+impl<S: ValueScalar> StepLaw for empc::Law<S> {
+    fn arm(&mut self, _budget: u32, _clock: &KestrelClock) {}
+}
+
+/// The loop's handle on its law, which lives beside the `RateLoop` in the
+/// state (built there in place, never moved through the stack): a
+/// pointer set from the state's own address before every use, so a state
+/// copied by the caller stays valid.
+pub(crate) struct LawAt<L>(*mut L);
+
+impl<L: StepLaw> ControlLaw for LawAt<L> {
+    type Scalar = L::Scalar;
+    // SAFETY (every method): the pointer is set from the live state's
+    // `law` field just before the loop uses it (`build`, `step`), and no
+    // other reference to that field is live meanwhile.
     fn nx(&self) -> usize {
-        match self {
-            LoopLaw::Fgm(l) => l.nx(),
-            LoopLaw::Empc(l) => l.nx(),
-        }
+        unsafe { (*self.0).nx() }
     }
     fn nr(&self) -> usize {
-        match self {
-            LoopLaw::Fgm(l) => l.nr(),
-            LoopLaw::Empc(l) => l.nr(),
-        }
+        unsafe { (*self.0).nr() }
     }
     fn nu(&self) -> usize {
-        match self {
-            LoopLaw::Fgm(l) => l.nu(),
-            LoopLaw::Empc(l) => l.nu(),
-        }
+        unsafe { (*self.0).nu() }
     }
-    fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
-        match self {
-            LoopLaw::Fgm(l) => l.control(x, r, u),
-            LoopLaw::Empc(l) => l.control(x, r, u),
-        }
+    fn control(
+        &mut self,
+        x: &[L::Scalar],
+        r: &[L::Scalar],
+        u: &mut [L::Scalar],
+    ) -> Result<(), Error> {
+        unsafe { (*self.0).control(x, r, u) }
     }
 }
 
-impl<S: ValueScalar> LawInfo for LoopLaw<S> {
+impl<L: StepLaw> LawInfo for LawAt<L> {
     fn iterations(&self) -> u16 {
-        match self {
-            LoopLaw::Fgm(l) => l.iterations(),
-            LoopLaw::Empc(l) => l.iterations(),
-        }
+        // SAFETY: as for `ControlLaw`.
+        unsafe { (*self.0).iterations() }
     }
     fn restart(&mut self) {
-        match self {
-            LoopLaw::Fgm(l) => l.restart(),
-            LoopLaw::Empc(l) => l.restart(),
-        }
+        // SAFETY: as for `ControlLaw`.
+        unsafe { (*self.0).restart() }
     }
 }
 
-/// The loop in `S`, with its fast gradient's cycle budget.
-pub(crate) struct Loop<S: ValueScalar> {
-    /// kestrel-avr-rt's loop.
+/// The loop in `S` with the law `L`, and its fast gradient's cycle budget.
+pub(crate) struct Loop<S: ValueScalar, L> {
+    /// kestrel-avr-rt's loop, running the law below.
     pub(crate) inner:
-        RateLoop<S, Kalman16<S, KESTREL_NX, KESTREL_NU, KESTREL_NY>, LoopLaw<S>, KESTREL_NU>,
+        RateLoop<S, Kalman16<S, KESTREL_NX, KESTREL_NU, KESTREL_NY>, LawAt<L>, KESTREL_NU>,
+    /// The law.
+    pub(crate) law: L,
     /// `KestrelLoopConfig.fgm_cycle_budget`.
     pub(crate) budget: u32,
 }
 
-/// The loop of the checked design with `law`, as the firmware builds it:
-/// identity mixer with the design's offsets, throttle into the ESCs.
-pub(crate) fn build<S: ValueScalar>(
+/// Writes the fast gradient law of `d` into `dst`.
+#[inline(never)]
+fn fgm_law<S: ValueScalar>(
     d: &Design,
-    law: LoopLaw<S>,
+    dst: &mut MaybeUninit<FgmLaw<S>>,
+) -> Result<(), KestrelStatus> {
+    dst.write(Fgm16Deadline {
+        law: fgm::law(d)?,
+        deadline: Budget::Off,
+    });
+    Ok(())
+}
+
+/// The loop of the checked design, as the firmware builds it (identity
+/// mixer with the design's offsets, throttle into the ESCs), written in
+/// place: first the law by `law` into its field (its own frame, gone
+/// before the rest), then the small `RateLoop` around it.
+#[inline(never)]
+fn build<S: ValueScalar, L: StepLaw<Scalar = S>>(
+    d: &Design,
     config: &KestrelLoopConfig,
-) -> Result<Loop<S>, KestrelStatus> {
+    law: impl FnOnce(&mut MaybeUninit<L>) -> Result<(), KestrelStatus>,
+    dst: &mut MaybeUninit<Loop<S, L>>,
+) -> Result<(), KestrelStatus> {
+    let p = dst.as_mut_ptr();
+    // SAFETY: `p` is the caller's writable state; the field pointer is
+    // only written through.
+    let law_at = unsafe { &raw mut (*p).law };
+    // SAFETY: a field of the state, as `MaybeUninit` (same layout).
+    law(unsafe { &mut *law_at.cast::<MaybeUninit<L>>() })?;
+    let inner = rate_loop::<S, L>(d, config, LawAt(law_at))?;
+    // SAFETY: the other fields of the writable state.
+    unsafe {
+        (&raw mut (*p).inner).write(inner);
+        (&raw mut (*p).budget).write(config.fgm_cycle_budget);
+    }
+    Ok(())
+}
+
+/// The `RateLoop` around the law at `law` (written): config checks,
+/// mixer, bias and filter, in the order of the firmware.
+#[inline(never)]
+fn rate_loop<S: ValueScalar, L: StepLaw<Scalar = S>>(
+    d: &Design,
+    config: &KestrelLoopConfig,
+    law: LawAt<L>,
+) -> Result<
+    RateLoop<S, Kalman16<S, KESTREL_NX, KESTREL_NU, KESTREL_NY>, LawAt<L>, KESTREL_NU>,
+    KestrelStatus,
+> {
     let limits = PwmLimits {
         esc_min: config.esc_min,
         esc_max: config.esc_max,
@@ -231,7 +308,6 @@ pub(crate) fn build<S: ValueScalar>(
     };
     let filter = Kalman16::new(d.kalman16()?);
     let mut l = RateLoop::new(filter, law, bias, mixer, limits, safe)?;
-    let budget = config.fgm_cycle_budget;
     if config.gyro_stuck_periods > 0 {
         if !config.gyro_full_scale.is_finite() || config.gyro_full_scale <= 0.0 {
             return Err(KestrelStatus::InvalidTable);
@@ -241,7 +317,7 @@ pub(crate) fn build<S: ValueScalar>(
             config.gyro_stuck_periods,
         ));
     }
-    Ok(Loop { inner: l, budget })
+    Ok(l)
 }
 
 unsafe fn init_fgm<S: ValueScalar, O>(
@@ -251,14 +327,10 @@ unsafe fn init_fgm<S: ValueScalar, O>(
 ) -> KestrelStatus {
     // SAFETY: the C contract of the callers.
     unsafe {
-        slot::init(out, || {
+        slot::init_with(out, |dst: &mut MaybeUninit<Loop<S, FgmLaw<S>>>| {
             let config = config.as_ref().ok_or(KestrelStatus::NullPointer)?;
             let d = Design::new(design, Some(S::FORMAT))?;
-            let law = Fgm16Deadline {
-                law: fgm::law(&d)?,
-                deadline: Budget::Off,
-            };
-            build::<S>(&d, LoopLaw::Fgm(law), config)
+            build(&d, config, |law| fgm_law::<S>(&d, law), dst)
         })
     }
 }
@@ -271,15 +343,15 @@ unsafe fn init_empc<S: ValueScalar, O>(
 ) -> KestrelStatus {
     // SAFETY: the C contract of the callers.
     unsafe {
-        slot::init(out, || {
+        slot::init_with(out, |dst: &mut MaybeUninit<Loop<S, empc::Law<S>>>| {
             let config = config.as_ref().ok_or(KestrelStatus::NullPointer)?;
             let d = Design::new(design, Some(S::FORMAT))?;
-            build::<S>(&d, LoopLaw::Empc(empc::law(tables)?), config)
+            build(&d, config, |law| empc::law_into::<S>(tables, law), dst)
         })
     }
 }
 
-unsafe fn step<S: ValueScalar, O>(
+unsafe fn step<S: ValueScalar, L: StepLaw<Scalar = S>, O>(
     state: *mut O,
     input: *const KestrelRateInput,
     clock: *const KestrelClock,
@@ -287,7 +359,7 @@ unsafe fn step<S: ValueScalar, O>(
 ) -> KestrelStatus {
     // SAFETY: the C contract of the callers.
     let r = unsafe {
-        slot::get::<Loop<S>, O>(state).and_then(|l| {
+        slot::get::<Loop<S, L>, O>(state).and_then(|l| {
             let input = input.as_ref().ok_or(KestrelStatus::NullPointer)?;
             if out.is_null() {
                 return Err(KestrelStatus::NullPointer);
@@ -303,12 +375,8 @@ unsafe fn step<S: ValueScalar, O>(
                 ctx: core::ptr::null_mut(),
             };
             let clock = clock.as_ref().unwrap_or(&none);
-            if let LoopLaw::Fgm(f) = &mut l.inner.law {
-                f.deadline = match (l.budget, clock.now) {
-                    (0, _) | (_, None) => Budget::Off,
-                    (b, Some(_)) => Budget::On(CycleBudget::new(*clock, b)),
-                };
-            }
+            l.law.arm(l.budget, clock);
+            l.inner.law = LawAt(&raw mut l.law);
             let p = l.inner.period(fresh, clock);
             out.write(KestrelRateOutput {
                 pwm: p.pwm,
@@ -379,7 +447,7 @@ pub unsafe extern "C" fn kestrel_rate_loop_init_fgm_f32(
 /// `kestrel_empc16_init_f32`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_rate_loop_init_empc_f32(
-    rate_loop: *mut KestrelRateLoopF32,
+    rate_loop: *mut KestrelRateLoopEmpcF32,
     design: *const KestrelDesign,
     tables: *const KestrelEmpc16Tables,
     config: *const KestrelLoopConfig,
@@ -407,7 +475,7 @@ pub unsafe extern "C" fn kestrel_rate_loop_step_f32(
     out: *mut KestrelRateOutput,
 ) -> KestrelStatus {
     // SAFETY: the C contract.
-    unsafe { step::<f32, _>(rate_loop, input, clock, out) }
+    unsafe { step::<f32, FgmLaw<f32>, _>(rate_loop, input, clock, out) }
 }
 
 /// `kestrel_rate_loop_init_fgm_f32` in Q15.16 (`values_format` Q16).
@@ -424,7 +492,7 @@ pub unsafe extern "C" fn kestrel_rate_loop_init_fgm_q16(
 /// `kestrel_rate_loop_init_empc_f32` in Q15.16 (`values_format` Q16).
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn kestrel_rate_loop_init_empc_q16(
-    rate_loop: *mut KestrelRateLoopQ16,
+    rate_loop: *mut KestrelRateLoopEmpcQ16,
     design: *const KestrelDesign,
     tables: *const KestrelEmpc16Tables,
     config: *const KestrelLoopConfig,
@@ -443,5 +511,30 @@ pub unsafe extern "C" fn kestrel_rate_loop_step_q16(
     out: *mut KestrelRateOutput,
 ) -> KestrelStatus {
     // SAFETY: the C contract.
-    unsafe { step::<Q16Mac, _>(rate_loop, input, clock, out) }
+    unsafe { step::<Q16Mac, FgmLaw<Q16Mac>, _>(rate_loop, input, clock, out) }
+}
+
+/// `kestrel_rate_loop_step_f32` for the explicit-law loop (`iterations`:
+/// the tree nodes visited).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn kestrel_rate_loop_step_empc_f32(
+    rate_loop: *mut KestrelRateLoopEmpcF32,
+    input: *const KestrelRateInput,
+    clock: *const KestrelClock,
+    out: *mut KestrelRateOutput,
+) -> KestrelStatus {
+    // SAFETY: the C contract.
+    unsafe { step::<f32, empc::Law<f32>, _>(rate_loop, input, clock, out) }
+}
+
+/// `kestrel_rate_loop_step_empc_f32` for the Q15.16 explicit-law loop.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn kestrel_rate_loop_step_empc_q16(
+    rate_loop: *mut KestrelRateLoopEmpcQ16,
+    input: *const KestrelRateInput,
+    clock: *const KestrelClock,
+    out: *mut KestrelRateOutput,
+) -> KestrelStatus {
+    // SAFETY: the C contract.
+    unsafe { step::<Q16Mac, empc::Law<Q16Mac>, _>(rate_loop, input, clock, out) }
 }

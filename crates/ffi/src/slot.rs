@@ -50,6 +50,36 @@ pub(crate) unsafe fn init<T, O>(
     }
 }
 
+/// [`init`] with the value written in place by `value` into the state's
+/// memory (no by-value return of a large value through the stack).
+///
+/// # Safety
+/// As [`init`]; `value` must have written the whole value when it returns
+/// `Ok`.
+pub(crate) unsafe fn init_with<T, O>(
+    out: *mut O,
+    value: impl FnOnce(&mut MaybeUninit<T>) -> Result<(), KestrelStatus>,
+) -> KestrelStatus {
+    const { assert!(fits::<T, O>(), "the opaque state is too small") };
+    if out.is_null() {
+        return KestrelStatus::NullPointer;
+    }
+    let slot = out.cast::<Slot<T>>();
+    // SAFETY: as in `init`.
+    unsafe { core::ptr::addr_of_mut!((*slot).magic).write(0) };
+    // SAFETY: the value field of the writable state, not otherwise
+    // referenced.
+    let dst = unsafe { &mut *core::ptr::addr_of_mut!((*slot).value) };
+    match value(dst) {
+        Ok(()) => {
+            // SAFETY: as above; the value is written (the contract).
+            unsafe { core::ptr::addr_of_mut!((*slot).magic).write(MAGIC) };
+            KestrelStatus::Ok
+        }
+        Err(e) => e,
+    }
+}
+
 /// The value in the opaque state `p`, if `init` put one there.
 ///
 /// # Safety

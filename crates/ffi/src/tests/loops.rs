@@ -217,7 +217,7 @@ fn explicit_loop_equals_the_firmware_loop_f32_and_q16() {
 
     let owned = Owned::new(KESTREL_FORMAT_F32);
     let d = owned.design();
-    let mut l = std::boxed::Box::new(core::mem::MaybeUninit::<KestrelRateLoopF32>::zeroed());
+    let mut l = std::boxed::Box::new(core::mem::MaybeUninit::<KestrelRateLoopEmpcF32>::zeroed());
     // SAFETY (all unsafe calls below): valid pointers to live values.
     assert_eq!(
         unsafe { kestrel_rate_loop_init_empc_f32(l.as_mut_ptr(), &d, &t, &config()) },
@@ -226,13 +226,13 @@ fn explicit_loop_equals_the_firmware_loop_f32_and_q16() {
     let law = Empc16Law::<f32, _, 9, 4, { ge::EMPC16_ROWS }>::new(tree, 5).unwrap();
     run(
         reference(|i| g::VALUES_F32[i], law),
-        |i, c, o| unsafe { kestrel_rate_loop_step_f32(l.as_mut_ptr(), i, c, o) },
+        |i, c, o| unsafe { kestrel_rate_loop_step_empc_f32(l.as_mut_ptr(), i, c, o) },
         3,
     );
 
     let owned = Owned::new(KESTREL_FORMAT_Q16);
     let d = owned.design();
-    let mut l = std::boxed::Box::new(core::mem::MaybeUninit::<KestrelRateLoopQ16>::zeroed());
+    let mut l = std::boxed::Box::new(core::mem::MaybeUninit::<KestrelRateLoopEmpcQ16>::zeroed());
     assert_eq!(
         unsafe { kestrel_rate_loop_init_empc_q16(l.as_mut_ptr(), &d, &t, &config()) },
         KestrelStatus::Ok
@@ -240,7 +240,7 @@ fn explicit_loop_equals_the_firmware_loop_f32_and_q16() {
     let law = Empc16Law::<Q16Mac, _, 9, 4, { ge::EMPC16_ROWS }>::new(tree, 5).unwrap();
     run(
         reference(|i| Q16Mac::from_bits(g::VALUES_Q16[i]), law),
-        |i, c, o| unsafe { kestrel_rate_loop_step_q16(l.as_mut_ptr(), i, c, o) },
+        |i, c, o| unsafe { kestrel_rate_loop_step_empc_q16(l.as_mut_ptr(), i, c, o) },
         4,
     );
 }
@@ -313,5 +313,58 @@ unsafe extern "C" fn count_1000(ctx: *mut c_void) -> u32 {
         let c = ctx.cast::<u32>();
         *c = c.read().wrapping_add(1000);
         c.read()
+    }
+}
+
+#[test]
+fn a_copied_loop_state_runs_on_like_the_original() {
+    let owned = Owned::new(KESTREL_FORMAT_F32);
+    let d = owned.design();
+    let mut a = std::boxed::Box::new(core::mem::MaybeUninit::<KestrelRateLoopF32>::zeroed());
+    let input = KestrelRateInput {
+        gyro: [0.3, -0.2, 0.1],
+        reference: [1.0, -1.0, 0.5],
+        throttle: 1400.0,
+        fresh: 1,
+    };
+    // SAFETY: valid pointers to live values; the copy is a byte copy of
+    // an initialised state (the C caller's memcpy).
+    unsafe {
+        assert_eq!(
+            kestrel_rate_loop_init_fgm_f32(a.as_mut_ptr(), &d, &config()),
+            KestrelStatus::Ok
+        );
+        let mut out = KestrelRateOutput::default();
+        for _ in 0..3 {
+            kestrel_rate_loop_step_f32(a.as_mut_ptr(), &input, core::ptr::null(), &mut out);
+        }
+        let mut b = std::boxed::Box::new(core::mem::MaybeUninit::<KestrelRateLoopF32>::uninit());
+        core::ptr::copy_nonoverlapping(a.as_ptr(), b.as_mut_ptr(), 1);
+        for k in 0..5 {
+            let mut oa = KestrelRateOutput::default();
+            let mut ob = KestrelRateOutput::default();
+            let i = KestrelRateInput {
+                gyro: [0.1 * k as f32, 0.2, -0.3],
+                ..input
+            };
+            assert_eq!(
+                kestrel_rate_loop_step_f32(a.as_mut_ptr(), &i, core::ptr::null(), &mut oa),
+                KestrelStatus::Ok
+            );
+            assert_eq!(
+                kestrel_rate_loop_step_f32(b.as_mut_ptr(), &i, core::ptr::null(), &mut ob),
+                KestrelStatus::Ok
+            );
+            assert_eq!(oa, ob);
+            assert!(oa.iterations > 0);
+        }
+        // The original dropped: the copy runs on its own law.
+        *a = core::mem::MaybeUninit::zeroed();
+        let mut ob = KestrelRateOutput::default();
+        assert_eq!(
+            kestrel_rate_loop_step_f32(b.as_mut_ptr(), &input, core::ptr::null(), &mut ob),
+            KestrelStatus::Ok
+        );
+        assert!(ob.iterations > 0);
     }
 }
