@@ -139,6 +139,7 @@ pub(crate) type Law<S> = Empc16Law<S, TreeTable, KESTREL_NP, KESTREL_NU, KESTREL
 ///
 /// # Safety
 /// `t` is NULL or points at tables that keep their contract.
+#[inline(always)]
 pub(crate) unsafe fn law<S: ValueScalar>(
     t: *const KestrelEmpc16Tables,
 ) -> Result<Law<S>, KestrelStatus> {
@@ -170,7 +171,7 @@ pub(crate) unsafe fn law_into<S: ValueScalar>(
 
 unsafe fn init<S: ValueScalar, O>(out: *mut O, t: *const KestrelEmpc16Tables) -> KestrelStatus {
     // SAFETY: the C contract of the callers.
-    unsafe { slot::init(out, || law::<S>(t)) }
+    unsafe { slot::init_with(out, |dst| law_into::<S>(t, dst)) }
 }
 
 unsafe fn eval<S: ValueScalar, O>(

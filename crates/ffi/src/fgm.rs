@@ -31,7 +31,19 @@ pub struct KestrelFgm16Q16 {
 /// The law of a design, in `S`.
 pub(crate) type Law<S> = Fgm16Law<S, KESTREL_NZ, KESTREL_NP, KESTREL_FGM_T, KESTREL_NU>;
 
+/// [`law`] written into `dst` (its own frame: no copy of the law in its
+/// callers' frames).
+#[inline(never)]
+pub(crate) fn law_into<S: ValueScalar>(
+    d: &Design,
+    dst: &mut core::mem::MaybeUninit<Law<S>>,
+) -> Result<(), KestrelStatus> {
+    dst.write(law::<S>(d)?);
+    Ok(())
+}
+
 /// The fast gradient law of the checked design `d`.
+#[inline(always)]
 pub(crate) fn law<S: ValueScalar>(d: &Design) -> Result<Law<S>, KestrelStatus> {
     let (m16, betas) = d.fgm16()?;
     Ok(Law::<S>::new(
@@ -46,7 +58,11 @@ pub(crate) fn law<S: ValueScalar>(d: &Design) -> Result<Law<S>, KestrelStatus> {
 
 unsafe fn init<S: ValueScalar, O>(out: *mut O, design: *const KestrelDesign) -> KestrelStatus {
     // SAFETY: the C contract of the callers.
-    unsafe { slot::init(out, || law::<S>(&Design::new(design, Some(S::FORMAT))?)) }
+    unsafe {
+        slot::init_with(out, |dst| {
+            law_into::<S>(&Design::new(design, Some(S::FORMAT))?, dst)
+        })
+    }
 }
 
 unsafe fn solve<S: ValueScalar, O>(

@@ -225,11 +225,14 @@ impl<L: StepLaw> LawInfo for LawAt<L> {
     }
 }
 
+/// kestrel-avr-rt's loop around the law at a `LawAt`.
+pub(crate) type Inner<S, L> =
+    RateLoop<S, Kalman16<S, KESTREL_NX, KESTREL_NU, KESTREL_NY>, LawAt<L>, KESTREL_NU>;
+
 /// The loop in `S` with the law `L`, and its fast gradient's cycle budget.
 pub(crate) struct Loop<S: ValueScalar, L> {
     /// kestrel-avr-rt's loop, running the law below.
-    pub(crate) inner:
-        RateLoop<S, Kalman16<S, KESTREL_NX, KESTREL_NU, KESTREL_NY>, LawAt<L>, KESTREL_NU>,
+    pub(crate) inner: Inner<S, L>,
     /// The law.
     pub(crate) law: L,
     /// `KestrelLoopConfig.fgm_cycle_budget`.
@@ -237,15 +240,16 @@ pub(crate) struct Loop<S: ValueScalar, L> {
 }
 
 /// Writes the fast gradient law of `d` into `dst`.
-#[inline(never)]
 fn fgm_law<S: ValueScalar>(
     d: &Design,
     dst: &mut MaybeUninit<FgmLaw<S>>,
 ) -> Result<(), KestrelStatus> {
-    dst.write(Fgm16Deadline {
-        law: fgm::law(d)?,
-        deadline: Budget::Off,
-    });
+    let p = dst.as_mut_ptr();
+    // SAFETY: fields of the writable `dst`, as `MaybeUninit` (same layout).
+    unsafe {
+        fgm::law_into::<S>(d, &mut *(&raw mut (*p).law).cast())?;
+        (&raw mut (*p).deadline).write(Budget::Off);
+    }
     Ok(())
 }
 
@@ -266,26 +270,23 @@ fn build<S: ValueScalar, L: StepLaw<Scalar = S>>(
     let law_at = unsafe { &raw mut (*p).law };
     // SAFETY: a field of the state, as `MaybeUninit` (same layout).
     law(unsafe { &mut *law_at.cast::<MaybeUninit<L>>() })?;
-    let inner = rate_loop::<S, L>(d, config, LawAt(law_at))?;
-    // SAFETY: the other fields of the writable state.
+    // SAFETY: as above, the other fields.
     unsafe {
-        (&raw mut (*p).inner).write(inner);
+        rate_loop::<S, L>(d, config, LawAt(law_at), &mut *(&raw mut (*p).inner).cast())?;
         (&raw mut (*p).budget).write(config.fgm_cycle_budget);
     }
     Ok(())
 }
 
-/// The `RateLoop` around the law at `law` (written): config checks,
-/// mixer, bias and filter, in the order of the firmware.
+/// Writes the `RateLoop` around the law at `law` (written) into `dst`:
+/// config checks, mixer, bias and filter, in the order of the firmware.
 #[inline(never)]
 fn rate_loop<S: ValueScalar, L: StepLaw<Scalar = S>>(
     d: &Design,
     config: &KestrelLoopConfig,
     law: LawAt<L>,
-) -> Result<
-    RateLoop<S, Kalman16<S, KESTREL_NX, KESTREL_NU, KESTREL_NY>, LawAt<L>, KESTREL_NU>,
-    KestrelStatus,
-> {
+    dst: &mut MaybeUninit<Inner<S, L>>,
+) -> Result<(), KestrelStatus> {
     let limits = PwmLimits {
         esc_min: config.esc_min,
         esc_max: config.esc_max,
@@ -317,7 +318,8 @@ fn rate_loop<S: ValueScalar, L: StepLaw<Scalar = S>>(
             config.gyro_stuck_periods,
         ));
     }
-    Ok(l)
+    dst.write(l);
+    Ok(())
 }
 
 unsafe fn init_fgm<S: ValueScalar, O>(
