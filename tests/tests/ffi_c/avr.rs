@@ -6,7 +6,8 @@
 //! kestrel-avr-rt's rate loop on the host (the same fixed input sequence;
 //! equal in every period: pulses, flags and iterations), the
 //! bad-table codes from flash are checked, and the cycles per stage
-//! (Timer1, as the Rust firmware counts them), flash and RAM are printed
+//! (Timer1, as the Rust firmware counts them), flash, RAM and the peak
+//! stack (painted) are printed
 //! (and one `C-AVR-REPORT {json}` line per build). Skipped when avr-gcc,
 //! simavr, avr-size, make or rustup is missing, unless `KESTREL_REQUIRE_AVR`
 //! is set (then it fails).
@@ -303,9 +304,21 @@ fn check_scalar<S: Scalar, L: ControlLaw<Scalar = S> + LawInfo>(
     assert_eq!(flag(202), 0, "{scalar}: recovery");
     assert_ne!(flag(250) & status::NON_FINITE, 0, "{scalar}: NaN gyro");
     let (flash, ram) = avr_size(&elf);
+    // The peak stack: main.c paints the free RAM at start-up and reports
+    // how far down from RAMEND it was written.
+    let stack: u64 = lines
+        .iter()
+        .find_map(|l| l.strip_prefix("STACK "))
+        .unwrap_or_else(|| panic!("{scalar}: no STACK line"))
+        .parse()
+        .expect("STACK bytes");
+    assert!(
+        ram + stack <= 8192,
+        "{scalar}: {ram} B static + {stack} B stack beyond the 8 kB of RAM"
+    );
     let m = |s: &CycleStats| format!("{}/{:.0}/{}", s.min, s.mean().unwrap_or(0.0), s.max);
     println!(
-        "C on the ATmega2560, {scalar}: kalman {} cycles, solver {} cycles, whole step {} cycles (min/mean/max over {} periods); flash {flash} B, RAM {ram} B (static); pulses equal to the Rust library's in {exact} of {PERIODS} periods (max difference {max_diff} us); simavr {:.1} s",
+        "C on the ATmega2560, {scalar}: kalman {} cycles, solver {} cycles, whole step {} cycles (min/mean/max over {} periods); flash {flash} B, RAM {ram} B (static), peak stack {stack} B; pulses equal to the Rust library's in {exact} of {PERIODS} periods (max difference {max_diff} us); simavr {:.1} s",
         m(&kal),
         m(&sol),
         m(&step),
@@ -313,7 +326,7 @@ fn check_scalar<S: Scalar, L: ControlLaw<Scalar = S> + LawInfo>(
         sim_time.as_secs_f64()
     );
     println!(
-        "C-AVR-REPORT {{\"build\": \"{scalar}\", \"kalman\": {}, \"solver\": {}, \"step\": {}, \"flash\": {flash}, \"ram\": {ram}, \"exact_periods\": {exact}, \"max_pwm_diff\": {max_diff}}}",
+        "C-AVR-REPORT {{\"build\": \"{scalar}\", \"kalman\": {}, \"solver\": {}, \"step\": {}, \"flash\": {flash}, \"ram\": {ram}, \"stack\": {stack}, \"exact_periods\": {exact}, \"max_pwm_diff\": {max_diff}}}",
         json(&kal),
         json(&sol),
         json(&step)
