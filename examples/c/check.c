@@ -6,6 +6,7 @@
  *
  *     check loop-f32 | loop-q16      stdin: "fresh g0 g1 g2 r0 r1 r2 thr" (hex bits of f32)
  *                                    out:   "status pwm0 pwm1 pwm2 pwm3 flags iterations"
+ *     check loop-empc-f32 | loop-empc-q16   the same with the explicit law
  *     check kalman-f32 | kalman-q16  stdin: "y0 y1 y2 u0 u1 u2 u3" (hex bits: f32 or Q15.16)
  *                                    out:   "status x0..x4 status x0..x4" (after the
  *                                           measurement update, after the time update)
@@ -48,6 +49,8 @@ static int read_words(uint32_t *w, int n) {
 
 static KestrelRateLoopF32 loop_f32;
 static KestrelRateLoopQ16 loop_q16;
+static KestrelRateLoopEmpcF32 loop_empc_f32;
+static KestrelRateLoopEmpcQ16 loop_empc_q16;
 static KestrelKalman16F32 kf_f32;
 static KestrelKalman16Q16 kf_q16;
 static KestrelFgm16F32 fgm_f32;
@@ -55,12 +58,16 @@ static KestrelFgm16Q16 fgm_q16;
 static KestrelEmpc16F32 empc_f32;
 static KestrelEmpc16Q16 empc_q16;
 
-static int run_loop(int q16) {
+static int run_loop(int q16, int empc) {
     KestrelLoopConfig config;
     kestrel_loop_config_default(&config);
     KestrelDesign d = q16 ? kestrel_design_q16() : kestrel_design_f32();
-    KestrelStatus st = q16 ? kestrel_rate_loop_init_fgm_q16(&loop_q16, &d, &config)
-                           : kestrel_rate_loop_init_fgm_f32(&loop_f32, &d, &config);
+    static KestrelEmpc16Tables t; /* outlives the loop */
+    t = kestrel_empc_tables();
+    KestrelStatus st = empc ? (q16 ? kestrel_rate_loop_init_empc_q16(&loop_empc_q16, &d, &t, &config)
+                                   : kestrel_rate_loop_init_empc_f32(&loop_empc_f32, &d, &t, &config))
+                            : (q16 ? kestrel_rate_loop_init_fgm_q16(&loop_q16, &d, &config)
+                                   : kestrel_rate_loop_init_fgm_f32(&loop_f32, &d, &config));
     if (st != KESTREL_STATUS_OK) { fprintf(stderr, "init: %d\n", (int)st); return 1; }
     uint32_t w[8];
     while (read_words(w, 8)) {
@@ -74,8 +81,10 @@ static int run_loop(int q16) {
         in.throttle = u2f(w[7]);
         KestrelRateOutput out;
         memset(&out, 0, sizeof out);
-        st = q16 ? kestrel_rate_loop_step_q16(&loop_q16, &in, NULL, &out)
-                 : kestrel_rate_loop_step_f32(&loop_f32, &in, NULL, &out);
+        st = empc ? (q16 ? kestrel_rate_loop_step_empc_q16(&loop_empc_q16, &in, NULL, &out)
+                         : kestrel_rate_loop_step_empc_f32(&loop_empc_f32, &in, NULL, &out))
+                  : (q16 ? kestrel_rate_loop_step_q16(&loop_q16, &in, NULL, &out)
+                         : kestrel_rate_loop_step_f32(&loop_f32, &in, NULL, &out));
         printf("%d %u %u %u %u %u %u\n", (int)st, out.pwm[0], out.pwm[1], out.pwm[2], out.pwm[3],
                out.flags, out.iterations);
     }
@@ -219,6 +228,18 @@ static int run_errors(void) {
     expect("init NULL loop", kestrel_rate_loop_init_fgm_f32(NULL, &good, &config), KESTREL_STATUS_NULL_POINTER);
     expect("init NULL design", kestrel_rate_loop_init_fgm_f32(&loop_f32, NULL, &config), KESTREL_STATUS_NULL_POINTER);
     expect("init NULL config", kestrel_rate_loop_init_fgm_f32(&loop_f32, &good, NULL), KESTREL_STATUS_NULL_POINTER);
+    {
+        static KestrelEmpc16Tables et;
+        et = kestrel_empc_tables();
+        KestrelRateInput ein;
+        KestrelRateOutput eout;
+        memset(&ein, 0, sizeof ein);
+        expect("empc loop init NULL tables", kestrel_rate_loop_init_empc_f32(&loop_empc_f32, &good, NULL, &config), KESTREL_STATUS_NULL_POINTER);
+        expect("empc loop step after a failed init", kestrel_rate_loop_step_empc_f32(&loop_empc_f32, &ein, NULL, &eout), KESTREL_STATUS_NOT_INITIALISED);
+        et.checksum ^= 1u;
+        expect("empc loop tables checksum", kestrel_rate_loop_init_empc_f32(&loop_empc_f32, &good, &et, &config), KESTREL_STATUS_BAD_CHECKSUM);
+        expect("f32 design to the q16 empc loop", kestrel_rate_loop_init_empc_q16(&loop_empc_q16, &good, &et, &config), KESTREL_STATUS_BAD_FORMAT);
+    }
     d = good; d.values.data = NULL; d.values.flash = 0;
     expect("init NULL values table", kestrel_rate_loop_init_fgm_f32(&loop_f32, &d, &config), KESTREL_STATUS_NULL_POINTER);
     d = good; d.kalman16.data = NULL; d.kalman16.flash = 0;
@@ -328,8 +349,10 @@ static int run_errors(void) {
 
 int main(int argc, char **argv) {
     const char *m = argc > 1 ? argv[1] : "";
-    if (!strcmp(m, "loop-f32")) return run_loop(0);
-    if (!strcmp(m, "loop-q16")) return run_loop(1);
+    if (!strcmp(m, "loop-f32")) return run_loop(0, 0);
+    if (!strcmp(m, "loop-q16")) return run_loop(1, 0);
+    if (!strcmp(m, "loop-empc-f32")) return run_loop(0, 1);
+    if (!strcmp(m, "loop-empc-q16")) return run_loop(1, 1);
     if (!strcmp(m, "kalman-f32")) return run_kalman(0);
     if (!strcmp(m, "kalman-q16")) return run_kalman(1);
     if (!strcmp(m, "fgm16-f32")) return run_fgm(0, 0);
@@ -339,6 +362,6 @@ int main(int argc, char **argv) {
     if (!strcmp(m, "empc-f32")) return run_empc(0);
     if (!strcmp(m, "empc-q16")) return run_empc(1);
     if (!strcmp(m, "errors")) return run_errors();
-    fprintf(stderr, "usage: check loop-f32|loop-q16|kalman-f32|kalman-q16|fgm16-f32|fgm16-q16|fgm-f32|fgm-q16|empc-f32|empc-q16|errors\n");
+    fprintf(stderr, "usage: check loop-f32|loop-q16|loop-empc-f32|loop-empc-q16|kalman-f32|kalman-q16|fgm16-f32|fgm16-q16|fgm-f32|fgm-q16|empc-f32|empc-q16|errors\n");
     return 2;
 }
