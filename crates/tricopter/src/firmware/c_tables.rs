@@ -232,18 +232,10 @@ pub fn c_design(d: &FirmwareDesign) -> Result<CDesign, DesignError> {
         iterations,
         description,
     };
-    let mut macros: Vec<(&str, &str, usize)> = vec![
-        ("NX", "States of the design model.", nx),
+    let mut macros: Vec<(&str, &str, usize)> = super::tables::size_constants(d).to_vec();
+    macros.extend([
         ("NU", "Inputs (pwm1, pwm2, pwm3, servo).", NU),
         ("NY", "Measured outputs (p, q, r).", NY),
-        ("NZ", "Solver decision variables.", n),
-        ("NP", "Solver parameters.", p),
-        ("FGM_T", "Momentum table length.", t),
-        (
-            "FGM_ITERATIONS",
-            "Certified cold-start iterations.",
-            d.cert.iterations,
-        ),
         (
             "FGM_LOOP_ITERATIONS",
             "Iterations run per period.",
@@ -274,7 +266,7 @@ pub fn c_design(d: &FirmwareDesign) -> Result<CDesign, DesignError> {
             "Bytes of the 16-bit fast-gradient table.",
             c.fgm16_bytes().len(),
         ),
-    ];
+    ]);
     let offsets: Vec<(String, usize)> = layout(n, p, t)
         .into_iter()
         .scan(0, |at, (name, len)| {

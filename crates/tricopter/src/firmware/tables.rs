@@ -34,6 +34,23 @@ pub(super) fn flat<S: Scalar>(d: &FirmwareDesign, data: &FgmData<S>) -> Vec<S> {
     v
 }
 
+/// The design's sizes every table file states (name, documentation,
+/// value), in the Rust tables as `pub const` and in the C tables as
+/// `KESTREL_DESIGN_*` macros.
+pub(crate) fn size_constants(d: &FirmwareDesign) -> [(&'static str, &'static str, usize); 5] {
+    [
+        ("NX", "States of the design model.", d.nx()),
+        ("NZ", "Solver decision variables.", d.data_f32.n),
+        ("NP", "Solver parameters.", d.data_f32.p),
+        ("FGM_T", "Momentum table length.", d.data_f32.betas.len()),
+        (
+            "FGM_ITERATIONS",
+            "Certified cold-start iterations.",
+            d.cert.iterations,
+        ),
+    ]
+}
+
 /// The Rust source of the firmware's tables (`avr/firmware/src/generated.rs`):
 /// dimensions, iteration counts, the Kalman filter with 16-bit coefficients
 /// (`KF16`, a [`kestrel_avr_rt::kalman16::Kalman16Tables`]), the offsets of each part
@@ -85,18 +102,7 @@ pub fn generate_tables(d: &FirmwareDesign) -> Result<String, DesignError> {
             "cold start, certified"
         },
     );
-    let consts: [(&str, &str, usize); 5] = [
-        ("NX", "States of the design model.", nx),
-        ("NZ", "Solver decision variables.", n),
-        ("NP", "Solver parameters.", p),
-        ("FGM_T", "Momentum table length.", t),
-        (
-            "FGM_ITERATIONS",
-            "Certified cold-start iterations.",
-            d.cert.iterations,
-        ),
-    ];
-    for (name, doc, v) in consts {
+    for (name, doc, v) in size_constants(d) {
         let _ = writeln!(s, "/// {doc}\npub const {name}: usize = {v};");
     }
     let _ = writeln!(
