@@ -262,7 +262,6 @@ impl MpcProblem {
         // The size is checked before the blocking (N ones) is allocated.
         let nb = settings.blocking.as_ref().map_or(n_h, |b| b.count());
         crate::limits::CondensingCost::of(nx, nu, ny, p, n_h, nb).check(n_h, nb)?;
-        settings.validate(nu, ny, nt)?;
         let blocking = settings.blocking();
         if blocking.total() != n_h {
             return Err(MpcError::setting(
@@ -440,11 +439,12 @@ impl MpcProblem {
         // Constraints.
         let step_x = |j: usize| (&pred.terminal_sel * &xz[j], &pred.terminal_sel * &xt[j]);
         let mut rows = RowSet::new();
-        let ctx = RowContext { layout, n, p };
+        let params = layout.parameters();
         let block_start = blocking_starts(blocking.lengths());
         if let Some(b) = &settings.input_bounds {
-            ctx.bound_rows(
+            bound_rows(
                 &mut rows,
+                params.clone(),
                 b,
                 &slack_of[0],
                 ConstraintKind::Input,
@@ -459,8 +459,9 @@ impl MpcProblem {
             );
         }
         if let Some(b) = &settings.du_bounds {
-            ctx.bound_rows(
+            bound_rows(
                 &mut rows,
+                params.clone(),
                 b,
                 &slack_of[1],
                 ConstraintKind::InputMove,
@@ -476,8 +477,9 @@ impl MpcProblem {
             );
         }
         if let Some(b) = &settings.output_bounds {
-            ctx.bound_rows(
+            bound_rows(
                 &mut rows,
+                params.clone(),
                 b,
                 &slack_of[2],
                 ConstraintKind::Output,
@@ -486,8 +488,9 @@ impl MpcProblem {
             );
         }
         if let Some(b) = &settings.state_bounds {
-            ctx.bound_rows(
+            bound_rows(
                 &mut rows,
+                params.clone(),
                 b,
                 &slack_of[3],
                 ConstraintKind::State,
@@ -712,62 +715,52 @@ fn signed(v: &DVector<f64>, sign: f64) -> DVector<f64> {
     v.map(|x| if x == 0.0 { 0.0 } else { sign * x })
 }
 
-/// What the bound rows of one family need.
-struct RowContext {
-    layout: ThetaLayout,
-    n: usize,
-    p: usize,
-}
-
-impl RowContext {
-    /// The rows of one bound family over `count` items (blocks or steps):
-    /// `at(item)` gives the bounded vector as `Vz z + Vt theta` and the
-    /// step it belongs to. All upper rows first, then all lower rows.
-    fn bound_rows(
-        &self,
-        rows: &mut RowSet,
-        b: &Bounds,
-        slack: &[Option<usize>],
-        kind: ConstraintKind,
-        at: impl Fn(usize) -> (DMatrix<f64>, DMatrix<f64>, usize),
-        count: usize,
-    ) {
-        let items: Vec<_> = (0..count).map(&at).collect();
-        let params = self.layout.parameters();
-        for side in [Side::Upper, Side::Lower] {
-            let (base, shift, sign) = match side {
-                Side::Upper => (&b.upper, &b.upper_shift, 1.0),
-                Side::Lower => (&b.lower, &b.lower_shift, -1.0),
-            };
-            for (vz, vt, step) in &items {
-                for i in 0..b.len() {
-                    if !base[i].is_finite() {
-                        continue;
-                    }
-                    // sign (Vz z + Vt theta) <= sign (base + shift p) (+ s).
-                    // Zeros stay +0 and a shift is stored as given, so the
-                    // thesis's problems come out bit for bit as before.
-                    let mut g = signed(&vz.row(i).transpose(), sign);
-                    let mut e = signed(&vt.row(i).transpose(), -sign);
-                    if let Some(s) = shift {
-                        for (k, col) in params.clone().enumerate() {
-                            let v = sign * s[(i, k)];
-                            e[col] = if e[col] == 0.0 { v } else { e[col] + v };
-                        }
-                    }
-                    if let Some(s) = slack[i] {
-                        g[s] = -1.0;
-                    }
-                    debug_assert_eq!((g.len(), e.len()), (self.n, self.p));
-                    let label = RowLabel {
-                        kind,
-                        side,
-                        index: i,
-                        step: *step,
-                        soft: slack[i].is_some(),
-                    };
-                    rows.push(g, sign * base[i], e, label);
+/// The rows of one bound family over `count` items (blocks or steps):
+/// `at(item)` gives the bounded vector as `Vz z + Vt theta` and the step it
+/// belongs to; `params` are the extra parameters' entries of `theta` (the
+/// columns the shifts go to). All upper rows first, then all lower rows.
+fn bound_rows(
+    rows: &mut RowSet,
+    params: core::ops::Range<usize>,
+    b: &Bounds,
+    slack: &[Option<usize>],
+    kind: ConstraintKind,
+    at: impl Fn(usize) -> (DMatrix<f64>, DMatrix<f64>, usize),
+    count: usize,
+) {
+    let items: Vec<_> = (0..count).map(&at).collect();
+    for side in [Side::Upper, Side::Lower] {
+        let (base, shift, sign) = match side {
+            Side::Upper => (&b.upper, &b.upper_shift, 1.0),
+            Side::Lower => (&b.lower, &b.lower_shift, -1.0),
+        };
+        for (vz, vt, step) in &items {
+            for i in 0..b.len() {
+                if !base[i].is_finite() {
+                    continue;
                 }
+                // sign (Vz z + Vt theta) <= sign (base + shift p) (+ s).
+                // Zeros stay +0 and a shift is stored as given, so the
+                // thesis's problems come out bit for bit as before.
+                let mut g = signed(&vz.row(i).transpose(), sign);
+                let mut e = signed(&vt.row(i).transpose(), -sign);
+                if let Some(s) = shift {
+                    for (k, col) in params.clone().enumerate() {
+                        let v = sign * s[(i, k)];
+                        e[col] = if e[col] == 0.0 { v } else { e[col] + v };
+                    }
+                }
+                if let Some(s) = slack[i] {
+                    g[s] = -1.0;
+                }
+                let label = RowLabel {
+                    kind,
+                    side,
+                    index: i,
+                    step: *step,
+                    soft: slack[i].is_some(),
+                };
+                rows.push(g, sign * base[i], e, label);
             }
         }
     }
