@@ -4,6 +4,8 @@
 #![allow(clippy::needless_range_loop)]
 
 #[cfg(feature = "std")]
+mod arx;
+#[cfg(feature = "std")]
 mod data;
 #[cfg(feature = "std")]
 mod error;
@@ -28,6 +30,10 @@ mod validate;
 #[cfg(feature = "std")]
 pub mod workflow;
 
+#[cfg(feature = "std")]
+pub use arx::{
+    ArxBaseline, ArxBaselineCandidate, ArxBaselineRow, ArxModel, ArxSettings, arx, arx_baseline,
+};
 #[cfg(feature = "std")]
 pub use data::{CsvColumns, Experiment, IoData, Offsets, SignalSelection, TimeInterval, TimeUnit};
 #[cfg(feature = "std")]
