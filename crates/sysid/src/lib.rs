@@ -6,6 +6,8 @@
 #[cfg(feature = "std")]
 mod arx;
 #[cfg(feature = "std")]
+mod closed_loop;
+#[cfg(feature = "std")]
 mod data;
 #[cfg(feature = "std")]
 mod error;
@@ -34,6 +36,8 @@ pub mod workflow;
 pub use arx::{
     ArxBaseline, ArxBaselineCandidate, ArxBaselineRow, ArxModel, ArxSettings, arx, arx_baseline,
 };
+#[cfg(feature = "std")]
+pub use closed_loop::{PbsidResult, PbsidSettings, pbsid};
 #[cfg(feature = "std")]
 pub use data::{CsvColumns, Experiment, IoData, Offsets, SignalSelection, TimeInterval, TimeUnit};
 #[cfg(feature = "std")]

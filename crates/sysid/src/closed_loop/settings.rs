@@ -1,0 +1,55 @@
+//! What [`pbsid`](crate::pbsid()) does and what it returns.
+
+use crate::model::InnovationModel;
+
+/// Settings of [`pbsid`](crate::pbsid()).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PbsidSettings {
+    /// Model order; `None` takes the order suggested by the largest gap
+    /// of the singular values (up to [`max_order`](Self::max_order)).
+    pub order: Option<usize>,
+    /// Largest order considered when suggesting one.
+    pub max_order: usize,
+    /// Past horizon `p`: the order of the VARX predictor, the number of
+    /// past samples the state is estimated from. It must be long enough
+    /// for `(A - K C)^p` to be negligible (the predictor's memory); the
+    /// bias of the method decays with it.
+    pub past: usize,
+    /// Future horizon `f` (block rows of the predictor's observability
+    /// matrix, `f ny > order`); `None` takes `p`.
+    pub future: Option<usize>,
+    /// Estimate a feed-through `D` (the VARX then includes `u(t)`).
+    pub feedthrough: bool,
+}
+
+impl Default for PbsidSettings {
+    /// Order suggested up to 10, past and future horizon 20, no `D`.
+    fn default() -> Self {
+        PbsidSettings {
+            order: None,
+            max_order: 10,
+            past: 20,
+            future: None,
+            feedthrough: false,
+        }
+    }
+}
+
+/// Result of [`pbsid`](crate::pbsid()).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PbsidResult {
+    /// The estimated innovation model (in the units of the data), `K`
+    /// included.
+    pub model: InnovationModel,
+    /// Singular values of the weighted product of the predictor's
+    /// observability and controllability matrices, descending.
+    pub singular_values: Vec<f64>,
+    /// The order suggested by their largest gap.
+    pub suggested_order: usize,
+    /// The order used.
+    pub order: usize,
+    /// The past horizon used.
+    pub past: usize,
+    /// The future horizon used.
+    pub future: usize,
+}
