@@ -9,6 +9,7 @@ mod commands;
 mod guards;
 mod interrupt;
 mod io;
+mod logs;
 mod pipeline;
 mod progress;
 mod report;
@@ -37,6 +38,8 @@ enum Command {
     Empc(commands::empc::Args),
     /// Identify a state-space model from a CSV log (N4SID, PEM); write `kestrel.ss.v1`.
     Identify(commands::identify::Args),
+    /// Import a flight log (Betaflight blackbox, Crazyflie uSD, PX4 ULog) as kestrel's CSV on one grid.
+    Import(commands::import::Args),
     /// Fast gradient method: certify iteration counts, solve, export firmware tables.
     Fgm(commands::fgm::Args),
     /// Stationary Kalman filter design (dlqe); write `kestrel.kalman.v1`.
@@ -59,6 +62,7 @@ fn main() -> ExitCode {
         Command::ClosedLoop(args) => commands::closed_loop::run(args),
         Command::Empc(args) => commands::empc::run(args),
         Command::Identify(args) => commands::identify::run(args),
+        Command::Import(args) => commands::import::run(args),
         Command::Fgm(args) => commands::fgm::run(args),
         Command::Kalman(args) => commands::kalman::run(args),
         Command::Pipeline(args) => commands::pipeline::run(args),

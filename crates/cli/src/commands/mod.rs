@@ -7,6 +7,7 @@ pub mod empc;
 pub mod export;
 pub mod fgm;
 pub mod identify;
+pub mod import;
 pub mod kalman;
 pub mod mpc;
 pub mod pipeline;

@@ -1,0 +1,159 @@
+//! `kestrel import`: a flight log (Betaflight blackbox, Crazyflie uSD,
+//! PX4 ULog) to kestrel's CSV on one uniform grid.
+
+use crate::io;
+use anyhow::{Context, bail};
+use kestrel_logs::{
+    AirborneSettings, ImportSettings, Imported, ReadOptions, SegmentChoice, SignalSpec,
+};
+use std::path::PathBuf;
+
+/// Which part of the log to write.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SegmentArg {
+    /// The airborne segments (motor level above --threshold), each an experiment.
+    Airborne,
+    /// The whole log.
+    All,
+}
+
+/// Reads a flight log (format recognised from its first bytes), resamples
+/// the chosen signals onto one uniform grid by cell means (never by picking
+/// samples), keeps the airborne segments, and writes kestrel's CSV: a `t`
+/// column (seconds, cell centres), one column per signal and, with several
+/// segments or logs, an `experiment` column. Gyro rates in rad/s; motor
+/// commands raw (see docs/logs.md for units and axes per format).
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// The log: Betaflight `.bbl`/`.bfl` (every log in the file), Crazyflie
+    /// uSD binary, or PX4 `.ulg`.
+    pub log: PathBuf,
+    /// Grid rate in Hz.
+    #[arg(long, default_value_t = 50.0)]
+    pub rate: f64,
+    /// Input signals, comma-separated `name=source` or field names
+    /// (default per format: Betaflight motor0..3 = motor[0..3], Crazyflie
+    /// m1..m4 = motor.m1..4, PX4 motorK = actuator_motors.control[K]).
+    #[arg(long)]
+    pub inputs: Option<String>,
+    /// Output signals (default p,q,r: Betaflight gyroADC[0..2], Crazyflie
+    /// gyro.x/y/z, PX4 vehicle_angular_velocity.xyz), in rad/s.
+    #[arg(long)]
+    pub outputs: Option<String>,
+    /// Airborne segments or the whole log.
+    #[arg(long, value_enum, default_value_t = SegmentArg::Airborne)]
+    pub segment: SegmentArg,
+    /// Airborne above this mean motor level, as a fraction of the
+    /// command range (0 = its low end, 1 = full).
+    #[arg(long, default_value_t = AirborneSettings::default().threshold)]
+    pub threshold: f64,
+    /// Shortest airborne segment kept, seconds.
+    #[arg(long, default_value_t = AirborneSettings::default().min_duration_s)]
+    pub min_duration: f64,
+    /// Seconds cut from both ends of each airborne segment.
+    #[arg(long, default_value_t = AirborneSettings::default().trim_s)]
+    pub trim: f64,
+    /// A longer stretch without samples (seconds) splits an experiment.
+    #[arg(long, default_value_t = 0.1)]
+    pub max_gap: f64,
+    /// Keep what can be read from a damaged log (each problem reported
+    /// with its byte offset) instead of failing at the first.
+    #[arg(long)]
+    pub salvage: bool,
+    /// Output CSV file (default: standard output).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace --out if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(out) = &args.out {
+        if out.exists() && !args.force {
+            bail!("{} exists; give --force to replace it", out.display());
+        }
+    }
+    let spec = |flag: &str, s: &Option<String>| -> anyhow::Result<Option<Vec<SignalSpec>>> {
+        s.as_deref()
+            .map(SignalSpec::parse_list)
+            .transpose()
+            .with_context(|| flag.to_string())
+    };
+    let settings = ImportSettings {
+        rate_hz: args.rate,
+        inputs: spec("--inputs", &args.inputs)?,
+        outputs: spec("--outputs", &args.outputs)?,
+        segment: match args.segment {
+            SegmentArg::Airborne => SegmentChoice::Airborne,
+            SegmentArg::All => SegmentChoice::All,
+        },
+        airborne: AirborneSettings {
+            threshold: args.threshold,
+            min_duration_s: args.min_duration,
+            trim_s: args.trim,
+            ..AirborneSettings::default()
+        },
+        max_gap_s: args.max_gap,
+        read: ReadOptions {
+            salvage: args.salvage,
+        },
+    };
+    let imported = kestrel_logs::import_file(&args.log, &settings)
+        .with_context(|| format!("{}", args.log.display()))?;
+    eprint!("{}", summary(&imported));
+    io::write_output(args.out.as_deref(), &imported.to_csv())
+}
+
+/// What was imported, for standard error.
+fn summary(imp: &Imported) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(s, "{} log, {} Hz grid, signals:", imp.format, imp.rate_hz);
+    for (k, sig) in imp.signals.iter().enumerate() {
+        let role = if k < imp.n_inputs { "input " } else { "output" };
+        let range = sig
+            .range
+            .map_or(String::new(), |[a, b]| format!(", range {a}..{b}"));
+        let _ = writeln!(
+            s,
+            "  {role} {:<8} = {} [{}{range}]",
+            sig.name, sig.source, sig.unit
+        );
+    }
+    for (k, l) in imp.logs.iter().enumerate() {
+        let segs: Vec<String> = l
+            .segments
+            .iter()
+            .map(|g| format!("{:.2}-{:.2} s", g.start, g.end))
+            .collect();
+        let _ = writeln!(
+            s,
+            "log {}: {} samples at {:.1} Hz over {:.2}-{:.2} s; segments: {}; gaps split: {}",
+            k + 1,
+            l.samples,
+            l.native_rate_hz,
+            l.span.start,
+            l.span.end,
+            if segs.is_empty() {
+                "none".into()
+            } else {
+                segs.join(", ")
+            },
+            l.gaps.len()
+        );
+        for i in &l.issues {
+            let _ = writeln!(s, "  warning: {i}");
+        }
+    }
+    let filled: usize = imp.experiments.iter().map(|e| e.filled).sum();
+    let _ = writeln!(
+        s,
+        "{} experiment(s), {} rows; {} empty cell(s) interpolated",
+        imp.experiments.len(),
+        imp.n_samples(),
+        filled
+    );
+    s
+}

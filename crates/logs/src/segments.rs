@@ -1,0 +1,128 @@
+//! Airborne segments from the motor commands.
+
+use crate::error::{LogError, Result};
+use crate::resample::{Grid, resample};
+use crate::select::Resolved;
+
+/// How airborne segments are found: the mean motor command, scaled by
+/// each command's range to 0 (its low end) ..= 1 (its high end), averaged
+/// in 0.1 s cells, above `threshold`; stretches below it shorter than
+/// `bridge_s` are bridged (flips and dives at idle throttle), segments
+/// shorter than `min_duration_s` dropped, `trim_s` cut from both ends
+/// (spool-up and touch-down).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AirborneSettings {
+    /// Motor level (fraction of the command range) above which the
+    /// aircraft counts as flying. Default 0.05: hover is about 0.2 on
+    /// the 5-inch Betaflight quad and 0.6 on the Crazyflie, both sit at
+    /// 0 on the ground.
+    pub threshold: f64,
+    /// Shortest segment kept, seconds (default 1).
+    pub min_duration_s: f64,
+    /// Longest stretch below the threshold inside one flight, seconds
+    /// (default 3).
+    pub bridge_s: f64,
+    /// Cut from both ends of each segment, seconds (default 0.5).
+    pub trim_s: f64,
+}
+
+impl Default for AirborneSettings {
+    fn default() -> Self {
+        AirborneSettings {
+            threshold: 0.05,
+            min_duration_s: 1.0,
+            bridge_s: 3.0,
+            trim_s: 0.5,
+        }
+    }
+}
+
+/// A time interval `[start, end]`, seconds in the log's clock.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Span {
+    /// Start.
+    pub start: f64,
+    /// End.
+    pub end: f64,
+}
+
+/// Detection cell, seconds.
+const CELL_S: f64 = 0.1;
+
+/// The airborne segments within `span`, from the `motors` (commands with
+/// a stated range; without one, the observed minimum and maximum).
+pub(crate) fn airborne(
+    motors: &[(String, Resolved)],
+    span: Span,
+    s: &AirborneSettings,
+) -> Result<Vec<Span>> {
+    if motors.is_empty() {
+        return Err(LogError::Invalid(
+            "airborne segments are found from the motor commands: select at least one input".into(),
+        ));
+    }
+    if !(s.threshold.is_finite() && s.min_duration_s >= 0.0 && s.bridge_s >= 0.0 && s.trim_s >= 0.0)
+    {
+        return Err(LogError::Invalid(format!(
+            "airborne detection settings out of range: {s:?}"
+        )));
+    }
+    let grid = Grid::covering(span.start, span.end, 1.0 / CELL_S);
+    let mut level = vec![0.0; grid.len];
+    for (_, r) in motors {
+        let vals = &r.field.values;
+        let [lo, hi] = r.field.range.unwrap_or_else(|| {
+            let lo = vals
+                .iter()
+                .copied()
+                .filter(|v| v.is_finite())
+                .fold(f64::INFINITY, f64::min);
+            let hi = vals
+                .iter()
+                .copied()
+                .filter(|v| v.is_finite())
+                .fold(f64::NEG_INFINITY, f64::max);
+            [lo, hi]
+        });
+        let scale = if hi > lo { 1.0 / (hi - lo) } else { 0.0 };
+        let m = resample(&r.topic.t, vals, &grid);
+        for (l, v) in level.iter_mut().zip(m.values) {
+            // Missing (NaN: disarmed PX4 motors) counts as stopped.
+            *l += if v.is_finite() { (v - lo) * scale } else { 0.0 } / motors.len() as f64;
+        }
+    }
+    let mut runs: Vec<Span> = Vec::new();
+    let mut open: Option<f64> = None;
+    for (k, &l) in level.iter().enumerate() {
+        let t = grid.start + k as f64 * CELL_S;
+        match (l > s.threshold, open) {
+            (true, None) => open = Some(t),
+            (false, Some(a)) => {
+                runs.push(Span { start: a, end: t });
+                open = None;
+            }
+            _ => {}
+        }
+    }
+    if let Some(a) = open {
+        runs.push(Span {
+            start: a,
+            end: grid.start + grid.len as f64 * CELL_S,
+        });
+    }
+    let mut merged: Vec<Span> = Vec::new();
+    for r in runs {
+        match merged.last_mut() {
+            Some(last) if r.start - last.end < s.bridge_s => last.end = r.end,
+            _ => merged.push(r),
+        }
+    }
+    Ok(merged
+        .into_iter()
+        .map(|r| Span {
+            start: (r.start + s.trim_s).max(span.start),
+            end: (r.end - s.trim_s).min(span.end),
+        })
+        .filter(|r| r.end - r.start >= s.min_duration_s.max(CELL_S))
+        .collect())
+}
