@@ -43,9 +43,15 @@ impl LogFormat {
     /// assert_eq!(LogFormat::detect(b"t,u,y\n"), None);
     /// ```
     pub fn detect(bytes: &[u8]) -> Option<LogFormat> {
-        if bytes.starts_with(BETAFLIGHT_MAGIC) {
+        // A file shorter than the magic bytes but agreeing with them is a
+        // truncated log of that format.
+        let magic = |m: &[u8]| {
+            let n = bytes.len().min(m.len());
+            n >= 2 && bytes[..n] == m[..n]
+        };
+        if magic(BETAFLIGHT_MAGIC) {
             Some(LogFormat::Betaflight)
-        } else if bytes.starts_with(ULOG_MAGIC) {
+        } else if magic(ULOG_MAGIC) {
             Some(LogFormat::Ulog)
         } else if bytes.first() == Some(&CRAZYFLIE_MAGIC) {
             Some(LogFormat::Crazyflie)

@@ -279,7 +279,7 @@ fn walk(
                             corrupt(
                                 pos,
                                 &format!("a valid '{}' record", kind as char),
-                                e.to_string(),
+                                brief(&e.to_string()),
                             )
                         })
                     })
@@ -327,5 +327,15 @@ fn unit_of(topic: &str, field: &str) -> (Unit, Option<[f64; 2]>) {
             (Unit::Raw, Some([-1.0, 1.0]))
         }
         _ => (Unit::Raw, None),
+    }
+}
+
+/// The parser's message without the format dump it appends.
+fn brief(text: &str) -> String {
+    let head = text.split(", format:").next().unwrap_or(text);
+    let head = head.lines().next().unwrap_or(head);
+    match head.char_indices().nth(160) {
+        Some((i, _)) => format!("{}...", &head[..i]),
+        None => head.to_string(),
     }
 }

@@ -23,6 +23,14 @@ const MAX_ITERATION_JUMP: i64 = 5_000 * 10;
 
 /// Reads every log of a blackbox file.
 pub(crate) fn read_all(bytes: &[u8], opts: &ReadOptions) -> Result<Vec<Log>> {
+    if bytes.len() < BETAFLIGHT_MAGIC.len() {
+        return Err(LogError::Truncated {
+            format: FORMAT,
+            offset: 0,
+            expected: "the header line \"H Product:Blackbox ...\"".into(),
+            len: bytes.len() as u64,
+        });
+    }
     let starts: Vec<usize> = find_all(bytes, BETAFLIGHT_MAGIC);
     if starts.first() != Some(&0) {
         return Err(corrupt(
