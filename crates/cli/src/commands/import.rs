@@ -4,7 +4,7 @@
 use crate::io;
 use anyhow::{Context, bail};
 use kestrel_logs::{
-    AirborneSettings, ImportSettings, Imported, ReadOptions, SegmentChoice, SignalSpec,
+    AirborneSettings, ImportSettings, Imported, LogError, ReadOptions, SegmentChoice, SignalSpec,
 };
 use std::path::PathBuf;
 
@@ -63,7 +63,7 @@ pub struct Args {
     /// Output CSV file (default: standard output).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Replace --out if it exists.
+    /// Replace --out if it is an existing file.
     #[arg(long)]
     pub force: bool,
 }
@@ -71,7 +71,8 @@ pub struct Args {
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(out) = &args.out {
-        if out.exists() && !args.force {
+        // Devices (/dev/null) and FIFOs are written to, files only replaced when asked.
+        if out.is_file() && !args.force {
             bail!("{} exists; give --force to replace it", out.display());
         }
     }
@@ -100,8 +101,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             salvage: args.salvage,
         },
     };
-    let imported = kestrel_logs::import_file(&args.log, &settings)
-        .with_context(|| format!("{}", args.log.display()))?;
+    let imported = match kestrel_logs::import_file(&args.log, &settings) {
+        Ok(imported) => imported,
+        Err(e @ (LogError::Corrupt { .. } | LogError::Truncated { .. })) if !args.salvage => {
+            bail!(
+                "{}: {e}; --salvage keeps what can be read",
+                args.log.display()
+            )
+        }
+        Err(e) => return Err(anyhow::Error::new(e).context(format!("{}", args.log.display()))),
+    };
     eprint!("{}", summary(&imported));
     io::write_output(args.out.as_deref(), &imported.to_csv())
 }
