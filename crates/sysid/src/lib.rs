@@ -10,6 +10,8 @@ mod closed_loop;
 #[cfg(feature = "std")]
 mod data;
 #[cfg(feature = "std")]
+mod delay;
+#[cfg(feature = "std")]
 mod error;
 #[cfg(feature = "std")]
 mod filter;
@@ -40,6 +42,8 @@ pub use arx::{
 pub use closed_loop::{PbsidResult, PbsidSettings, pbsid};
 #[cfg(feature = "std")]
 pub use data::{CsvColumns, Experiment, IoData, Offsets, SignalSelection, TimeInterval, TimeUnit};
+#[cfg(feature = "std")]
+pub use delay::{DelayEstimate, DelaySettings, estimate_delay};
 #[cfg(feature = "std")]
 pub use error::{Result, SizedMethod, SysidError};
 #[cfg(feature = "std")]

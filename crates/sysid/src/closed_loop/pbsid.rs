@@ -4,7 +4,7 @@ use super::settings::{PbsidResult, PbsidSettings};
 use crate::arx::{ArxSettings, arx_with_normal_equations};
 use crate::data::IoData;
 use crate::error::{Result, SysidError};
-use crate::linalg::lstsq;
+use crate::linalg::{lstsq, spectral_radius, stable_split};
 use crate::model::InnovationModel;
 use crate::n4sid::{MAX_ORDER, Scaling, model_parameters, stabilise_k, suggest_order};
 use nalgebra::{DMatrix, DVector};
@@ -140,8 +140,16 @@ pub fn pbsid(data: &IoData, settings: &PbsidSettings) -> Result<PbsidResult> {
         let row = u.column(k).transpose() * &h / sv[r].sqrt();
         m.row_mut(r).copy_from(&row);
     }
-    let model = state_regressions(&sdata, &m, p, n, feed)?;
+    if let Some(r) = settings.max_radius
+        && !(r.is_finite() && r > 0.0)
+    {
+        return Err(SysidError::invalid(format!(
+            "PBSID max_radius must be finite and > 0, found {r}"
+        )));
+    }
+    let (model, radius_estimated) = state_regressions(&sdata, &m, p, n, feed, settings.max_radius)?;
     Ok(PbsidResult {
+        radius_estimated,
         model: scaling.unscale(&model),
         singular_values: sv,
         suggested_order: suggested,
@@ -175,7 +183,8 @@ fn state_regressions(
     p: usize,
     n: usize,
     feed: bool,
-) -> Result<InnovationModel> {
+    max_radius: Option<f64>,
+) -> Result<(InnovationModel, f64)> {
     let (nu, ny) = (data.nu(), data.ny());
     let nz = nu + ny;
     let mut xs = Vec::new(); // per experiment: n x len, the states at t = p..N
@@ -248,8 +257,47 @@ fn state_regressions(
         r0 += x.ncols();
     }
     let abk = lstsq(&reg2, &xn).transpose();
-    let a = abk.columns(0, n).into_owned();
-    let b = abk.columns(n, nu).into_owned();
-    let k = stabilise_k(&a, &c_mat, abk.columns(n + nu, ny).into_owned());
-    InnovationModel::new(data.ts(), a, b, c_mat, d, k)
+    let mut a = abk.columns(0, n).into_owned();
+    let mut bk = abk.columns(n, nu + ny).into_owned();
+    let radius = spectral_radius(&a);
+    if let Some(r) = max_radius
+        && radius > r
+    {
+        a = pull_inside(&a, r);
+        // B and K refitted with A fixed: x(t+1) - A x(t) = [B K] [u; e].
+        let lhs = &xn - reg2.columns(0, n) * a.transpose();
+        bk = lstsq(&reg2.columns(n, nu + ny).into_owned(), &lhs).transpose();
+    }
+    let b = bk.columns(0, nu).into_owned();
+    let k = stabilise_k(&a, &c_mat, bk.columns(nu, ny).into_owned());
+    Ok((InnovationModel::new(data.ts(), a, b, c_mat, d, k)?, radius))
+}
+
+/// `A` with its modes outside `|z| < r` moved radially inside: the
+/// unstable part of a block-diagonal split ([`stable_split`]) scaled by
+/// `r / rho`; if the split fails, all of `A` is scaled.
+pub(super) fn pull_inside(a: &DMatrix<f64>, r: f64) -> DMatrix<f64> {
+    let scale_all = || a * (r / spectral_radius(a));
+    let Ok(split) = stable_split(a, r) else {
+        return scale_all();
+    };
+    let n = a.nrows();
+    let ns = split.n_stable;
+    let mut blocks = &split.ti * a * &split.t;
+    let mut au = blocks.view((ns, ns), (n - ns, n - ns)).into_owned();
+    let rho = spectral_radius(&au);
+    if !(rho.is_finite() && rho > 0.0) {
+        return scale_all();
+    }
+    au *= r / rho;
+    blocks.view_mut((ns, ns), (n - ns, n - ns)).copy_from(&au);
+    // The split makes the off-diagonal blocks zero up to rounding.
+    blocks.view_mut((0, ns), (ns, n - ns)).fill(0.0);
+    blocks.view_mut((ns, 0), (n - ns, ns)).fill(0.0);
+    let out = &split.t * blocks * &split.ti;
+    if spectral_radius(&out) <= r * (1.0 + 1e-9) {
+        out
+    } else {
+        scale_all()
+    }
 }

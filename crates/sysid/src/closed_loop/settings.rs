@@ -20,10 +20,18 @@ pub struct PbsidSettings {
     pub future: Option<usize>,
     /// Estimate a feed-through `D` (the VARX then includes `u(t)`).
     pub feedthrough: bool,
+    /// Largest spectral radius of `A`: modes estimated outside it (the
+    /// integrators of a rate loop come out at `|z|` slightly above 1 on
+    /// closed-loop data) are moved radially onto it and `B`, `K` refitted
+    /// with that `A` fixed, so that the model can start
+    /// [`pem`](crate::pem()), which needs a stable `A`. `None` keeps `A`
+    /// as estimated (the predictor `A - K C` is stable either way).
+    pub max_radius: Option<f64>,
 }
 
 impl Default for PbsidSettings {
-    /// Order suggested up to 10, past and future horizon 20, no `D`.
+    /// Order suggested up to 10, past and future horizon 20, no `D`,
+    /// `A` kept inside `|z| <= 0.999`.
     fn default() -> Self {
         PbsidSettings {
             order: None,
@@ -31,6 +39,7 @@ impl Default for PbsidSettings {
             past: 20,
             future: None,
             feedthrough: false,
+            max_radius: Some(0.999),
         }
     }
 }
@@ -52,4 +61,7 @@ pub struct PbsidResult {
     pub past: usize,
     /// The future horizon used.
     pub future: usize,
+    /// Spectral radius of `A` as estimated, before any move onto
+    /// [`PbsidSettings::max_radius`].
+    pub radius_estimated: f64,
 }

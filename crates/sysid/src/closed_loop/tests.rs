@@ -186,3 +186,22 @@ fn bad_settings_and_data_are_errors() {
         Err(SysidError::ConstantInput { .. })
     ));
 }
+
+#[test]
+fn unstable_modes_are_pulled_onto_the_radius_and_stable_ones_kept() {
+    // Eigenvalues 1.02, 0.5 and -0.3 in a non-normal basis.
+    let t = DMatrix::from_row_slice(3, 3, &[1.0, 0.4, 0.1, 0.0, 1.0, 0.7, 0.2, 0.0, 1.0]);
+    let d = DMatrix::from_diagonal(&DVector::from_vec(vec![1.02, 0.5, -0.3]));
+    let a = &t * d * t.clone().try_inverse().unwrap();
+    let out = pbsid::pull_inside(&a, 0.999);
+    let mut eig: Vec<f64> = crate::linalg::eigenvalues(&out)
+        .unwrap()
+        .iter()
+        .map(|z| z.re)
+        .collect();
+    eig.sort_by(f64::total_cmp);
+    let want = [-0.3, 0.5, 0.999];
+    for (e, w) in eig.iter().zip(want) {
+        assert!((e - w).abs() < 1e-9, "{eig:?}");
+    }
+}
