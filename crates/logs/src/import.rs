@@ -84,11 +84,12 @@ pub struct Experiment {
 /// What one log of the file gave.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LogSummary {
-    /// Samples of the first input's topic and their mean rate (Hz).
+    /// Samples of the first input's topic.
     pub samples: usize,
     /// Mean sample rate of that topic, Hz.
     pub native_rate_hz: f64,
-    /// Time span of the selected signals, seconds.
+    /// Time span in which every selected signal has samples, seconds
+    /// (NaN when one has none: the log gives no experiment).
     pub span: Span,
     /// The segments kept (airborne or the whole span).
     pub segments: Vec<Span>,
@@ -210,15 +211,12 @@ fn import_log(
         start: f64::NEG_INFINITY,
         end: f64::INFINITY,
     };
-    for (name, r) in &all {
-        let Some((a, b)) = finite_span(r) else {
-            return Err(LogError::Signal {
-                name: name.clone(),
-                reason: "holds no number in this log".into(),
-            });
-        };
-        span.start = span.start.max(a);
-        span.end = span.end.min(b);
+    for (_, r) in &all {
+        // A signal without a number (a log armed and disarmed at once, an
+        // unused output): the log gives no experiment.
+        let (a, b) = finite_span(r).unwrap_or((f64::NAN, f64::NAN));
+        span.start = if a.is_nan() { a } else { span.start.max(a) };
+        span.end = if b.is_nan() { b } else { span.end.min(b) };
     }
     let (samples, native_rate_hz) = all.first().map_or((0, 0.0), |(_, r)| {
         let t = &r.topic.t;

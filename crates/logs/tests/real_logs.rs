@@ -66,15 +66,24 @@ fn betaflight_matches_fc_blackbox_snapshot() {
 #[test]
 fn betaflight_airborne_and_multi_log() {
     let one = flight("betaflight/btfl_002.bbl");
-    // Two logs back to back, as the firmware writes them.
-    let two = [one.clone(), one].concat();
-    let logs = read_bytes(&two, &ReadOptions::default()).unwrap();
-    assert_eq!(logs.len(), 2);
+    // Two logs back to back, as the firmware writes them, and a third one
+    // armed and disarmed at once: its header and the end event only.
+    let mut end = 0;
+    while one[end..].starts_with(b"H ") {
+        end += one[end..].iter().position(|&c| c == b'\n').unwrap() + 1;
+    }
+    let header = &one[..end];
+    let empty = [header, b"E\xffEnd of log\0"].concat();
+    let three = [one.clone(), one, empty].concat();
+    let logs = read_bytes(&three, &ReadOptions::default()).unwrap();
+    assert_eq!(logs.len(), 3);
     assert_eq!(logs[0].topics, logs[1].topics);
+    assert!(logs[2].topic("main").unwrap().t.is_empty());
     let imp = import(&logs, &ImportSettings::default()).unwrap();
-    assert_eq!(imp.logs.len(), 2);
+    assert_eq!(imp.logs.len(), 3);
+    assert!(imp.logs[2].segments.is_empty() && imp.logs[2].span.start.is_nan());
     assert_eq!(imp.experiments.len(), 2);
-    for l in &imp.logs {
+    for l in &imp.logs[..2] {
         // Airborne from about 17.5 s of flight to the log's end at 151 s (README).
         assert_eq!(l.segments.len(), 1, "{:?}", l.segments);
         let s = l.segments[0];

@@ -381,7 +381,9 @@ impl State<'_> {
         let logged = |k: i64| (k % i_int + num - 1) % den < num;
         let mut count = 0;
         let mut k = last + 1;
-        while !logged(k) && count < i_int {
+        // At most `den - 1` iterations lie between two logged ones; the cap
+        // bounds the loop for a damaged header too.
+        while !logged(k) && count < den.min(1 << 16) {
             count += 1;
             k += 1;
         }
