@@ -8,6 +8,8 @@ mod error;
 #[cfg(feature = "std")]
 pub mod export;
 #[cfg(feature = "std")]
+pub mod locate;
+#[cfg(feature = "std")]
 mod lp;
 #[cfg(feature = "std")]
 mod mpc_law;
@@ -23,12 +25,15 @@ pub mod testing;
 pub mod tree;
 
 pub use eval::{
-    CompactNode, Evaluation, ForestTables, LEAF, NO_ROW, NO_ROW8, SliceTables, TreeIndex,
-    TreeTables, WIDE_LEAF, WIDE_NO_ROW, WideSliceTables, evaluate, evaluate_with,
+    CompactNode, Evaluation, ForestTables, LEAF, ListEvaluation, ListSlices, NO_ROW, NO_ROW8,
+    SliceTables, TreeIndex, TreeTables, WIDE_LEAF, WIDE_NO_ROW, WideSliceTables, evaluate,
+    evaluate_lists, evaluate_with,
 };
 
 #[cfg(feature = "std")]
 pub use error::EmpcError;
+#[cfg(feature = "std")]
+pub use locate::{LocateMethod, LocateSettings, Locator, build_locator};
 #[cfg(feature = "std")]
 pub use mpc_law::{ExplicitMpc, ExplicitSolver};
 #[cfg(feature = "std")]

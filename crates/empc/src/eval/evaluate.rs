@@ -16,6 +16,54 @@ pub struct Evaluation<I = u16> {
     pub steps: u16,
 }
 
+/// What the evaluation reads besides the point location: affine rows,
+/// laws, the explored set, the parameter box and the output bounds. Every
+/// [`TreeTables`] has it; the candidate-list tables (`ListSlices`) too.
+pub(super) trait Common<S: Scalar, I: TreeIndex> {
+    fn n_params(&self) -> usize;
+    fn n_outputs(&self) -> usize;
+    fn law(&self, law: usize, out: usize) -> Option<I>;
+    fn row(&self, r: usize, j: usize) -> Option<S>;
+    fn row_slice(&self, r: usize) -> Option<&[S]>;
+    fn n_hull(&self) -> usize;
+    fn hull(&self, i: usize, j: usize) -> Option<S>;
+    fn theta_bounds(&self, j: usize) -> Option<(S, S)>;
+    fn output_bounds(&self, out: usize) -> Option<[I; 2]>;
+}
+
+/// [`TreeTables`] seen through [`Common`].
+struct ViaTree<'t, T: ?Sized>(&'t T);
+
+impl<S: Scalar, I: TreeIndex, T: TreeTables<S, I> + ?Sized> Common<S, I> for ViaTree<'_, T> {
+    fn n_params(&self) -> usize {
+        TreeTables::n_params(self.0)
+    }
+    fn n_outputs(&self) -> usize {
+        TreeTables::n_outputs(self.0)
+    }
+    fn law(&self, law: usize, out: usize) -> Option<I> {
+        TreeTables::law(self.0, law, out)
+    }
+    fn row(&self, r: usize, j: usize) -> Option<S> {
+        TreeTables::row(self.0, r, j)
+    }
+    fn row_slice(&self, r: usize) -> Option<&[S]> {
+        TreeTables::row_slice(self.0, r)
+    }
+    fn n_hull(&self) -> usize {
+        TreeTables::n_hull(self.0)
+    }
+    fn hull(&self, i: usize, j: usize) -> Option<S> {
+        TreeTables::hull(self.0, i, j)
+    }
+    fn theta_bounds(&self, j: usize) -> Option<(S, S)> {
+        TreeTables::theta_bounds(self.0, j)
+    }
+    fn output_bounds(&self, out: usize) -> Option<[I; 2]> {
+        TreeTables::output_bounds(self.0, out)
+    }
+}
+
 /// `row' [theta; 1]` for an affine row read through `get`.
 #[inline]
 fn affine<S: Scalar>(theta: &[S], get: impl Fn(usize) -> Option<S>) -> Result<S, Error> {
@@ -31,7 +79,7 @@ fn affine<S: Scalar>(theta: &[S], get: impl Fn(usize) -> Option<S>) -> Result<S,
 /// [`TreeTables::row_slice`] when the tables give it, else entry by entry;
 /// the same operations in the same order either way.
 #[inline]
-fn row_at<S: Scalar, I: TreeIndex, T: TreeTables<S, I> + ?Sized>(
+pub(super) fn row_at<S: Scalar, I: TreeIndex, T: Common<S, I> + ?Sized>(
     tables: &T,
     th: &[S],
     r: usize,
@@ -92,6 +140,45 @@ pub fn evaluate_with<S: Scalar, I: TreeIndex, T: TreeTables<S, I> + ?Sized>(
     scratch: &mut [S],
     z: &mut [S],
 ) -> Result<Evaluation<I>, Error> {
+    let (th, outside) = project(&ViaTree(tables), theta, scratch, z.len())?;
+    // One shared tree, or (compact layout) one tree per output.
+    let shared = tables.output_root(0).is_none();
+    let (mut law, mut steps) = if shared {
+        locate(tables, th, tables.root())?
+    } else {
+        (I::LEAF.payload(), 0) // law 0 until output 0's tree gives it
+    };
+    for (o, zo) in z.iter_mut().enumerate() {
+        let l = if shared {
+            law
+        } else {
+            let root = tables.output_root(o).ok_or(Error::OutOfRange)?;
+            let (l, s) = locate(tables, th, root)?;
+            steps = steps.saturating_add(s);
+            if o == 0 {
+                law = l;
+            }
+            l
+        };
+        *zo = output(&ViaTree(tables), th, l, o)?;
+    }
+    Ok(Evaluation {
+        law,
+        outside,
+        steps,
+    })
+}
+
+/// The checks and the projection every evaluation starts with: the
+/// dimensions (`n_z` outputs), a finite `theta`, `theta` clamped to the
+/// parameter box into `scratch`, and whether it lies outside the explored
+/// set (outside the box or the hull).
+pub(super) fn project<'s, S: Scalar, I: TreeIndex, T: Common<S, I> + ?Sized>(
+    tables: &T,
+    theta: &[S],
+    scratch: &'s mut [S],
+    n_z: usize,
+) -> Result<(&'s [S], bool), Error> {
     let p = tables.n_params();
     if theta.len() != p {
         return Err(Error::DimensionMismatch {
@@ -99,23 +186,23 @@ pub fn evaluate_with<S: Scalar, I: TreeIndex, T: TreeTables<S, I> + ?Sized>(
             found: theta.len(),
         });
     }
-    if z.len() != tables.n_outputs() {
+    if n_z != tables.n_outputs() {
         return Err(Error::DimensionMismatch {
             expected: tables.n_outputs(),
-            found: z.len(),
+            found: n_z,
         });
     }
+    let n_scratch = scratch.len();
     let Some(th) = scratch.get_mut(..p) else {
         return Err(Error::DimensionMismatch {
             expected: p,
-            found: scratch.len(),
+            found: n_scratch,
         });
     };
     if !theta.iter().all(|v| v.is_finite()) {
         return Err(Error::NonFinite);
     }
     th.copy_from_slice(theta);
-    let th: &mut [S] = th;
     let mut outside = false;
     for (j, v) in th.iter_mut().enumerate() {
         let (lo, hi) = tables.theta_bounds(j).ok_or(Error::OutOfRange)?;
@@ -144,43 +231,28 @@ pub fn evaluate_with<S: Scalar, I: TreeIndex, T: TreeTables<S, I> + ?Sized>(
             }
         }
     }
-    // One shared tree, or (compact layout) one tree per output.
-    let shared = tables.output_root(0).is_none();
-    let (mut law, mut steps) = if shared {
-        locate(tables, th, tables.root())?
-    } else {
-        (I::LEAF.payload(), 0) // law 0 until output 0's tree gives it
-    };
-    for (o, zo) in z.iter_mut().enumerate() {
-        let l = if shared {
-            law
-        } else {
-            let root = tables.output_root(o).ok_or(Error::OutOfRange)?;
-            let (l, s) = locate(tables, th, root)?;
-            steps = steps.saturating_add(s);
-            if o == 0 {
-                law = l;
-            }
-            l
-        };
-        let r = tables.law(l.index(), o).ok_or(Error::OutOfRange)?.index();
-        let mut v = row_at(tables, th, r)?;
-        let [lo, hi] = tables.output_bounds(o).ok_or(Error::OutOfRange)?;
-        if lo != I::NO_ROW {
-            let l = row_at(tables, th, lo.index())?;
-            v = v.max(l);
-        }
-        if hi != I::NO_ROW {
-            let u = row_at(tables, th, hi.index())?;
-            v = v.min(u);
-        }
-        *zo = v;
+    Ok((th, outside))
+}
+
+/// Output `o` of law `l` at `th`, clamped to the output's bounds.
+pub(super) fn output<S: Scalar, I: TreeIndex, T: Common<S, I> + ?Sized>(
+    tables: &T,
+    th: &[S],
+    l: I,
+    o: usize,
+) -> Result<S, Error> {
+    let r = tables.law(l.index(), o).ok_or(Error::OutOfRange)?.index();
+    let mut v = row_at(tables, th, r)?;
+    let [lo, hi] = tables.output_bounds(o).ok_or(Error::OutOfRange)?;
+    if lo != I::NO_ROW {
+        let l = row_at(tables, th, lo.index())?;
+        v = v.max(l);
     }
-    Ok(Evaluation {
-        law,
-        outside,
-        steps,
-    })
+    if hi != I::NO_ROW {
+        let u = row_at(tables, th, hi.index())?;
+        v = v.min(u);
+    }
+    Ok(v)
 }
 
 /// Walks the tree from the child code `code` to a leaf: its payload and
@@ -198,11 +270,11 @@ fn locate<S: Scalar, I: TreeIndex, T: TreeTables<S, I> + ?Sized>(
             return Err(Error::OutOfRange); // a cycle: corrupted tables
         }
         let node = tables.node(code.index()).ok_or(Error::OutOfRange)?;
-        let a = row_at(tables, th, node[0].index())?;
+        let a = row_at(&ViaTree(tables), th, node[0].index())?;
         let b = if node[1] == I::NO_ROW {
             S::ZERO
         } else {
-            row_at(tables, th, node[1].index())?
+            row_at(&ViaTree(tables), th, node[1].index())?
         };
         code = if a <= b { node[2] } else { node[3] };
         steps = steps.saturating_add(1);

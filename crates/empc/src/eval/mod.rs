@@ -28,14 +28,17 @@
 //! satisfies them, up to rounding).
 //!
 //! The files: the index types and codes (`index`), the tables and their
-//! accessor trait (`tables`), the evaluation (`evaluate`).
+//! accessor trait (`tables`), the evaluation (`evaluate`), and the
+//! candidate-list point location (`lists`, [`evaluate_lists`]).
 
 mod evaluate;
 mod index;
+mod lists;
 mod tables;
 #[cfg(test)]
 mod tests;
 
 pub use evaluate::{Evaluation, evaluate, evaluate_with};
 pub use index::{LEAF, NO_ROW, TreeIndex, WIDE_LEAF, WIDE_NO_ROW};
+pub use lists::{ListEvaluation, ListSlices, evaluate_lists};
 pub use tables::{CompactNode, ForestTables, NO_ROW8, SliceTables, TreeTables, WideSliceTables};

@@ -46,6 +46,79 @@ pub(super) fn intern(
     i
 }
 
+/// The kept outputs' affine rows shared between laws, identical laws
+/// stored once, and the output bounds ([`share_laws`]).
+pub(crate) struct SharedLaws {
+    /// Distinct affine rows, `p + 1` entries each.
+    pub(crate) rows: Vec<f64>,
+    /// Laws, `k` row indices each.
+    pub(crate) laws: Vec<u32>,
+    /// The law of every region.
+    pub(crate) region_law: Vec<u32>,
+    /// Per output: rows of the lower and upper bound ([`WIDE_NO_ROW`]: none).
+    pub(crate) bounds: Vec<[u32; 2]>,
+    /// Distinct laws.
+    pub(crate) distinct_laws: usize,
+}
+
+/// Shares the affine rows of the outputs `outs` between the regions' laws
+/// (rows within `10 law_tol` are one row, see [`intern`]), stores identical
+/// laws once, and adds each output's bounds (single-variable rows of `G`).
+pub(crate) fn share_laws(
+    problem: &MpqpProblem,
+    solution: &MpqpSolution,
+    outs: &[usize],
+    law_tol: f64,
+) -> SharedLaws {
+    let p = solution.p;
+    let n = solution.n;
+    let k = outs.len();
+    let mut rows: Vec<f64> = Vec::new();
+    let mut row_index = HashMap::new();
+    let mut laws: Vec<u32> = Vec::new();
+    let mut law_index: HashMap<Vec<usize>, usize> = HashMap::new();
+    let mut region_law = Vec::with_capacity(solution.regions.len());
+    for r in &solution.regions {
+        let mut ids = Vec::with_capacity(k);
+        for &o in outs {
+            let row: Vec<f64> = (0..p).map(|j| r.fz[(o, j)]).chain([r.gz[o]]).collect();
+            ids.push(intern(&mut rows, &mut row_index, &row, law_tol));
+        }
+        let nl = law_index.len();
+        let id = *law_index.entry(ids.clone()).or_insert_with(|| {
+            laws.extend(ids.iter().map(|&i| i as u32));
+            nl
+        });
+        region_law.push(id as u32);
+    }
+    let distinct_laws = law_index.len();
+    // Output bounds from single-variable rows of G.
+    let mut bounds = vec![[WIDE_NO_ROW, WIDE_NO_ROW]; k];
+    for i in 0..problem.m() {
+        let nz: Vec<usize> = (0..n).filter(|&j| problem.g[(i, j)] != 0.0).collect();
+        if nz.len() == 1
+            && let Some(o) = outs.iter().position(|&x| x == nz[0])
+        {
+            let gc = problem.g[(i, nz[0])];
+            let row: Vec<f64> = (0..p)
+                .map(|j| problem.e[(i, j)] / gc)
+                .chain([problem.w[i] / gc])
+                .collect();
+            let slot = usize::from(gc > 0.0);
+            if bounds[o][slot] == WIDE_NO_ROW {
+                bounds[o][slot] = intern(&mut rows, &mut row_index, &row, law_tol) as u32;
+            }
+        }
+    }
+    SharedLaws {
+        rows,
+        laws,
+        region_law,
+        bounds,
+        distinct_laws,
+    }
+}
+
 /// What [`build_wide_for`] found.
 pub(super) struct WideBuild {
     pub(super) tables: WideTables<f64>,
@@ -63,46 +136,15 @@ pub(super) fn build_wide_for(
 ) -> Result<WideBuild, EmpcError> {
     let start = std::time::Instant::now();
     let p = solution.p;
-    let n = solution.n;
     let k = outs.len();
     let w = p + 1;
-    let mut rows: Vec<f64> = Vec::new();
-    let mut row_index = HashMap::new();
-    let mut laws: Vec<u16> = Vec::new();
-    let mut law_index: HashMap<Vec<usize>, usize> = HashMap::new();
-    let mut region_law = Vec::with_capacity(solution.regions.len());
-    for r in &solution.regions {
-        let mut ids = Vec::with_capacity(k);
-        for &o in outs {
-            let row: Vec<f64> = (0..p).map(|j| r.fz[(o, j)]).chain([r.gz[o]]).collect();
-            ids.push(intern(&mut rows, &mut row_index, &row, settings.law_tol));
-        }
-        let nl = law_index.len();
-        let id = *law_index.entry(ids.clone()).or_insert_with(|| {
-            laws.extend(ids.iter().map(|&i| i as u16));
-            nl
-        });
-        region_law.push(id as u16);
-    }
-    let distinct_laws = law_index.len();
-    // Output bounds from single-variable rows of G.
-    let mut bounds = vec![[NO_ROW, NO_ROW]; k];
-    for i in 0..problem.m() {
-        let nz: Vec<usize> = (0..n).filter(|&j| problem.g[(i, j)] != 0.0).collect();
-        if nz.len() == 1
-            && let Some(o) = outs.iter().position(|&x| x == nz[0])
-        {
-            let gc = problem.g[(i, nz[0])];
-            let row: Vec<f64> = (0..p)
-                .map(|j| problem.e[(i, j)] / gc)
-                .chain([problem.w[i] / gc])
-                .collect();
-            let slot = usize::from(gc > 0.0);
-            if bounds[o][slot] == NO_ROW {
-                bounds[o][slot] = intern(&mut rows, &mut row_index, &row, settings.law_tol) as u16;
-            }
-        }
-    }
+    let SharedLaws {
+        mut rows,
+        laws,
+        region_law,
+        bounds,
+        distinct_laws,
+    } = share_laws(problem, solution, outs, settings.law_tol);
     let nrows = rows.len() / w;
     // Size of the outputs over the parameter box (for the clipping tolerance).
     let zscale = 1.0
@@ -122,6 +164,13 @@ pub(super) fn build_wide_for(
             "{nrows} affine rows, {distinct_laws} laws (at most 32767 laws and 65534 rows)"
         )));
     }
+    // Every index fits u16 now.
+    let laws: Vec<u16> = laws.iter().map(|&i| i as u16).collect();
+    let region_law: Vec<u16> = region_law.iter().map(|&i| i as u16).collect();
+    let bounds: Vec<[u16; 2]> = bounds
+        .iter()
+        .map(|b| b.map(|r| if r == WIDE_NO_ROW { NO_ROW } else { r as u16 }))
+        .collect();
     // Hyperplane pool from the facets, canonically oriented.
     let scale = 1.0
         + solution

@@ -27,6 +27,7 @@ mod tables;
 #[cfg(test)]
 mod tests;
 
+pub(crate) use assemble::{SharedLaws, share_laws};
 pub use build::{AnyController, ExplicitController, build_any, build_controller};
 pub use compact::{CompactController, CompactTables, build_compact};
 pub use settings::{
