@@ -4,7 +4,7 @@ use super::defs::Encoding;
 
 /// Why a read stopped: the data ended, or a value is malformed.
 #[derive(Debug)]
-pub(super) enum Stop {
+pub(crate) enum Stop {
     /// The data ends inside the value at this offset.
     End,
     /// A variable-byte integer runs longer than 5 bytes.
@@ -12,7 +12,7 @@ pub(super) enum Stop {
 }
 
 /// A reader over one log's bytes.
-pub(super) struct Reader<'a> {
+pub(crate) struct Reader<'a> {
     pub bytes: &'a [u8],
     pub pos: usize,
 }

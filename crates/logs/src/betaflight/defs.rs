@@ -4,11 +4,11 @@
 use crate::error::LogError;
 use crate::model::LogFormat;
 
-pub(super) const FORMAT: LogFormat = LogFormat::Betaflight;
+pub(crate) const FORMAT: LogFormat = LogFormat::Betaflight;
 
 /// A field encoding (the numbers of the `Field X encoding` header lines).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Encoding {
+pub(crate) enum Encoding {
     SignedVb,
     UnsignedVb,
     Neg14Bit,
@@ -20,7 +20,7 @@ pub(super) enum Encoding {
 }
 
 impl Encoding {
-    pub(super) fn from_number(s: &str) -> Option<Encoding> {
+    pub(crate) fn from_number(s: &str) -> Option<Encoding> {
         Some(match s.parse::<u8>().ok()? {
             0 => Encoding::SignedVb,
             1 => Encoding::UnsignedVb,
@@ -37,7 +37,7 @@ impl Encoding {
 
 /// A field predictor (the numbers of the `Field X predictor` lines).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Predictor {
+pub(crate) enum Predictor {
     Zero,
     Previous,
     StraightLine,
@@ -53,7 +53,7 @@ pub(super) enum Predictor {
 }
 
 impl Predictor {
-    pub(super) fn from_number(s: &str) -> Option<Predictor> {
+    pub(crate) fn from_number(s: &str) -> Option<Predictor> {
         Some(match s.parse::<u8>().ok()? {
             0 => Predictor::Zero,
             1 => Predictor::Previous,
@@ -72,7 +72,7 @@ impl Predictor {
     }
 }
 
-pub(super) fn corrupt(offset: usize, expected: &str, found: impl Into<String>) -> LogError {
+pub(crate) fn corrupt(offset: usize, expected: &str, found: impl Into<String>) -> LogError {
     LogError::Corrupt {
         format: FORMAT,
         offset: offset as u64,

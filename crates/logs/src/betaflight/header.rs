@@ -5,7 +5,7 @@ use crate::error::Result;
 
 /// The field definitions of one frame type.
 #[derive(Clone, Debug, Default)]
-pub(super) struct FrameDef {
+pub(crate) struct FrameDef {
     pub names: Vec<String>,
     pub signed: Vec<bool>,
     pub predictors: Vec<Predictor>,
@@ -14,7 +14,7 @@ pub(super) struct FrameDef {
 
 /// What the decoder needs from the header.
 #[derive(Clone, Debug, Default)]
-pub(super) struct Header {
+pub(crate) struct Header {
     pub i: FrameDef,
     pub p: FrameDef,
     pub s: FrameDef,
@@ -66,7 +66,7 @@ fn int(value: &str, at: usize, what: &str) -> Result<i64> {
 
 /// Parses the header at the start of `bytes` (offsets relative to `base`);
 /// returns it and the offset of the first data byte.
-pub(super) fn parse(bytes: &[u8], base: usize) -> Result<(Header, usize)> {
+pub(crate) fn parse(bytes: &[u8], base: usize) -> Result<(Header, usize)> {
     let mut h = Header {
         i_interval: 32,
         p_num: 1,
