@@ -4,6 +4,8 @@
 #![allow(clippy::needless_range_loop)]
 
 #[cfg(feature = "std")]
+mod armax;
+#[cfg(feature = "std")]
 mod arx;
 #[cfg(feature = "std")]
 mod closed_loop;
@@ -34,6 +36,8 @@ mod validate;
 #[cfg(feature = "std")]
 pub mod workflow;
 
+#[cfg(feature = "std")]
+pub use armax::{ArmaxModel, ArmaxSettings, armax};
 #[cfg(feature = "std")]
 pub use arx::{
     ArxBaseline, ArxBaselineCandidate, ArxBaselineRow, ArxModel, ArxSettings, arx, arx_baseline,
