@@ -31,11 +31,11 @@ fn a_crazyflie_log_to_csv_that_identify_reads() {
         stderr.contains("output p        = fixedFrequency.gyro.x [rad/s]"),
         "{stderr}"
     );
-    assert!(stderr.contains("2 experiment(s), 595 rows"), "{stderr}");
+    assert!(stderr.contains("2 experiment(s), 594 rows"), "{stderr}");
     let csv = std::fs::read_to_string(&out).unwrap();
     let mut lines = csv.lines();
     assert_eq!(lines.next(), Some("t,m1,m2,m3,m4,p,q,r,experiment"));
-    assert_eq!(lines.count(), 595);
+    assert_eq!(lines.count(), 594);
     // An existing file is replaced only with --force.
     let again = kestrel()
         .arg("import")

@@ -170,3 +170,34 @@ fn the_whole_log_and_cell_means() {
         assert!((e.columns[p][k] - mean).abs() < 1e-9, "cell {k}");
     }
 }
+
+#[test]
+fn segments_do_not_hang_on_the_threshold() {
+    // Hover is about 0.2 (Betaflight) and 0.6 (Crazyflie) of the command
+    // range, the ground 0: any threshold from 0.03 to 0.15 finds the same
+    // flights to within 0.3 s.
+    for file in [
+        "betaflight/btfl_002.bbl",
+        "crazyflie/log10",
+        "crazyflie/log15",
+        "crazyflie/log16",
+    ] {
+        let logs = read_bytes(&flight(file), &ReadOptions::default()).unwrap();
+        let segments = |threshold| {
+            let mut s = ImportSettings::default();
+            s.airborne.threshold = threshold;
+            import(&logs, &s).unwrap().logs[0].segments.clone()
+        };
+        let reference = segments(0.05);
+        for threshold in [0.03, 0.1, 0.15] {
+            let other = segments(threshold);
+            assert_eq!(other.len(), reference.len(), "{file} at {threshold}");
+            for (a, b) in other.iter().zip(&reference) {
+                assert!(
+                    (a.start - b.start).abs() < 0.3 && (a.end - b.end).abs() < 0.3,
+                    "{file} at {threshold}: {a:?} vs {b:?}"
+                );
+            }
+        }
+    }
+}
