@@ -1,12 +1,14 @@
 //! Validation: simulation fit (`compare`), k-step-ahead prediction fit,
 //! residual analysis (`resid`), each with the persistence baseline.
 
+use crate::arx::arx_baseline;
 use crate::data::IoData;
 use crate::error::{Result, SysidError};
 use crate::linalg::lstsq;
 use crate::model::InnovationModel;
 use nalgebra::{DMatrix, DVector};
 use std::fmt;
+use std::ops::RangeInclusive;
 
 /// The fit (4.11) in percent per output column, pooled over experiments:
 /// `100 (1 - |y - yhat| / |y - mean(y)|)` with the mean over all samples.
@@ -386,6 +388,46 @@ pub fn validate(
         rows,
         residuals: resid(model, data, 25)?,
     })
+}
+
+impl ValidationReport {
+    /// Adds the best-ARX baseline rows (least squares on `est`, the best
+    /// lag count in `lags` on `val` for each horizon, an optimistic
+    /// baseline: [`arx_baseline`]) after the persistence row of each
+    /// horizon, labelled `best ARX k-step (n lags)`. Returns whether they
+    /// were added: a record too short for every lag count adds none.
+    pub fn add_arx_baseline(
+        &mut self,
+        est: &IoData,
+        val: &IoData,
+        lags: RangeInclusive<usize>,
+        horizons: &[usize],
+    ) -> Result<bool> {
+        let b = match arx_baseline(est, val, lags, horizons) {
+            Ok(b) => b,
+            Err(SysidError::TooFewSamples { .. }) => return Ok(false),
+            Err(e) => return Err(e),
+        };
+        for row in &b.rows {
+            let label = format!("best ARX {}-step ({} lags)", row.horizon, row.lags);
+            let fit_row = FitRow {
+                label,
+                fit: row.fit.clone(),
+            };
+            let after = format!("persistence {}-step", row.horizon);
+            match self.rows.iter().position(|r| r.label == after) {
+                Some(i) => self.rows.insert(i + 1, fit_row),
+                None => self.rows.push(fit_row),
+            }
+        }
+        Ok(true)
+    }
+
+    /// The best-ARX baseline row of horizon `k`, if added.
+    pub fn arx_row(&self, k: usize) -> Option<&FitRow> {
+        let prefix = format!("best ARX {k}-step");
+        self.rows.iter().find(|r| r.label.starts_with(&prefix))
+    }
 }
 
 impl fmt::Display for ValidationReport {

@@ -2,7 +2,9 @@
 
 use crate::io;
 use anyhow::{Context, bail};
-use kestrel_sysid::workflow::{self, AfterReduction, IdentifySpec, Lowpass, PemFocus, Segment};
+use kestrel_sysid::workflow::{
+    self, AfterReduction, AutoSelect, IdentifySpec, Lowpass, PemFocus, Segment,
+};
 use kestrel_sysid::{
     Criterion, CsvColumns, IoData, MatrixEstimate, SysidError, TimeUnit, Weighting,
 };
@@ -64,6 +66,25 @@ pub enum CriterionArg {
     Fit,
 }
 
+/// `--order`: a number or `auto`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OrderArg {
+    /// Chosen by cross-validation.
+    Auto,
+    /// Fixed.
+    Fixed(usize),
+}
+
+/// Reads `--order`: `auto` or a non-negative integer.
+fn parse_order(s: &str) -> Result<OrderArg, String> {
+    if s.eq_ignore_ascii_case("auto") {
+        return Ok(OrderArg::Auto);
+    }
+    s.parse::<usize>()
+        .map(OrderArg::Fixed)
+        .map_err(|_| format!("expected a number or `auto`, found {s:?}"))
+}
+
 /// Unit of the `t` column.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TimeUnitArg {
@@ -110,11 +131,32 @@ pub struct Args {
     /// Validation intervals (same syntax); default: the estimation data.
     #[arg(long)]
     pub validate: Option<String>,
-    /// Model order; default: suggested from the singular values. At most
-    /// 100, and no more model parameters than output values in the data
-    /// (order n has n(n + inputs + 2 outputs) + inputs x outputs).
+    /// Model order, or `auto` (the default): chosen by blocked
+    /// cross-validation inside the estimation data among 1..--max-order.
+    /// At most 100, and no more model parameters than output values in
+    /// the data (order n has n(n + inputs + 2 outputs) + inputs x outputs).
+    #[arg(long, value_parser = parse_order)]
+    pub order: Option<OrderArg>,
+    /// Largest order the automatic choice tries.
+    #[arg(long, default_value_t = 8)]
+    pub max_order: usize,
+    /// Number of consecutive blocks (folds) of the estimation data for the
+    /// automatic structure choice.
+    #[arg(long, default_value_t = 3)]
+    pub folds: usize,
+    /// Time budget of the automatic structure choice in seconds: no new
+    /// candidate fit starts after it (the candidates done are compared).
+    #[arg(long, default_value_t = 40.0)]
+    pub time_budget: f64,
+    /// Fit the flags as given, without the automatic structure choice
+    /// (order suggested from the singular values unless --order N, N4SID
+    /// output-error start, one-step PEM unless --focus/--pem-horizon).
     #[arg(long)]
-    pub order: Option<usize>,
+    pub no_auto: bool,
+    /// Show the structure choice's progress on standard error even when
+    /// it is not a terminal.
+    #[arg(long)]
+    pub progress: bool,
     /// Reduce the identified model to this order by balanced truncation.
     #[arg(long)]
     pub reduce: Option<usize>,
@@ -125,36 +167,40 @@ pub struct Args {
     /// --method pem), so the residual tests judge an estimated noise model.
     #[arg(long, value_enum, default_value_t = AfterReductionArg::NoiseModel)]
     pub after_reduction: AfterReductionArg,
-    /// Identification method.
-    #[arg(long, value_enum, default_value_t = Method::Pem)]
-    pub method: Method,
-    /// N4SID weighting.
-    #[arg(long, value_enum, default_value_t = WeightingArg::Moesp)]
-    pub weighting: WeightingArg,
+    /// Identification method (default: pem; given, it fixes the start).
+    #[arg(long, value_enum)]
+    pub method: Option<Method>,
+    /// N4SID weighting (default: moesp; given, it fixes the start).
+    #[arg(long, value_enum)]
+    pub weighting: Option<WeightingArg>,
     /// N4SID horizon (block rows); default chosen from the order.
     #[arg(long)]
     pub horizon: Option<usize>,
-    /// How N4SID estimates the system matrices.
-    #[arg(long, value_enum, default_value_t = N4sidMatricesArg::OutputError)]
-    pub n4sid_matrices: N4sidMatricesArg,
-    /// PEM focus.
-    #[arg(long, value_enum, default_value_t = FocusArg::Prediction)]
-    pub focus: FocusArg,
+    /// How N4SID estimates the system matrices (default: output-error;
+    /// given, it fixes the start).
+    #[arg(long, value_enum)]
+    pub n4sid_matrices: Option<N4sidMatricesArg>,
+    /// PEM focus (default: chosen by cross-validation, prediction with
+    /// --no-auto; given, it fixes the focus).
+    #[arg(long, value_enum)]
+    pub focus: Option<FocusArg>,
     /// Prediction horizon h of the prediction-focus PEM stages: fit the
     /// 1..h-step-ahead predictions together (multi-step focus); 1 is the
     /// one-step criterion. Each PEM iteration's Jacobian (about samples x
     /// h x outputs residuals x parameters) is limited to 1 GiB and 5e10
-    /// operations.
-    #[arg(long, default_value_t = 1)]
-    pub pem_horizon: usize,
+    /// operations. Default 1; given, it fixes the focus.
+    #[arg(long)]
+    pub pem_horizon: Option<usize>,
     /// Prediction horizon of the dynamics stage of
     /// `--focus multi-step-then-noise` (ignored by the other foci).
-    #[arg(long, default_value_t = 10)]
-    pub dynamics_horizon: usize,
+    /// Default 10; given, it fixes the focus.
+    #[arg(long)]
+    pub dynamics_horizon: Option<usize>,
     /// How the PEM stages weigh the errors of the outputs and steps.
     #[arg(long, value_enum, default_value_t = CriterionArg::Trace)]
     pub criterion: CriterionArg,
-    /// Estimate a feed-through matrix D.
+    /// Estimate a feed-through matrix D (never chosen automatically: on
+    /// closed-loop logs D learns the controller's reaction).
     #[arg(long)]
     pub feedthrough: bool,
     /// Largest number of PEM iterations.
@@ -195,6 +241,36 @@ pub struct Args {
     /// Output model file (default: standard output, table on standard error).
     #[arg(long)]
     pub out: Option<PathBuf>,
+}
+
+impl Args {
+    /// The order the flags fix (`--order N`).
+    fn fixed_order(&self) -> Option<usize> {
+        match self.order {
+            Some(OrderArg::Fixed(n)) => Some(n),
+            Some(OrderArg::Auto) | None => None,
+        }
+    }
+
+    /// The automatic structure choice: every dimension no flag fixes.
+    fn auto_select(&self) -> Option<AutoSelect> {
+        if self.no_auto {
+            return None;
+        }
+        Some(AutoSelect {
+            order: self.fixed_order().is_none(),
+            max_order: self.max_order,
+            start: self.method.is_none()
+                && self.weighting.is_none()
+                && self.n4sid_matrices.is_none(),
+            focus: self.focus.is_none()
+                && self.pem_horizon.is_none()
+                && self.dynamics_horizon.is_none(),
+            folds: self.folds,
+            time_budget: self.time_budget,
+            ..AutoSelect::default()
+        })
+    }
 }
 
 /// Runs the command: the library's [`kestrel_sysid::workflow::identify`]
@@ -247,7 +323,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let spec = IdentifySpec {
         estimate: parse(&args.estimate, "estimate")?,
         validate: parse(&args.validate, "validate")?,
-        order: args.order,
+        order: args.fixed_order(),
         reduce: args.reduce,
         match_dc: args.match_dc,
         after_reduction: match args.after_reduction {
@@ -255,28 +331,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             AfterReductionArg::NoiseModel => AfterReduction::NoiseModel,
             AfterReductionArg::All => AfterReduction::All,
         },
-        method: match args.method {
+        method: match args.method.unwrap_or(Method::Pem) {
             Method::N4sid => workflow::Method::N4sid,
             Method::Pem => workflow::Method::Pem,
         },
-        weighting: match args.weighting {
+        weighting: match args.weighting.unwrap_or(WeightingArg::Moesp) {
             WeightingArg::Moesp => Weighting::Moesp,
             WeightingArg::Cva => Weighting::Cva,
         },
         horizon: args.horizon,
-        n4sid_matrices: match args.n4sid_matrices {
+        n4sid_matrices: match args.n4sid_matrices.unwrap_or(N4sidMatricesArg::OutputError) {
             N4sidMatricesArg::OutputError => MatrixEstimate::OutputError,
             N4sidMatricesArg::StateRegression => MatrixEstimate::StateRegression,
         },
-        focus: match args.focus {
+        focus: match args.focus.unwrap_or(FocusArg::Prediction) {
             FocusArg::Prediction => PemFocus::Prediction,
             FocusArg::Simulation => PemFocus::Simulation,
             FocusArg::SimulationThenNoise => PemFocus::SimulationThenNoise,
             FocusArg::MultiStepThenNoise => PemFocus::MultiStepThenNoise {
-                horizon: args.dynamics_horizon,
+                horizon: args.dynamics_horizon.unwrap_or(10),
             },
         },
-        pem_horizon: args.pem_horizon,
+        pem_horizon: args.pem_horizon.unwrap_or(1),
         criterion: match args.criterion {
             CriterionArg::Trace => Criterion::Trace,
             CriterionArg::Determinant => Criterion::Determinant,
@@ -294,16 +370,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             cutoff,
         }),
         horizons: args.horizons.clone(),
+        auto: args.auto_select(),
+        arx_baseline: Some(2..=10),
     };
-    let spinner = crate::progress::Spinner::new("identifying the model");
-    let report = workflow::identify(&data, &spec).map_err(|e| {
-        if matches!(e, SysidError::ConstantInput { .. }) {
-            anyhow::anyhow!("identification: {e}. {}", constant_input_hint(&args, &data))
-        } else {
-            crate::guards::sysid(e).context("identification")
-        }
-    })?;
-    drop(spinner);
+    let shown = ChoiceProgress::new(args.progress);
+    let report =
+        workflow::identify_with_progress(&data, &spec, &|p| shown.update(p)).map_err(|e| {
+            if matches!(e, SysidError::ConstantInput { .. }) {
+                anyhow::anyhow!("identification: {e}. {}", constant_input_hint(&args, &data))
+            } else {
+                crate::guards::sysid(e).context("identification")
+            }
+        })?;
+    drop(shown);
     let ss = report.to_ss_model()?;
     io::write_output(args.out.as_deref(), &ss.to_json_string())?;
     if args.out.is_some() {
@@ -312,6 +391,57 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         eprint!("{report}");
     }
     Ok(())
+}
+
+/// Progress of the identification: a spinner with the structure choice's
+/// fits done on a terminal, one line per fit on standard error with
+/// `--progress` when it is not one, nothing otherwise.
+struct ChoiceProgress {
+    /// The spinner (a terminal).
+    bar: Option<indicatif::ProgressBar>,
+    /// One line per fit (`--progress` without a terminal).
+    lines: bool,
+}
+
+impl ChoiceProgress {
+    fn new(asked: bool) -> Self {
+        if crate::progress::enabled() {
+            let pb = indicatif::ProgressBar::new_spinner();
+            pb.set_style(
+                indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+            );
+            pb.enable_steady_tick(std::time::Duration::from_millis(200));
+            pb.set_message("identifying the model");
+            crate::progress::show(&pb);
+            ChoiceProgress {
+                bar: Some(pb),
+                lines: false,
+            }
+        } else {
+            ChoiceProgress {
+                bar: None,
+                lines: asked,
+            }
+        }
+    }
+
+    fn update(&self, p: &workflow::Progress) {
+        let text = format!("structure choice: {}/{} fits ({})", p.done, p.total, p.last);
+        if let Some(bar) = &self.bar {
+            bar.set_message(text);
+        } else if self.lines {
+            eprintln!("{text}");
+        }
+    }
+}
+
+impl Drop for ChoiceProgress {
+    fn drop(&mut self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+    }
 }
 
 /// The documented rule for the `t` column's unit: without `--time-unit`
@@ -339,11 +469,11 @@ fn check_horizon(args: &Args, ny: usize) -> anyhow::Result<()> {
     let Some(h) = args.horizon else {
         return Ok(());
     };
-    let largest = args.order.unwrap_or(0).max(N4SID_SHOWN_ORDERS);
+    let largest = args.fixed_order().unwrap_or(0).max(N4SID_SHOWN_ORDERS);
     if h >= 2 && h * ny > largest {
         return Ok(());
     }
-    let why = match args.order {
+    let why = match args.fixed_order() {
         Some(o) if o > N4SID_SHOWN_ORDERS => format!("--order {o}"),
         Some(o) => format!(
             "the singular values it shows go to order {N4SID_SHOWN_ORDERS}, also with --order {o}"

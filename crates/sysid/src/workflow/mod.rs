@@ -6,14 +6,21 @@
 //! The [`IdentifySpec`] says what to do, the [`Segment`]s which samples to
 //! use, [`identify`] runs it and returns an [`IdentifyReport`].
 
+mod choice;
+mod fit;
 mod report;
 mod run;
 mod segment;
+mod select;
+#[cfg(test)]
+mod select_tests;
 mod spec;
 #[cfg(test)]
 mod tests;
 
+pub use choice::{Candidate, CandidateScore, SelectionReport};
 pub use report::{IdentifyReport, N4sidSummary, PemSummary, ReductionSummary};
-pub use run::identify;
+pub use run::{identify, identify_with_progress};
 pub use segment::{Segment, select_segments};
-pub use spec::{AfterReduction, IdentifySpec, InputMap, Lowpass, Method, PemFocus};
+pub use select::Progress;
+pub use spec::{AfterReduction, AutoSelect, IdentifySpec, InputMap, Lowpass, Method, PemFocus};

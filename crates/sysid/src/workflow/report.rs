@@ -1,6 +1,7 @@
 //! What [`identify`](crate::workflow::identify()) returns, and the text
 //! `kestrel identify` prints.
 
+use super::choice::SelectionReport;
 #[cfg(doc)]
 use super::spec::{AfterReduction, Method, PemFocus};
 use crate::data::Offsets;
@@ -91,6 +92,9 @@ pub struct IdentifyReport {
     pub validation: ValidationReport,
     /// Validation table of the full model when it was reduced.
     pub full_validation: Option<ValidationReport>,
+    /// What the automatic structure choice chose and why (`None` when
+    /// [`IdentifySpec::auto`](super::IdentifySpec::auto) is `None`).
+    pub selection: Option<SelectionReport>,
 }
 
 impl IdentifyReport {
@@ -108,6 +112,9 @@ impl IdentifyReport {
 impl fmt::Display for IdentifyReport {
     /// The text `kestrel identify` prints.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let Some(s) = &self.selection {
+            write!(f, "{s}")?;
+        }
         writeln!(
             f,
             "data: {} estimation samples in {} experiment(s), ts = {} s; N4SID order {} (suggested {}), horizon {}",

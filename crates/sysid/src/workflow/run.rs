@@ -1,14 +1,14 @@
 //! The workflow itself: [`identify`].
 
-use super::report::{IdentifyReport, N4sidSummary, PemSummary, ReductionSummary};
+use super::fit::{Fitted, fit_structure};
+use super::report::IdentifyReport;
 use super::segment::select_segments;
-use super::spec::{AfterReduction, IdentifySpec, Method, PemFocus};
+use super::select::{Progress, choose_structure};
+use super::spec::IdentifySpec;
 use crate::data::{IoData, Offsets, SignalSelection};
 use crate::error::{Result, SysidError};
 use crate::filter::Butterworth;
-use crate::n4sid::{N4sidSettings, n4sid};
-use crate::pem::{Focus, PemResult, PemSettings, pem};
-use crate::reduce::{BalredSettings, ReductionMethod, balred, transmission_zeros};
+use crate::reduce::transmission_zeros;
 use crate::validate::validate;
 use nalgebra::DVector;
 
@@ -44,6 +44,16 @@ fn offset_vec(
 /// println!("{report}");
 /// ```
 pub fn identify(data: &IoData, spec: &IdentifySpec) -> Result<IdentifyReport> {
+    identify_with_progress(data, spec, &|_| {})
+}
+
+/// [`identify`] that calls `progress` after every fit of the structure
+/// choice (from the worker threads).
+pub fn identify_with_progress(
+    data: &IoData,
+    spec: &IdentifySpec,
+    progress: &(dyn Fn(&Progress) + Sync),
+) -> Result<IdentifyReport> {
     let raw_nu = data.nu();
     let data = match &spec.input_map {
         Some(m) => data.map_inputs(&m.matrix, m.names.clone())?,
@@ -73,115 +83,39 @@ pub fn identify(data: &IoData, spec: &IdentifySpec) -> Result<IdentifyReport> {
         est = est.lowpass(&f, SignalSelection::Both);
         val = val.map(|v| v.lowpass(&f, SignalSelection::Both));
     }
-    let n4 = N4sidSettings {
-        order: spec.order,
-        max_order: spec.order.unwrap_or(10).max(10),
-        horizon: spec.horizon,
-        past_horizon: None,
-        weighting: spec.weighting,
-        feedthrough: spec.feedthrough,
-        estimate_k: true,
-        matrices: spec.n4sid_matrices,
-    };
-    let start = n4sid(&est, &n4)?;
-    let n4sid_summary = N4sidSummary {
-        order: start.order,
-        suggested_order: start.suggested_order,
-        horizon: start.horizon,
-    };
-    let summary = |r: &PemResult| PemSummary {
-        iterations: r.iterations,
-        free_parameters: r.free_parameters,
-        initial_cost: r.initial_cost,
-        cost: r.cost,
-        stop: r.stop,
-    };
-    let settings = PemSettings {
-        focus: match spec.focus {
-            PemFocus::Prediction | PemFocus::MultiStepThenNoise { .. } => Focus::Prediction,
-            PemFocus::Simulation | PemFocus::SimulationThenNoise => Focus::Simulation,
+    let (spec_for_fit, selection) = match &spec.auto {
+        Some(auto) => match choose_structure(&est, spec, auto, progress) {
+            Ok((s, r)) => (s, Some(r)),
+            // Too short a record for the folds: the spec as given.
+            Err(SysidError::TooFewSamples { .. }) => (spec.clone(), None),
+            Err(e) => return Err(e),
         },
-        feedthrough: spec.feedthrough,
-        max_iterations: spec.max_iterations,
-        horizon: match spec.focus {
-            PemFocus::Prediction => spec.pem_horizon,
-            PemFocus::MultiStepThenNoise { horizon } => horizon,
-            PemFocus::Simulation | PemFocus::SimulationThenNoise => 1,
-        },
-        criterion: spec.criterion,
-        ..Default::default()
+        None => (spec.clone(), None),
     };
-    let noise = PemSettings {
-        focus: Focus::Prediction,
-        fixed_dynamics: true,
-        feedthrough: false,
-        horizon: spec.pem_horizon,
-        ..settings.clone()
-    };
-    let (full_model, pem_summary, pem_noise) = match spec.method {
-        Method::N4sid => (start.model, None, None),
-        Method::Pem => {
-            let r = pem(&est, &start.model, &settings)?;
-            if spec.focus.refits_noise() {
-                let r2 = pem(&est, &r.model, &noise)?;
-                (r2.model.clone(), Some(summary(&r)), Some(summary(&r2)))
-            } else {
-                (r.model.clone(), Some(summary(&r)), None)
-            }
-        }
-    };
-    let (model, reduction) = match spec.reduce {
-        Some(r) => {
-            let red = balred(
-                &full_model,
-                r,
-                &BalredSettings {
-                    method: if spec.match_dc {
-                        ReductionMethod::MatchDc
-                    } else {
-                        ReductionMethod::Truncate
-                    },
-                    include_noise: true,
-                },
-            )?;
-            let s = ReductionSummary {
-                from: full_model.nx(),
-                to: r,
-                hankel_singular_values: red.hankel_singular_values,
-                error_bound: red.error_bound,
-            };
-            (red.model, Some(s))
-        }
-        None => (full_model.clone(), None),
-    };
-    let (model, pem_reduced) = match (spec.method, &reduction, spec.after_reduction) {
-        (Method::Pem, Some(_), AfterReduction::NoiseModel) => {
-            let r = pem(&est, &model, &noise)?;
-            (r.model.clone(), Some(summary(&r)))
-        }
-        (Method::Pem, Some(_), AfterReduction::All) => {
-            let all = PemSettings {
-                feedthrough: spec.feedthrough || model.d.amax() > 0.0,
-                ..settings.clone()
-            };
-            let r = pem(&est, &model, &all)?;
-            if spec.focus.refits_noise() {
-                let r2 = pem(&est, &r.model, &noise)?;
-                (r2.model.clone(), Some(summary(&r2)))
-            } else {
-                (r.model.clone(), Some(summary(&r)))
-            }
-        }
-        _ => (model, None),
-    };
+    let spec = &spec_for_fit;
+    let Fitted {
+        n4sid: n4sid_summary,
+        pem: pem_summary,
+        pem_noise,
+        pem_reduced,
+        full_model,
+        reduction,
+        model,
+    } = fit_structure(&est, spec)?;
     let zeros = transmission_zeros(&model).map_err(|e| e.to_string());
     let vdata = val.as_ref().unwrap_or(&est);
-    let validation = validate(&model, vdata, &spec.horizons)?;
-    let full_validation = if reduction.is_some() {
+    let mut validation = validate(&model, vdata, &spec.horizons)?;
+    let mut full_validation = if reduction.is_some() {
         Some(validate(&full_model, vdata, &spec.horizons)?)
     } else {
         None
     };
+    if let Some(lags) = &spec.arx_baseline {
+        validation.add_arx_baseline(&est, vdata, lags.clone(), &spec.horizons)?;
+        if let Some(v) = full_validation.as_mut() {
+            v.add_arx_baseline(&est, vdata, lags.clone(), &spec.horizons)?;
+        }
+    }
     Ok(IdentifyReport {
         estimation_samples: est.n_samples(),
         experiments: est.experiments().len(),
@@ -200,5 +134,6 @@ pub fn identify(data: &IoData, spec: &IdentifySpec) -> Result<IdentifyReport> {
         on_validation_data: val.is_some(),
         validation,
         full_validation,
+        selection,
     })
 }

@@ -6,7 +6,10 @@ use crate::n4sid::{MatrixEstimate, Weighting};
 use crate::pem::Criterion;
 #[cfg(doc)]
 use crate::pem::PemSettings;
+#[cfg(doc)]
+use crate::validate::ValidationReport;
 use nalgebra::DMatrix;
+use std::ops::RangeInclusive;
 
 /// Identification method of the workflow.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -149,6 +152,62 @@ pub struct IdentifySpec {
     pub lowpass: Option<Lowpass>,
     /// Horizons of the k-step prediction table.
     pub horizons: Vec<usize>,
+    /// The automatic structure choice: the dimensions it may choose by
+    /// blocked cross-validation inside the estimation data (a dimension
+    /// the spec fixes, e.g. `order: Some(n)`, stays fixed); `None`: fit
+    /// the spec as given (the behaviour before the choice existed).
+    pub auto: Option<AutoSelect>,
+    /// Lag counts of the best-ARX baseline rows of the validation table
+    /// (`best ARX k-step (n lags)`, [`ValidationReport::add_arx_baseline`]);
+    /// `None`: no ARX rows.
+    pub arx_baseline: Option<RangeInclusive<usize>>,
+}
+
+/// What the automatic structure choice of
+/// [`identify`](crate::workflow::identify()) may choose, and its limits.
+/// The choice looks at the estimation data only (never at the validation
+/// segments).
+#[derive(Clone, Debug, PartialEq)]
+pub struct AutoSelect {
+    /// Choose the order in `1..=max_order` (only when
+    /// [`IdentifySpec::order`] is `None`).
+    pub order: bool,
+    /// Largest order tried.
+    pub max_order: usize,
+    /// Choose the N4SID start: `B, D` by output-error least squares or
+    /// `A, B, C, D` by the state regression. The feed-through
+    /// ([`IdentifySpec::feedthrough`]) is never chosen: on closed-loop
+    /// data `D` learns the controller's reaction within the sample.
+    pub start: bool,
+    /// Choose the PEM focus and its prediction horizon (one-step PEM,
+    /// multi-step `1..=h` PEM, or multi-step then `K`, with `h` the
+    /// largest table horizon); only with [`Method::Pem`].
+    pub focus: bool,
+    /// Number of consecutive blocks (folds), at least 2.
+    pub folds: usize,
+    /// Largest number of iterations of each PEM stage on a fold (the
+    /// final fit uses [`IdentifySpec::max_iterations`]).
+    pub fold_iterations: usize,
+    /// No new fit starts after this many seconds (the candidates whose
+    /// folds all finished are compared).
+    pub time_budget: f64,
+    /// Worker threads.
+    pub threads: usize,
+}
+
+impl Default for AutoSelect {
+    fn default() -> Self {
+        AutoSelect {
+            order: true,
+            max_order: 8,
+            start: true,
+            focus: true,
+            folds: 3,
+            fold_iterations: 10,
+            time_budget: 40.0,
+            threads: std::thread::available_parallelism().map_or(2, |n| n.get().min(4)),
+        }
+    }
 }
 
 impl Default for IdentifySpec {
@@ -174,6 +233,8 @@ impl Default for IdentifySpec {
             y0: None,
             lowpass: None,
             horizons: vec![1, 5],
+            auto: Some(AutoSelect::default()),
+            arx_baseline: Some(2..=10),
         }
     }
 }

@@ -119,6 +119,10 @@ pub fn thesis_spec(kind: ModelKind) -> IdentifySpec {
             ModelKind::BlackBox => None,
             ModelKind::Virtual => Some(virtual_input_map()),
         },
+        // The thesis's structure, as given (no automatic choice), and its
+        // tables (no ARX rows).
+        auto: None,
+        arx_baseline: None,
         ..Default::default()
     }
 }

@@ -1,0 +1,96 @@
+//! End-to-end tests of `kestrel identify`'s automatic structure choice
+//! and its baseline rows.
+
+use kestrel_core::formats::SsModel;
+use kestrel_sysid::synthetic;
+use std::process::Command;
+
+/// A log `t,a,b,p,q` from a known 3rd-order model, 50 Hz.
+fn write_log(path: &std::path::Path) {
+    let m = synthetic::random_model(3, 2, 2, 17, 0.9);
+    let d = synthetic::simulate(&m, 1200, 0.05, 4).unwrap();
+    let e = &d.experiments()[0];
+    let mut text = String::from("t,a,b,p,q\n");
+    for k in 0..1200 {
+        text.push_str(&format!(
+            "{:.2},{},{},{},{}\n",
+            k as f64 * 0.02,
+            e.u[(k, 0)],
+            e.u[(k, 1)],
+            e.y[(k, 0)],
+            e.y[(k, 1)]
+        ));
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+fn kestrel(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_kestrel"))
+        .arg("identify")
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// The default (and `--order auto`) chooses the order by cross-validation
+/// inside the estimation data, prints the candidates and the choice, and
+/// puts persistence and the best ARX beside the model in the table; a
+/// flag fixes its dimension; `--order x` is refused.
+#[test]
+fn default_chooses_the_structure_and_prints_the_baselines() {
+    let d = std::env::temp_dir().join(format!("kestrel-identify-auto-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let log = d.join("log.csv");
+    write_log(&log);
+    let l = log.display().to_string();
+    let base = [
+        "--data",
+        &l,
+        "--inputs",
+        "a,b",
+        "--outputs",
+        "p,q",
+        "--estimate",
+        "0:15.98",
+        "--validate",
+        "16:23.98",
+        "--max-order",
+        "5",
+    ];
+    let o = kestrel(&[&base[..], &["--order", "auto"]].concat());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("structure chosen by 3-fold blocked cross-validation"),
+        "{err}"
+    );
+    assert!(err.contains("chosen: order 3"), "{err}");
+    for row in [
+        "persistence 1-step",
+        "best ARX 1-step (",
+        "best ARX 5-step (",
+    ] {
+        assert!(err.contains(row), "{row} missing in {err}");
+    }
+    let m = SsModel::from_json_str(&String::from_utf8_lossy(&o.stdout)).unwrap();
+    assert_eq!(m.nx(), 3);
+    // A given order and focus stay fixed.
+    let o = kestrel(&[&base[..], &["--order", "2", "--focus", "prediction"]].concat());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("fixed: order, focus and prediction horizon"),
+        "{err}"
+    );
+    assert!(!err.contains("order 3,"), "{err}");
+    // --no-auto: the flags as given, no choice printed.
+    let o = kestrel(&[&base[..], &["--order", "2", "--no-auto"]].concat());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success() && !err.contains("structure chosen"),
+        "{err}"
+    );
+    let o = kestrel(&[&base[..], &["--order", "x"]].concat());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("`auto`"), "{err}");
+}

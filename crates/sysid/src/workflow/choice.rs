@@ -1,0 +1,162 @@
+//! The candidates of the automatic structure choice and what it reports.
+
+use super::spec::{IdentifySpec, PemFocus};
+use crate::n4sid::MatrixEstimate;
+use core::fmt;
+
+/// One structure the choice tries: the spec's fields it sets.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Candidate {
+    /// Model order (`None`: suggested from the singular values).
+    pub order: Option<usize>,
+    /// How N4SID estimates the system matrices.
+    pub n4sid_matrices: MatrixEstimate,
+    /// Estimate a feed-through `D`.
+    pub feedthrough: bool,
+    /// PEM focus.
+    pub focus: PemFocus,
+    /// Prediction horizon of the prediction-focus PEM stages.
+    pub pem_horizon: usize,
+}
+
+impl Candidate {
+    /// The candidate as the spec says it (every dimension as given).
+    pub fn of_spec(spec: &IdentifySpec) -> Self {
+        Candidate {
+            order: spec.order,
+            n4sid_matrices: spec.n4sid_matrices,
+            feedthrough: spec.feedthrough,
+            focus: spec.focus,
+            pem_horizon: spec.pem_horizon,
+        }
+    }
+
+    /// `spec` with this candidate's fields.
+    pub fn apply(&self, spec: &IdentifySpec) -> IdentifySpec {
+        IdentifySpec {
+            order: self.order,
+            n4sid_matrices: self.n4sid_matrices,
+            feedthrough: self.feedthrough,
+            focus: self.focus,
+            pem_horizon: self.pem_horizon,
+            ..spec.clone()
+        }
+    }
+
+    /// A short description, e.g. `order 6, N4SID output-error, multi-step 1..5 then K`.
+    pub fn label(&self) -> String {
+        let order = self
+            .order
+            .map_or("order suggested".to_string(), |o| format!("order {o}"));
+        let start = match (self.n4sid_matrices, self.feedthrough) {
+            (MatrixEstimate::OutputError, false) => "N4SID output-error",
+            (MatrixEstimate::OutputError, true) => "N4SID output-error, D",
+            (MatrixEstimate::StateRegression, false) => "N4SID state-regression",
+            (MatrixEstimate::StateRegression, true) => "N4SID state-regression, D",
+        };
+        let focus = match self.focus {
+            PemFocus::Prediction if self.pem_horizon == 1 => "1-step PEM".to_string(),
+            PemFocus::Prediction => format!("PEM 1..{}-step", self.pem_horizon),
+            PemFocus::Simulation => "simulation PEM".to_string(),
+            PemFocus::SimulationThenNoise => "simulation PEM then K".to_string(),
+            PemFocus::MultiStepThenNoise { horizon } => {
+                format!("PEM 1..{horizon}-step then K ({}-step)", self.pem_horizon)
+            }
+        };
+        format!("{order}, {start}, {focus}")
+    }
+}
+
+/// A candidate's cross-validation figures.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CandidateScore {
+    /// The candidate.
+    pub candidate: Candidate,
+    /// Mean over the folds of the mean fits in percent: simulation, then
+    /// each table horizon (empty when a fold failed).
+    pub fits: Vec<f64>,
+    /// The score: the mean of the k-step fits and the simulation fit
+    /// clipped at 0 (minus infinity when a fold failed).
+    pub score: f64,
+    /// Why a fold failed.
+    pub failed: Option<String>,
+}
+
+/// What the automatic structure choice chose and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SelectionReport {
+    /// Number of folds.
+    pub folds: usize,
+    /// The table horizons the scores use.
+    pub horizons: Vec<usize>,
+    /// The dimensions chosen.
+    pub free: Vec<String>,
+    /// The dimensions the spec fixed.
+    pub fixed: Vec<String>,
+    /// Every candidate tried, in the order tried.
+    pub candidates: Vec<CandidateScore>,
+    /// The choice (the best score).
+    pub chosen: Candidate,
+    /// Its score.
+    pub score: f64,
+    /// Wall time of the choice in seconds.
+    pub seconds: f64,
+    /// Whether the time budget stopped the search before every candidate
+    /// was fitted.
+    pub budget_hit: bool,
+}
+
+impl fmt::Display for SelectionReport {
+    /// The candidate table and the choice.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "structure chosen by {}-fold blocked cross-validation inside the estimation data ({:.1} s{}; chosen: {}; fixed: {}):",
+            self.folds,
+            self.seconds,
+            if self.budget_hit {
+                ", time budget reached"
+            } else {
+                ""
+            },
+            if self.free.is_empty() {
+                "nothing".to_string()
+            } else {
+                self.free.join(", ")
+            },
+            if self.fixed.is_empty() {
+                "nothing".to_string()
+            } else {
+                self.fixed.join(", ")
+            },
+        )?;
+        write!(
+            f,
+            "  {:<58}{:>10}",
+            "candidate (mean fit over folds, %)", "sim"
+        )?;
+        for k in &self.horizons {
+            write!(f, "{:>10}", format!("{k}-step"))?;
+        }
+        writeln!(f, "{:>10}", "score")?;
+        for c in &self.candidates {
+            let mark = if c.candidate == self.chosen { '*' } else { ' ' };
+            write!(f, "{mark} {:<58}", c.candidate.label())?;
+            match &c.failed {
+                Some(e) => writeln!(f, "failed: {e}")?,
+                None => {
+                    for v in &c.fits {
+                        write!(f, "{v:>10.2}")?;
+                    }
+                    writeln!(f, "{:>10.2}", c.score)?;
+                }
+            }
+        }
+        writeln!(
+            f,
+            "chosen: {} (score {:.2}: mean of the k-step fits and the simulation fit clipped at 0)",
+            self.chosen.label(),
+            self.score
+        )
+    }
+}

@@ -1,0 +1,145 @@
+//! N4SID, PEM and `balred` of a spec on prepared data: the part of the
+//! workflow that the structure choice repeats on every fold.
+
+use super::report::{N4sidSummary, PemSummary, ReductionSummary};
+use super::spec::{AfterReduction, IdentifySpec, Method, PemFocus};
+use crate::data::IoData;
+use crate::error::Result;
+use crate::model::InnovationModel;
+use crate::n4sid::{N4sidSettings, n4sid};
+use crate::pem::{Focus, PemResult, PemSettings, pem};
+use crate::reduce::{BalredSettings, ReductionMethod, balred};
+
+/// What [`fit_structure`] produced on one data set.
+pub(super) struct Fitted {
+    /// The N4SID step.
+    pub n4sid: N4sidSummary,
+    /// The PEM step.
+    pub pem: Option<PemSummary>,
+    /// The noise-model stage.
+    pub pem_noise: Option<PemSummary>,
+    /// The refit after the reduction.
+    pub pem_reduced: Option<PemSummary>,
+    /// The model of the identified order.
+    pub full_model: InnovationModel,
+    /// The reduction step.
+    pub reduction: Option<ReductionSummary>,
+    /// The final model.
+    pub model: InnovationModel,
+}
+
+/// N4SID, PEM and `balred` of `spec` on the prepared (mean-free,
+/// filtered) estimation data `est`: the part of the workflow that the
+/// structure choice repeats on every fold.
+pub(super) fn fit_structure(est: &IoData, spec: &IdentifySpec) -> Result<Fitted> {
+    let n4 = N4sidSettings {
+        order: spec.order,
+        max_order: spec.order.unwrap_or(10).max(10),
+        horizon: spec.horizon,
+        past_horizon: None,
+        weighting: spec.weighting,
+        feedthrough: spec.feedthrough,
+        estimate_k: true,
+        matrices: spec.n4sid_matrices,
+    };
+    let start = n4sid(est, &n4)?;
+    let n4sid_summary = N4sidSummary {
+        order: start.order,
+        suggested_order: start.suggested_order,
+        horizon: start.horizon,
+    };
+    let summary = |r: &PemResult| PemSummary {
+        iterations: r.iterations,
+        free_parameters: r.free_parameters,
+        initial_cost: r.initial_cost,
+        cost: r.cost,
+        stop: r.stop,
+    };
+    let settings = PemSettings {
+        focus: match spec.focus {
+            PemFocus::Prediction | PemFocus::MultiStepThenNoise { .. } => Focus::Prediction,
+            PemFocus::Simulation | PemFocus::SimulationThenNoise => Focus::Simulation,
+        },
+        feedthrough: spec.feedthrough,
+        max_iterations: spec.max_iterations,
+        horizon: match spec.focus {
+            PemFocus::Prediction => spec.pem_horizon,
+            PemFocus::MultiStepThenNoise { horizon } => horizon,
+            PemFocus::Simulation | PemFocus::SimulationThenNoise => 1,
+        },
+        criterion: spec.criterion,
+        ..Default::default()
+    };
+    let noise = PemSettings {
+        focus: Focus::Prediction,
+        fixed_dynamics: true,
+        feedthrough: false,
+        horizon: spec.pem_horizon,
+        ..settings.clone()
+    };
+    let (full_model, pem_summary, pem_noise) = match spec.method {
+        Method::N4sid => (start.model, None, None),
+        Method::Pem => {
+            let r = pem(est, &start.model, &settings)?;
+            if spec.focus.refits_noise() {
+                let r2 = pem(est, &r.model, &noise)?;
+                (r2.model.clone(), Some(summary(&r)), Some(summary(&r2)))
+            } else {
+                (r.model.clone(), Some(summary(&r)), None)
+            }
+        }
+    };
+    let (model, reduction) = match spec.reduce {
+        Some(r) => {
+            let red = balred(
+                &full_model,
+                r,
+                &BalredSettings {
+                    method: if spec.match_dc {
+                        ReductionMethod::MatchDc
+                    } else {
+                        ReductionMethod::Truncate
+                    },
+                    include_noise: true,
+                },
+            )?;
+            let s = ReductionSummary {
+                from: full_model.nx(),
+                to: r,
+                hankel_singular_values: red.hankel_singular_values,
+                error_bound: red.error_bound,
+            };
+            (red.model, Some(s))
+        }
+        None => (full_model.clone(), None),
+    };
+    let (model, pem_reduced) = match (spec.method, &reduction, spec.after_reduction) {
+        (Method::Pem, Some(_), AfterReduction::NoiseModel) => {
+            let r = pem(est, &model, &noise)?;
+            (r.model.clone(), Some(summary(&r)))
+        }
+        (Method::Pem, Some(_), AfterReduction::All) => {
+            let all = PemSettings {
+                feedthrough: spec.feedthrough || model.d.amax() > 0.0,
+                ..settings.clone()
+            };
+            let r = pem(est, &model, &all)?;
+            if spec.focus.refits_noise() {
+                let r2 = pem(est, &r.model, &noise)?;
+                (r2.model.clone(), Some(summary(&r2)))
+            } else {
+                (r.model.clone(), Some(summary(&r)))
+            }
+        }
+        _ => (model, None),
+    };
+    Ok(Fitted {
+        n4sid: n4sid_summary,
+        pem: pem_summary,
+        pem_noise,
+        pem_reduced,
+        full_model,
+        reduction,
+        model,
+    })
+}

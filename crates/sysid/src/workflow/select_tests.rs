@@ -1,0 +1,100 @@
+//! Tests of the automatic structure choice.
+
+use super::run::identify;
+use super::segment::Segment;
+use super::spec::{AutoSelect, IdentifySpec};
+use crate::error::SysidError;
+use crate::synthetic;
+
+fn spec(validate: &str) -> IdentifySpec {
+    IdentifySpec {
+        estimate: Segment::parse_list("0:1199").unwrap(),
+        validate: Segment::parse_list(validate).unwrap(),
+        auto: Some(AutoSelect {
+            max_order: 5,
+            ..AutoSelect::default()
+        }),
+        ..Default::default()
+    }
+}
+
+/// On data from a third-order model the choice picks order 3, and what
+/// it chooses does not depend on the validation segments (it never sees
+/// them): the same choice and the same model with two different ones.
+#[test]
+fn choice_recovers_the_order_from_the_estimation_data_only() {
+    let truth = synthetic::random_model(3, 2, 2, 17, 0.9);
+    let d = synthetic::simulate(&truth, 1800, 0.05, 4).unwrap();
+    let a = identify(&d, &spec("1200:1799")).unwrap();
+    let b = identify(&d, &spec("1500:1799")).unwrap();
+    let (sa, sb) = (a.selection.as_ref().unwrap(), b.selection.as_ref().unwrap());
+    assert_eq!(sa.chosen.order, Some(3), "{sa}");
+    assert_eq!(sa.chosen, sb.chosen);
+    assert_eq!(sa.candidates, sb.candidates);
+    assert_eq!(a.model, b.model);
+    // Orders 1..=5 in the first stage, then focus and start at order 3.
+    assert!(sa.candidates.len() > 5);
+    let o1 = sa.candidates.iter().find(|c| c.candidate.order == Some(1));
+    assert!(o1.unwrap().score < sa.score);
+    let text = a.to_string();
+    assert!(text.contains("structure chosen by 3-fold"), "{text}");
+    assert!(a.validation.row("model 1-step").unwrap().mean() > 80.0);
+    // The best-ARX baseline beside persistence, per horizon.
+    for k in [1, 5] {
+        let arx = a.validation.arx_row(k).unwrap();
+        let i = a.validation.rows.iter().position(|r| r == arx).unwrap();
+        assert_eq!(
+            a.validation.rows[i - 1].label,
+            format!("persistence {k}-step")
+        );
+    }
+}
+
+/// A dimension the spec fixes stays fixed: every candidate has the
+/// given order, and the report says so.
+#[test]
+fn a_fixed_order_stays_fixed() {
+    let truth = synthetic::random_model(2, 2, 1, 9, 0.9);
+    let d = synthetic::simulate(&truth, 900, 0.05, 3).unwrap();
+    let r = identify(
+        &d,
+        &IdentifySpec {
+            order: Some(2),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let s = r.selection.unwrap();
+    assert!(s.candidates.iter().all(|c| c.candidate.order == Some(2)));
+    assert!(s.fixed.contains(&"order".to_string()), "{:?}", s.fixed);
+    assert_eq!(r.model.nx(), 2);
+}
+
+/// A zero time budget fits the first candidate unscored; fewer than two
+/// folds is an error.
+#[test]
+fn budget_and_folds_are_honoured() {
+    let truth = synthetic::random_model(2, 2, 1, 9, 0.9);
+    let d = synthetic::simulate(&truth, 900, 0.05, 3).unwrap();
+    let zero = IdentifySpec {
+        auto: Some(AutoSelect {
+            time_budget: 0.0,
+            ..AutoSelect::default()
+        }),
+        ..Default::default()
+    };
+    let r = identify(&d, &zero).unwrap();
+    let s = r.selection.unwrap();
+    assert!(s.budget_hit && s.candidates.is_empty() && s.score.is_nan());
+    let one = IdentifySpec {
+        auto: Some(AutoSelect {
+            folds: 1,
+            ..AutoSelect::default()
+        }),
+        ..Default::default()
+    };
+    assert!(matches!(
+        identify(&d, &one),
+        Err(SysidError::InvalidArgument(_))
+    ));
+}
