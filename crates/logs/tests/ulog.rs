@@ -8,46 +8,8 @@ use kestrel_logs::{ImportSettings, LogError, LogFormat, ReadOptions, import, rea
 use rand::{RngExt, SeedableRng};
 use rand_xoshiro::SplitMix64;
 
-/// A ULog under construction.
-struct Writer(Vec<u8>);
-
-impl Writer {
-    fn new() -> Self {
-        let mut b = b"ULog\x01\x12\x35".to_vec();
-        b.push(1); // version
-        b.extend(1_000_000u64.to_le_bytes());
-        let mut w = Writer(b);
-        w.record(b'B', &[0; 40]); // flag bits: nothing incompatible, no appended data
-        w
-    }
-
-    fn record(&mut self, kind: u8, payload: &[u8]) {
-        self.0.extend((payload.len() as u16).to_le_bytes());
-        self.0.push(kind);
-        self.0.extend(payload);
-    }
-
-    fn format(&mut self, text: &str) {
-        self.record(b'F', text.as_bytes());
-    }
-
-    fn subscribe(&mut self, multi_id: u8, msg_id: u16, name: &str) {
-        let mut p = vec![multi_id];
-        p.extend(msg_id.to_le_bytes());
-        p.extend(name.as_bytes());
-        self.record(b'A', &p);
-    }
-
-    fn data(&mut self, msg_id: u16, t_us: u64, floats: &[f32], tail: &[u8]) {
-        let mut p = msg_id.to_le_bytes().to_vec();
-        p.extend(t_us.to_le_bytes());
-        for f in floats {
-            p.extend(f.to_le_bytes());
-        }
-        p.extend(tail);
-        self.record(b'D', &p);
-    }
-}
+mod common;
+use common::Writer;
 
 /// 10 s: body rates at 800 Hz (p = sin(2 pi t), q = t, r = -1), four of
 /// twelve motor controls at 400 Hz (0 on the ground, 0.5 from 2 s to 7 s,
