@@ -43,7 +43,7 @@ pub use arx::{
     ArxBaseline, ArxBaselineCandidate, ArxBaselineRow, ArxModel, ArxSettings, arx, arx_baseline,
 };
 #[cfg(feature = "std")]
-pub use closed_loop::{PbsidResult, PbsidSettings, pbsid};
+pub use closed_loop::{PbsidResult, PbsidSettings, pbsid, stabilise_a};
 #[cfg(feature = "std")]
 pub use data::{CsvColumns, Experiment, IoData, Offsets, SignalSelection, TimeInterval, TimeUnit};
 #[cfg(feature = "std")]

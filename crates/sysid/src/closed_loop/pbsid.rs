@@ -1,10 +1,11 @@
 //! Predictor-based subspace identification (PBSID) from a VARX step.
 
 use super::settings::{PbsidResult, PbsidSettings};
+use super::stabilise::pull_inside;
 use crate::arx::{ArxSettings, arx_with_normal_equations};
 use crate::data::IoData;
 use crate::error::{Result, SysidError};
-use crate::linalg::{lstsq, spectral_radius, stable_split};
+use crate::linalg::{lstsq, spectral_radius};
 use crate::model::InnovationModel;
 use crate::n4sid::{MAX_ORDER, Scaling, model_parameters, stabilise_k, suggest_order};
 use nalgebra::{DMatrix, DVector};
@@ -271,33 +272,4 @@ fn state_regressions(
     let b = bk.columns(0, nu).into_owned();
     let k = stabilise_k(&a, &c_mat, bk.columns(nu, ny).into_owned());
     Ok((InnovationModel::new(data.ts(), a, b, c_mat, d, k)?, radius))
-}
-
-/// `A` with its modes outside `|z| < r` moved radially inside: the
-/// unstable part of a block-diagonal split ([`stable_split`]) scaled by
-/// `r / rho`; if the split fails, all of `A` is scaled.
-pub(super) fn pull_inside(a: &DMatrix<f64>, r: f64) -> DMatrix<f64> {
-    let scale_all = || a * (r / spectral_radius(a));
-    let Ok(split) = stable_split(a, r) else {
-        return scale_all();
-    };
-    let n = a.nrows();
-    let ns = split.n_stable;
-    let mut blocks = &split.ti * a * &split.t;
-    let mut au = blocks.view((ns, ns), (n - ns, n - ns)).into_owned();
-    let rho = spectral_radius(&au);
-    if !(rho.is_finite() && rho > 0.0) {
-        return scale_all();
-    }
-    au *= r / rho;
-    blocks.view_mut((ns, ns), (n - ns, n - ns)).copy_from(&au);
-    // The split makes the off-diagonal blocks zero up to rounding.
-    blocks.view_mut((0, ns), (ns, n - ns)).fill(0.0);
-    blocks.view_mut((ns, 0), (n - ns, ns)).fill(0.0);
-    let out = &split.t * blocks * &split.ti;
-    if spectral_radius(&out) <= r * (1.0 + 1e-9) {
-        out
-    } else {
-        scale_all()
-    }
 }

@@ -193,7 +193,7 @@ fn unstable_modes_are_pulled_onto_the_radius_and_stable_ones_kept() {
     let t = DMatrix::from_row_slice(3, 3, &[1.0, 0.4, 0.1, 0.0, 1.0, 0.7, 0.2, 0.0, 1.0]);
     let d = DMatrix::from_diagonal(&DVector::from_vec(vec![1.02, 0.5, -0.3]));
     let a = &t * d * t.clone().try_inverse().unwrap();
-    let out = pbsid::pull_inside(&a, 0.999);
+    let out = stabilise::pull_inside(&a, 0.999);
     let mut eig: Vec<f64> = crate::linalg::eigenvalues(&out)
         .unwrap()
         .iter()
