@@ -2,10 +2,8 @@
 //! first move, then checks it against the solution's region lookup and
 //! times its evaluation (the figures of docs/empc-point-location.md):
 //! `cargo run --release -p kestrel-empc --features parallel --example
-//! locate_file -- PROBLEM [first_move] [samples] [leaf_regions] [shrink]
-//! [tries]`, where
-//! PROBLEM is a `kestrel.mpqp.v1` file or `thesis:SEED:N:NS`
-//! (`testing::scaled_thesis(SEED, N, NS)`).
+//! locate_file -- PROBLEM.json [first_move] [samples] [leaf_regions]
+//! [shrink] [tries]` (a `kestrel.mpqp.v1` file).
 use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::locate::{LocateSettings, Progress, build_lists, estimate};
 use kestrel_empc::{ListSlices, Outputs, Settings, evaluate_lists, solve};
@@ -14,13 +12,6 @@ use rand_xoshiro::SplitMix64;
 use std::time::Instant;
 
 fn problem(arg: &str) -> MpqpProblem {
-    if let Some(rest) = arg.strip_prefix("thesis:") {
-        let v: Vec<u64> = rest
-            .split(':')
-            .map(|x| x.parse().expect("a number"))
-            .collect();
-        return kestrel_empc::testing::scaled_thesis(v[0], v[1] as usize, v[2] as usize);
-    }
     MpqpProblem::read(std::path::Path::new(arg)).expect("problem file")
 }
 

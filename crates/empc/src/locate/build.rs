@@ -8,8 +8,8 @@ use crate::locate::settings::{LocateMethod, LocateSettings, Progress, Stage};
 use crate::locate::split::Splitter;
 use crate::locate::stats::{Estimate, ListStats, OpCount};
 use crate::locate::tables::ListTables;
-use crate::lp::LpWorkspace;
-use crate::mpqp::MpqpSolution;
+use crate::lp::{LpStatus, LpWorkspace};
+use crate::mpqp::{CriticalRegion, MpqpSolution};
 use crate::tree::{AnyController, Outputs, SharedLaws, TreeSettings, build_any, share_laws};
 use kestrel_core::formats::MpqpProblem;
 
@@ -182,6 +182,7 @@ pub fn build_lists(
             .chain(solution.theta_ub.iter())
             .fold(0.0_f64, |s, v| s.max(v.abs()));
     let regions = &solution.regions;
+    let mut lp = LpWorkspace::default();
     let mut tree_progress = |done| {
         progress(Progress {
             stage: Stage::Tree,
@@ -203,6 +204,7 @@ pub fn build_lists(
             .map(|r| r.center.as_slice().to_vec())
             .collect(),
         radius: regions.iter().map(|r| r.radius).collect(),
+        boxes: regions.iter().map(|r| bounding_box(r, &mut lp)).collect(),
         law: &laws.region_law,
         leaf_regions: settings.leaf_regions,
         max_depth: settings.max_depth,
@@ -210,19 +212,19 @@ pub fn build_lists(
         tries: settings.tries,
         shrink: settings.shrink,
         tol: 1e-9 * scale,
-        lp: LpWorkspace::default(),
-        lps: 0,
+        lp: Vec::new(),
+        parallel: settings.parallel,
+        lps: 2 * p * regions.len(),
         nodes: Vec::new(),
         leaves: Vec::new(),
         entries: Vec::new(),
         depth: 0,
         done: 0.0,
-        progress: &mut tree_progress,
     };
     let members = (0..regions.len())
         .map(|r| (r as u32, Some(sp.center[r].clone())))
         .collect();
-    let root = sp.build(members, &mut Vec::new(), 0, 1.0);
+    let root = sp.build(members, &mut Vec::new(), 0, 1.0, &mut tree_progress);
     let (nodes, leaves, entries, depth, lps) = (
         std::mem::take(&mut sp.nodes),
         std::mem::take(&mut sp.leaves),
@@ -311,6 +313,30 @@ pub fn build_lists(
         region_law: laws.region_law,
         stats,
     })
+}
+
+/// The bounding box of a region (2p LPs from its centre; the region's own
+/// rows include the parameter box, so each LP is bounded).
+fn bounding_box(r: &CriticalRegion, lp: &mut LpWorkspace) -> (Vec<f64>, Vec<f64>) {
+    let p = r.center.len();
+    let a = r.a.transpose().as_slice().to_vec();
+    let b = r.b.as_slice();
+    let (mut lo, mut up) = (vec![f64::NEG_INFINITY; p], vec![f64::INFINITY; p]);
+    let mut c = vec![0.0; p];
+    for j in 0..p {
+        for sign in [1.0, -1.0] {
+            c[j] = sign;
+            if let (LpStatus::Optimal, v) = lp.maximize_from(&c, &a, b, r.center.as_slice()) {
+                if sign > 0.0 {
+                    up[j] = v;
+                } else {
+                    lo[j] = -v;
+                }
+            }
+        }
+        c[j] = 0.0;
+    }
+    (lo, up)
 }
 
 /// The most operations and hyperplanes of one evaluation of `t`.

@@ -46,6 +46,9 @@ pub struct LocateSettings {
     /// its regions (in `(0, 1)`); otherwise it becomes a leaf with a
     /// longer list.
     pub shrink: f64,
+    /// Split with LPs on several threads (needs the `parallel` feature;
+    /// ignored otherwise). The structure is the same.
+    pub parallel: bool,
     /// [`LocateMethod::Auto`] builds the exact tree up to this many regions.
     pub auto_tree_regions: usize,
     /// Settings of the exact tree ([`LocateMethod::Tree`]); its `outputs`
@@ -64,6 +67,7 @@ impl Default for LocateSettings {
             candidates: 24,
             tries: 4,
             shrink: 0.85,
+            parallel: true,
             auto_tree_regions: 200,
             tree: TreeSettings::default(),
         }

@@ -18,6 +18,9 @@ use std::collections::HashMap;
 /// (`None` when an LP failed: it is then kept on both sides).
 type Member = (u32, Option<Vec<f64>>);
 
+/// The members below and above a hyperplane.
+type Sides = (Vec<Member>, Vec<Member>);
+
 /// A split: (larger side, both sides, hyperplane, members below, above).
 type Split = (usize, usize, u32, Vec<Member>, Vec<Member>);
 
@@ -37,6 +40,8 @@ pub(super) struct Splitter<'a> {
     pub(super) center: Vec<Vec<f64>>,
     /// Radii of the inscribed balls.
     pub(super) radius: Vec<f64>,
+    /// Bounding boxes of the regions (lower, upper corner).
+    pub(super) boxes: Vec<(Vec<f64>, Vec<f64>)>,
     /// The law of every region.
     pub(super) law: &'a [u32],
     /// Most regions a leaf lists.
@@ -51,8 +56,10 @@ pub(super) struct Splitter<'a> {
     pub(super) shrink: f64,
     /// A region meets a side when it reaches this far beyond the hyperplane.
     pub(super) tol: f64,
-    /// The LP solver's workspace.
-    pub(super) lp: LpWorkspace,
+    /// The LP solvers' workspaces, one per try.
+    pub(super) lp: Vec<LpWorkspace>,
+    /// Run the tries on several threads (the `parallel` feature).
+    pub(super) parallel: bool,
     /// LPs solved.
     pub(super) lps: usize,
     /// Nodes `[hyperplane, child below, child above]`.
@@ -63,10 +70,8 @@ pub(super) struct Splitter<'a> {
     pub(super) entries: Vec<u32>,
     /// Deepest path (nodes).
     pub(super) depth: usize,
-    /// Fraction of the tree finished, and the callback told thousandths.
+    /// Fraction of the tree finished.
     pub(super) done: f64,
-    /// Progress callback (thousandths of the tree finished).
-    pub(super) progress: &'a mut dyn FnMut(usize),
 }
 
 /// Leaf bit of a child code.
@@ -81,6 +86,7 @@ impl Splitter<'_> {
         cell: &mut Vec<(u32, bool)>,
         depth: usize,
         weight: f64,
+        progress: &mut dyn FnMut(usize),
     ) -> u32 {
         self.depth = self.depth.max(depth);
         // The final law: the one whose regions cost the most to test.
@@ -97,14 +103,15 @@ impl Splitter<'_> {
             .filter(|(r, _)| self.law[*r as usize] != last)
             .count();
         if listed <= self.leaf_regions || depth >= self.max_depth {
-            return self.leaf(&members, last, weight);
+            return self.leaf(&members, last, weight, progress);
         }
         // The best of the ranked candidates, by the LPs' counts; a split
         // that keeps more than `shrink` of the regions on a side is no
         // better than a longer list.
+        let tries = self.ranked(&members, cell);
+        let splits = self.refine_all(&members, cell, &tries);
         let mut best: Option<Split> = None;
-        for h in self.ranked(&members, cell) {
-            let (below, above) = self.refine(&members, cell, h);
+        for (h, (below, above)) in tries.into_iter().zip(splits) {
             let (big, sum) = (below.len().max(above.len()), below.len() + above.len());
             if best.as_ref().is_none_or(|b| (big, sum) < (b.0, b.1)) {
                 best = Some((big, sum, h, below, above));
@@ -116,20 +123,26 @@ impl Splitter<'_> {
             let at = self.nodes.len();
             self.nodes.push([h, 0, 0]);
             cell.push((h, true));
-            let lo = self.build(below, cell, depth + 1, weight / 2.0);
+            let lo = self.build(below, cell, depth + 1, weight / 2.0, progress);
             cell.pop();
             cell.push((h, false));
-            let hi = self.build(above, cell, depth + 1, weight / 2.0);
+            let hi = self.build(above, cell, depth + 1, weight / 2.0, progress);
             cell.pop();
             self.nodes[at] = [h, lo, hi];
             return at as u32;
         }
-        self.leaf(&members, last, weight)
+        self.leaf(&members, last, weight, progress)
     }
 
     /// A leaf listing the regions of `members` without the law `last`,
     /// larger inscribed balls first.
-    fn leaf(&mut self, members: &[Member], last: u32, weight: f64) -> u32 {
+    fn leaf(
+        &mut self,
+        members: &[Member],
+        last: u32,
+        weight: f64,
+        progress: &mut dyn FnMut(usize),
+    ) -> u32 {
         let mut list: Vec<u32> = members
             .iter()
             .map(|m| m.0)
@@ -147,7 +160,7 @@ impl Splitter<'_> {
         self.done += weight;
         let after = (self.done * 1000.0) as usize;
         if after != before {
-            (self.progress)(after);
+            progress(after);
         }
         LEAF | (self.leaves.len() - 1) as u32
     }
@@ -207,14 +220,65 @@ impl Splitter<'_> {
         (lo.max(hi), lo + hi)
     }
 
-    /// The members meeting each side of `h` within the cell, each with a
-    /// point there.
-    fn refine(
+    /// [`Self::refine`] for each hyperplane of `tries`, on several
+    /// threads when asked (the same answer either way).
+    fn refine_all(
         &mut self,
         members: &[Member],
         cell: &[(u32, bool)],
+        tries: &[u32],
+    ) -> Vec<Sides> {
+        let mut lp = std::mem::take(&mut self.lp);
+        lp.resize_with(tries.len().max(lp.len()), LpWorkspace::default);
+        let this = &*self;
+        let out: Vec<(Sides, usize)> = {
+            #[cfg(feature = "parallel")]
+            {
+                use rayon::prelude::*;
+                if this.parallel && members.len() > 64 {
+                    tries
+                        .par_iter()
+                        .zip(lp.par_iter_mut())
+                        .map(|(&h, ws)| this.refine(members, cell, h, ws))
+                        .collect()
+                } else {
+                    tries
+                        .iter()
+                        .zip(lp.iter_mut())
+                        .map(|(&h, ws)| this.refine(members, cell, h, ws))
+                        .collect()
+                }
+            }
+            #[cfg(not(feature = "parallel"))]
+            {
+                let _ = this.parallel;
+                tries
+                    .iter()
+                    .zip(lp.iter_mut())
+                    .map(|(&h, ws)| this.refine(members, cell, h, ws))
+                    .collect()
+            }
+        };
+        self.lp = lp;
+        out.into_iter()
+            .map(|(split, n)| {
+                self.lps += n;
+                split
+            })
+            .collect()
+    }
+
+    /// The members meeting each side of `h` within the cell, each with a
+    /// point there, and the LPs solved. A region whose bounding box lies
+    /// on one side needs no LP.
+    fn refine(
+        &self,
+        members: &[Member],
+        cell: &[(u32, bool)],
         h: u32,
-    ) -> (Vec<Member>, Vec<Member>) {
+        lp: &mut LpWorkspace,
+    ) -> (Sides, usize) {
+        let mut lps = 0;
         let p = self.p;
         let (a, b) = self.planes[h as usize].clone();
         let (mut below, mut above) = (Vec::new(), Vec::new());
@@ -244,6 +308,17 @@ impl Splitter<'_> {
                 (-1.0, &mut above, &mut below)
             };
             here.push((*r, Some(w.clone())));
+            // The box's extent beyond the hyperplane on the other side.
+            let (lo, up) = &self.boxes[ri];
+            let reach: f64 = (0..p)
+                .map(|j| {
+                    let v = sign * a[j];
+                    if v > 0.0 { v * up[j] } else { v * lo[j] }
+                })
+                .sum();
+            if reach <= sign * b + self.tol {
+                continue;
+            }
             rows_a.clear();
             rows_b.clear();
             rows_a.extend_from_slice(&self.reg_a[ri]);
@@ -257,16 +332,16 @@ impl Splitter<'_> {
             for j in 0..p {
                 c[j] = sign * a[j];
             }
-            self.lps += 1;
+            lps += 1;
             // Stops at the first vertex beyond the level.
             let level = sign * b + self.tol;
-            let (st, v) = self.lp.maximize_until(&c, &rows_a, &rows_b, w, level);
+            let (st, v) = lp.maximize_until(&c, &rows_a, &rows_b, w, level);
             if st != LpStatus::Optimal {
                 there.push((*r, None));
             } else if v > level {
-                there.push((*r, Some(self.lp.x.clone())));
+                there.push((*r, Some(lp.x.clone())));
             }
         }
-        (below, above)
+        ((below, above), lps)
     }
 }
