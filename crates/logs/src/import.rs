@@ -34,8 +34,9 @@ pub struct ImportSettings {
     /// Airborne detection (from the inputs, the motor commands).
     pub airborne: AirborneSettings,
     /// A stretch longer than this (seconds) without a sample of some
-    /// signal splits the experiment (default 0.1 s; at least two cells).
-    /// Shorter ones are interpolated and counted.
+    /// signal splits the experiment (default 0.1 s; at least two cells and
+    /// 2.5 times the signal's median sample interval, so a slow topic's
+    /// own rate is no gap). Shorter ones are interpolated and counted.
     pub max_gap_s: f64,
     /// How the file is read.
     pub read: ReadOptions,
@@ -238,7 +239,17 @@ fn import_log(
     for seg in &segments {
         let mut cuts: Vec<[f64; 2]> = all
             .iter()
-            .flat_map(|(_, r)| gaps(&r.topic.t, &r.field.values, seg.start, seg.end, max_gap))
+            .flat_map(|(_, r)| {
+                // A slow topic's own interval is no gap.
+                let own = 2.5 * median_interval(&r.topic.t);
+                gaps(
+                    &r.topic.t,
+                    &r.field.values,
+                    seg.start,
+                    seg.end,
+                    max_gap.max(own),
+                )
+            })
             .collect();
         cuts.sort_by(|a, b| a[0].total_cmp(&b[0]));
         let mut start = seg.start;
@@ -260,6 +271,16 @@ fn import_log(
         gaps: all_gaps,
         issues: Vec::new(),
     })
+}
+
+/// The median interval between samples (0 for fewer than two).
+fn median_interval(t: &[f64]) -> f64 {
+    let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    if d.is_empty() {
+        return 0.0;
+    }
+    let mid = d.len() / 2;
+    *d.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
 fn push_experiment(k: usize, all: &[&(String, Resolved)], grid: Grid, out: &mut Vec<Experiment>) {
