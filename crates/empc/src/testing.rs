@@ -200,6 +200,22 @@ pub fn thesis_sized(seed: u64) -> MpqpProblem {
     s.condense()
 }
 
+/// [`thesis_sized`]'s system with horizon `horizon` and `free_moves`
+/// free moves (blocks `[1, .., 1, horizon - free_moves + 1]`): `4
+/// free_moves` variables, 9 parameters, the states in `[-2, 2]` and the
+/// references in `[-1, 1]` ([`random_system`]'s box). The problems of the
+/// explicit-MPC-at-scale measurements (BENCHMARKS.md): `N = 5`, `Ns = 2`
+/// (blocks `[1, 4]`) and `N = 3`, `Ns = 2` (`[1, 2]`) give about a
+/// thousand regions, `Ns = 3` about ten thousand.
+pub fn scaled_thesis(seed: u64, horizon: usize, free_moves: usize) -> MpqpProblem {
+    let mut s = random_system(5, 4, 3, 0.95, seed);
+    s.horizon = horizon;
+    s.free_moves = free_moves;
+    s.throttle_inputs = vec![0, 1, 2];
+    s.throttle_range = (-0.3, 0.3);
+    s.condense()
+}
+
 /// The benchmark problem: 9 parameters (9 states), 8 variables (2 inputs,
 /// 4 free moves, horizon 6 with move blocking), about a thousand regions.
 pub fn benchmark_9x8() -> MpqpProblem {

@@ -19,6 +19,23 @@ impl Prepared {
         max_set: usize,
         lp: &mut LpWorkspace,
     ) -> Result<Option<Vec<RegionData>>, EmpcError> {
+        Ok(self
+            .sets_at(theta, max_set, lp)?
+            .map(|sets| sets.iter().filter_map(|s| self.region(s, lp)).collect()))
+    }
+
+    /// The candidate active sets of [`Self::regions_at`], before their
+    /// regions are computed: the QP's final working set first, then every
+    /// other linearly independent subset of the constraints active at the
+    /// optimum (up to `max_set` of them) that represents it with
+    /// non-negative multipliers, in the order of the subsets' bit masks.
+    /// `None` where the QP is infeasible.
+    pub(super) fn sets_at(
+        &self,
+        theta: &[f64],
+        max_set: usize,
+        lp: &mut LpWorkspace,
+    ) -> Result<Option<Vec<Vec<usize>>>, EmpcError> {
         let th = DVector::from_column_slice(theta);
         let q = self.ft.tr_mul(&th) + &self.f;
         let rhs = &self.w + &self.e * &th;
@@ -36,7 +53,6 @@ impl Prepared {
         let tol = 1e-8 * (1.0 + rhs.amax());
         let zset: Vec<usize> = (0..self.m).filter(|&i| slack[i] <= tol).collect();
         let grad = &self.h * z + &q;
-        let mut out = Vec::new();
         let mut sets: Vec<Vec<usize>> = Vec::new();
         let mut ws = opt.working.clone();
         ws.sort_unstable();
@@ -56,12 +72,7 @@ impl Prepared {
                 }
             }
         }
-        for s in sets {
-            if let Some(r) = self.region(&s, lp) {
-                out.push(r);
-            }
-        }
-        Ok(Some(out))
+        Ok(Some(sets))
     }
 }
 

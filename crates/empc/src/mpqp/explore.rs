@@ -8,97 +8,11 @@ use crate::mpqp::prepare::{Prepared, prepare};
 use crate::mpqp::region::{Origin, RegionData, seed_of};
 use crate::mpqp::settings::Settings;
 use crate::mpqp::solution::{CriticalRegion, MpqpSolution, SolveStats};
+use crate::mpqp::wave::{Event, Witness, Work, run_wave};
 use crate::rng::Rng;
 use kestrel_core::formats::MpqpProblem;
 use nalgebra::{DMatrix, DVector};
 use std::collections::HashMap;
-
-/// A probe point beyond a facet.
-#[derive(Clone, Debug)]
-struct Witness {
-    theta: Vec<f64>,
-    facet_a: Vec<f64>,
-    facet_b: f64,
-}
-
-enum Work {
-    Set(Vec<usize>, Vec<Witness>),
-    Probe(Witness),
-}
-
-#[derive(Default)]
-struct WorkOut {
-    regions: Vec<RegionData>,
-    no_region: Option<Vec<usize>>,
-    hull: Vec<(Vec<f64>, f64)>,
-    tested: usize,
-    discarded: usize,
-    fallbacks: usize,
-    lps: usize,
-    error: Option<EmpcError>,
-}
-
-fn process(prep: &Prepared, work: &Work, settings: &Settings, lp: &mut LpWorkspace) -> WorkOut {
-    let mut out = WorkOut::default();
-    let mut probes: Vec<&Witness> = Vec::new();
-    match work {
-        Work::Set(act, wits) => {
-            out.tested += 1;
-            match prep.region(act, lp) {
-                Some(r) => {
-                    out.lps += r.lps;
-                    for w in wits {
-                        if !r.contains(&w.theta, 1e-9 * prep.scale) {
-                            probes.push(w);
-                        }
-                    }
-                    out.regions.push(r);
-                }
-                None => {
-                    out.discarded += 1;
-                    out.no_region = Some(act.clone());
-                    probes.extend(wits.iter());
-                }
-            }
-        }
-        Work::Probe(w) => probes.push(w),
-    }
-    for w in probes {
-        out.fallbacks += 1;
-        match prep.regions_at(&w.theta, settings.max_degenerate_set, lp) {
-            Ok(None) => out.hull.push((w.facet_a.clone(), w.facet_b)),
-            Ok(Some(rs)) => {
-                for r in rs {
-                    out.tested += 1;
-                    out.lps += r.lps;
-                    out.regions.push(r);
-                }
-            }
-            Err(e) => out.error = Some(e),
-        }
-    }
-    out
-}
-
-fn run_wave(
-    prep: &Prepared,
-    items: &[Work],
-    settings: &Settings,
-    lp: &mut LpWorkspace,
-) -> Vec<WorkOut> {
-    #[cfg(feature = "parallel")]
-    if settings.parallel && items.len() > 1 {
-        use rayon::prelude::*;
-        return items
-            .par_iter()
-            .map_init(LpWorkspace::default, |lp, w| process(prep, w, settings, lp))
-            .collect();
-    }
-    items
-        .iter()
-        .map(|w| process(prep, w, settings, lp))
-        .collect()
-}
 
 /// Solves the mpQP: all full-dimensional critical regions over the parameter set.
 ///
@@ -252,21 +166,18 @@ pub fn solve(problem: &MpqpProblem, settings: &Settings) -> Result<MpqpSolution,
         fresh.clear();
         let mut items: Vec<Work> = pending.into_iter().map(|(c, w)| Work::Set(c, w)).collect();
         items.extend(probes.into_iter().map(Work::Probe));
-        let outs = run_wave(&prep, &items, settings, &mut lp);
-        for o in outs {
-            if let Some(e) = o.error {
-                return Err(e);
-            }
-            stats.active_sets_tested += o.tested;
-            stats.discarded += o.discarded;
-            stats.fallback_qps += o.fallbacks;
-            stats.lps += o.lps;
-            hull.extend(o.hull);
-            if let Some(s) = o.no_region {
-                status.entry(s).or_insert(None);
-            }
-            for r in o.regions {
-                add_region(r, &mut regions, &mut status, &mut fresh);
+        let wave = run_wave(&prep, &items, settings, &status, &mut lp)?;
+        stats.active_sets_tested += wave.tested;
+        stats.discarded += wave.discarded;
+        stats.fallback_qps += wave.fallbacks;
+        stats.lps += wave.lps;
+        for event in wave.events {
+            match event {
+                Event::Region(r) => add_region(r, &mut regions, &mut status, &mut fresh),
+                Event::NoRegion(s) => {
+                    status.entry(s).or_insert(None);
+                }
+                Event::Hull(a, b) => hull.push((a, b)),
             }
         }
         #[cfg(feature = "progress")]

@@ -38,6 +38,7 @@ mod settings;
 mod solution;
 #[cfg(test)]
 mod tests;
+mod wave;
 
 pub use brute_force::brute_force_active_sets;
 pub use explore::solve;
