@@ -129,6 +129,23 @@ pub struct Topic {
 }
 
 impl Topic {
+    /// Puts the samples in time order (stable) when they are not: a ULog
+    /// topic's or a GPS stream's timestamps come from the sender.
+    pub(crate) fn sort_by_time(&mut self) {
+        if self.t.windows(2).all(|w| w[0] <= w[1]) {
+            return;
+        }
+        let mut order: Vec<usize> = (0..self.t.len()).collect();
+        order.sort_by(|&a, &b| self.t[a].total_cmp(&self.t[b]));
+        self.t = order.iter().map(|&k| self.t[k]).collect();
+        for f in &mut self.fields {
+            f.values = order
+                .iter()
+                .map(|&k| f.values.get(k).copied().unwrap_or(f64::NAN))
+                .collect();
+        }
+    }
+
     /// The field named `name`.
     pub fn field(&self, name: &str) -> Option<&Field> {
         self.fields.iter().find(|f| f.name == name)

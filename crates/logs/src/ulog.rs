@@ -208,11 +208,13 @@ pub(crate) fn read(bytes: &[u8], opts: &ReadOptions) -> Result<Log> {
                     }
                 })
                 .collect();
-            Topic {
+            let mut topic = Topic {
                 name,
                 t: g.t,
                 fields,
-            }
+            };
+            topic.sort_by_time();
+            topic
         })
         .collect();
     Ok(Log {

@@ -151,3 +151,17 @@ fn damaged_copies_are_errors_at_a_record() {
     let logs = read_bytes(&w.0, &ReadOptions { salvage: true }).unwrap();
     assert_eq!(logs[0].issues[0].offset, at as u64);
 }
+
+#[test]
+fn samples_out_of_time_order_are_sorted() {
+    let mut w = Writer::new();
+    w.format("vehicle_angular_velocity:uint64_t timestamp;float[3] xyz;");
+    w.subscribe(0, 0, "vehicle_angular_velocity");
+    for (t, v) in [(3000, 3.0), (1000, 1.0), (2000, 2.0)] {
+        w.data(0, t, &[v, 0.0, 0.0], &[]);
+    }
+    let logs = read_bytes(&w.0, &ReadOptions::default()).unwrap();
+    let topic = logs[0].topic("vehicle_angular_velocity").unwrap();
+    assert_eq!(topic.t, [1e-3, 2e-3, 3e-3]);
+    assert_eq!(topic.field("xyz[0]").unwrap().values, [1.0, 2.0, 3.0]);
+}

@@ -482,7 +482,7 @@ impl State<'_> {
             ("gps", &h.g, self.gps_t, self.gps),
         ] {
             if !t.is_empty() {
-                topics.push(Topic {
+                let mut topic = Topic {
                     name: name.into(),
                     t: secs(&t),
                     fields: def
@@ -496,7 +496,9 @@ impl State<'_> {
                             values: v.iter().map(|&x| x as f64).collect(),
                         })
                         .collect(),
-                });
+                };
+                topic.sort_by_time();
+                topics.push(topic);
             }
         }
         Log {
