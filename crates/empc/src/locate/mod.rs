@@ -20,9 +20,11 @@
 //!   cell and the answer is exact.
 //!
 //! One file per concept: `settings` (and the progress reports), `stats`,
-//! `tables` (owned tables and index widths), `pool`, `split`, `build`.
+//! `tables` (owned tables and index widths), `json` (reading, writing and
+//! checking them), `pool`, `split`, `build`.
 
 mod build;
+mod json;
 mod pool;
 mod settings;
 mod split;

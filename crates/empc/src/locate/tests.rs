@@ -54,3 +54,36 @@ fn lists_answer_as_the_region_lookup() {
     let auto = build_locator(&problem, &solution, &settings, &mut |_| {}).unwrap();
     assert_eq!(auto.method(), LocateMethod::Tree);
 }
+
+#[test]
+fn lists_json_round_trip_and_checks() {
+    let problem = thesis_sized(5);
+    let solution = solve(&problem, &Settings::default()).unwrap();
+    let settings = LocateSettings {
+        outputs: Outputs::First(4),
+        leaf_regions: 4,
+        ..LocateSettings::default()
+    };
+    let c = build_lists(&problem, &solution, &settings, &mut |_| {}).unwrap();
+    let v = c.tables.to_json();
+    let text = serde_json::to_string(&v).unwrap();
+    let back = crate::locate::ListTables::from_json(&serde_json::from_str(&text).unwrap()).unwrap();
+    assert_eq!(back, c.tables);
+    assert!(c.stats.nodes > 0, "{:?}", c.stats);
+    // Corruptions each name their key.
+    let corrupt = |key: &str, value: serde_json::Value| {
+        let mut v = v.clone();
+        v[key] = value;
+        crate::locate::ListTables::from_json(&v)
+            .unwrap_err()
+            .to_string()
+    };
+    assert!(corrupt("nodes", serde_json::json!([[0, 0, 0]])).contains("lists.nodes"));
+    let mut facets = c.tables.facets.clone();
+    facets[0] = 1_000_000;
+    assert!(corrupt("facets", serde_json::json!(facets)).contains("lists.facets"));
+    assert!(corrupt("region_start", serde_json::json!([0])).contains("lists.region_start"));
+    assert!(corrupt("entries", serde_json::json!([-1])).contains("lists.entries"));
+    assert!(corrupt("rows", serde_json::json!([[1.0]])).contains("lists.rows"));
+    assert!(corrupt("n_params", serde_json::json!(0)).contains("lists.n_params"));
+}
