@@ -17,6 +17,8 @@ pub enum Method {
     N4sid,
     /// Prediction-error method started from N4SID.
     Pem,
+    /// Prediction-error method started from PBSID (closed-loop consistent).
+    Pbsid,
 }
 
 /// N4SID weighting.
@@ -173,7 +175,8 @@ pub struct Args {
     /// N4SID weighting (default: moesp; given, it fixes the start).
     #[arg(long, value_enum)]
     pub weighting: Option<WeightingArg>,
-    /// N4SID horizon (block rows); default chosen from the order.
+    /// N4SID horizon (block rows); default chosen from the order. With
+    /// `--method pbsid`: the past horizon (VARX lags), default 20.
     #[arg(long)]
     pub horizon: Option<usize>,
     /// How N4SID estimates the system matrices (default: output-error;
@@ -333,7 +336,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         method: match args.method.unwrap_or(Method::Pem) {
             Method::N4sid => workflow::Method::N4sid,
-            Method::Pem => workflow::Method::Pem,
+            Method::Pem | Method::Pbsid => workflow::Method::Pem,
+        },
+        start: match args.method {
+            Some(Method::Pbsid) => workflow::Start::Pbsid,
+            Some(Method::N4sid | Method::Pem) | None => workflow::Start::N4sid,
         },
         weighting: match args.weighting.unwrap_or(WeightingArg::Moesp) {
             WeightingArg::Moesp => Weighting::Moesp,

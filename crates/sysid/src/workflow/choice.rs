@@ -1,6 +1,6 @@
 //! The candidates of the automatic structure choice and what it reports.
 
-use super::spec::{IdentifySpec, PemFocus};
+use super::spec::{IdentifySpec, PemFocus, Start};
 use crate::n4sid::MatrixEstimate;
 use core::fmt;
 
@@ -9,6 +9,8 @@ use core::fmt;
 pub struct Candidate {
     /// Model order (`None`: suggested from the singular values).
     pub order: Option<usize>,
+    /// The subspace method.
+    pub start: Start,
     /// How N4SID estimates the system matrices.
     pub n4sid_matrices: MatrixEstimate,
     /// Estimate a feed-through `D`.
@@ -24,6 +26,7 @@ impl Candidate {
     pub fn of_spec(spec: &IdentifySpec) -> Self {
         Candidate {
             order: spec.order,
+            start: spec.start,
             n4sid_matrices: spec.n4sid_matrices,
             feedthrough: spec.feedthrough,
             focus: spec.focus,
@@ -35,6 +38,7 @@ impl Candidate {
     pub fn apply(&self, spec: &IdentifySpec) -> IdentifySpec {
         IdentifySpec {
             order: self.order,
+            start: self.start,
             n4sid_matrices: self.n4sid_matrices,
             feedthrough: self.feedthrough,
             focus: self.focus,
@@ -48,11 +52,15 @@ impl Candidate {
         let order = self
             .order
             .map_or("order suggested".to_string(), |o| format!("order {o}"));
-        let start = match (self.n4sid_matrices, self.feedthrough) {
-            (MatrixEstimate::OutputError, false) => "N4SID output-error",
-            (MatrixEstimate::OutputError, true) => "N4SID output-error, D",
-            (MatrixEstimate::StateRegression, false) => "N4SID state-regression",
-            (MatrixEstimate::StateRegression, true) => "N4SID state-regression, D",
+        let start = match (self.start, self.n4sid_matrices) {
+            (Start::Pbsid, _) => "PBSID",
+            (Start::N4sid, MatrixEstimate::OutputError) => "N4SID output-error",
+            (Start::N4sid, MatrixEstimate::StateRegression) => "N4SID state-regression",
+        };
+        let start = if self.feedthrough {
+            format!("{start}, D")
+        } else {
+            start.to_string()
         };
         let focus = match self.focus {
             PemFocus::Prediction if self.pem_horizon == 1 => "1-step PEM".to_string(),

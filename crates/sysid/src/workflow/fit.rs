@@ -2,13 +2,18 @@
 //! workflow that the structure choice repeats on every fold.
 
 use super::report::{N4sidSummary, PemSummary, ReductionSummary};
-use super::spec::{AfterReduction, IdentifySpec, Method, PemFocus};
+use super::spec::{AfterReduction, IdentifySpec, Method, PemFocus, Start};
+use crate::closed_loop::{PbsidSettings, pbsid};
 use crate::data::IoData;
 use crate::error::Result;
 use crate::model::InnovationModel;
 use crate::n4sid::{N4sidSettings, n4sid};
 use crate::pem::{Focus, PemResult, PemSettings, pem};
 use crate::reduce::{BalredSettings, ReductionMethod, balred};
+
+/// The PBSID past horizon (VARX lags) when [`IdentifySpec::horizon`] is
+/// not given.
+pub const PBSID_PAST: usize = 20;
 
 /// What [`fit_structure`] produced on one data set.
 pub(super) struct Fitted {
@@ -42,11 +47,36 @@ pub(super) fn fit_structure(est: &IoData, spec: &IdentifySpec) -> Result<Fitted>
         estimate_k: true,
         matrices: spec.n4sid_matrices,
     };
-    let start = n4sid(est, &n4)?;
-    let n4sid_summary = N4sidSummary {
-        order: start.order,
-        suggested_order: start.suggested_order,
-        horizon: start.horizon,
+    let (start_model, n4sid_summary) = match spec.start {
+        Start::N4sid => {
+            let r = n4sid(est, &n4)?;
+            let s = N4sidSummary {
+                order: r.order,
+                suggested_order: r.suggested_order,
+                horizon: r.horizon,
+                start: Start::N4sid,
+            };
+            (r.model, s)
+        }
+        Start::Pbsid => {
+            let r = pbsid(
+                est,
+                &PbsidSettings {
+                    order: spec.order,
+                    max_order: n4.max_order,
+                    past: spec.horizon.unwrap_or(PBSID_PAST),
+                    feedthrough: spec.feedthrough,
+                    ..Default::default()
+                },
+            )?;
+            let s = N4sidSummary {
+                order: r.order,
+                suggested_order: r.suggested_order,
+                horizon: r.past,
+                start: Start::Pbsid,
+            };
+            (r.model, s)
+        }
     };
     let summary = |r: &PemResult| PemSummary {
         iterations: r.iterations,
@@ -78,9 +108,9 @@ pub(super) fn fit_structure(est: &IoData, spec: &IdentifySpec) -> Result<Fitted>
         ..settings.clone()
     };
     let (full_model, pem_summary, pem_noise) = match spec.method {
-        Method::N4sid => (start.model, None, None),
+        Method::N4sid => (start_model, None, None),
         Method::Pem => {
-            let r = pem(est, &start.model, &settings)?;
+            let r = pem(est, &start_model, &settings)?;
             if spec.focus.refits_noise() {
                 let r2 = pem(est, &r.model, &noise)?;
                 (r2.model.clone(), Some(summary(&r)), Some(summary(&r2)))

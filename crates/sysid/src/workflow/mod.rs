@@ -23,4 +23,6 @@ pub use report::{IdentifyReport, N4sidSummary, PemSummary, ReductionSummary};
 pub use run::{identify, identify_with_progress};
 pub use segment::{Segment, select_segments};
 pub use select::Progress;
-pub use spec::{AfterReduction, AutoSelect, IdentifySpec, InputMap, Lowpass, Method, PemFocus};
+pub use spec::{
+    AfterReduction, AutoSelect, IdentifySpec, InputMap, Lowpass, Method, PemFocus, Start,
+};

@@ -2,6 +2,7 @@
 //! `kestrel identify` prints.
 
 use super::choice::SelectionReport;
+use super::spec::Start;
 #[cfg(doc)]
 use super::spec::{AfterReduction, Method, PemFocus};
 use crate::data::Offsets;
@@ -20,8 +21,10 @@ pub struct N4sidSummary {
     pub order: usize,
     /// Order suggested from the singular values.
     pub suggested_order: usize,
-    /// Horizon (block rows) used.
+    /// Horizon (block rows; PBSID: past lags) used.
     pub horizon: usize,
+    /// The subspace method.
+    pub start: Start,
 }
 
 /// Summary of the PEM step (stopping information).
@@ -117,12 +120,20 @@ impl fmt::Display for IdentifyReport {
         }
         writeln!(
             f,
-            "data: {} estimation samples in {} experiment(s), ts = {} s; N4SID order {} (suggested {}), horizon {}",
+            "data: {} estimation samples in {} experiment(s), ts = {} s; {} order {} (suggested {}), {} {}",
             self.estimation_samples,
             self.experiments,
             self.ts,
+            match self.n4sid.start {
+                Start::N4sid => "N4SID",
+                Start::Pbsid => "PBSID",
+            },
             self.n4sid.order,
             self.n4sid.suggested_order,
+            match self.n4sid.start {
+                Start::N4sid => "horizon",
+                Start::Pbsid => "past",
+            },
             self.n4sid.horizon
         )?;
         if let Some(p) = &self.pem {

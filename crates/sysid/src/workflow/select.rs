@@ -17,7 +17,7 @@
 
 use super::choice::{Candidate, CandidateScore, SelectionReport};
 use super::fit::fit_structure;
-use super::spec::{AutoSelect, IdentifySpec, Method, PemFocus};
+use super::spec::{AutoSelect, IdentifySpec, Method, PemFocus, Start};
 use crate::data::{Experiment, IoData};
 use crate::error::{Result, SysidError};
 use crate::n4sid::MatrixEstimate;
@@ -316,18 +316,23 @@ pub(super) fn choose_structure(
     } else {
         vec![(chosen.focus, chosen.pem_horizon)]
     };
-    let starts: Vec<(MatrixEstimate, bool)> = if free_start {
+    let starts: Vec<(Start, MatrixEstimate, bool)> = if free_start {
         // A feed-through is the user's statement about the plant, never
         // chosen here: in closed loop `D` learns the controller's
         // reaction within the sample (the logged input is computed from
         // the same sample's output), which predicts well and is no
         // plant model.
         vec![
-            (MatrixEstimate::OutputError, spec.feedthrough),
-            (MatrixEstimate::StateRegression, spec.feedthrough),
+            (Start::N4sid, MatrixEstimate::OutputError, spec.feedthrough),
+            (Start::Pbsid, MatrixEstimate::OutputError, spec.feedthrough),
+            (
+                Start::N4sid,
+                MatrixEstimate::StateRegression,
+                spec.feedthrough,
+            ),
         ]
     } else {
-        vec![(chosen.n4sid_matrices, chosen.feedthrough)]
+        vec![(chosen.start, chosen.n4sid_matrices, chosen.feedthrough)]
     };
     // The chosen focus with the other starts first (what the budget
     // leaves out comes last).
@@ -340,8 +345,9 @@ pub(super) fn choose_structure(
         foci.insert(0, f);
     }
     for &(focus, pem_horizon) in &foci {
-        for &(n4sid_matrices, feedthrough) in &starts {
+        for &(start, n4sid_matrices, feedthrough) in &starts {
             let c = Candidate {
+                start,
                 focus,
                 pem_horizon,
                 n4sid_matrices,

@@ -98,3 +98,35 @@ fn budget_and_folds_are_honoured() {
         Err(SysidError::InvalidArgument(_))
     ));
 }
+
+/// The PBSID start reaches the workflow: the same model as PEM started
+/// by hand from `pbsid` with the same settings.
+#[test]
+fn pbsid_start_is_passed_on() {
+    use super::spec::Start;
+    use crate::closed_loop::{PbsidSettings, pbsid};
+    use crate::pem::{PemSettings, pem};
+    let truth = synthetic::random_model(2, 2, 1, 9, 0.9);
+    let d = synthetic::simulate(&truth, 900, 0.05, 3).unwrap();
+    let spec = IdentifySpec {
+        order: Some(2),
+        start: Start::Pbsid,
+        auto: None,
+        arx_baseline: None,
+        ..Default::default()
+    };
+    let r = identify(&d, &spec).unwrap();
+    assert_eq!(r.n4sid.start, Start::Pbsid);
+    assert!(r.to_string().contains("PBSID order 2"));
+    let (est, _) = d.remove_means().unwrap();
+    let start = pbsid(
+        &est,
+        &PbsidSettings {
+            order: Some(2),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let p = pem(&est, &start.model, &PemSettings::default()).unwrap();
+    assert_eq!(r.full_model, p.model);
+}

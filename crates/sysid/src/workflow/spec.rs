@@ -21,6 +21,19 @@ pub enum Method {
     Pem,
 }
 
+/// The subspace method that gives the model (or the PEM start).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Start {
+    /// N4SID ([`IdentifySpec::weighting`], [`IdentifySpec::n4sid_matrices`],
+    /// block rows [`IdentifySpec::horizon`]): biased on closed-loop data.
+    #[default]
+    N4sid,
+    /// PBSID-opt ([`pbsid`](crate::pbsid)), consistent on closed-loop
+    /// data: a VARX with [`IdentifySpec::horizon`] past lags (default 20)
+    /// then the state from its predictor Markov parameters.
+    Pbsid,
+}
+
 /// What the PEM step fits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum PemFocus {
@@ -120,6 +133,9 @@ pub struct IdentifySpec {
     pub after_reduction: AfterReduction,
     /// N4SID only, or PEM started from N4SID.
     pub method: Method,
+    /// The subspace method (the model for [`Method::N4sid`], the start
+    /// of PEM otherwise).
+    pub start: Start,
     /// N4SID weighting.
     pub weighting: Weighting,
     /// N4SID horizon (block rows); `None`: chosen from the order.
@@ -174,8 +190,8 @@ pub struct AutoSelect {
     pub order: bool,
     /// Largest order tried.
     pub max_order: usize,
-    /// Choose the N4SID start: `B, D` by output-error least squares or
-    /// `A, B, C, D` by the state regression. The feed-through
+    /// Choose the start: N4SID with `B, D` by output-error least squares
+    /// or `A, B, C, D` by the state regression, or PBSID. The feed-through
     /// ([`IdentifySpec::feedthrough`]) is never chosen: on closed-loop
     /// data `D` learns the controller's reaction within the sample.
     pub start: bool,
@@ -220,6 +236,7 @@ impl Default for IdentifySpec {
             match_dc: false,
             after_reduction: AfterReduction::NoiseModel,
             method: Method::Pem,
+            start: Start::N4sid,
             weighting: Weighting::Moesp,
             horizon: None,
             n4sid_matrices: MatrixEstimate::OutputError,
