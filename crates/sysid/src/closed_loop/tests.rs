@@ -205,3 +205,23 @@ fn unstable_modes_are_pulled_onto_the_radius_and_stable_ones_kept() {
         assert!((e - w).abs() < 1e-9, "{eig:?}");
     }
 }
+
+#[test]
+fn experiments_are_kept_apart_and_short_ones_add_nothing() {
+    let truth = plant();
+    let a = closed_loop_data(&truth, 8_000, 1.0, 0.5, 21);
+    let b = closed_loop_data(&truth, 8_000, 1.0, 0.5, 22);
+    let short = closed_loop_data(&truth, 12, 1.0, 0.5, 23);
+    let s = PbsidSettings {
+        order: Some(4),
+        ..Default::default()
+    };
+    let err = |d: &IoData| response_error(&pbsid(d, &s).unwrap().model, &truth);
+    let (ea, eb) = (err(&a), err(&b));
+    let both = err(&IoData::merge(&[a.clone(), b.clone()]).unwrap());
+    // The 12-sample experiment is shorter than the past: no row of its
+    // own (only the scaling sees it).
+    let with_short = err(&IoData::merge(&[a, b, short]).unwrap());
+    assert!(both < 0.05 && both <= ea.max(eb), "{both} vs {ea}, {eb}");
+    assert!((with_short - both).abs() < 1e-4, "{with_short} vs {both}");
+}
