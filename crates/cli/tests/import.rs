@@ -82,6 +82,32 @@ fn selected_signals_the_whole_log_to_stdout() {
 }
 
 #[test]
+fn list_shows_the_fields_to_pick() {
+    let run = kestrel()
+        .arg("import")
+        .arg(flight("betaflight/btfl_002.bbl"))
+        .arg("--list")
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let text = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        text.contains("Firmware revision: Betaflight 4.2.8"),
+        "{text}"
+    );
+    assert!(text.contains("topic main: 66640 samples"), "{text}");
+    assert!(text.contains("main.gyroADC[0] [rad/s]"), "{text}");
+    assert!(
+        text.contains("main.motor[3] [raw, range 158..2047]"),
+        "{text}"
+    );
+}
+
+#[test]
 fn damaged_and_foreign_files_are_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     let bytes = std::fs::read(flight("crazyflie/log10")).unwrap();

@@ -60,6 +60,11 @@ pub struct Args {
     /// with its byte offset) instead of failing at the first.
     #[arg(long)]
     pub salvage: bool,
+    /// List the log's topics and fields (names to pick with --inputs and
+    /// --outputs, units, ranges, sample counts and rates) instead of
+    /// importing.
+    #[arg(long)]
+    pub list: bool,
     /// Output CSV file (default: standard output).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -75,6 +80,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if out.is_file() && !args.force {
             bail!("{} exists; give --force to replace it", out.display());
         }
+    }
+    if args.list {
+        let logs = kestrel_logs::read_file(
+            &args.log,
+            &ReadOptions {
+                salvage: args.salvage,
+            },
+        )
+        .with_context(|| format!("{}", args.log.display()))?;
+        return io::write_output(None, &listing(&logs));
     }
     let spec = |flag: &str, s: &Option<String>| -> anyhow::Result<Option<Vec<SignalSpec>>> {
         s.as_deref()
@@ -113,6 +128,53 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     eprint!("{}", summary(&imported));
     io::write_output(args.out.as_deref(), &imported.to_csv())
+}
+
+/// The topics and fields of every log, for `--list`.
+fn listing(logs: &[kestrel_logs::Log]) -> String {
+    use std::fmt::Write as _;
+    const FACTS: [&str; 6] = [
+        "Firmware revision",
+        "Craft name",
+        "Board information",
+        "looptime",
+        "P interval",
+        "motorOutput",
+    ];
+    let mut s = String::new();
+    for (k, log) in logs.iter().enumerate() {
+        let _ = writeln!(s, "log {}: {} at byte {}", k + 1, log.format, log.offset);
+        for (key, value) in log
+            .info
+            .iter()
+            .filter(|(key, _)| FACTS.contains(&key.as_str()))
+        {
+            let _ = writeln!(s, "  {key}: {value}");
+        }
+        for i in &log.issues {
+            let _ = writeln!(s, "  warning: {i}");
+        }
+        for t in &log.topics {
+            let n = t.t.len();
+            let (a, b) = (
+                t.t.first().copied().unwrap_or(0.0),
+                t.t.last().copied().unwrap_or(0.0),
+            );
+            let rate = if b > a { (n - 1) as f64 / (b - a) } else { 0.0 };
+            let _ = writeln!(
+                s,
+                "  topic {}: {n} samples, {a:.3}-{b:.3} s, {rate:.1} Hz",
+                t.name
+            );
+            for f in &t.fields {
+                let range = f
+                    .range
+                    .map_or(String::new(), |[lo, hi]| format!(", range {lo}..{hi}"));
+                let _ = writeln!(s, "    {}.{} [{}{range}]", t.name, f.name, f.unit);
+            }
+        }
+    }
+    s
 }
 
 /// What was imported, for standard error.
