@@ -170,8 +170,8 @@ impl ListTables<f64> {
                 (c as usize) < self.nodes.len() && c as usize > after
             }
         };
-        if self.rows.len() % (self.n_params + 1) != 0
-            || self.laws.len() % self.n_outputs.max(1) != 0
+        if !self.rows.len().is_multiple_of(self.n_params + 1)
+            || !self.laws.len().is_multiple_of(self.n_outputs.max(1))
         {
             return Err(invalid("rows", "whole rows and laws"));
         }
@@ -227,7 +227,7 @@ impl ListTables<f64> {
         if self.laws.iter().any(|&r| r == WIDE_NO_ROW || !row_ok(r)) {
             return Err(invalid("laws", "row indices"));
         }
-        if self.hull.len() % (self.n_params + 1) != 0 {
+        if !self.hull.len().is_multiple_of(self.n_params + 1) {
             return Err(invalid("hull", "whole rows"));
         }
         Ok(())
