@@ -308,7 +308,7 @@ impl Imported {
     /// Kestrel's CSV (`../shared/FORMATS.md`): a header `t,<signals>` and,
     /// with several experiments, an `experiment` column (1, 2, ...) that
     /// `kestrel identify` keeps apart. Times in seconds of the log's clock
-    /// (cell centres), values in the units of [`Imported::signals`].
+    /// (cell centres, 9 decimals), values in the units of [`Imported::signals`].
     pub fn to_csv(&self) -> String {
         let several = self.experiments.len() > 1;
         let mut s = String::from("t");
@@ -322,7 +322,7 @@ impl Imported {
         s.push('\n');
         for (e, exp) in self.experiments.iter().enumerate() {
             for (i, t) in exp.t.iter().enumerate() {
-                let _ = write!(s, "{t:.6}");
+                let _ = write!(s, "{t:.9}");
                 for c in &exp.columns {
                     let _ = write!(s, ",{}", c[i]);
                 }
