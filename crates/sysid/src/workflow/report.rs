@@ -95,9 +95,11 @@ pub struct IdentifyReport {
     pub validation: ValidationReport,
     /// Validation table of the full model when it was reduced.
     pub full_validation: Option<ValidationReport>,
-    /// What the automatic structure choice chose and why (`None` when
-    /// [`IdentifySpec::auto`](super::IdentifySpec::auto) is `None`).
-    pub selection: Option<SelectionReport>,
+    /// What the automatic structure choice chose and why, or why it
+    /// could not choose (the record too short for the folds: the spec is
+    /// fitted as given); `None` when
+    /// [`IdentifySpec::auto`](super::IdentifySpec::auto) is `None`.
+    pub selection: Option<core::result::Result<SelectionReport, String>>,
 }
 
 impl IdentifyReport {
@@ -115,8 +117,10 @@ impl IdentifyReport {
 impl fmt::Display for IdentifyReport {
     /// The text `kestrel identify` prints.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        if let Some(s) = &self.selection {
-            write!(f, "{s}")?;
+        match &self.selection {
+            Some(Ok(s)) => write!(f, "{s}")?,
+            Some(Err(why)) => writeln!(f, "structure not chosen ({why}): fitted as given")?,
+            None => {}
         }
         writeln!(
             f,

@@ -85,9 +85,9 @@ pub fn identify_with_progress(
     }
     let (spec_for_fit, selection) = match &spec.auto {
         Some(auto) => match choose_structure(&est, spec, auto, progress) {
-            Ok((s, r)) => (s, Some(r)),
+            Ok((s, r)) => (s, Some(Ok(r))),
             // Too short a record for the folds: the spec as given.
-            Err(SysidError::TooFewSamples { .. }) => (spec.clone(), None),
+            Err(e @ SysidError::TooFewSamples { .. }) => (spec.clone(), Some(Err(e.to_string()))),
             Err(e) => return Err(e),
         },
         None => (spec.clone(), None),

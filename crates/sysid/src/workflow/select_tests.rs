@@ -27,7 +27,8 @@ fn choice_recovers_the_order_from_the_estimation_data_only() {
     let d = synthetic::simulate(&truth, 1800, 0.05, 4).unwrap();
     let a = identify(&d, &spec("1200:1799")).unwrap();
     let b = identify(&d, &spec("1500:1799")).unwrap();
-    let (sa, sb) = (a.selection.as_ref().unwrap(), b.selection.as_ref().unwrap());
+    let sa = a.selection.as_ref().unwrap().as_ref().unwrap();
+    let sb = b.selection.as_ref().unwrap().as_ref().unwrap();
     assert_eq!(sa.chosen.order, Some(3), "{sa}");
     assert_eq!(sa.chosen, sb.chosen);
     assert_eq!(sa.candidates, sb.candidates);
@@ -64,7 +65,7 @@ fn a_fixed_order_stays_fixed() {
         },
     )
     .unwrap();
-    let s = r.selection.unwrap();
+    let s = r.selection.unwrap().unwrap();
     assert!(s.candidates.iter().all(|c| c.candidate.order == Some(2)));
     assert!(s.fixed.contains(&"order".to_string()), "{:?}", s.fixed);
     assert_eq!(r.model.nx(), 2);
@@ -84,7 +85,7 @@ fn budget_and_folds_are_honoured() {
         ..Default::default()
     };
     let r = identify(&d, &zero).unwrap();
-    let s = r.selection.unwrap();
+    let s = r.selection.unwrap().unwrap();
     assert!(s.budget_hit && s.candidates.is_empty() && s.score.is_nan());
     let one = IdentifySpec {
         auto: Some(AutoSelect {
@@ -129,4 +130,24 @@ fn pbsid_start_is_passed_on() {
     .unwrap();
     let p = pem(&est, &start.model, &PemSettings::default()).unwrap();
     assert_eq!(r.full_model, p.model);
+}
+
+/// A record too short for the folds is fitted as given, and the report
+/// says why.
+#[test]
+fn a_short_record_is_fitted_as_given() {
+    let truth = synthetic::random_model(2, 2, 1, 9, 0.9);
+    let d = synthetic::simulate(&truth, 120, 0.05, 3).unwrap();
+    let r = identify(
+        &d,
+        &IdentifySpec {
+            order: Some(2),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let why = r.selection.as_ref().unwrap().as_ref().unwrap_err();
+    assert!(why.contains("too few samples"), "{why}");
+    assert!(r.to_string().contains("structure not chosen"));
+    assert_eq!(r.model.nx(), 2);
 }
