@@ -71,6 +71,8 @@ pub struct ArmaxModel {
     pub ts: f64,
     /// The structure.
     pub settings: ArmaxSettings,
+    /// Number of inputs (also when `nb = 0`).
+    pub nu: usize,
     /// `a_1 .. a_na` (`ny x ny`), `a[i]` multiplies `y(t-1-i)`.
     pub a: Vec<DMatrix<f64>>,
     /// `b_0 .. b_(nb-1)` (`ny x nu`), `b[j]` multiplies `u(t-nk-j)`.
@@ -96,7 +98,7 @@ impl ArmaxModel {
     /// [`compare`](crate::compare)) or start [`pem`](crate::pem()) from it.
     pub fn to_innovation_model(&self) -> Result<InnovationModel> {
         let ny = self.noise_covariance.nrows();
-        let nu = self.b.first().map(|b| b.ncols()).unwrap_or(0);
+        let nu = self.nu;
         let s = self.settings;
         let n = s.max_lag();
         let nx = ny * n;
@@ -198,8 +200,15 @@ pub fn armax(data: &IoData, settings: &ArmaxSettings) -> Result<ArmaxModel> {
     }
     let mut best: Option<ArmaxModel> = None;
     let mut history = Vec::new();
-    for _pass in 0..=s.iterations {
-        let model = regress(data, &s, &innov, np, rows)?;
+    for pass in 0..=s.iterations {
+        let model = match regress(data, &s, &innov, np, rows) {
+            Ok(m) => m,
+            // A later pass whose innovations degenerated (a diverging
+            // predictor) ends the passes; the first one's error is the
+            // data's.
+            Err(e) if pass == 0 => return Err(e),
+            Err(_) => break,
+        };
         let tr = model.noise_covariance.trace();
         history.push(tr);
         if !tr.is_finite() {
@@ -268,6 +277,7 @@ fn regress(
     Ok(ArmaxModel {
         ts: data.ts(),
         settings: *s,
+        nu,
         a,
         b,
         c: cm,
@@ -405,6 +415,13 @@ mod tests {
             ..Default::default()
         };
         assert!(armax(&siso(300, 1), &none).is_err());
+        // An ARMA model (nb = 0) still takes the data's inputs.
+        let arma = ArmaxSettings {
+            nb: 0,
+            ..Default::default()
+        };
+        let m = armax(&siso(300, 1), &arma).unwrap();
+        assert_eq!(m.to_innovation_model().unwrap().nu(), 1);
         let e = siso(300, 2).experiments()[0].clone();
         let flat = IoData::new(1.0, DMatrix::zeros(300, 1), e.y).unwrap();
         assert!(matches!(
