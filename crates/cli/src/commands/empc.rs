@@ -1,14 +1,19 @@
 //! `kestrel empc`: explicit MPC — solve an mpQP, evaluate the solution, export tables.
 
+mod locate;
+
 use crate::io;
 use anyhow::{Context, bail};
 use kestrel_core::formats::{MpqpProblem, parameter_rows};
 use kestrel_empc::eval::{TreeIndex, TreeTables};
 use kestrel_empc::export::{self, ExportScalar, SolutionTables};
+use kestrel_empc::locate::{LocateMethod, LocateSettings, build_lists, estimate};
 use kestrel_empc::tree::{AnyTables, TreeLayout, build_any};
 use kestrel_empc::{
-    ExplicitController, Outputs, Settings, TreeSettings, build_compact, evaluate_with, solve,
+    ExplicitController, Outputs, Settings, TreeSettings, build_compact, evaluate_lists,
+    evaluate_with, solve,
 };
+use locate::Stored;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -35,7 +40,17 @@ enum Sub {
     /// leave out with --no-regions) and the evaluation tables that `eval`
     /// and `export` read (u16 indices; trees beyond 32767 nodes in the wide
     /// u32 layout, `tables.index = "u32"`, see --layout). A one-line
-    /// summary goes to standard error.
+    /// summary goes to standard error; on a terminal (or with --progress)
+    /// the stages too: exploring the regions, the point location (its size
+    /// estimated before it is built), writing.
+    ///
+    /// Point location (--locate): `tree` is the exact search tree above;
+    /// `lists` a shallow tree whose leaves list a few candidate regions,
+    /// each tested by its facets (size and build time about linear in the
+    /// regions; the file then holds `locate` and `lists` instead of `tree`
+    /// and `tables`); `auto` (the default) the tree up to 200 regions (or
+    /// with --compact) and the lists above. --no-tree writes the regions
+    /// alone (no point location; `eval` and `export` refuse such a file).
     /// Unbounded parameter sets, an indefinite H and an empty feasible set
     /// are errors.
     Solve(SolveArgs),
@@ -115,6 +130,27 @@ struct SolveArgs {
     /// `compact_tables` to the solution file.
     #[arg(long)]
     compact: bool,
+    /// Point location: `auto` (the exact tree up to 200 regions or with
+    /// --compact, candidate lists above), `tree` (the exact search tree)
+    /// or `lists` (leaves listing a few candidate regions tested in turn;
+    /// grows about linearly with the regions).
+    #[arg(long, value_enum, default_value = "auto")]
+    locate: LocateArg,
+    /// Solve the mpQP alone: write the regions (and the summary) without
+    /// any point location.
+    #[arg(long, conflicts_with_all = ["no_regions", "compact"])]
+    no_tree: bool,
+}
+
+/// Point-location structure (`kestrel_empc::locate::LocateMethod`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum LocateArg {
+    /// The tree up to 200 regions, candidate lists above.
+    Auto,
+    /// The exact search tree.
+    Tree,
+    /// Candidate lists in the leaves of a shallow tree.
+    Lists,
 }
 
 /// Tree construction method (`kestrel_empc::tree::TreeMethod`).
@@ -220,7 +256,33 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
             problem.n()
         );
     }
+    // Stages on a terminal (or with --progress).
+    let show = settings.progress;
+    let stages = if a.no_tree { 2 } else { 3 };
+    locate::stage(show, 1, stages, "exploring the critical regions");
     let sol = solve(&problem, &settings).with_context(|| name.clone())?;
+    locate::stage(
+        show,
+        1,
+        stages,
+        &format!(
+            "{} regions in {:.2} s ({} LPs, {} QPs at probe points)",
+            sol.regions.len(),
+            sol.stats.solve_seconds,
+            sol.stats.lps,
+            sol.stats.fallback_qps
+        ),
+    );
+    if a.no_tree {
+        locate::stage(show, 2, stages, "writing the solution (no point location)");
+        eprintln!(
+            "{} regions, solved in {:.4} s; no point location (--no-tree)",
+            sol.regions.len(),
+            sol.stats.solve_seconds
+        );
+        let text = locate::solution_only_json(&sol, true);
+        return io::write_output(a.out.as_deref(), &text);
+    }
     let outputs = match a.first_move {
         Some(k) => Outputs::First(k),
         None => Outputs::All,
@@ -241,6 +303,50 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
         },
         ..TreeSettings::default()
     };
+    let lsettings = LocateSettings {
+        method: match a.locate {
+            // The compact layout is a form of the exact tree.
+            LocateArg::Tree => LocateMethod::Tree,
+            LocateArg::Auto if a.compact => LocateMethod::Tree,
+            LocateArg::Auto => LocateMethod::Auto,
+            LocateArg::Lists => LocateMethod::Lists,
+        },
+        outputs,
+        parallel: !a.sequential,
+        tree: tree.clone(),
+        ..LocateSettings::default()
+    };
+    if a.compact && a.locate == LocateArg::Lists {
+        bail!("--compact is a layout of the exact search tree: use it with --locate tree or auto");
+    }
+    lsettings.validate().with_context(|| name.clone())?;
+    let est = estimate(&problem, &sol, &lsettings).with_context(|| name.clone())?;
+    locate::stage(show, 2, stages, &locate::describe(&est));
+    if est.method == LocateMethod::Lists {
+        let bar = locate::LocateProgress::new(show);
+        let lists = build_lists(&problem, &sol, &lsettings, &mut |p| bar.report(p))
+            .with_context(|| name.clone())?;
+        drop(bar);
+        let st = &lists.stats;
+        eprintln!(
+            "{} regions, {} distinct laws, solved in {:.4} s; candidate lists: depth {}, {} nodes, {} leaves (longest list {}), {} bytes (f32, {} indices), worst case {} multiply-adds and {} comparisons, built in {:.2} s",
+            sol.regions.len(),
+            st.distinct_laws,
+            sol.stats.solve_seconds,
+            st.depth,
+            st.nodes,
+            st.leaves,
+            st.max_leaf_regions,
+            st.bytes_f32,
+            if st.fits_u16 { "u16" } else { "u32" },
+            st.worst_case.mul_adds,
+            st.worst_case.comparisons,
+            st.build_seconds
+        );
+        locate::stage(show, 3, stages, "writing the solution");
+        let text = locate::solution_lists_json(&sol, &lists, !a.no_regions);
+        return io::write_output(a.out.as_deref(), &text);
+    }
     let layout_limit = match a.layout {
         LayoutArg::U16 => kestrel_empc::tree::MAX_NODES,
         LayoutArg::Auto | LayoutArg::U32 => kestrel_empc::tree::WIDE_MAX_NODES,
@@ -284,6 +390,7 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
         any.tables.bytes(4),
         if any.tables.is_wide() { "u32" } else { "u16" }
     );
+    locate::stage(show, 3, stages, "writing the solution");
     let ctl = match any.tables {
         AnyTables::Narrow(tables) => ExplicitController {
             tables,
@@ -330,14 +437,51 @@ fn read_compact(path: &std::path::Path) -> anyhow::Result<kestrel_empc::CompactT
 }
 
 fn run_eval(a: EvalArgs) -> anyhow::Result<()> {
-    if a.compact {
-        let tables = read_compact(&a.solution)?;
-        eval_with(&a, &tables.tables())
-    } else {
-        match read_tables(&a.solution)? {
+    let text = read_text(&a.solution)?;
+    let stored = locate::stored(&text).with_context(|| a.solution.display().to_string())?;
+    match stored {
+        Stored::Lists(_) if a.compact => bail!(
+            "{}: --compact: the solution holds candidate lists (`lists`), not the compact tree; leave out --compact",
+            a.solution.display()
+        ),
+        Stored::Lists(tables) => eval_lists(&a, &tables),
+        Stored::Tree if a.compact => {
+            let tables = read_compact(&a.solution)?;
+            eval_with(&a, &tables.tables())
+        }
+        Stored::Tree => match read_tables(&a.solution)? {
             AnyTables::Narrow(t) => eval_with(&a, &t.tables()),
             AnyTables::Wide(t) => eval_with(&a, &t.tables()),
-        }
+        },
+    }
+}
+
+/// `eval` of candidate lists (the same CSV as the tree's).
+fn eval_lists(a: &EvalArgs, t: &kestrel_empc::locate::ListTables<f64>) -> anyhow::Result<()> {
+    let slices = t.tables();
+    let p = slices.n_params;
+    let thetas = parameter_rows(&read_text(&a.thetas)?, p)
+        .with_context(|| a.thetas.display().to_string())?;
+    let mut out = String::new();
+    let mut scratch = vec![0.0; p];
+    let mut z = vec![0.0; slices.n_outputs];
+    let mut outside = 0usize;
+    for (row, theta) in thetas.iter().enumerate() {
+        let e = evaluate_lists(&slices, theta, &mut scratch, &mut z)
+            .map_err(|e| anyhow::anyhow!("{}: row {}: {e}", a.thetas.display(), row + 1))?;
+        outside += usize::from(e.outside);
+        let row: Vec<String> = z.iter().map(|v| format!("{v:?}")).collect();
+        let _ = writeln!(out, "{}", row.join(","));
+    }
+    warn_outside(outside, thetas.len());
+    io::write_output(a.out.as_deref(), &out)
+}
+
+fn warn_outside(outside: usize, total: usize) {
+    if outside > 0 {
+        eprintln!(
+            "warning: {outside} of {total} parameters lie outside the explored set; their rows are the nearest region's law clamped to the bounds"
+        );
     }
 }
 
@@ -356,12 +500,7 @@ fn eval_with<I: TreeIndex, T: TreeTables<f64, I>>(a: &EvalArgs, t: &T) -> anyhow
         let row: Vec<String> = z.iter().map(|v| format!("{v:?}")).collect();
         let _ = writeln!(out, "{}", row.join(","));
     }
-    if outside > 0 {
-        eprintln!(
-            "warning: {outside} of {} parameters lie outside the explored set; their rows are the nearest region's law clamped to the bounds",
-            thetas.len()
-        );
-    }
+    warn_outside(outside, thetas.len());
     io::write_output(a.out.as_deref(), &out)
 }
 
@@ -371,6 +510,15 @@ fn run_export(a: ExportArgs) -> anyhow::Result<()> {
         ScalarArg::Q16 => ExportScalar::Q16,
         ScalarArg::F64 => ExportScalar::F64,
     };
+    let text = read_text(&a.solution)?;
+    if let Stored::Lists(_) =
+        locate::stored(&text).with_context(|| a.solution.display().to_string())?
+    {
+        bail!(
+            "{}: the solution holds candidate lists (`lists`); Rust source is written for the search tree only: solve with --locate tree",
+            a.solution.display()
+        );
+    }
     let src = if a.compact {
         export::rust_source(&read_compact(&a.solution)?, scalar)
     } else {
