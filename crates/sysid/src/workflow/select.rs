@@ -34,7 +34,10 @@ struct Fold {
 
 /// Cuts every experiment of `est` into `k` consecutive blocks; fold `j`
 /// holds out the `j`-th block of each.
-fn folds(est: &IoData, k: usize, min_block: usize) -> Result<Vec<Fold>> {
+/// A block longer than `max_block` samples keeps its first `max_block`
+/// (the folds of a long record stay affordable; the blocks still spread
+/// over the whole record).
+fn folds(est: &IoData, k: usize, min_block: usize, max_block: usize) -> Result<Vec<Fold>> {
     let mut blocks: Vec<Vec<Experiment>> = vec![Vec::new(); k];
     for e in est.experiments() {
         let n = e.len();
@@ -42,7 +45,8 @@ fn folds(est: &IoData, k: usize, min_block: usize) -> Result<Vec<Fold>> {
             continue;
         }
         for (j, block) in blocks.iter_mut().enumerate() {
-            let (a, b) = (j * n / k, (j + 1) * n / k);
+            let a = j * n / k;
+            let b = ((j + 1) * n / k).min(a + max_block.max(min_block));
             block.push(Experiment {
                 t: e.t[a..b].to_vec(),
                 u: e.u.rows(a, b - a).into_owned(),
@@ -272,7 +276,12 @@ pub(super) fn choose_structure(
     let search = Search {
         spec,
         auto,
-        folds: folds(est, auto.folds, min_block)?,
+        folds: folds(
+            est,
+            auto.folds,
+            min_block,
+            auto.max_fold_samples / (auto.folds * est.experiments().len()).max(1),
+        )?,
         start: Instant::now(),
         done: AtomicUsize::new(0),
         total: AtomicUsize::new(0),

@@ -201,6 +201,10 @@ pub struct AutoSelect {
     pub focus: bool,
     /// Number of consecutive blocks (folds), at least 2.
     pub folds: usize,
+    /// Largest number of samples of all blocks together: a longer
+    /// record's blocks keep their first samples (a 500 Hz log is scored
+    /// on parts of its blocks; the final fit uses all the data).
+    pub max_fold_samples: usize,
     /// Largest number of iterations of each PEM stage on a fold (the
     /// final fit uses [`IdentifySpec::max_iterations`]).
     pub fold_iterations: usize,
@@ -220,6 +224,7 @@ impl Default for AutoSelect {
             focus: true,
             folds: 3,
             fold_iterations: 10,
+            max_fold_samples: 6000,
             time_budget: 40.0,
             threads: std::thread::available_parallelism().map_or(2, |n| n.get().min(4)),
         }
