@@ -33,7 +33,9 @@ use nalgebra::{DMatrix, DVector};
 /// local coordinates: the `nx^2` directions that only change the state
 /// basis are projected out, which makes the problem well posed. A trial
 /// step that makes `A` or `A - KC` unstable (spectral radius above
-/// `1 - stability_margin`) is rejected like one that raises the cost.
+/// `1 - stability_margin`, or for `A` above
+/// [`PemSettings::max_radius_a`] when set) is rejected like one that
+/// raises the cost.
 /// With [`Focus::Simulation`] `K` is fixed at zero, so the criterion is
 /// the simulation error.
 ///
@@ -124,11 +126,27 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
         .sum();
     check_size(n_residuals, lay.p, n, h)?;
     let limit = 1.0 - settings.stability_margin;
+    let limit_a = match settings.max_radius_a {
+        None => limit,
+        Some(r) if !(r.is_finite() && r > 0.0) => {
+            return Err(SysidError::invalid(format!(
+                "PEM max_radius_a {r}: must be finite and positive"
+            )));
+        }
+        Some(r) if r > limit && (!has_k || settings.fixed_dynamics || sim) => {
+            return Err(SysidError::invalid(format!(
+                "PEM max_radius_a {r} allows an unstable A: needs the prediction focus with \
+                 estimated dynamics and no simulation term (only the predictor A - KC is \
+                 then required to be stable)"
+            )));
+        }
+        Some(r) => r,
+    };
     let mut base = scaling.scale(start);
     if !has_k {
         base.k.fill(0.0);
     }
-    if base.radius_a() > limit {
+    if base.radius_a() > limit_a {
         return Err(SysidError::Unstable {
             what: "A of the start model".into(),
             radius: base.radius_a(),
@@ -197,6 +215,7 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
         w,
         mf,
         limit,
+        limit_a,
         has_k,
         reweigh: settings.criterion != Criterion::Trace,
         fixed_dynamics: settings.fixed_dynamics,
@@ -257,6 +276,8 @@ struct PemProblem<'a, J, R> {
     w: ResidualWeights,
     mf: f64,
     limit: f64,
+    /// Largest spectral radius of `A` ([`PemSettings::max_radius_a`]).
+    limit_a: f64,
     has_k: bool,
     reweigh: bool,
     fixed_dynamics: bool,
@@ -298,7 +319,7 @@ where
 
     fn admissible(&mut self, theta: &DVector<f64>) -> bool {
         let (m, _) = self.lay.unpack(theta, self.base);
-        spectral_radius(&m.a) <= self.limit
+        spectral_radius(&m.a) <= self.limit_a
             && (!self.has_k || spectral_radius(&(&m.a - &m.k * &m.c)) <= self.limit)
     }
 

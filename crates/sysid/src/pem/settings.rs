@@ -93,6 +93,18 @@ pub struct PemSettings {
     /// dynamics (not [`PemSettings::fixed_dynamics`]) and the trace or
     /// fit criterion; must be finite and not negative.
     pub simulation_weight: f64,
+    /// Largest spectral radius of `A` (not of the predictor) a trial
+    /// model may have. `None` (the default): `1 - stability_margin`, like
+    /// the predictor `A - KC`. With [`Focus::Prediction`] only the
+    /// predictor has to be stable for the criterion to be defined, so a
+    /// radius such as `1.02` lets near-integrating dynamics (body rates
+    /// flown in closed loop) settle on the unit circle or just beyond it,
+    /// where the one-step and k-step predictions are often better; the
+    /// predictor `A - KC` stays within `1 - stability_margin`. A model
+    /// with `|eig(A)| >= 1` has no bounded simulation: judge it by its
+    /// predictions. Needs the prediction focus without a simulation term
+    /// when above 1; must be finite and positive.
+    pub max_radius_a: Option<f64>,
 }
 
 impl Default for PemSettings {
@@ -110,6 +122,7 @@ impl Default for PemSettings {
             horizon: 1,
             steps: Vec::new(),
             simulation_weight: 0.0,
+            max_radius_a: None,
         }
     }
 }
