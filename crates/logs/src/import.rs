@@ -240,8 +240,8 @@ fn import_log(
         let mut cuts: Vec<[f64; 2]> = all
             .iter()
             .flat_map(|(_, r)| {
-                // A slow topic's own interval is no gap.
-                let own = 2.5 * median_interval(&r.topic.t);
+                // A slow topic's own interval (up to 1 s) is no gap.
+                let own = (2.5 * median_interval(&r.topic.t)).min(1.0);
                 gaps(
                     &r.topic.t,
                     &r.field.values,
@@ -255,7 +255,7 @@ fn import_log(
         let mut start = seg.start;
         for [a, b] in cuts.iter().copied().chain([[seg.end, seg.end]]) {
             if a > start {
-                push_experiment(k, &all, Grid::covering(start, a, rate), experiments);
+                push_experiment(k, &all, Grid::covering(start, a, rate), experiments)?;
             }
             if b > a {
                 all_gaps.push(Span { start: a, end: b });
@@ -283,9 +283,34 @@ fn median_interval(t: &[f64]) -> f64 {
     *d.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
-fn push_experiment(k: usize, all: &[&(String, Resolved)], grid: Grid, out: &mut Vec<Experiment>) {
+/// Most grid cells per sample of the densest selected signal.
+const MAX_CELLS_PER_SAMPLE: usize = 64;
+
+fn push_experiment(
+    k: usize,
+    all: &[&(String, Resolved)],
+    grid: Grid,
+    out: &mut Vec<Experiment>,
+) -> Result<()> {
     if grid.len < 2 {
-        return;
+        return Ok(());
+    }
+    // Memory follows the log, not its clock: a damaged clock (or a rate
+    // far above the log's) cannot ask for a grid out of all proportion.
+    let end = grid.start + grid.len as f64 / grid.rate_hz;
+    let densest = all
+        .iter()
+        .map(|(_, r)| {
+            let t = &r.topic.t;
+            t.partition_point(|&x| x < end) - t.partition_point(|&x| x < grid.start)
+        })
+        .max()
+        .unwrap_or(0);
+    if grid.len > MAX_CELLS_PER_SAMPLE * densest + 1000 {
+        return Err(LogError::Invalid(format!(
+            "{:.3}-{end:.3} s would take {} cells at {} Hz for at most {densest} samples of a signal (a damaged clock, or a rate far above the log's): choose a lower rate",
+            grid.start, grid.len, grid.rate_hz
+        )));
     }
     let mut filled = 0;
     let columns = all
@@ -302,6 +327,7 @@ fn push_experiment(k: usize, all: &[&(String, Resolved)], grid: Grid, out: &mut 
         columns,
         filled,
     });
+    Ok(())
 }
 
 impl Imported {

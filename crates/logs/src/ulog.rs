@@ -134,8 +134,8 @@ fn payload_check(kind: u8, p: &[u8]) -> std::result::Result<(), String> {
     };
     if p.len() < min {
         return Err(format!(
-            "a '{}' record of {} bytes (at least {min} needed)",
-            kind as char,
+            "a {} record of {} bytes (at least {min} needed)",
+            Kind(kind),
             p.len()
         ));
     }
@@ -143,8 +143,8 @@ fn payload_check(kind: u8, p: &[u8]) -> std::result::Result<(), String> {
         let key_end = k + 1 + usize::from(p[k]);
         if key_end > p.len() {
             return Err(format!(
-                "a '{}' record whose key length runs to byte {key_end} of its {}-byte payload",
-                kind as char,
+                "a {} record whose key length runs to byte {key_end} of its {}-byte payload",
+                Kind(kind),
                 p.len()
             ));
         }
@@ -266,7 +266,7 @@ fn walk(
                 Err(LogError::Truncated {
                     format: FORMAT,
                     offset: pos as u64,
-                    expected: format!("a '{}' record of {} bytes", kind as char, 3 + size),
+                    expected: format!("a {} record of {} bytes", Kind(kind), 3 + size),
                     len: bytes.len() as u64,
                 })
             } else {
@@ -280,7 +280,7 @@ fn walk(
                         parser.consume_bytes(&rest[..3 + size]).map_err(|e| {
                             corrupt(
                                 pos,
-                                &format!("a valid '{}' record", kind as char),
+                                &format!("a valid {} record", Kind(kind)),
                                 brief(&e.to_string()),
                             )
                         })
@@ -339,5 +339,19 @@ fn brief(text: &str) -> String {
     match head.char_indices().nth(160) {
         Some((i, _)) => format!("{}...", &head[..i]),
         None => head.to_string(),
+    }
+}
+
+/// A record type byte as the ULog specification names it (`'D'`), or in
+/// hexadecimal when it is no letter.
+struct Kind(u8);
+
+impl std::fmt::Display for Kind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.0.is_ascii_graphic() {
+            write!(f, "'{}'", self.0 as char)
+        } else {
+            write!(f, "0x{:02X}", self.0)
+        }
     }
 }

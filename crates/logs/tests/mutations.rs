@@ -151,3 +151,30 @@ fn mutated_logs_read_or_fail_cleanly() {
         );
     }
 }
+
+#[test]
+fn fuzzing_finds_stay_fixed() {
+    // A mutated ULog (found by libFuzzer) whose salvaged topics have 2 and
+    // 3 samples spread over 10^11 s or more: resampling it once asked for
+    // a grid of about 10^13 cells. Now a clean error; any clock gives a
+    // grid in proportion to the samples.
+    let bytes = std::fs::read(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz-ulog-huge-grid.ulg"),
+    )
+    .unwrap();
+    let e = read_bytes(&bytes, &ReadOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("byte offset 364"), "{e}");
+    let logs = read_bytes(&bytes, &ReadOptions { salvage: true }).unwrap();
+    for segment in [
+        kestrel_logs::SegmentChoice::Airborne,
+        kestrel_logs::SegmentChoice::All,
+    ] {
+        let settings = ImportSettings {
+            segment,
+            ..Default::default()
+        };
+        if let Err(e) = import(&logs, &settings) {
+            check(&bytes, &e);
+        }
+    }
+}
