@@ -21,12 +21,13 @@
 //!
 //! One file per concept: `settings` (and the progress reports), `stats`,
 //! `tables` (owned tables and index widths), `json` (reading, writing and
-//! checking them), `pool`, `split`, `build`.
+//! checking them), `source` (Rust source), `pool`, `split`, `build`.
 
 mod build;
 mod json;
 mod pool;
 mod settings;
+mod source;
 mod split;
 mod stats;
 mod tables;
