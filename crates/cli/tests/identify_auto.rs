@@ -90,6 +90,31 @@ fn default_chooses_the_structure_and_prints_the_baselines() {
         o.status.success() && !err.contains("structure chosen"),
         "{err}"
     );
+    // --model-rate: the model at 10 Hz (factor 5), the table at 50 Hz;
+    // a rate that does not divide 50 Hz is refused.
+    let o = kestrel(
+        &[
+            &base[..],
+            &["--order", "2", "--no-auto", "--model-rate", "10"],
+        ]
+        .concat(),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let m = SsModel::from_json_str(&String::from_utf8_lossy(&o.stdout)).unwrap();
+    assert!((m.ts - 0.1).abs() < 1e-9, "{}", m.ts);
+    assert!(
+        err.contains("model resampled from 50.000000 Hz to 10 Hz (factor 5"),
+        "{err}"
+    );
+    let o = kestrel(
+        &[
+            &base[..],
+            &["--order", "2", "--no-auto", "--model-rate", "7"],
+        ]
+        .concat(),
+    );
+    assert!(!o.status.success());
     let o = kestrel(&[&base[..], &["--order", "x"]].concat());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("`auto`"), "{err}");

@@ -241,6 +241,13 @@ pub struct Args {
     /// Prediction horizons for the k-step fit table.
     #[arg(long, value_delimiter = ',', default_values_t = vec![1usize, 5])]
     pub horizons: Vec<usize>,
+    /// Write the model resampled to this rate in Hz (identification
+    /// stays at the data's rate, e.g. a 500 Hz log, the model is for a
+    /// 50 Hz controller): the rates' ratio must be an integer m; A^m,
+    /// (I + A + ... + A^(m-1)) B, C, D exactly for inputs held over m
+    /// samples, K as A^(m-1) K. The fit table stays at the data's rate.
+    #[arg(long)]
+    pub model_rate: Option<f64>,
     /// Output model file (default: standard output, table on standard error).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -390,12 +397,34 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
         })?;
     drop(shown);
-    let ss = report.to_ss_model()?;
+    let (ss, resampled) = match args.model_rate {
+        Some(hz) => {
+            if !(hz.is_finite() && hz > 0.0) {
+                bail!("--model-rate must be a positive number of Hz, got {hz}");
+            }
+            let m = workflow::rate_factor(report.ts, 1.0 / hz).context("--model-rate")?;
+            let model = workflow::resample_model(&report.model, m).context("--model-rate")?;
+            let note = format!(
+                "model resampled from {:.6} Hz to {hz} Hz (factor {m}: A^{m}, (I + ... + A^{}) B, C, D, K -> A^{} K)\n",
+                1.0 / report.ts,
+                m - 1,
+                m - 1
+            );
+            let ss = model.to_ss_model(
+                Some(&report.offsets.u0),
+                Some(&report.offsets.y0),
+                Some(&report.input_names),
+                Some(&report.output_names),
+            )?;
+            (ss, note)
+        }
+        None => (report.to_ss_model()?, String::new()),
+    };
     io::write_output(args.out.as_deref(), &ss.to_json_string())?;
     if args.out.is_some() {
-        print!("{report}");
+        print!("{report}{resampled}");
     } else {
-        eprint!("{report}");
+        eprint!("{report}{resampled}");
     }
     Ok(())
 }

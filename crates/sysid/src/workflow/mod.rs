@@ -8,6 +8,7 @@
 
 mod choice;
 mod fit;
+mod rate;
 mod report;
 mod run;
 mod segment;
@@ -19,6 +20,7 @@ mod spec;
 mod tests;
 
 pub use choice::{Candidate, CandidateScore, SelectionReport};
+pub use rate::{rate_factor, resample_model};
 pub use report::{IdentifyReport, N4sidSummary, PemSummary, ReductionSummary};
 pub use run::{identify, identify_with_progress};
 pub use segment::{Segment, select_segments};
