@@ -59,16 +59,19 @@ impl Prepared {
         sets.push(ws);
         if zset.len() <= max_set {
             let kz = zset.len();
+            let rows = Subsets::new(&self.g, &zset, &grad);
+            let mut sub: Vec<usize> = Vec::with_capacity(kz);
             for mask in 0u64..(1u64 << kz) {
-                let sub: Vec<usize> = (0..kz)
-                    .filter(|&b| mask >> b & 1 == 1)
-                    .map(|b| zset[b])
-                    .collect();
-                if sub.len() > self.n || sets.contains(&sub) {
+                if mask.count_ones() as usize > self.n {
                     continue;
                 }
-                if represents(&self.g, &sub, &grad) {
-                    sets.push(sub);
+                sub.clear();
+                sub.extend((0..kz).filter(|&b| mask >> b & 1 == 1).map(|b| zset[b]));
+                if sets.contains(&sub) {
+                    continue;
+                }
+                if rows.represents(mask) {
+                    sets.push(sub.clone());
                 }
             }
         }
@@ -76,29 +79,59 @@ impl Prepared {
     }
 }
 
-/// Whether `-grad = G_S' lambda` with `lambda >= 0` and independent rows `S`.
-fn represents(g: &DMatrix<f64>, set: &[usize], grad: &DVector<f64>) -> bool {
-    let n = g.ncols();
-    let k = set.len();
-    let gnorm = 1.0 + grad.amax();
-    if k == 0 {
-        return grad.amax() <= 1e-8 * gnorm;
+/// The constraints active at a degenerate optimum, as columns, with the
+/// products every subset's test needs computed once: their Gram matrix
+/// and their products with the gradient. Each entry is the same dot
+/// product of the same two columns that a subset's own `G_S' G_S` and
+/// `G_S' grad` compute, so every subset's test gives the bits it gave when
+/// each subset built its own products.
+struct Subsets {
+    /// `n x kz`: column `c` is row `zset[c]` of `G`.
+    cols: DMatrix<f64>,
+    gram: DMatrix<f64>,
+    g_grad: DVector<f64>,
+    grad: DVector<f64>,
+    gnorm: f64,
+}
+
+impl Subsets {
+    fn new(g: &DMatrix<f64>, zset: &[usize], grad: &DVector<f64>) -> Self {
+        let cols = DMatrix::from_fn(g.ncols(), zset.len(), |r, c| g[(zset[c], r)]);
+        let gram = cols.tr_mul(&cols);
+        let g_grad = cols.tr_mul(grad);
+        Subsets {
+            cols,
+            gram,
+            g_grad,
+            grad: grad.clone(),
+            gnorm: 1.0 + grad.amax(),
+        }
     }
-    let mut gs = DMatrix::zeros(n, k);
-    for (c, &i) in set.iter().enumerate() {
-        gs.column_mut(c).copy_from(&g.row(i).transpose());
+
+    /// Whether `-grad = G_S' lambda` with `lambda >= 0` and independent
+    /// rows `S` (the columns whose bits are set in `mask`).
+    fn represents(&self, mask: u64) -> bool {
+        let idx: Vec<usize> = (0..self.cols.ncols())
+            .filter(|&b| mask >> b & 1 == 1)
+            .collect();
+        let k = idx.len();
+        if k == 0 {
+            return self.grad.amax() <= 1e-8 * self.gnorm;
+        }
+        let gtg = DMatrix::from_fn(k, k, |i, j| self.gram[(idx[i], idx[j])]);
+        let Some(ch) = gtg.cholesky() else {
+            return false;
+        };
+        let minp = (0..k)
+            .map(|i| ch.l()[(i, i)].powi(2))
+            .fold(f64::INFINITY, f64::min);
+        if minp <= 1e-10 {
+            return false;
+        }
+        let rhs = DVector::from_fn(k, |i, _| self.g_grad[idx[i]]);
+        let lam = ch.solve(&(-rhs));
+        let gs = self.cols.select_columns(&idx);
+        let resid = &gs * &lam + &self.grad;
+        resid.amax() <= 1e-7 * self.gnorm && lam.iter().all(|&l| l >= -1e-9 * self.gnorm)
     }
-    let gtg = gs.tr_mul(&gs);
-    let Some(ch) = gtg.clone().cholesky() else {
-        return false;
-    };
-    let minp = (0..k)
-        .map(|i| ch.l()[(i, i)].powi(2))
-        .fold(f64::INFINITY, f64::min);
-    if minp <= 1e-10 {
-        return false;
-    }
-    let lam = ch.solve(&(-gs.tr_mul(grad)));
-    let resid = &gs * &lam + grad;
-    resid.amax() <= 1e-7 * gnorm && lam.iter().all(|&l| l >= -1e-9 * gnorm)
 }
