@@ -16,8 +16,8 @@ fn problem(arg: &str) -> MpqpProblem {
 }
 
 /// Mean seconds per call of `evaluate_lists` over `thetas`.
-fn time_eval<S: kestrel_core::Scalar>(
-    t: &ListSlices<'_, S, u16>,
+fn time_eval<S: kestrel_core::Scalar, I: kestrel_empc::TreeIndex>(
+    t: &ListSlices<'_, S, I>,
     thetas: &[Vec<f64>],
     k: usize,
 ) -> f64 {
@@ -34,7 +34,7 @@ fn time_eval<S: kestrel_core::Scalar>(
         for th in &ts {
             let e =
                 evaluate_lists(t, std::hint::black_box(th), &mut scratch, &mut z).expect("eval");
-            sink = sink.wrapping_add(e.law as usize);
+            sink = sink.wrapping_add(e.law.index());
         }
     }
     std::hint::black_box(sink);
@@ -128,15 +128,22 @@ fn main() {
         }
     }
     println!("exactness: {inside} of {samples} inside, {bad} mismatches, worst {worst:.2e}");
-    if let Some(n) = c.tables.narrow() {
-        let f64_s = time_eval(&n.tables(), &thetas, k);
-        let f32t = n.cast::<f32>();
-        let f32_s = time_eval(&f32t.tables(), &thetas, k);
-        println!(
-            "eval (u16 tables, mean of {}): f64 {:.3} us, f32 {:.3} us",
-            20 * thetas.len(),
-            f64_s * 1e6,
-            f32_s * 1e6
-        );
-    }
+    let (f64_s, f32_s, width) = match c.tables.narrow() {
+        Some(n) => (
+            time_eval(&n.tables(), &thetas, k),
+            time_eval(&n.cast::<f32>().tables(), &thetas, k),
+            "u16",
+        ),
+        None => (
+            time_eval(&c.tables.tables(), &thetas, k),
+            time_eval(&c.tables.cast::<f32>().tables(), &thetas, k),
+            "u32",
+        ),
+    };
+    println!(
+        "eval ({width} tables, mean of {}): f64 {:.3} us, f32 {:.3} us",
+        20 * thetas.len(),
+        f64_s * 1e6,
+        f32_s * 1e6
+    );
 }
