@@ -104,8 +104,9 @@ impl<S: Scalar, X: TreeIndex> ListTables<S, X> {
         numbers * scalar_bytes + indices * core::mem::size_of::<X>()
     }
 
-    /// Evaluates in `f64` at `theta` (allocates a scratch vector: in a
-    /// loop, borrow [`ListTables::tables`] and call [`evaluate_lists`]).
+    /// Evaluates at `theta` in the tables' scalar (named after the usual
+    /// `f64` use; allocates a scratch vector: in a loop, borrow
+    /// [`ListTables::tables`] and call [`evaluate_lists`]).
     pub fn evaluate_f64(
         &self,
         theta: &[S],
