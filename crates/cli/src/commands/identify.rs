@@ -68,6 +68,15 @@ pub enum CriterionArg {
     Fit,
 }
 
+/// `--prefilter`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PrefilterArg {
+    /// No pre-filter.
+    None,
+    /// Chosen from the periodogram.
+    Auto,
+}
+
 /// `--order`: a number or `auto`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OrderArg {
@@ -226,6 +235,13 @@ pub struct Args {
     /// and outputs (bilinear with pre-warping, forward-backward).
     #[arg(long)]
     pub lowpass: Option<f64>,
+    /// Vibration pre-filter: `auto` looks for a narrow peak in the
+    /// outputs' periodogram above a fifth of Nyquist (at least 20 x the
+    /// median power) and low-passes inputs and outputs (2nd order,
+    /// forward-backward) at 0.6 x its frequency; `none` (default) does
+    /// not. Ignored with --lowpass.
+    #[arg(long, value_enum, default_value_t = PrefilterArg::None)]
+    pub prefilter: PrefilterArg,
     /// Order of the low-pass filter.
     #[arg(long, default_value_t = 2)]
     pub lowpass_order: usize,
@@ -383,6 +399,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             order: args.lowpass_order,
             cutoff,
         }),
+        prefilter: match args.prefilter {
+            PrefilterArg::None => workflow::Prefilter::None,
+            PrefilterArg::Auto => workflow::Prefilter::Auto,
+        },
         horizons: args.horizons.clone(),
         auto: args.auto_select(),
         arx_baseline: Some(2..=10),

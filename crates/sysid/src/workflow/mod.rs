@@ -8,6 +8,7 @@
 
 mod choice;
 mod fit;
+mod prefilter;
 mod rate;
 mod report;
 mod run;
@@ -20,6 +21,7 @@ mod spec;
 mod tests;
 
 pub use choice::{Candidate, CandidateScore, SelectionReport};
+pub use prefilter::{Prefilter, PrefilterChoice, choose_prefilter};
 pub use rate::{rate_factor, resample_model};
 pub use report::{IdentifyReport, N4sidSummary, PemSummary, ReductionSummary};
 pub use run::{identify, identify_with_progress};

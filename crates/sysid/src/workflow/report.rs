@@ -2,6 +2,7 @@
 //! `kestrel identify` prints.
 
 use super::choice::SelectionReport;
+use super::prefilter::PrefilterChoice;
 use super::spec::Start;
 #[cfg(doc)]
 use super::spec::{AfterReduction, Method, PemFocus};
@@ -100,6 +101,8 @@ pub struct IdentifyReport {
     /// fitted as given); `None` when
     /// [`IdentifySpec::auto`](super::IdentifySpec::auto) is `None`.
     pub selection: Option<core::result::Result<SelectionReport, String>>,
+    /// What the vibration pre-filter found ([`Prefilter::Auto`](super::Prefilter::Auto)).
+    pub prefilter: Option<PrefilterChoice>,
 }
 
 impl IdentifyReport {
@@ -117,6 +120,24 @@ impl IdentifyReport {
 impl fmt::Display for IdentifyReport {
     /// The text `kestrel identify` prints.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let Some(p) = &self.prefilter {
+            let hz = |w: f64| w / (2.0 * core::f64::consts::PI);
+            match p.cutoff {
+                Some(c) => writeln!(
+                    f,
+                    "pre-filter: vibration peak at {:.1} Hz ({:.0} x the median power above it): low-pass at {:.1} Hz ({c:.1} rad/s), forward-backward",
+                    hz(p.peak),
+                    p.ratio,
+                    hz(c)
+                )?,
+                None => writeln!(
+                    f,
+                    "pre-filter: none (largest peak at {:.1} Hz only {:.1} x the median power)",
+                    hz(p.peak),
+                    p.ratio
+                )?,
+            }
+        }
         match &self.selection {
             Some(Ok(s)) => write!(f, "{s}")?,
             Some(Err(why)) => writeln!(f, "structure not chosen ({why}): fitted as given")?,

@@ -1,6 +1,7 @@
 //! The workflow itself: [`identify`].
 
 use super::fit::{Fitted, fit_structure};
+use super::prefilter::{Prefilter, choose_prefilter};
 use super::report::IdentifyReport;
 use super::segment::select_segments;
 use super::select::{Progress, choose_structure};
@@ -78,6 +79,15 @@ pub fn identify_with_progress(
     let offsets = Offsets { u0, y0 };
     let mut est = est.subtract(&offsets)?;
     let mut val = val.map(|v| v.subtract(&offsets)).transpose()?;
+    let prefilter = match (spec.prefilter, spec.lowpass) {
+        (Prefilter::Auto, None) => choose_prefilter(&est),
+        (Prefilter::Auto, Some(_)) | (Prefilter::None, _) => None,
+    };
+    if let Some(cutoff) = prefilter.and_then(|p| p.cutoff) {
+        let f = Butterworth::design(2, cutoff, data.ts())?;
+        est = est.lowpass(&f, SignalSelection::Both);
+        val = val.map(|v| v.lowpass(&f, SignalSelection::Both));
+    }
     if let Some(lp) = spec.lowpass {
         let f = Butterworth::design(lp.order, lp.cutoff, data.ts())?;
         est = est.lowpass(&f, SignalSelection::Both);
@@ -135,5 +145,6 @@ pub fn identify_with_progress(
         validation,
         full_validation,
         selection,
+        prefilter,
     })
 }

@@ -151,3 +151,41 @@ fn a_short_record_is_fitted_as_given() {
     assert!(r.to_string().contains("structure not chosen"));
     assert_eq!(r.model.nx(), 2);
 }
+
+/// `Prefilter::Auto` finds a 150 Hz tone added to the outputs of a 500 Hz
+/// record, low-passes below it and says so; `Prefilter::None` does not.
+#[test]
+fn the_vibration_prefilter_is_chosen_and_reported() {
+    use super::prefilter::Prefilter;
+    let truth = synthetic::random_model(2, 1, 1, 3, 0.99);
+    let mut d = synthetic::simulate(&truth, 3000, 0.05, 2).unwrap();
+    let mut e = d.experiments()[0].clone();
+    let amplitude = 2.0 * d.stds().1[0];
+    for t in 0..e.len() {
+        e.y[(t, 0)] += amplitude * (2.0 * std::f64::consts::PI * 150.0 * t as f64 * 0.002).sin();
+    }
+    d = crate::data::IoData::new(0.002, e.u, e.y).unwrap();
+    let spec = IdentifySpec {
+        order: Some(2),
+        auto: None,
+        arx_baseline: None,
+        prefilter: Prefilter::Auto,
+        ..Default::default()
+    };
+    let r = identify(&d, &spec).unwrap();
+    let p = r.prefilter.unwrap();
+    assert!(p.cutoff.is_some(), "{p:?}");
+    assert!((p.peak / (2.0 * std::f64::consts::PI) - 150.0).abs() < 3.0);
+    assert!(p.cutoff.unwrap() < p.peak);
+    assert!(r.to_string().contains("pre-filter: vibration peak at 1"));
+    let plain = identify(
+        &d,
+        &IdentifySpec {
+            prefilter: Prefilter::None,
+            ..spec
+        },
+    )
+    .unwrap();
+    assert!(plain.prefilter.is_none());
+    assert!(plain.model != r.model);
+}

@@ -1,6 +1,7 @@
 //! What [`identify`](crate::workflow::identify()) does: the library form of
 //! `kestrel identify`'s flags.
 
+use super::prefilter::Prefilter;
 use super::segment::Segment;
 use crate::n4sid::{MatrixEstimate, Weighting};
 use crate::pem::Criterion;
@@ -166,6 +167,9 @@ pub struct IdentifySpec {
     pub y0: Option<Vec<f64>>,
     /// Optional zero-phase low-pass of inputs and outputs.
     pub lowpass: Option<Lowpass>,
+    /// The vibration pre-filter chosen from the periodogram (only
+    /// without [`IdentifySpec::lowpass`]).
+    pub prefilter: Prefilter,
     /// Horizons of the k-step prediction table.
     pub horizons: Vec<usize>,
     /// The automatic structure choice: the dimensions it may choose by
@@ -254,6 +258,7 @@ impl Default for IdentifySpec {
             u0: None,
             y0: None,
             lowpass: None,
+            prefilter: Prefilter::None,
             horizons: vec![1, 5],
             auto: Some(AutoSelect::default()),
             arx_baseline: Some(2..=10),
