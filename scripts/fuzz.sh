@@ -21,7 +21,7 @@ set -euo pipefail
 
 cd "$(dirname "$0")/.."
 NIGHTLY=$(sed -n 's/^channel *= *"\(.*\)"/\1/p' avr/rust-toolchain.toml)
-TARGETS=(ss mpqp kalman empc_solution csv_log frame tree16 flash_tree fgm16 kalman16 thetas matrix_file)
+TARGETS=(ss mpqp kalman empc_solution csv_log frame tree16 flash_tree fgm16 kalman16 thetas matrix_file logs)
 RUNS=1000000
 SMOKE=0
 picked=()
@@ -39,12 +39,14 @@ done
 
 # The longest input per target: JSON files (matrix files too) up to 8 KiB (long enough for a
 # short file to claim a matrix above the 32 MiB allocation limit of
-# fuzz/src/lib.rs), CSV logs and parameter rows 4 KiB, binary tables 1 KiB,
+# fuzz/src/lib.rs), CSV logs and parameter rows 4 KiB, binary flight logs 16 KiB (a few
+# hundred records of each format), binary tables 1 KiB,
 # frames 512 bytes.
 max_len() {
     case "$1" in
         ss|mpqp|kalman|empc_solution|matrix_file) echo 8192 ;;
         csv_log|thetas) echo 4096 ;;
+        logs) echo 16384 ;;
         frame) echo 512 ;;
         *) echo 1024 ;;
     esac

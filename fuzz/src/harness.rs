@@ -33,7 +33,7 @@ pub type Entry = fn(&[u8]) -> Outcome;
 
 /// Every fuzz target by name (the name of its `fuzz_targets/*.rs` file
 /// and of its folder under `fuzz/regressions/`).
-pub const TARGETS: [(&str, Entry); 12] = [
+pub const TARGETS: [(&str, Entry); 13] = [
     ("ss", ss),
     ("mpqp", mpqp),
     ("kalman", kalman),
@@ -46,6 +46,7 @@ pub const TARGETS: [(&str, Entry); 12] = [
     ("kalman16", kalman16),
     ("thetas", thetas),
     ("matrix_file", matrix_file),
+    ("logs", logs),
 ];
 
 fn text(data: &[u8]) -> Result<&str, String> {
@@ -228,6 +229,24 @@ pub fn matrix_file(data: &[u8]) -> Outcome {
         }
     }
     Ok(())
+}
+
+/// `kestrel-logs`: the bytes as a flight log (format from the magic
+/// bytes), read salvaging and strict, each imported at 50 Hz over the
+/// whole log; the outcome is the strict reading's.
+pub fn logs(data: &[u8]) -> Outcome {
+    let settings = kestrel_logs::ImportSettings {
+        segment: kestrel_logs::SegmentChoice::All,
+        ..Default::default()
+    };
+    let mut outcome = Ok(());
+    for salvage in [true, false] {
+        outcome = kestrel_logs::read_bytes(data, &kestrel_logs::ReadOptions { salvage })
+            .and_then(|logs| kestrel_logs::import(&logs, &settings))
+            .map(|_| ())
+            .map_err(|e| e.to_string());
+    }
+    outcome
 }
 
 /// The firmware's frame decoder fed the bytes one at a time: every frame
