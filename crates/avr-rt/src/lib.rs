@@ -15,6 +15,7 @@ pub mod frame;
 pub mod interim;
 pub mod kalman16;
 pub mod law;
+pub mod locate;
 pub mod mac;
 pub mod output;
 pub mod progmem;

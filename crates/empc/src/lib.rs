@@ -25,8 +25,8 @@ pub mod testing;
 pub mod tree;
 
 pub use eval::{
-    CompactNode, Evaluation, ForestTables, LEAF, ListEvaluation, ListSlices, NO_ROW, NO_ROW8,
-    SliceTables, TreeIndex, TreeTables, WIDE_LEAF, WIDE_NO_ROW, WideSliceTables, evaluate,
+    CompactNode, Evaluation, ForestTables, LEAF, ListAccess, ListEvaluation, ListSlices, NO_ROW,
+    NO_ROW8, SliceTables, TreeIndex, TreeTables, WIDE_LEAF, WIDE_NO_ROW, WideSliceTables, evaluate,
     evaluate_lists, evaluate_with,
 };
 

@@ -10,6 +10,10 @@
 //! `r1(theta) - r2(theta)`: a facet between regions with different laws is
 //! where the two (continuous) laws meet, the difference of two stored law
 //! rows, so most hyperplanes cost two indices and no numbers.
+//!
+//! The evaluation reads the tables through [`ListAccess`]: [`ListSlices`]
+//! (RAM or `static` arrays) has it, and so can an accessor serving the
+//! tables from program memory (kestrel-avr-rt's `locate::FlashLists`).
 
 use crate::eval::evaluate::{Common, output, project, row_at};
 use crate::eval::index::TreeIndex;
@@ -59,12 +63,90 @@ pub struct ListSlices<'a, S, I = u16> {
     pub bounds: &'a [[I; 2]],
 }
 
-impl<S: Scalar, I: TreeIndex> Common<S, I> for ListSlices<'_, S, I> {
+/// What [`evaluate_lists`] reads: the candidate-list tables entry by
+/// entry, each read `None` when out of range (the evaluation then returns
+/// [`Error::OutOfRange`]). [`ListSlices`] implements it over slices; an
+/// accessor over program memory implements it with flash reads. The
+/// conventions are [`ListSlices`]' (see its fields).
+pub trait ListAccess<S: Scalar, I: TreeIndex> {
+    /// Number of parameters `p`.
+    fn n_params(&self) -> usize;
+    /// Number of outputs `k`.
+    fn n_outputs(&self) -> usize;
+    /// The root child code.
+    fn root(&self) -> I;
+    /// Number of tree nodes.
+    fn n_nodes(&self) -> usize;
+    /// Node `i`: `[hyperplane, child if r1 <= r2, child otherwise]`.
+    fn node(&self, i: usize) -> Option<[I; 3]>;
+    /// Leaf `i`: `[first entry, end entry, final law]`.
+    fn leaf(&self, i: usize) -> Option<[I; 3]>;
+    /// List entry `i` (a region).
+    fn entry(&self, i: usize) -> Option<I>;
+    /// Where region `r`'s facets start (`r` up to the number of regions,
+    /// where it is the end of the last region's).
+    fn region_start(&self, r: usize) -> Option<I>;
+    /// Facet reference `i` (hyperplane index, `LEAF` bit for the side
+    /// `r1 >= r2`).
+    fn facet(&self, i: usize) -> Option<I>;
+    /// The law of region `r`.
+    fn region_law(&self, r: usize) -> Option<I>;
+    /// Hyperplane `h`: `[r1, r2]`.
+    fn hyperplane(&self, h: usize) -> Option<[I; 2]>;
+    /// Row index of output `out` of law `law`.
+    fn law(&self, law: usize, out: usize) -> Option<I>;
+    /// Entry `j` (`0..=p`) of affine row `r`.
+    fn row(&self, r: usize, j: usize) -> Option<S>;
+    /// Row `r` as a slice when the tables hold it in RAM (the same
+    /// numbers as [`ListAccess::row`]); `None` (the default) makes the
+    /// evaluation read entry by entry, in the same order.
+    fn row_slice(&self, r: usize) -> Option<&[S]> {
+        let _ = r;
+        None
+    }
+    /// Rows of the explored set.
+    fn n_hull(&self) -> usize;
+    /// Entry `j` (`0..=p`) of the explored set's row `i`.
+    fn hull(&self, i: usize, j: usize) -> Option<S>;
+    /// Lower and upper bound of parameter `j`.
+    fn theta_bounds(&self, j: usize) -> Option<(S, S)>;
+    /// Rows of output `out`'s lower and upper bound (`NO_ROW`: none).
+    fn output_bounds(&self, out: usize) -> Option<[I; 2]>;
+}
+
+impl<S: Scalar, I: TreeIndex> ListAccess<S, I> for ListSlices<'_, S, I> {
     fn n_params(&self) -> usize {
         self.n_params
     }
     fn n_outputs(&self) -> usize {
         self.n_outputs
+    }
+    fn root(&self) -> I {
+        self.root
+    }
+    fn n_nodes(&self) -> usize {
+        self.nodes.len()
+    }
+    fn node(&self, i: usize) -> Option<[I; 3]> {
+        self.nodes.get(i).copied()
+    }
+    fn leaf(&self, i: usize) -> Option<[I; 3]> {
+        self.leaves.get(i).copied()
+    }
+    fn entry(&self, i: usize) -> Option<I> {
+        self.entries.get(i).copied()
+    }
+    fn region_start(&self, r: usize) -> Option<I> {
+        self.region_start.get(r).copied()
+    }
+    fn facet(&self, i: usize) -> Option<I> {
+        self.facets.get(i).copied()
+    }
+    fn region_law(&self, r: usize) -> Option<I> {
+        self.region_law.get(r).copied()
+    }
+    fn hyperplane(&self, h: usize) -> Option<[I; 2]> {
+        self.hyperplanes.get(h).copied()
     }
     fn law(&self, law: usize, out: usize) -> Option<I> {
         if out >= self.n_outputs {
@@ -104,6 +186,39 @@ impl<S: Scalar, I: TreeIndex> Common<S, I> for ListSlices<'_, S, I> {
     }
 }
 
+/// [`ListAccess`] seen through [`Common`] (the evaluation's shared parts).
+struct ViaLists<'t, T: ?Sized>(&'t T);
+
+impl<S: Scalar, I: TreeIndex, T: ListAccess<S, I> + ?Sized> Common<S, I> for ViaLists<'_, T> {
+    fn n_params(&self) -> usize {
+        ListAccess::n_params(self.0)
+    }
+    fn n_outputs(&self) -> usize {
+        ListAccess::n_outputs(self.0)
+    }
+    fn law(&self, law: usize, out: usize) -> Option<I> {
+        ListAccess::law(self.0, law, out)
+    }
+    fn row(&self, r: usize, j: usize) -> Option<S> {
+        ListAccess::row(self.0, r, j)
+    }
+    fn row_slice(&self, r: usize) -> Option<&[S]> {
+        ListAccess::row_slice(self.0, r)
+    }
+    fn n_hull(&self) -> usize {
+        ListAccess::n_hull(self.0)
+    }
+    fn hull(&self, i: usize, j: usize) -> Option<S> {
+        ListAccess::hull(self.0, i, j)
+    }
+    fn theta_bounds(&self, j: usize) -> Option<(S, S)> {
+        ListAccess::theta_bounds(self.0, j)
+    }
+    fn output_bounds(&self, out: usize) -> Option<[I; 2]> {
+        ListAccess::output_bounds(self.0, out)
+    }
+}
+
 /// What [`evaluate_lists`] found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ListEvaluation<I = u16> {
@@ -118,40 +233,48 @@ pub struct ListEvaluation<I = u16> {
     pub tests: u16,
 }
 
-impl<S: Scalar, I: TreeIndex> ListSlices<'_, S, I> {
-    /// `(r1(theta), r2(theta))` for hyperplane `h`.
-    #[inline]
-    fn sides(&self, th: &[S], h: usize) -> Result<(S, S), Error> {
-        let [r1, r2] = *self.hyperplanes.get(h).ok_or(Error::OutOfRange)?;
-        let a = row_at(self, th, r1.index())?;
-        let b = if r2 == I::NO_ROW {
-            S::ZERO
-        } else {
-            row_at(self, th, r2.index())?
-        };
-        Ok((a, b))
-    }
+/// `(r1(theta), r2(theta))` for hyperplane `h`.
+#[inline]
+fn sides<S: Scalar, I: TreeIndex, T: ListAccess<S, I> + ?Sized>(
+    t: &ViaLists<'_, T>,
+    th: &[S],
+    h: usize,
+) -> Result<(S, S), Error> {
+    let [r1, r2] = t.0.hyperplane(h).ok_or(Error::OutOfRange)?;
+    let a = row_at(t, th, r1.index())?;
+    let b = if r2 == I::NO_ROW {
+        S::ZERO
+    } else {
+        row_at(t, th, r2.index())?
+    };
+    Ok((a, b))
+}
 
-    /// Whether `th` satisfies every facet of region `r` (a point on a
-    /// facet's hyperplane satisfies it from both sides), and the facets
-    /// evaluated (the test stops at the first violated one).
-    fn contains(&self, th: &[S], r: usize) -> Result<(bool, usize), Error> {
-        let start = self.region_start.get(r).ok_or(Error::OutOfRange)?.index();
-        let end = self
-            .region_start
-            .get(r.checked_add(1).ok_or(Error::OutOfRange)?)
+/// Whether `th` satisfies every facet of region `r` (a point on a facet's
+/// hyperplane satisfies it from both sides), and the facets evaluated (the
+/// test stops at the first violated one).
+fn contains<S: Scalar, I: TreeIndex, T: ListAccess<S, I> + ?Sized>(
+    t: &ViaLists<'_, T>,
+    th: &[S],
+    r: usize,
+) -> Result<(bool, usize), Error> {
+    let start = t.0.region_start(r).ok_or(Error::OutOfRange)?.index();
+    let end =
+        t.0.region_start(r.checked_add(1).ok_or(Error::OutOfRange)?)
             .ok_or(Error::OutOfRange)?
             .index();
-        let facets = self.facets.get(start..end).ok_or(Error::OutOfRange)?;
-        for (i, f) in facets.iter().enumerate() {
-            let (a, b) = self.sides(th, f.payload().index())?;
-            let inside = if f.is_leaf() { a >= b } else { a <= b };
-            if !inside {
-                return Ok((false, i + 1));
-            }
-        }
-        Ok((true, facets.len()))
+    if start > end {
+        return Err(Error::OutOfRange);
     }
+    for i in start..end {
+        let f = t.0.facet(i).ok_or(Error::OutOfRange)?;
+        let (a, b) = sides(t, th, f.payload().index())?;
+        let inside = if f.is_leaf() { a >= b } else { a <= b };
+        if !inside {
+            return Ok((false, i - start + 1));
+        }
+    }
+    Ok((true, end - start))
 }
 
 /// Locates `theta` with the candidate-list tables and writes the law's
@@ -163,44 +286,46 @@ impl<S: Scalar, I: TreeIndex> ListSlices<'_, S, I> {
 /// bounded by the tables: the tree's depth in hyperplanes, then the facets
 /// of the regions one leaf lists (the builder's statistics count the
 /// worst case for built tables).
-pub fn evaluate_lists<S: Scalar, I: TreeIndex>(
-    tables: &ListSlices<'_, S, I>,
+pub fn evaluate_lists<S: Scalar, I: TreeIndex, T: ListAccess<S, I> + ?Sized>(
+    tables: &T,
     theta: &[S],
     scratch: &mut [S],
     z: &mut [S],
 ) -> Result<ListEvaluation<I>, Error> {
-    let (th, outside) = project(tables, theta, scratch, z.len())?;
-    let mut code = tables.root;
+    let t = &ViaLists(tables);
+    let (th, outside) = project(t, theta, scratch, z.len())?;
+    let mut code = tables.root();
     let mut steps: usize = 0;
+    let limit = tables.n_nodes();
     while !code.is_leaf() {
-        if steps > tables.nodes.len() {
+        if steps > limit {
             return Err(Error::OutOfRange); // a cycle: corrupted tables
         }
-        let [h, le, gt] = *tables.nodes.get(code.index()).ok_or(Error::OutOfRange)?;
-        let (a, b) = tables.sides(th, h.index())?;
+        let [h, le, gt] = tables.node(code.index()).ok_or(Error::OutOfRange)?;
+        let (a, b) = sides(t, th, h.index())?;
         code = if a <= b { le } else { gt };
         steps += 1;
     }
-    let [first, end, last] = *tables
-        .leaves
-        .get(code.payload().index())
+    let [first, end, last] = tables
+        .leaf(code.payload().index())
         .ok_or(Error::OutOfRange)?;
-    let list = tables
-        .entries
-        .get(first.index()..end.index())
-        .ok_or(Error::OutOfRange)?;
+    let (first, end) = (first.index(), end.index());
+    if first > end {
+        return Err(Error::OutOfRange);
+    }
     let mut law = last;
     let mut tests: usize = 0;
-    for r in list {
-        let (inside, n) = tables.contains(th, r.index())?;
+    for i in first..end {
+        let r = tables.entry(i).ok_or(Error::OutOfRange)?;
+        let (inside, n) = contains(t, th, r.index())?;
         tests += n;
         if inside {
-            law = *tables.region_law.get(r.index()).ok_or(Error::OutOfRange)?;
+            law = tables.region_law(r.index()).ok_or(Error::OutOfRange)?;
             break;
         }
     }
     for (o, zo) in z.iter_mut().enumerate() {
-        *zo = output(tables, th, law, o)?;
+        *zo = output(t, th, law, o)?;
     }
     Ok(ListEvaluation {
         law,

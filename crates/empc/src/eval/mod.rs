@@ -40,5 +40,5 @@ mod tests;
 
 pub use evaluate::{Evaluation, evaluate, evaluate_with};
 pub use index::{LEAF, NO_ROW, TreeIndex, WIDE_LEAF, WIDE_NO_ROW};
-pub use lists::{ListEvaluation, ListSlices, evaluate_lists};
+pub use lists::{ListAccess, ListEvaluation, ListSlices, evaluate_lists};
 pub use tables::{CompactNode, ForestTables, NO_ROW8, SliceTables, TreeTables, WideSliceTables};

@@ -1,0 +1,127 @@
+//! Cycles of kestrel-empc's candidate-list point location on the
+//! ATmega2560 (16 MHz): the tables in program memory (`FarChunks` of
+//! 4 kB statics in `.text.kestrel_tables`, read with `ELPM`) through
+//! kestrel-avr-rt's `locate::FlashLists`, evaluated by
+//! `kestrel_empc::evaluate_lists` in `f32` (avr-libc's float routines, as
+//! avr/firmware) at the parameters of the generated file, each timed with
+//! Timer1 (prescaler 1, overflow interrupt).
+//!
+//! The tables and parameters come from the file named by the build-time
+//! environment variable `KESTREL_LOCATE_GENERATED` (written by
+//! kestrel-avr-rt's `tests/locate_avr.rs`, which builds this program,
+//! runs it in simavr and compares every answer with the host's).
+//!
+//! USART0 lines: `INIT <0 ok | 1 bad table>`, then per parameter
+//! `L i law steps tests cycles z0 .. z3` (the outputs' `f32` bits, or
+//! `L i ERR`), `END`; then it sleeps with interrupts off (simavr ends).
+#![no_std]
+#![no_main]
+#![feature(abi_avr_interrupt, asm_experimental_arch)]
+
+use core::ptr::{read_volatile, write_volatile};
+use kestrel_avr_rt::cycles::CycleClock;
+use kestrel_avr_rt::cycles::timer1::{self, Timer1Clock};
+use kestrel_avr_rt::locate::{FlashLists, ListLayout};
+use kestrel_empc::evaluate_lists;
+
+// LAYOUT, P, K, N_CHUNKS, table(), THETAS.
+include!(env!("KESTREL_LOCATE_GENERATED"));
+
+const UCSR0A: *mut u8 = 0xC0 as *mut u8;
+const UCSR0B: *mut u8 = 0xC1 as *mut u8;
+const UCSR0C: *mut u8 = 0xC2 as *mut u8;
+const UBRR0L: *mut u8 = 0xC4 as *mut u8;
+const UBRR0H: *mut u8 = 0xC5 as *mut u8;
+const UDR0: *mut u8 = 0xC6 as *mut u8;
+
+/// Timer1 overflow: the cycle counter's high half.
+#[unsafe(no_mangle)]
+pub unsafe extern "avr-interrupt" fn __vector_20() {
+    // SAFETY: called only as the TIMER1_OVF handler.
+    unsafe { timer1::on_overflow() }
+}
+
+fn tx(bytes: &[u8]) {
+    for &b in bytes {
+        // SAFETY: USART0 registers; wait for an empty data register.
+        unsafe {
+            while read_volatile(UCSR0A) & (1 << 5) == 0 {}
+            write_volatile(UDR0, b);
+        }
+    }
+}
+
+/// ` v` in decimal.
+fn num(v: u32) {
+    let mut buf = [b' '; 11];
+    let mut i = buf.len();
+    let mut v = v;
+    loop {
+        i -= 1;
+        if let Some(b) = buf.get_mut(i) {
+            *b = b'0' + (v % 10) as u8;
+        }
+        v /= 10;
+        if v == 0 || i <= 1 {
+            break;
+        }
+    }
+    tx(buf.get(i - 1..).unwrap_or(&[]));
+}
+
+fn stop() -> ! {
+    // SAFETY: ends the simulation (simavr: sleeping with interrupts off).
+    unsafe { core::arch::asm!("cli", "sleep") };
+    loop {}
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn main() -> ! {
+    // SAFETY: one-time USART0 set-up, 250000 baud 8N1, transmit only.
+    unsafe {
+        write_volatile(UBRR0H, 0);
+        write_volatile(UBRR0L, 3);
+        write_volatile(UCSR0A, 0);
+        write_volatile(UCSR0C, 0x06);
+        write_volatile(UCSR0B, 1 << 3);
+    }
+    // SAFETY: Timer1 is ours; interrupts are still off.
+    let clock = unsafe { Timer1Clock::start() };
+    // SAFETY: enables the Timer1 overflow interrupt.
+    unsafe { core::arch::asm!("sei") };
+    let Some(Ok(lists)) = table().map(|t| FlashLists::<_, f32>::new(t, LAYOUT)) else {
+        tx(b"INIT 1\n");
+        stop()
+    };
+    tx(b"INIT 0\n");
+    let mut scratch = [0.0f32; P];
+    let mut z = [0.0f32; K];
+    for (i, theta) in THETAS.iter().enumerate() {
+        let theta = core::hint::black_box(theta);
+        let t0 = clock.now();
+        let e = evaluate_lists(&lists, theta, &mut scratch, &mut z);
+        let cycles = clock.now().wrapping_sub(t0);
+        tx(b"L");
+        num(i as u32);
+        match e {
+            Ok(e) => {
+                num(u32::from(e.law));
+                num(u32::from(e.steps));
+                num(u32::from(e.tests));
+                num(cycles);
+                for v in z {
+                    num(v.to_bits());
+                }
+            }
+            Err(_) => tx(b" ERR"),
+        }
+        tx(b"\n");
+    }
+    tx(b"END\n");
+    stop()
+}
+
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    stop()
+}

@@ -1,0 +1,406 @@
+//! kestrel-empc's candidate-list point location on the ATmega2560: the
+//! `u16` / `f32` tables written by `locate::list_bytes` into 4 kB chunks
+//! of program memory, read through `locate::FlashLists` by
+//! `kestrel_empc::evaluate_lists` in `avr/locate-bench` (built with the
+//! pinned nightly), run in simavr at 16 MHz. Every answer (law, nodes,
+//! hyperplanes tested, output bits) is compared with the host's evaluation
+//! of the same tables, and the cycles (Timer1) are printed, one
+//! `LOCATE-AVR-REPORT {json}` line per problem: at the worst parameter a
+//! host search found (random points, then a climb maximising the
+//! hyperplanes evaluated, also inside the longest list's leaf) and at 64
+//! random parameters in the box, beside the builder's worst-case count.
+//!
+//! The 75-region problem (`testing::scaled_thesis(1, 2, 1)`) runs by
+//! default; the 1,075-region one (kestrel-empc's
+//! `tests/data/locate-1075.mpqp.json`, 174 kB of tables) is `#[ignore]`d
+//! (about a minute): `cargo test -p kestrel-avr-rt --test locate_avr --
+//! --ignored`. Skipped when simavr, avr-gcc, avr-size or rustup is
+//! missing, unless `KESTREL_REQUIRE_AVR` is set (then it fails).
+
+use kestrel_avr_rt::locate::list_bytes;
+use kestrel_core::formats::MpqpProblem;
+use kestrel_empc::locate::{ListStats, LocateSettings, build_lists};
+use kestrel_empc::{ListSlices, Outputs, Settings, evaluate_lists, solve};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Chunk size of the flash table (2^12 bytes, as the firmware's chunked tables).
+const CHUNK_BITS: u8 = 12;
+/// Random parameters measured besides the worst ones.
+const RANDOM: usize = 64;
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn have(tool: &str, arg: &str) -> bool {
+    Command::new(tool)
+        .arg(arg)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok()
+}
+
+/// Whether the AVR tools are here (a missing one fails under `KESTREL_REQUIRE_AVR`).
+fn tools() -> bool {
+    let missing: Vec<&str> = [
+        ("avr-gcc", "--version"),
+        ("simavr", "--help"),
+        ("avr-size", "--version"),
+        ("rustup", "--version"),
+    ]
+    .into_iter()
+    .filter(|(t, a)| !have(t, a))
+    .map(|(t, _)| t)
+    .collect();
+    if missing.is_empty() {
+        return true;
+    }
+    assert!(
+        std::env::var_os("KESTREL_REQUIRE_AVR").is_none(),
+        "KESTREL_REQUIRE_AVR is set but {missing:?} not installed"
+    );
+    println!("locate_avr skipped: {missing:?} not installed");
+    false
+}
+
+struct Rng(u64);
+impl Rng {
+    fn uniform(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn in_box(&mut self, t: &ListSlices<'_, f32>) -> Vec<f32> {
+        (0..t.n_params)
+            .map(|j| t.theta_lb[j] + (t.theta_ub[j] - t.theta_lb[j]) * self.uniform())
+            .collect()
+    }
+}
+
+/// The leaf of `th` (a host walk of the tables' tree, for the search).
+fn leaf_of(t: &ListSlices<'_, f32>, th: &[f32]) -> usize {
+    let w = t.n_params + 1;
+    let row = |r: u16| -> f32 {
+        if r == kestrel_empc::NO_ROW {
+            return 0.0;
+        }
+        let g = &t.rows[r as usize * w..(r as usize + 1) * w];
+        th.iter().zip(g).fold(g[t.n_params], |a, (x, c)| a + c * x)
+    };
+    let mut code = t.root;
+    while code & kestrel_empc::LEAF == 0 {
+        let [h, le, gt] = t.nodes[code as usize];
+        let [r1, r2] = t.hyperplanes[h as usize];
+        code = if row(r1) <= row(r2) { le } else { gt };
+    }
+    (code & !kestrel_empc::LEAF) as usize
+}
+
+/// Hyperplanes evaluated at `th` (tree path plus region tests).
+fn cost(t: &ListSlices<'_, f32>, th: &[f32]) -> usize {
+    let mut s = vec![0.0f32; t.n_params];
+    let mut z = vec![0.0f32; t.n_outputs];
+    let e = evaluate_lists(t, th, &mut s, &mut z).unwrap();
+    usize::from(e.steps) + usize::from(e.tests)
+}
+
+/// Climbs from `start` to a parameter evaluating more hyperplanes
+/// (`keep`: which points may be taken).
+fn climb(
+    t: &ListSlices<'_, f32>,
+    rng: &mut Rng,
+    start: Vec<f32>,
+    keep: &dyn Fn(&[f32]) -> bool,
+    steps: usize,
+) -> (Vec<f32>, usize) {
+    let (mut best, mut c) = (start.clone(), cost(t, &start));
+    for k in 0..steps {
+        let scale = 0.2 * (1.0 - k as f32 / steps as f32) + 0.002;
+        let cand: Vec<f32> = best
+            .iter()
+            .enumerate()
+            .map(|(j, v)| {
+                let span = t.theta_ub[j] - t.theta_lb[j];
+                (v + scale * span * (rng.uniform() - 0.5)).clamp(t.theta_lb[j], t.theta_ub[j])
+            })
+            .collect();
+        if keep(&cand) {
+            let cc = cost(t, &cand);
+            if cc >= c {
+                (best, c) = (cand, cc);
+            }
+        }
+    }
+    (best, c)
+}
+
+/// The worst parameters found: overall, and inside the longest list's leaf.
+fn worst_parameters(t: &ListSlices<'_, f32>, rng: &mut Rng) -> Vec<Vec<f32>> {
+    let longest = (0..t.leaves.len())
+        .max_by_key(|&l| t.leaves[l][1] - t.leaves[l][0])
+        .unwrap();
+    let (mut all, mut inside) = ((Vec::new(), 0), (None, 0));
+    for _ in 0..20_000 {
+        let th = rng.in_box(t);
+        let c = cost(t, &th);
+        if leaf_of(t, &th) == longest && c > inside.1 {
+            inside = (Some(th.clone()), c);
+        }
+        if c > all.1 {
+            all = (th, c);
+        }
+    }
+    let mut out = vec![climb(t, rng, all.0, &|_| true, 20_000).0];
+    if let Some(th) = inside.0 {
+        out.push(climb(t, rng, th, &|x| leaf_of(t, x) == longest, 20_000).0);
+    }
+    out
+}
+
+/// Writes the generated file and the chunks into `dir`.
+fn generate(dir: &Path, t: &ListSlices<'_, f32>, thetas: &[Vec<f32>]) {
+    std::fs::create_dir_all(dir).unwrap();
+    let (bytes, layout) = list_bytes(t);
+    let size = 1usize << CHUNK_BITS;
+    let chunks: Vec<&[u8]> = bytes.chunks(size).collect();
+    let mut s =
+        String::from("// @generated by kestrel-avr-rt's tests/locate_avr.rs; do not edit.\n");
+    writeln!(s, "const LAYOUT: ListLayout = {layout:?};").unwrap();
+    writeln!(
+        s,
+        "const P: usize = {};\nconst K: usize = {};",
+        t.n_params, t.n_outputs
+    )
+    .unwrap();
+    for (i, c) in chunks.iter().enumerate() {
+        let f = dir.join(format!("chunk{i}.bin"));
+        std::fs::write(&f, c).unwrap();
+        writeln!(
+            s,
+            "#[unsafe(link_section = \".text.kestrel_tables\")]\n#[used]\nstatic C{i}: [u8; {}] = *include_bytes!({:?});",
+            c.len(),
+            f.display()
+        )
+        .unwrap();
+    }
+    let list: Vec<String> = (0..chunks.len())
+        .map(|i| format!("kestrel_avr_rt::far_table!(C{i})"))
+        .collect();
+    writeln!(
+        s,
+        "fn table() -> Option<kestrel_avr_rt::progmem::FarChunks<{}>> {{\n    kestrel_avr_rt::progmem::FarChunks::new([{}], {CHUNK_BITS})\n}}",
+        chunks.len(),
+        list.join(", ")
+    )
+    .unwrap();
+    writeln!(s, "static THETAS: [[f32; P]; {}] = [", thetas.len()).unwrap();
+    for th in thetas {
+        let v: Vec<String> = th
+            .iter()
+            .map(|x| format!("f32::from_bits({:#x})", x.to_bits()))
+            .collect();
+        writeln!(s, "    [{}],", v.join(", ")).unwrap();
+    }
+    s.push_str("];\n");
+    std::fs::write(dir.join("generated.rs"), s).unwrap();
+}
+
+/// Builds avr/locate-bench over `generated` with the pinned nightly; the ELF.
+fn build(generated: &Path) -> PathBuf {
+    let root = repo_root();
+    let toolchain = std::fs::read_to_string(root.join("avr/rust-toolchain.toml")).unwrap();
+    let channel = toolchain
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("channel"))
+        .and_then(|l| l.split('"').nth(1))
+        .expect("channel in avr/rust-toolchain.toml")
+        .to_string();
+    let mut cmd = Command::new("rustup");
+    cmd.args(["run", &channel, "cargo", "build", "--release", "--quiet"]);
+    for var in [
+        "RUSTUP_TOOLCHAIN",
+        "CARGO_TARGET_DIR",
+        "CARGO_BUILD_TARGET",
+        "RUSTC",
+        "RUSTDOC",
+        "RUSTC_WRAPPER",
+        "RUSTFLAGS",
+        "CARGO_ENCODED_RUSTFLAGS",
+        "CARGO",
+    ] {
+        cmd.env_remove(var);
+    }
+    cmd.env("KESTREL_LOCATE_GENERATED", generated);
+    let status = cmd
+        .current_dir(root.join("avr/locate-bench"))
+        .status()
+        .expect("run rustup/cargo");
+    assert!(status.success(), "avr/locate-bench build failed");
+    root.join("avr/target/avr-none/release/kestrel-avr-locate-bench.elf")
+}
+
+/// simavr's USART0 lines (colour escapes and the trailing '.' removed).
+fn simulate(elf: &Path, limit: Duration) -> Vec<String> {
+    let mut child = Command::new("simavr")
+        .args(["-m", "atmega2560", "-f", "16000000"])
+        .arg(elf)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run simavr");
+    let read = |mut r: Box<dyn std::io::Read + Send>| {
+        std::thread::spawn(move || {
+            let mut s = String::new();
+            let _ = r.read_to_string(&mut s);
+            s
+        })
+    };
+    let out = read(Box::new(child.stdout.take().unwrap()));
+    let err = read(Box::new(child.stderr.take().unwrap()));
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("simavr did not end within {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let text = out.join().unwrap() + &err.join().unwrap();
+    text.lines()
+        .map(|l| {
+            let mut s = String::new();
+            let mut esc = false;
+            for c in l.chars() {
+                match (esc, c) {
+                    (false, '\x1b') => esc = true,
+                    (true, 'm') => esc = false,
+                    (true, _) => {}
+                    (false, c) => s.push(c),
+                }
+            }
+            s.trim().trim_end_matches('.').to_string()
+        })
+        .filter(|l| !l.is_empty())
+        .collect()
+}
+
+fn flash_bytes(elf: &Path) -> u64 {
+    let out = Command::new("avr-size")
+        .arg(elf)
+        .output()
+        .expect("avr-size");
+    let text = String::from_utf8_lossy(&out.stdout);
+    let f: Vec<u64> = text
+        .lines()
+        .nth(1)
+        .expect("avr-size output")
+        .split_whitespace()
+        .take(2)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    f[0] + f[1]
+}
+
+/// Builds the lists of `problem`, runs them on the AVR and checks/prints.
+fn measure(name: &str, problem: &MpqpProblem) {
+    let solution = solve(problem, &Settings::default()).unwrap();
+    let settings = LocateSettings {
+        outputs: Outputs::First(4),
+        ..LocateSettings::default()
+    };
+    let c = build_lists(problem, &solution, &settings, &mut |_| {}).unwrap();
+    let stats: &ListStats = &c.stats;
+    let single = c.tables.narrow().expect("u16 tables").cast::<f32>();
+    let t = single.tables();
+    let mut rng = Rng(0x2545_F491_4F6C_DD1D);
+    let mut thetas = worst_parameters(&t, &mut rng);
+    let n_worst = thetas.len();
+    for _ in 0..RANDOM {
+        thetas.push(rng.in_box(&t));
+    }
+    let dir = repo_root().join(format!("avr/target/locate-bench-gen/{name}"));
+    generate(&dir, &t, &thetas);
+    let elf = build(&dir.join("generated.rs"));
+    let flash = flash_bytes(&elf);
+    assert!(flash <= 256 * 1024, "{name}: {flash} B of flash");
+    let lines = simulate(&elf, Duration::from_secs(600));
+    assert!(lines.iter().any(|l| l == "INIT 0"), "{name}: {lines:#?}");
+    assert!(lines.iter().any(|l| l == "END"), "{name}: {lines:#?}");
+    let rows: Vec<Vec<u32>> = lines
+        .iter()
+        .filter_map(|l| l.strip_prefix("L "))
+        .map(|l| {
+            assert!(!l.contains("ERR"), "{name}: evaluation error: {l}");
+            l.split_whitespace().map(|v| v.parse().unwrap()).collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), thetas.len(), "{name}: {lines:#?}");
+    let (mut s, mut z) = (vec![0.0f32; t.n_params], vec![0.0f32; t.n_outputs]);
+    let mut cycles = Vec::new();
+    let mut equal_bits = 0;
+    for (i, (th, r)) in thetas.iter().zip(&rows).enumerate() {
+        let e = evaluate_lists(&t, th, &mut s, &mut z).unwrap();
+        assert_eq!(r[0] as usize, i);
+        assert_eq!(
+            (r[1], r[2], r[3]),
+            (u32::from(e.law), u32::from(e.steps), u32::from(e.tests)),
+            "{name}: parameter {i}: law, nodes, hyperplanes"
+        );
+        for (o, v) in z.iter().enumerate() {
+            let avr = f32::from_bits(r[5 + o]);
+            assert!(
+                (avr - v).abs() <= 1e-5 * (1.0 + v.abs()),
+                "{name}: {i}: {avr} {v}"
+            );
+        }
+        equal_bits += usize::from(z.iter().enumerate().all(|(o, v)| v.to_bits() == r[5 + o]));
+        cycles.push((r[4], usize::from(e.steps) + usize::from(e.tests)));
+    }
+    let worst = cycles[..n_worst].iter().max_by_key(|c| c.0).unwrap();
+    let random = &cycles[n_worst..];
+    let (min, max) = (
+        random.iter().map(|c| c.0).min().unwrap(),
+        random.iter().map(|c| c.0).max().unwrap(),
+    );
+    let mean = random.iter().map(|c| f64::from(c.0)).sum::<f64>() / random.len() as f64;
+    // Cycles per hyperplane from the worst parameter (the rest is the
+    // box, hull and output work), scaled to the builder's worst case.
+    let per = f64::from(worst.0) / worst.1 as f64;
+    println!(
+        "LOCATE-AVR-REPORT {{\"problem\": \"{name}\", \"regions\": {}, \"table_bytes\": {}, \"flash\": {flash}, \"worst_case_mul_adds\": {}, \"worst_case_hyperplanes\": {}, \"max_leaf_regions\": {}, \"worst_found\": {{\"cycles\": {}, \"hyperplanes\": {}}}, \"random\": {{\"n\": {}, \"min\": {min}, \"mean\": {mean:.0}, \"max\": {max}}}, \"cycles_per_hyperplane\": {per:.0}, \"bound_cycles_est\": {:.0}, \"equal_bits\": {equal_bits}, \"of\": {}}}",
+        stats.regions,
+        list_bytes(&t).0.len(),
+        stats.worst_case.mul_adds,
+        stats.worst_case_hyperplanes,
+        stats.max_leaf_regions,
+        worst.0,
+        worst.1,
+        random.len(),
+        per * stats.worst_case_hyperplanes as f64,
+        thetas.len(),
+    );
+}
+
+#[test]
+fn lists_on_the_avr_75_regions() {
+    if !tools() {
+        return;
+    }
+    measure("p75", &kestrel_empc::testing::scaled_thesis(1, 2, 1));
+}
+
+#[test]
+#[ignore = "about a minute: the 1,075-region problem (174 kB of tables) in simavr"]
+fn lists_on_the_avr_1075_regions() {
+    if !tools() {
+        return;
+    }
+    let path = repo_root().join("crates/empc/tests/data/locate-1075.mpqp.json");
+    measure("p1075", &MpqpProblem::read(&path).unwrap());
+}
