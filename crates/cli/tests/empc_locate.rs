@@ -124,8 +124,22 @@ fn lists_answer_as_the_tree_does() {
             assert!((u - v).abs() <= 1e-9 * (1.0 + u.abs()), "{x:?} vs {y:?}");
         }
     }
-    // Rust source is written for the tree only.
-    let o = empc(&["export", "--solution", lists.to_str().unwrap()]);
+    // Rust source of the lists: a static ListSlices.
+    let o = empc(&[
+        "export",
+        "--solution",
+        lists.to_str().unwrap(),
+        "--scalar",
+        "f32",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let src = String::from_utf8(o.stdout).unwrap();
+    assert!(
+        src.contains("kestrel_empc::ListSlices<'static, f32"),
+        "{}",
+        &src[..src.len().min(400)]
+    );
+    let o = empc(&["export", "--solution", lists.to_str().unwrap(), "--compact"]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("candidate lists"), "{}", stderr(&o));
     // The compact layout is a tree layout.

@@ -79,7 +79,10 @@ enum Sub {
     /// `ROOTS`, `NODES: [kestrel_empc::CompactNode; _]` (u8 rows, u16
     /// children), `ROWS`, `HULL`, `THETA_LB`, `THETA_UB`, `BOUNDS` and
     /// `TABLES: kestrel_empc::ForestTables`, evaluated by the same
-    /// `kestrel_empc::evaluate`.
+    /// `kestrel_empc::evaluate`. A solution with candidate lists (`solve
+    /// --locate lists`, or `auto` above 200 regions) gives their tables and
+    /// `TABLES: kestrel_empc::ListSlices`, evaluated by
+    /// `kestrel_empc::evaluate_lists` (u16 indices only).
     Export(ExportArgs),
 }
 
@@ -511,13 +514,25 @@ fn run_export(a: ExportArgs) -> anyhow::Result<()> {
         ScalarArg::F64 => ExportScalar::F64,
     };
     let text = read_text(&a.solution)?;
-    if let Stored::Lists(_) =
+    if let Stored::Lists(lists) =
         locate::stored(&text).with_context(|| a.solution.display().to_string())?
     {
-        bail!(
-            "{}: the solution holds candidate lists (`lists`); Rust source is written for the search tree only: solve with --locate tree",
-            a.solution.display()
-        );
+        if a.compact {
+            bail!(
+                "{}: --compact: the solution holds candidate lists (`lists`), not the compact tree; leave out --compact",
+                a.solution.display()
+            );
+        }
+        let Some(narrow) = lists.narrow() else {
+            bail!(
+                "{}: the candidate lists need u32 indices; Rust source is written for lists whose indices fit u16",
+                a.solution.display()
+            );
+        };
+        let src = narrow
+            .rust_source(scalar)
+            .with_context(|| a.solution.display().to_string())?;
+        return io::write_output(a.out.as_deref(), &src);
     }
     let src = if a.compact {
         export::rust_source(&read_compact(&a.solution)?, scalar)
