@@ -22,7 +22,7 @@ pub const MAX_FGM_FLOPS: f64 = 1e12;
 /// Decision variables from which an explicit solve is announced: the
 /// region count grows exponentially with them (4 variables: under a
 /// second; 8: about 1,500 regions, minutes; the larger problem's 16:
-/// 80,812 regions in 14 minutes on 2 cores).
+/// 80,812 regions in about 70 s on 2 cores).
 pub const EXPLICIT_ANNOUNCE_VARIABLES: usize = 9;
 
 /// An MPC build error, with how to go on when the problem is too large.
@@ -88,7 +88,7 @@ pub fn fgm_iterations(iterations: usize, n: usize, solves: usize) -> anyhow::Res
 pub fn announce_explicit(n: usize, m: usize, alternatives: &str) {
     if n >= EXPLICIT_ANNOUNCE_VARIABLES {
         eprintln!(
-            "note: explicit MPC of {n} variables and {m} constraints: the number of regions grows exponentially with the variables; 16 variables (the larger problem) took 14 minutes for 80,812 regions on 2 cores, and the exploration stops at {} regions. Ctrl-C stops it; {alternatives}",
+            "note: explicit MPC of {n} variables and {m} constraints: the number of regions grows exponentially with the variables; 16 variables (the larger problem) took about 70 s for 80,812 regions on 2 cores, and the exploration stops at {} regions. Ctrl-C stops it; {alternatives}",
             kestrel_empc::Settings::default().max_regions
         );
     }

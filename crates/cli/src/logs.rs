@@ -2,9 +2,6 @@
 //! identification data: the glue between `kestrel-logs` and
 //! `kestrel_sysid::IoData`, for `kestrel identify --data LOG`.
 
-// Until `identify` calls it (wired in by the coordinator); remove then.
-#![allow(dead_code)]
-
 use anyhow::Context;
 use kestrel_logs::{ImportSettings, Imported, LogFormat, SegmentChoice, SignalSpec};
 use kestrel_sysid::{Experiment, IoData};

@@ -96,6 +96,15 @@ fn parse_order(s: &str) -> Result<OrderArg, String> {
         .map_err(|_| format!("expected a number or `auto`, found {s:?}"))
 }
 
+/// Which part of a flight log `--data` identifies on.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SegmentArg {
+    /// Each airborne segment found from the motor level, an experiment.
+    Airborne,
+    /// The whole log.
+    All,
+}
+
 /// Unit of the `t` column.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TimeUnitArg {
@@ -122,18 +131,33 @@ pub enum AfterReductionArg {
 /// table (simulation fit, k-step fits, persistence baseline, residual tests).
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// CSV log(s) with a header row, comma separated or repeated; several
-    /// files are merged as separate experiments (flights), numbered 1, 2,
-    /// ... in the order given (a file with an `experiment` column adds one
-    /// experiment per value).
+    /// CSV log(s) with a header row, or flight logs (Betaflight blackbox,
+    /// Crazyflie uSD, PX4 ULog: recognised by their first bytes, read as
+    /// `kestrel import` does, resampled to --rate), comma separated or
+    /// repeated; several files are merged as separate experiments
+    /// (flights), numbered 1, 2, ... in the order given (a file with an
+    /// `experiment` column, or a flight log with several airborne
+    /// segments, adds one experiment per value or segment).
     #[arg(long, value_delimiter = ',', required = true)]
     pub data: Vec<PathBuf>,
-    /// Input columns, comma separated (e.g. pwm1,pwm2,pwm3,servo).
-    #[arg(long, value_delimiter = ',', required = true)]
+    /// Input columns, comma separated (e.g. pwm1,pwm2,pwm3,servo); needed
+    /// for a CSV. For a flight log: signals as `kestrel import --inputs`
+    /// takes them (default: the format's motor commands).
+    #[arg(long, value_delimiter = ',')]
     pub inputs: Vec<String>,
-    /// Output columns, comma separated (e.g. p,q,r).
-    #[arg(long, value_delimiter = ',', required = true)]
+    /// Output columns, comma separated (e.g. p,q,r); needed for a CSV. For
+    /// a flight log: as `kestrel import --outputs` (default: the body
+    /// rates p, q, r in rad/s).
+    #[arg(long, value_delimiter = ',')]
     pub outputs: Vec<String>,
+    /// Flight logs only: the rate in Hz of the uniform grid the log's
+    /// streams are averaged onto (as `kestrel import --rate`); default 50.
+    #[arg(long)]
+    pub rate: Option<f64>,
+    /// Flight logs only: identify on the airborne segments (default) or on
+    /// the whole log.
+    #[arg(long, value_enum)]
+    pub segment: Option<SegmentArg>,
     /// Estimation intervals `start:end,...` in seconds of the `t` column
     /// (row indices when there is none), each optionally prefixed `N@` to
     /// take it from experiment N only (e.g. `2@108.9:165.8`); default: all data.
@@ -313,12 +337,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let files = args
         .data
         .iter()
-        .map(|p| {
-            let d =
-                IoData::read_csv(p, &cols).with_context(|| format!("reading {}", p.display()))?;
-            check_time_unit(&args, p, &d)?;
-            Ok(d)
-        })
+        .map(|p| read_data(&args, &cols, p))
         .collect::<anyhow::Result<Vec<_>>>()?;
     let data = if files.len() == 1 {
         files.into_iter().next().context("no --data")?
@@ -503,6 +522,44 @@ impl Drop for ChoiceProgress {
 /// The documented rule for the `t` column's unit: without `--time-unit`
 /// and `--ts`, a step of 1 s or more (a 50 Hz log in milliseconds reads
 /// as 20 s) is refused; the user states the unit instead of a guess.
+/// One `--data` file: a flight log through `kestrel-logs` (by its first
+/// bytes), anything else as a CSV with the named columns.
+fn read_data(args: &Args, cols: &CsvColumns, p: &std::path::Path) -> anyhow::Result<IoData> {
+    if crate::logs::is_flight_log(p) {
+        if args.ts.is_some() || args.time_unit.is_some() {
+            bail!(
+                "{}: a flight log has its own clock; --ts and --time-unit are for CSV files",
+                p.display()
+            );
+        }
+        let rate = args.rate.unwrap_or(50.0);
+        if !(rate.is_finite() && rate > 0.0) {
+            bail!("--rate must be a positive number of Hz, got {rate}");
+        }
+        let segment = match args.segment {
+            Some(SegmentArg::All) => kestrel_logs::SegmentChoice::All,
+            Some(SegmentArg::Airborne) | None => kestrel_logs::SegmentChoice::Airborne,
+        };
+        return crate::logs::load_log_as_iodata(p, &args.inputs, &args.outputs, rate, segment)
+            .with_context(|| format!("reading the flight log {}", p.display()));
+    }
+    if args.rate.is_some() || args.segment.is_some() {
+        bail!(
+            "{}: --rate and --segment resample flight logs (Betaflight, Crazyflie, PX4 ULog); a CSV is identified at its own rate (use `kestrel import` to resample a log)",
+            p.display()
+        );
+    }
+    if args.inputs.is_empty() || args.outputs.is_empty() {
+        bail!(
+            "{}: --inputs and --outputs must name the CSV's input and output columns",
+            p.display()
+        );
+    }
+    let d = IoData::read_csv(p, cols).with_context(|| format!("reading {}", p.display()))?;
+    check_time_unit(args, p, &d)?;
+    Ok(d)
+}
+
 fn check_time_unit(args: &Args, path: &std::path::Path, data: &IoData) -> anyhow::Result<()> {
     if args.time_unit.is_none() && args.ts.is_none() && data.ts() >= 1.0 {
         bail!(
