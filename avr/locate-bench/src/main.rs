@@ -1,7 +1,8 @@
 //! Cycles of kestrel-empc's candidate-list point location on the
-//! ATmega2560 (16 MHz): the tables in program memory (`FarChunks` of
-//! 4 kB statics in `.text.kestrel_tables`, read with `ELPM`) through
-//! kestrel-avr-rt's `locate::FlashLists`, evaluated by
+//! ATmega2560 (16 MHz): the tables in program memory (4 kB statics in
+//! `.text.kestrel_tables`, read with `ELPM`) through
+//! kestrel-avr-rt's `locate::FlashLists` (the chunks, contiguous, read as
+//! one `FarTable`), evaluated by
 //! `kestrel_empc::evaluate_lists` in `f32` (avr-libc's float routines, as
 //! avr/firmware) at the parameters of the generated file, each timed with
 //! Timer1 (prescaler 1, overflow interrupt).
@@ -11,9 +12,11 @@
 //! kestrel-avr-rt's `tests/locate_avr.rs`, which builds this program,
 //! runs it in simavr and compares every answer with the host's).
 //!
-//! USART0 lines: `INIT <0 ok | 1 bad table>`, then per parameter
+//! USART0 lines: `INIT <0 ok | 1 bad table | 2 chunks not contiguous>`, then per parameter
 //! `L i law steps tests cycles z0 .. z3` (the outputs' `f32` bits, or
-//! `L i ERR`), `END`; then it sleeps with interrupts off (simavr ends).
+//! `L i ERR`), `END`; before them `CAL ram reads flash`, the cycles of 10
+//! affine rows of `p` entries in RAM, of reading as many 4-byte numbers
+//! from the table, and of 10 rows evaluated from the table; then it sleeps with interrupts off (simavr ends).
 #![no_std]
 #![no_main]
 #![feature(abi_avr_interrupt, asm_experimental_arch)]
@@ -22,9 +25,10 @@ use core::ptr::{read_volatile, write_volatile};
 use kestrel_avr_rt::cycles::CycleClock;
 use kestrel_avr_rt::cycles::timer1::{self, Timer1Clock};
 use kestrel_avr_rt::locate::{FlashLists, ListLayout};
-use kestrel_empc::evaluate_lists;
+use kestrel_avr_rt::progmem::{FarTable, TableRead};
+use kestrel_empc::{ListAccess, evaluate_lists};
 
-// LAYOUT, P, K, N_CHUNKS, table(), THETAS.
+// LAYOUT, P, K, N_CHUNKS, CHUNK_BYTES, chunks(), THETAS.
 include!(env!("KESTREL_LOCATE_GENERATED"));
 
 const UCSR0A: *mut u8 = 0xC0 as *mut u8;
@@ -89,11 +93,60 @@ pub extern "C" fn main() -> ! {
     let clock = unsafe { Timer1Clock::start() };
     // SAFETY: enables the Timer1 overflow interrupt.
     unsafe { core::arch::asm!("sei") };
-    let Some(Ok(lists)) = table().map(|t| FlashLists::<_, f32>::new(t, LAYOUT)) else {
+    // The chunks are 4 kB statics of one section, laid out in order: read
+    // them as one table (a single `FarTable`, no chunk arithmetic per
+    // read). Checked here; a build where the linker reordered them stops.
+    let parts = chunks();
+    let start = parts.first().map_or(0, |c| c.address());
+    let mut len = 0u32;
+    for (i, c) in parts.iter().enumerate() {
+        if c.address() != start + i as u32 * CHUNK_BYTES {
+            tx(b"INIT 2\n");
+            stop()
+        }
+        len += c.len_bytes();
+    }
+    // SAFETY: `start..start + len` is the chunks' flash, contiguous (checked).
+    let table = unsafe { FarTable::from_raw(start, len) };
+    let Ok(lists) = FlashLists::<_, f32>::new(table, LAYOUT) else {
         tx(b"INIT 1\n");
         stop()
     };
     tx(b"INIT 0\n");
+    // Calibration: 10 affine rows of P entries in RAM (f32 mul-adds), and
+    // the same rows read from the flash table by the accessor.
+    let row = core::hint::black_box([0.37f32; 16]);
+    let th = core::hint::black_box([0.11f32; P]);
+    let t0 = clock.now();
+    let mut acc = 0.0f32;
+    for _ in 0..10 {
+        let row = core::hint::black_box(row);
+        let mut a = row[P % 16];
+        for (g, t) in row.iter().zip(&th) {
+            a = a + g * t;
+        }
+        acc = acc + a;
+    }
+    let ram = clock.now().wrapping_sub(t0);
+    let mut probe = [0u8; 4];
+    let t0 = clock.now();
+    for i in 0..10 * (P as u32 + 1) {
+        let b: [u8; 4] = table_read(&table, i).unwrap_or([0; 4]);
+        probe[0] ^= b[0];
+    }
+    let reads = clock.now().wrapping_sub(t0);
+    core::hint::black_box(probe);
+    let t0 = clock.now();
+    for r in 0..10usize {
+        acc = acc + ListAccess::row_value(&lists, r, &th).unwrap_or(0.0);
+    }
+    let flash = clock.now().wrapping_sub(t0);
+    core::hint::black_box(acc);
+    tx(b"CAL");
+    num(ram);
+    num(reads);
+    num(flash);
+    tx(b"\n");
     let mut scratch = [0.0f32; P];
     let mut z = [0.0f32; K];
     for (i, theta) in THETAS.iter().enumerate() {
@@ -119,6 +172,11 @@ pub extern "C" fn main() -> ! {
     }
     tx(b"END\n");
     stop()
+}
+
+/// 4 bytes at `4 i` of the flash table (calibration).
+fn table_read(t: &FarTable, i: u32) -> Option<[u8; 4]> {
+    core::hint::black_box(t).read_array::<4>(4 * i)
 }
 
 #[panic_handler]

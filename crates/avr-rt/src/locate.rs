@@ -248,6 +248,20 @@ impl<T: TableRead, S: FlashNumber> ListAccess<S, u16> for FlashLists<T, S> {
     fn row(&self, r: usize, j: usize) -> Option<S> {
         self.number(self.at.rows, self.layout.n_rows, r, j)
     }
+    fn row_value(&self, r: usize, theta: &[S]) -> Option<S> {
+        let p = usize::from(self.layout.n_params);
+        if r >= usize::from(self.layout.n_rows) || theta.len() != p {
+            return None;
+        }
+        let base = self.at.rows + r as u32 * (4 * (p as u32 + 1));
+        let mut acc = S::from_le(self.table.read_array::<4>(base + 4 * p as u32)?);
+        let mut at = base;
+        for t in theta {
+            acc = acc.mul_add(S::from_le(self.table.read_array::<4>(at)?), *t);
+            at += 4;
+        }
+        Some(acc)
+    }
     fn n_hull(&self) -> usize {
         usize::from(self.layout.n_hull)
     }

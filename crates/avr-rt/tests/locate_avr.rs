@@ -8,7 +8,11 @@
 //! `LOCATE-AVR-REPORT {json}` line per problem: at the worst parameter a
 //! host search found (random points, then a climb maximising the
 //! hyperplanes evaluated, also inside the longest list's leaf) and at 64
-//! random parameters in the box, beside the builder's worst-case count.
+//! random parameters in the box, beside the builder's worst-case count
+//! (extrapolated to cycles by a least-squares line through the measured
+//! cycles against hyperplanes evaluated); `ten_rows_ram_flash` calibrates:
+//! cycles of 10 affine rows in RAM, of reading as many numbers from
+//! flash, of 10 rows evaluated from flash.
 //!
 //! The 75-region problem (`testing::scaled_thesis(1, 2, 1)`) runs by
 //! default; the 1,075-region one (kestrel-empc's
@@ -193,7 +197,7 @@ fn generate(dir: &Path, t: &ListSlices<'_, f32>, thetas: &[Vec<f32>]) {
         .collect();
     writeln!(
         s,
-        "fn table() -> Option<kestrel_avr_rt::progmem::FarChunks<{}>> {{\n    kestrel_avr_rt::progmem::FarChunks::new([{}], {CHUNK_BITS})\n}}",
+        "const N_CHUNKS: usize = {};\nconst CHUNK_BYTES: u32 = {size};\nfn chunks() -> [kestrel_avr_rt::progmem::FarTable; N_CHUNKS] {{\n    [{}]\n}}",
         chunks.len(),
         list.join(", ")
     )
@@ -332,6 +336,10 @@ fn measure(name: &str, problem: &MpqpProblem) {
     let lines = simulate(&elf, Duration::from_secs(600));
     assert!(lines.iter().any(|l| l == "INIT 0"), "{name}: {lines:#?}");
     assert!(lines.iter().any(|l| l == "END"), "{name}: {lines:#?}");
+    let cal = lines
+        .iter()
+        .find_map(|l| l.strip_prefix("CAL "))
+        .unwrap_or("? ?");
     let rows: Vec<Vec<u32>> = lines
         .iter()
         .filter_map(|l| l.strip_prefix("L "))
@@ -369,11 +377,22 @@ fn measure(name: &str, problem: &MpqpProblem) {
         random.iter().map(|c| c.0).max().unwrap(),
     );
     let mean = random.iter().map(|c| f64::from(c.0)).sum::<f64>() / random.len() as f64;
-    // Cycles per hyperplane from the worst parameter (the rest is the
-    // box, hull and output work), scaled to the builder's worst case.
-    let per = f64::from(worst.0) / worst.1 as f64;
+    // Cycles against hyperplanes evaluated, least squares over every
+    // measured parameter (fixed part: box, outputs; slope: one hyperplane,
+    // one or two rows), extrapolated to the builder's worst case.
+    let n = cycles.len() as f64;
+    let (sx, sy) = cycles
+        .iter()
+        .fold((0.0, 0.0), |(a, b), c| (a + c.1 as f64, b + f64::from(c.0)));
+    let (mx, my) = (sx / n, sy / n);
+    let (sxy, sxx) = cycles.iter().fold((0.0, 0.0), |(a, b), c| {
+        let dx = c.1 as f64 - mx;
+        (a + dx * (f64::from(c.0) - my), b + dx * dx)
+    });
+    let per = sxy / sxx;
+    let fixed = my - per * mx;
     println!(
-        "LOCATE-AVR-REPORT {{\"problem\": \"{name}\", \"regions\": {}, \"table_bytes\": {}, \"flash\": {flash}, \"worst_case_mul_adds\": {}, \"worst_case_hyperplanes\": {}, \"max_leaf_regions\": {}, \"worst_found\": {{\"cycles\": {}, \"hyperplanes\": {}}}, \"random\": {{\"n\": {}, \"min\": {min}, \"mean\": {mean:.0}, \"max\": {max}}}, \"cycles_per_hyperplane\": {per:.0}, \"bound_cycles_est\": {:.0}, \"equal_bits\": {equal_bits}, \"of\": {}}}",
+        "LOCATE-AVR-REPORT {{\"problem\": \"{name}\", \"regions\": {}, \"table_bytes\": {}, \"flash\": {flash}, \"worst_case_mul_adds\": {}, \"worst_case_hyperplanes\": {}, \"max_leaf_regions\": {}, \"worst_found\": {{\"cycles\": {}, \"hyperplanes\": {}}}, \"random\": {{\"n\": {}, \"min\": {min}, \"mean\": {mean:.0}, \"max\": {max}}}, \"cycles_per_hyperplane\": {per:.0}, \"fixed_cycles\": {fixed:.0}, \"bound_cycles_est\": {:.0}, \"equal_bits\": {equal_bits}, \"of\": {}, \"ten_rows_ram_flash\": \"{cal}\"}}",
         stats.regions,
         list_bytes(&t).0.len(),
         stats.worst_case.mul_adds,
@@ -382,7 +401,7 @@ fn measure(name: &str, problem: &MpqpProblem) {
         worst.0,
         worst.1,
         random.len(),
-        per * stats.worst_case_hyperplanes as f64,
+        fixed + per * stats.worst_case_hyperplanes as f64,
         thetas.len(),
     );
 }

@@ -15,7 +15,7 @@
 //! (RAM or `static` arrays) has it, and so can an accessor serving the
 //! tables from program memory (kestrel-avr-rt's `locate::FlashLists`).
 
-use crate::eval::evaluate::{Common, output, project, row_at};
+use crate::eval::evaluate::{Common, project, row_at};
 use crate::eval::index::TreeIndex;
 use kestrel_core::{Error, Scalar};
 
@@ -102,6 +102,17 @@ pub trait ListAccess<S: Scalar, I: TreeIndex> {
     /// evaluation read entry by entry, in the same order.
     fn row_slice(&self, r: usize) -> Option<&[S]> {
         let _ = r;
+        None
+    }
+    /// `row' [theta; 1]` for affine row `r` computed by the accessor in
+    /// one pass (for tables in program memory: one address computation
+    /// per row instead of one per entry), or `None` (the default) to read
+    /// the row entry by entry. An implementation must do the evaluation's
+    /// operations in its order: `acc = row[p]`, then `acc =
+    /// acc.mul_add(row[j], theta[j])` for `j` in `0..p`, so that every
+    /// accessor gives the same bits; `None` for a row out of range.
+    fn row_value(&self, r: usize, theta: &[S]) -> Option<S> {
+        let _ = (r, theta);
         None
     }
     /// Rows of the explored set.
@@ -233,6 +244,40 @@ pub struct ListEvaluation<I = u16> {
     pub tests: u16,
 }
 
+/// Affine row `r` at `th`: the accessor's [`ListAccess::row_value`], else
+/// entry by entry (the same operations in the same order).
+#[inline]
+fn row_value<S: Scalar, I: TreeIndex, T: ListAccess<S, I> + ?Sized>(
+    t: &ViaLists<'_, T>,
+    th: &[S],
+    r: usize,
+) -> Result<S, Error> {
+    match t.0.row_value(r, th) {
+        Some(v) => Ok(v),
+        None => row_at(t, th, r),
+    }
+}
+
+/// Output `o` of law `l` at `th`, clamped to the output's bounds (the
+/// tree's `output`, rows read through [`row_value`]).
+fn output_lists<S: Scalar, I: TreeIndex, T: ListAccess<S, I> + ?Sized>(
+    t: &ViaLists<'_, T>,
+    th: &[S],
+    l: I,
+    o: usize,
+) -> Result<S, Error> {
+    let r = t.0.law(l.index(), o).ok_or(Error::OutOfRange)?.index();
+    let mut v = row_value(t, th, r)?;
+    let [lo, hi] = t.0.output_bounds(o).ok_or(Error::OutOfRange)?;
+    if lo != I::NO_ROW {
+        v = v.max(row_value(t, th, lo.index())?);
+    }
+    if hi != I::NO_ROW {
+        v = v.min(row_value(t, th, hi.index())?);
+    }
+    Ok(v)
+}
+
 /// `(r1(theta), r2(theta))` for hyperplane `h`.
 #[inline]
 fn sides<S: Scalar, I: TreeIndex, T: ListAccess<S, I> + ?Sized>(
@@ -241,11 +286,11 @@ fn sides<S: Scalar, I: TreeIndex, T: ListAccess<S, I> + ?Sized>(
     h: usize,
 ) -> Result<(S, S), Error> {
     let [r1, r2] = t.0.hyperplane(h).ok_or(Error::OutOfRange)?;
-    let a = row_at(t, th, r1.index())?;
+    let a = row_value(t, th, r1.index())?;
     let b = if r2 == I::NO_ROW {
         S::ZERO
     } else {
-        row_at(t, th, r2.index())?
+        row_value(t, th, r2.index())?
     };
     Ok((a, b))
 }
@@ -325,7 +370,7 @@ pub fn evaluate_lists<S: Scalar, I: TreeIndex, T: ListAccess<S, I> + ?Sized>(
         }
     }
     for (o, zo) in z.iter_mut().enumerate() {
-        *zo = output(t, th, law, o)?;
+        *zo = output_lists(t, th, law, o)?;
     }
     Ok(ListEvaluation {
         law,
