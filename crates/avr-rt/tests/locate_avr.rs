@@ -423,3 +423,25 @@ fn lists_on_the_avr_1075_regions() {
     let path = repo_root().join("crates/empc/tests/data/locate-1075.mpqp.json");
     measure("p1075", &MpqpProblem::read(&path).unwrap());
 }
+
+/// Any `kestrel.mpqp.v1` problem named by `KESTREL_LOCATE_AVR_PROBLEM`
+/// (skipped without it), e.g. the 1,395-region one, whose 234 kB of
+/// tables may not fit beside the program.
+#[test]
+#[ignore = "needs KESTREL_LOCATE_AVR_PROBLEM"]
+fn lists_on_the_avr_from_a_file() {
+    let Some(path) = std::env::var_os("KESTREL_LOCATE_AVR_PROBLEM") else {
+        println!("KESTREL_LOCATE_AVR_PROBLEM not set");
+        return;
+    };
+    if !tools() {
+        return;
+    }
+    let path = PathBuf::from(path);
+    let name = path
+        .file_stem()
+        .unwrap()
+        .to_string_lossy()
+        .replace('.', "-");
+    measure(&name, &MpqpProblem::read(&path).unwrap());
+}
