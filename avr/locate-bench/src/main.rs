@@ -4,7 +4,8 @@
 //! kestrel-avr-rt's `locate::FlashLists` (the chunks, contiguous, read as
 //! one `FarTable`), evaluated by
 //! `kestrel_empc::evaluate_lists` in `f32` (avr-libc's float routines, as
-//! avr/firmware) at the parameters of the generated file, each timed with
+//! avr/firmware) or `kestrel_avr_rt::mac::Q16Mac` (Q15.16, the hardware
+//! multiplier), as the generated file says, at the parameters of the generated file, each timed with
 //! Timer1 (prescaler 1, overflow interrupt).
 //!
 //! The tables and parameters come from the file named by the build-time
@@ -13,7 +14,7 @@
 //! runs it in simavr and compares every answer with the host's).
 //!
 //! USART0 lines: `INIT <0 ok | 1 bad table | 2 chunks not contiguous>`, then per parameter
-//! `L i law steps tests cycles z0 .. z3` (the outputs' `f32` bits, or
+//! `L i law steps tests cycles z0 .. z3` (the outputs' bits, or
 //! `L i ERR`), `END`; before them `CAL ram reads flash`, the cycles of 10
 //! affine rows of `p` entries in RAM, of reading as many 4-byte numbers
 //! from the table, and of 10 rows evaluated from the table; then it sleeps with interrupts off (simavr ends).
@@ -26,9 +27,25 @@ use kestrel_avr_rt::cycles::CycleClock;
 use kestrel_avr_rt::cycles::timer1::{self, Timer1Clock};
 use kestrel_avr_rt::locate::{FlashLists, ListLayout};
 use kestrel_avr_rt::progmem::{FarTable, TableRead};
+use kestrel_core::Scalar;
 use kestrel_empc::{ListAccess, evaluate_lists};
 
-// LAYOUT, P, K, N_CHUNKS, CHUNK_BYTES, chunks(), THETAS.
+/// The raw bits of a number (the outputs are sent as bits).
+trait Bits {
+    fn bits(self) -> u32;
+}
+impl Bits for f32 {
+    fn bits(self) -> u32 {
+        self.to_bits()
+    }
+}
+impl Bits for kestrel_avr_rt::mac::Q16Mac {
+    fn bits(self) -> u32 {
+        self.0 as u32
+    }
+}
+
+// S (the scalar), LAYOUT, P, K, N_CHUNKS, CHUNK_BYTES, chunks(), THETAS.
 include!(env!("KESTREL_LOCATE_GENERATED"));
 
 const UCSR0A: *mut u8 = 0xC0 as *mut u8;
@@ -108,22 +125,22 @@ pub extern "C" fn main() -> ! {
     }
     // SAFETY: `start..start + len` is the chunks' flash, contiguous (checked).
     let table = unsafe { FarTable::from_raw(start, len) };
-    let Ok(lists) = FlashLists::<_, f32>::new(table, LAYOUT) else {
+    let Ok(lists) = FlashLists::<_, S>::new(table, LAYOUT) else {
         tx(b"INIT 1\n");
         stop()
     };
     tx(b"INIT 0\n");
     // Calibration: 10 affine rows of P entries in RAM (f32 mul-adds), and
     // the same rows read from the flash table by the accessor.
-    let row = core::hint::black_box([0.37f32; 16]);
-    let th = core::hint::black_box([0.11f32; P]);
+    let row = core::hint::black_box([S::from_f64(0.37); 16]);
+    let th = core::hint::black_box([S::from_f64(0.11); P]);
     let t0 = clock.now();
-    let mut acc = 0.0f32;
+    let mut acc = S::ZERO;
     for _ in 0..10 {
         let row = core::hint::black_box(row);
         let mut a = row[P % 16];
         for (g, t) in row.iter().zip(&th) {
-            a = a + g * t;
+            a = a.mul_add(*g, *t);
         }
         acc = acc + a;
     }
@@ -138,7 +155,7 @@ pub extern "C" fn main() -> ! {
     core::hint::black_box(probe);
     let t0 = clock.now();
     for r in 0..10usize {
-        acc = acc + ListAccess::row_value(&lists, r, &th).unwrap_or(0.0);
+        acc = acc + ListAccess::row_value(&lists, r, &th).unwrap_or(S::ZERO);
     }
     let flash = clock.now().wrapping_sub(t0);
     core::hint::black_box(acc);
@@ -147,8 +164,8 @@ pub extern "C" fn main() -> ! {
     num(reads);
     num(flash);
     tx(b"\n");
-    let mut scratch = [0.0f32; P];
-    let mut z = [0.0f32; K];
+    let mut scratch = [S::ZERO; P];
+    let mut z = [S::ZERO; K];
     for (i, theta) in THETAS.iter().enumerate() {
         let theta = core::hint::black_box(theta);
         let t0 = clock.now();
@@ -163,7 +180,7 @@ pub extern "C" fn main() -> ! {
                 num(u32::from(e.tests));
                 num(cycles);
                 for v in z {
-                    num(v.to_bits());
+                    num(v.bits());
                 }
             }
             Err(_) => tx(b" ERR"),

@@ -13,7 +13,8 @@
 //! Q15.16): affine rows (`p + 1` each), the explored set's rows (`p + 1`
 //! each), the parameter lower bounds, the upper bounds. Offsets are `u32`:
 //! the tables may exceed 64 kB (the ATmega2560 has 256 kB of flash).
-//! `list_bytes` (feature `std`) writes it from `u16` [`ListSlices`].
+//! `list_bytes` / `list_bytes_with` (feature `std`) write it from `u16`
+//! [`ListSlices`].
 //!
 //! ```
 //! use kestrel_avr_rt::locate::{FlashLists, list_bytes};
@@ -282,11 +283,22 @@ impl<T: TableRead, S: FlashNumber> ListAccess<S, u16> for FlashLists<T, S> {
 }
 
 /// The flash table and its layout for `u16` [`ListSlices`] with `f32`
-/// numbers (design time). Counts beyond `u16` cannot be `u16` tables;
-/// the layout's counts saturate and [`FlashLists::new`] then refuses the
-/// table.
+/// numbers (design time); [`list_bytes_with`] for other numbers.
 #[cfg(feature = "std")]
 pub fn list_bytes(t: &ListSlices<'_, f32, u16>) -> (Vec<u8>, ListLayout) {
+    list_bytes_with(t, f32::to_le_bytes)
+}
+
+/// The flash table and its layout for `u16` [`ListSlices`], each number
+/// written by `le` (its 4 little-endian bytes as [`FlashNumber::from_le`]
+/// reads them back: e.g. the raw bits of a `Q16Mac`). Counts beyond `u16`
+/// cannot be `u16` tables; the layout's counts saturate and
+/// [`FlashLists::new`] then refuses the table.
+#[cfg(feature = "std")]
+pub fn list_bytes_with<S: Copy>(
+    t: &ListSlices<'_, S, u16>,
+    le: impl Fn(S) -> [u8; 4],
+) -> (Vec<u8>, ListLayout) {
     let n = |v: usize| u16::try_from(v).unwrap_or(u16::MAX);
     let w = t.n_params + 1;
     let layout = ListLayout {
@@ -326,7 +338,7 @@ pub fn list_bytes(t: &ListSlices<'_, f32, u16>) -> (Vec<u8>, ListLayout) {
         .chain(t.theta_lb)
         .chain(t.theta_ub)
     {
-        b.extend(v.to_le_bytes());
+        b.extend(le(*v));
     }
     (b, layout)
 }
