@@ -1,0 +1,737 @@
+//! The dual active-set solver: set-up (LDL' of `H`, the constraints in its
+//! coordinates) and the Goldfarb-Idnani iterations with LDL' updates of the
+//! active constraints' `M = G_A H^-1 G_A'`.
+//!
+//! Coordinates: with `H = L D L'` (unit lower `L`) and `y = L' z`, the QP is
+//! `min 1/2 y'Dy + (L^-1 q)'y` s.t. `lo <= a_j'y <= hi`, where `a_j =
+//! L^-1 g_j` for a row of `G` and `a_j = L^-1 e_i` (column `i` of `L^-1`) for
+//! the bound on `z_i`: simple bounds need no row of `G`. With signed
+//! multipliers `mu` (positive at an upper bound, negative at a lower one),
+//! `y = y_unc - D^-1 A_A' mu` and `M mu = A_A y_unc - b_A`.
+
+use crate::{QpError, QpSettings};
+use core::ops::Div;
+use kestrel_core::Scalar;
+
+/// The arithmetic the solver needs: [`Scalar`] with a division (`f32`,
+/// `f64`).
+pub trait QpScalar: Scalar + Div<Output = Self> {}
+impl<S: Scalar + Div<Output = S>> QpScalar for S {}
+
+/// Which bound of a constraint is active.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Side {
+    /// The lower bound (`l` or `lb`); its multiplier is `<= 0`.
+    Lower,
+    /// The upper bound (`u` or `ub`); its multiplier is `>= 0`.
+    Upper,
+}
+
+/// One active constraint: index `j < m` is row `j` of `G`, index `m + i`
+/// the simple bound on `z_i`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ActiveConstraint {
+    /// The constraint's index (rows of `G` first, then the bounds).
+    pub index: usize,
+    /// Which of its bounds is active.
+    pub side: Side,
+}
+
+/// How a solve starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Start {
+    /// From the empty active set (the unconstrained optimum).
+    Cold,
+    /// From the solver's current active set: the previous solve's final
+    /// set, or the one given to [`QpSolver::set_active_set`]. Its
+    /// factorisation is rebuilt; constraints that have become linearly
+    /// dependent or whose bound is now infinite are dropped.
+    Warm,
+}
+
+/// The per-solve data: the linear term and the bounds (each may be
+/// infinite; none NaN). `l`, `u` have `m` entries, `q`, `lb`, `ub` `n`.
+#[derive(Debug, Clone, Copy)]
+pub struct QpData<'a, S> {
+    /// Linear term `q`, `n` entries, finite.
+    pub q: &'a [S],
+    /// Lower bounds of `G z`, `m` entries.
+    pub l: &'a [S],
+    /// Upper bounds of `G z`, `m` entries.
+    pub u: &'a [S],
+    /// Lower bounds of `z`, `n` entries.
+    pub lb: &'a [S],
+    /// Upper bounds of `z`, `n` entries.
+    pub ub: &'a [S],
+}
+
+/// What a successful solve did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SolveInfo {
+    /// Active-set changes made (constraints added plus removed).
+    pub iterations: usize,
+    /// Size of the final active set ([`QpSolver::active_set`]).
+    pub active: usize,
+}
+
+/// Length of the scalar workspace for `n` variables and `m` rows of `G`:
+/// `n^2 + m n + 5 n + 5 (n + 1) + (n + 1)^2`.
+pub const fn scalar_len(n: usize, m: usize) -> usize {
+    let c = n + 1;
+    n * n + m * n + 5 * n + 5 * c + c * c
+}
+
+/// Length of the index workspace: `2 (n + 1) + m + n`.
+pub const fn index_len(n: usize, m: usize) -> usize {
+    2 * (n + 1) + m + n
+}
+
+/// The dual active-set solver on caller-owned workspaces (see
+/// [`scalar_len`], [`index_len`]). Set up once per `H` and `G`; solved
+/// for any `q` and bounds.
+#[derive(Debug)]
+pub struct QpSolver<'w, S> {
+    n: usize,
+    m: usize,
+    settings: QpSettings,
+    /// `L^-T` (upper triangular), row `i` = column `i` of `L^-1`, `n x n`.
+    linvt: &'w mut [S],
+    /// `1 / D`, `n`.
+    dinv: &'w mut [S],
+    /// `L^-1 G'` as rows `a_j`, `m x n`.
+    rows: &'w mut [S],
+    /// `L^-1 q`, then scratch `D^-1 a_k`.
+    qt: &'w mut [S],
+    work: &'w mut [S],
+    yunc: &'w mut [S],
+    y: &'w mut [S],
+    /// The active set's LDL' factor, `(n+1) x (n+1)` row-major, unit lower.
+    lf: &'w mut [S],
+    df: &'w mut [S],
+    mu: &'w mut [S],
+    mustar: &'w mut [S],
+    tmp: &'w mut [S],
+    wv: &'w mut [S],
+    /// Active constraint at each position, its side (1 = upper).
+    active: &'w mut [usize],
+    side: &'w mut [usize],
+    /// Position + 1 of each constraint in the active list, 0 if inactive.
+    pos: &'w mut [usize],
+    count: usize,
+    ptol: S,
+    dtol: S,
+    pivtol: S,
+}
+
+fn take<'a, T>(buf: &mut &'a mut [T], len: usize) -> &'a mut [T] {
+    let (head, tail) = core::mem::take(buf).split_at_mut(len);
+    *buf = tail;
+    head
+}
+
+fn check_len(expected: usize, found: usize) -> Result<(), QpError> {
+    if expected == found {
+        Ok(())
+    } else {
+        Err(QpError::Dimension { expected, found })
+    }
+}
+
+fn dot<S: QpScalar>(a: &[S], b: &[S]) -> S {
+    S::dot(a, b)
+}
+
+impl<'w, S: QpScalar> QpSolver<'w, S> {
+    /// Sets up the solver for `H` (`n x n`, row-major, symmetric positive
+    /// definite; only its lower triangle is read) and `G` (`m x n`,
+    /// row-major; `m` may be 0): the LDL' factorisation of `H` and the
+    /// constraints in its coordinates, `O(n^3 + m n^2)`.
+    ///
+    /// The workspaces must be at least [`scalar_len`]`(n, m)` and
+    /// [`index_len`]`(n, m)` long.
+    pub fn new(
+        n: usize,
+        m: usize,
+        h: &[S],
+        g: &[S],
+        settings: QpSettings,
+        scalars: &'w mut [S],
+        indices: &'w mut [usize],
+    ) -> Result<Self, QpError> {
+        settings.validate()?;
+        if n == 0 {
+            return Err(QpError::Dimension {
+                expected: 1,
+                found: 0,
+            });
+        }
+        check_len(n * n, h.len())?;
+        check_len(m * n, g.len())?;
+        if scalars.len() < scalar_len(n, m) {
+            return Err(QpError::Dimension {
+                expected: scalar_len(n, m),
+                found: scalars.len(),
+            });
+        }
+        if indices.len() < index_len(n, m) {
+            return Err(QpError::Dimension {
+                expected: index_len(n, m),
+                found: indices.len(),
+            });
+        }
+        if !h.iter().chain(g.iter()).all(|v| v.is_finite()) {
+            return Err(QpError::NonFinite);
+        }
+        let c = n + 1;
+        let mut buf = scalars;
+        let linvt = take(&mut buf, n * n);
+        let dinv = take(&mut buf, n);
+        let rows = take(&mut buf, m * n);
+        let qt = take(&mut buf, n);
+        let work = take(&mut buf, n);
+        let yunc = take(&mut buf, n);
+        let y = take(&mut buf, n);
+        let lf = take(&mut buf, c * c);
+        let df = take(&mut buf, c);
+        let mu = take(&mut buf, c);
+        let mustar = take(&mut buf, c);
+        let tmp = take(&mut buf, c);
+        let wv = take(&mut buf, c);
+        let mut ibuf = indices;
+        let active = take(&mut ibuf, c);
+        let side = take(&mut ibuf, c);
+        let pos = take(&mut ibuf, m + n);
+        pos.fill(0);
+        let mut s = QpSolver {
+            n,
+            m,
+            settings,
+            linvt,
+            dinv,
+            rows,
+            qt,
+            work,
+            yunc,
+            y,
+            lf,
+            df,
+            mu,
+            mustar,
+            tmp,
+            wv,
+            active,
+            side,
+            pos,
+            count: 0,
+            ptol: S::from_f64(settings.primal_tol),
+            dtol: S::from_f64(settings.dual_tol),
+            pivtol: S::from_f64(settings.pivot_tol),
+        };
+        s.factor_h(h)?;
+        s.transform_rows(g);
+        Ok(s)
+    }
+
+    /// LDL' of `H` into `lf` (as `n x n` scratch), then `L^-T` and `1/D`.
+    fn factor_h(&mut self, h: &[S]) -> Result<(), QpError> {
+        let n = self.n;
+        let l = &mut self.lf[..n * n];
+        l.fill(S::ZERO);
+        for j in 0..n {
+            let mut d = h[j * n + j];
+            for k in 0..j {
+                let ljk = l[j * n + k];
+                d -= ljk * ljk * self.work[k];
+            }
+            if d <= S::ZERO || !d.is_finite() {
+                return Err(QpError::NotPositiveDefinite);
+            }
+            self.work[j] = d;
+            l[j * n + j] = S::ONE;
+            for i in j + 1..n {
+                let mut v = h[i * n + j];
+                for k in 0..j {
+                    v -= l[i * n + k] * l[j * n + k] * self.work[k];
+                }
+                l[i * n + j] = v / d;
+            }
+        }
+        for (di, d) in self.dinv.iter_mut().zip(self.work.iter()) {
+            *di = S::ONE / *d;
+        }
+        // Column c of L^-1 (entries c.. n) into row c of linvt.
+        self.linvt.fill(S::ZERO);
+        for c in 0..n {
+            self.linvt[c * n + c] = S::ONE;
+            for i in c + 1..n {
+                let mut v = S::ZERO;
+                for k in c..i {
+                    v -= l[i * n + k] * self.linvt[c * n + k];
+                }
+                self.linvt[c * n + i] = v;
+            }
+        }
+        Ok(())
+    }
+
+    /// `a_j = L^-1 g_j` by forward substitution (`L` still in `lf`).
+    fn transform_rows(&mut self, g: &[S]) {
+        let n = self.n;
+        let l = &self.lf[..n * n];
+        for (a, gj) in self.rows.chunks_exact_mut(n).zip(g.chunks_exact(n)) {
+            for k in 0..n {
+                let mut v = gj[k];
+                for i in 0..k {
+                    v -= l[k * n + i] * a[i];
+                }
+                a[k] = v;
+            }
+        }
+    }
+
+    /// The number of variables `n`.
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
+    /// The number of rows of `G`, `m`.
+    pub fn m(&self) -> usize {
+        self.m
+    }
+
+    /// The settings the solver was set up with.
+    pub fn settings(&self) -> &QpSettings {
+        &self.settings
+    }
+
+    /// Constraint `j`'s vector `a_j` in the factor's coordinates.
+    fn vector(&self, j: usize) -> &[S] {
+        let n = self.n;
+        if j < self.m {
+            &self.rows[j * n..(j + 1) * n]
+        } else {
+            let i = j - self.m;
+            &self.linvt[i * n..(i + 1) * n]
+        }
+    }
+
+    fn bounds(data: &QpData<'_, S>, m: usize, j: usize) -> (S, S) {
+        if j < m {
+            (data.l[j], data.u[j])
+        } else {
+            (data.lb[j - m], data.ub[j - m])
+        }
+    }
+
+    /// The current active set, in the order it was built.
+    pub fn active_set(&self) -> impl Iterator<Item = ActiveConstraint> + '_ {
+        self.active[..self.count]
+            .iter()
+            .zip(self.side[..self.count].iter())
+            .map(|(&index, &s)| ActiveConstraint {
+                index,
+                side: if s & 1 == 0 { Side::Lower } else { Side::Upper },
+            })
+    }
+
+    /// Sets the active set the next [`Start::Warm`] solve starts from.
+    /// Indices must be below `m + n`, distinct, and at most `n` of them.
+    pub fn set_active_set(&mut self, set: &[ActiveConstraint]) -> Result<(), QpError> {
+        if set.len() > self.n {
+            return Err(QpError::InvalidActiveSet);
+        }
+        self.clear();
+        for (p, a) in set.iter().enumerate() {
+            if a.index >= self.m + self.n || self.pos[a.index] != 0 {
+                self.clear();
+                return Err(QpError::InvalidActiveSet);
+            }
+            self.active[p] = a.index;
+            self.side[p] = usize::from(a.side == Side::Upper);
+            self.pos[a.index] = p + 1;
+            self.count = p + 1;
+        }
+        Ok(())
+    }
+
+    fn clear(&mut self) {
+        for &j in &self.active[..self.count] {
+            self.pos[j] = 0;
+        }
+        self.count = 0;
+    }
+
+    /// The solution `z` of the last successful solve into `z` (`n`).
+    pub fn solution(&self, z: &mut [S]) -> Result<(), QpError> {
+        check_len(self.n, z.len())?;
+        for (zi, row) in z.iter_mut().zip(self.linvt.chunks_exact(self.n)) {
+            *zi = dot(row, self.y);
+        }
+        Ok(())
+    }
+
+    /// The multipliers of the last successful solve into `out` (`m + n`:
+    /// rows of `G`, then bounds), signed: positive at an upper bound,
+    /// negative at a lower one, zero when inactive. They satisfy
+    /// `H z + q + G' mu_G + mu_b = 0`.
+    pub fn multipliers(&self, out: &mut [S]) -> Result<(), QpError> {
+        check_len(self.m + self.n, out.len())?;
+        out.fill(S::ZERO);
+        for (&j, &mu) in self.active[..self.count].iter().zip(self.mu.iter()) {
+            if let Some(o) = out.get_mut(j) {
+                *o = mu;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl<S: QpScalar> QpSolver<'_, S> {
+    /// Solves `min 1/2 z'Hz + q'z` s.t. `l <= G z <= u`, `lb <= z <= ub`
+    /// from `start`; read the result with [`QpSolver::solution`],
+    /// [`QpSolver::multipliers`] and [`QpSolver::active_set`].
+    ///
+    /// Each iteration adds the most violated constraint (when the current
+    /// multipliers are dual feasible) or removes the constraint that
+    /// blocks the dual step; the LDL' factor of the active constraints is
+    /// updated in `O(n k + k^2)` for `k` active constraints, never
+    /// recomputed.
+    pub fn solve(&mut self, data: &QpData<'_, S>, start: Start) -> Result<SolveInfo, QpError> {
+        let (n, m) = (self.n, self.m);
+        check_len(n, data.q.len())?;
+        check_len(m, data.l.len())?;
+        check_len(m, data.u.len())?;
+        check_len(n, data.lb.len())?;
+        check_len(n, data.ub.len())?;
+        if !data.q.iter().all(|v| v.is_finite()) {
+            return Err(QpError::NonFinite);
+        }
+        for (lo, hi) in data.l.iter().zip(data.u).chain(data.lb.iter().zip(data.ub)) {
+            if lo > hi {
+                return Err(QpError::InvalidBounds);
+            }
+            // NaN compares false both ways.
+            if lo.partial_cmp(hi).is_none() {
+                return Err(QpError::NonFinite);
+            }
+        }
+        // qt = L^-1 q (= linvt' q), y_unc = -D^-1 qt.
+        self.qt.fill(S::ZERO);
+        for (row, &qi) in self.linvt.chunks_exact(n).zip(data.q) {
+            for (t, &r) in self.qt.iter_mut().zip(row) {
+                *t = t.mul_add(r, qi);
+            }
+        }
+        for ((yu, &t), &di) in self
+            .yunc
+            .iter_mut()
+            .zip(self.qt.iter())
+            .zip(self.dinv.iter())
+        {
+            *yu = -(t * di);
+        }
+        match start {
+            Start::Cold => self.clear(),
+            Start::Warm => self.refactor(data),
+        }
+        self.mu.fill(S::ZERO);
+        let mut iterations = 0;
+        loop {
+            if self.count > 0 && self.df[self.count - 1] == S::ZERO {
+                self.singular_step()?;
+            } else {
+                self.solve_mustar(data);
+                match self.blocking_dual() {
+                    None => {
+                        self.mu[..self.count].copy_from_slice(&self.mustar[..self.count]);
+                        self.primal();
+                        match self.most_violated(data) {
+                            None => {
+                                return Ok(SolveInfo {
+                                    iterations,
+                                    active: self.count,
+                                });
+                            }
+                            Some((j, side)) => {
+                                if iterations >= self.settings.max_iterations {
+                                    return Err(QpError::IterationLimit);
+                                }
+                                if self.count > self.n {
+                                    return Err(QpError::Infeasible);
+                                }
+                                self.add(j, side);
+                            }
+                        }
+                    }
+                    Some((p, alpha)) => {
+                        if iterations >= self.settings.max_iterations {
+                            return Err(QpError::IterationLimit);
+                        }
+                        for i in 0..self.count {
+                            let d = self.mustar[i] - self.mu[i];
+                            self.mu[i] = self.mu[i].mul_add(alpha, d);
+                        }
+                        self.remove(p);
+                    }
+                }
+            }
+            iterations += 1;
+        }
+    }
+
+    /// Rebuilds the factor of the stored active set, dropping constraints
+    /// that are dependent or whose active bound is infinite.
+    fn refactor(&mut self, data: &QpData<'_, S>) {
+        let k = self.count;
+        self.clear();
+        // The index list below `k` is intact (`clear` resets `pos`, `count`).
+        for t in 0..k {
+            let j = self.active[t];
+            let s = self.side[t];
+            let (lo, hi) = Self::bounds(data, self.m, j);
+            let bound = if s == 1 { hi } else { lo };
+            if !bound.is_finite() || self.pos[j] != 0 {
+                continue;
+            }
+            // Writes position `count <= t`: entries not yet read survive.
+            let code = (s & 1) + if lo == hi { 2 } else { 0 };
+            self.add(j, code);
+            if self.df[self.count - 1] == S::ZERO {
+                self.count -= 1;
+                self.pos[j] = 0;
+            }
+        }
+    }
+
+    /// `mustar = M^-1 (A_A y_unc - b_A)` through the LDL' factor.
+    fn solve_mustar(&mut self, data: &QpData<'_, S>) {
+        let k = self.count;
+        let c = self.n + 1;
+        for p in 0..k {
+            let j = self.active[p];
+            let (lo, hi) = Self::bounds(data, self.m, j);
+            let b = if self.side[p] & 1 == 1 { hi } else { lo };
+            let v = dot(self.vector(j), self.yunc) - b;
+            self.mustar[p] = v;
+        }
+        for i in 0..k {
+            let row = &self.lf[i * c..i * c + i];
+            let v = self.mustar[i] - dot(row, &self.mustar[..i]);
+            self.mustar[i] = v;
+        }
+        for i in 0..k {
+            self.mustar[i] = self.mustar[i] / self.df[i];
+        }
+        for i in (0..k).rev() {
+            let mut v = self.mustar[i];
+            for r in i + 1..k {
+                v -= self.lf[r * c + i] * self.mustar[r];
+            }
+            self.mustar[i] = v;
+        }
+    }
+
+    /// Whether `mu + a (mustar - mu)` must stop short at `a < 1` (or 1) to
+    /// keep the multipliers' signs; the blocking position and the step.
+    fn blocking_dual(&self) -> Option<(usize, S)> {
+        let mut best: Option<(usize, S)> = None;
+        for p in 0..self.count {
+            if self.is_equality(p) {
+                continue;
+            }
+            let sgn = if self.side[p] & 1 == 1 {
+                S::ONE
+            } else {
+                -S::ONE
+            };
+            let star = sgn * self.mustar[p];
+            if star < -self.dtol {
+                let cur = sgn * self.mu[p];
+                let alpha = cur / (cur - star);
+                if best.is_none_or(|(_, a)| alpha < a) {
+                    best = Some((p, alpha));
+                }
+            }
+        }
+        best
+    }
+
+    /// An equality row (`l = u`) keeps its multiplier of either sign.
+    /// Side codes: bit 0 the side (1 upper), bit 1 an equality row.
+    fn is_equality(&self, p: usize) -> bool {
+        self.side[p] >= 2
+    }
+
+    /// `y = y_unc - D^-1 A_A' mu`.
+    fn primal(&mut self) {
+        self.y.copy_from_slice(self.yunc);
+        for p in 0..self.count {
+            let mu = self.mu[p];
+            let j = self.active[p];
+            let n = self.n;
+            let a = if j < self.m {
+                &self.rows[j * n..(j + 1) * n]
+            } else {
+                &self.linvt[(j - self.m) * n..(j - self.m + 1) * n]
+            };
+            for ((yi, &ai), &di) in self.y.iter_mut().zip(a).zip(self.dinv.iter()) {
+                *yi -= ai * di * mu;
+            }
+        }
+    }
+
+    /// The inactive constraint violated most (beyond `primal_tol`) at `y`.
+    fn most_violated(&self, data: &QpData<'_, S>) -> Option<(usize, usize)> {
+        let mut best: Option<(usize, usize, S)> = None;
+        for j in 0..self.m + self.n {
+            if self.pos[j] != 0 {
+                continue;
+            }
+            let (lo, hi) = Self::bounds(data, self.m, j);
+            let v = dot(self.vector(j), self.y);
+            let (viol, side) = if v - hi > lo - v {
+                (v - hi, 1)
+            } else {
+                (lo - v, 0)
+            };
+            let side = side + if lo == hi { 2 } else { 0 };
+            if viol > self.ptol && best.is_none_or(|(_, _, b)| viol > b) {
+                best = Some((j, side, viol));
+            }
+        }
+        best.map(|(j, s, _)| (j, s))
+    }
+
+    /// Appends constraint `j` (side code: bit 0 upper, bit 1 equality) to
+    /// the active set and its row to the LDL' factor: `O(n k + k^2)`. A
+    /// dependent constraint gets the pivot 0 (resolved by
+    /// [`Self::singular_step`]).
+    fn add(&mut self, j: usize, code: usize) {
+        let n = self.n;
+        let c = n + 1;
+        let k = self.count;
+        // work = D^-1 a_j
+        let a = if j < self.m {
+            &self.rows[j * n..(j + 1) * n]
+        } else {
+            &self.linvt[(j - self.m) * n..(j - self.m + 1) * n]
+        };
+        for ((w, &ai), &di) in self.work.iter_mut().zip(a).zip(self.dinv.iter()) {
+            *w = ai * di;
+        }
+        let diag = dot(a, self.work);
+        for p in 0..k {
+            self.tmp[p] = dot(self.vector(self.active[p]), self.work);
+        }
+        // Forward solve L t = c, then L_new = t / d, d_new = diag - t' D^-1 t.
+        let mut d = diag;
+        for i in 0..k {
+            let v = self.tmp[i] - dot(&self.lf[i * c..i * c + i], &self.tmp[..i]);
+            self.tmp[i] = v;
+            let l = v / self.df[i];
+            self.lf[k * c + i] = l;
+            d -= l * v;
+        }
+        self.lf[k * c + k] = S::ONE;
+        self.df[k] = if d > self.pivtol * diag { d } else { S::ZERO };
+        self.active[k] = j;
+        self.side[k] = code;
+        self.pos[j] = k + 1;
+        self.mu[k] = S::ZERO;
+        self.count = k + 1;
+    }
+
+    /// Removes position `p` from the active set: deletes its row and column
+    /// of the factor and restores the trailing block by a rank-one update
+    /// `+ d_p l_p l_p'` (Gill, Golub, Murray, Saunders): `O(k^2)`.
+    fn remove(&mut self, p: usize) {
+        let c = self.n + 1;
+        let k = self.count;
+        let mut alpha = self.df[p];
+        for r in p + 1..k {
+            self.wv[r] = self.lf[r * c + p];
+        }
+        self.pos[self.active[p]] = 0;
+        // Shift rows and columns after p up and left by one.
+        for r in p..k - 1 {
+            for col in 0..p {
+                self.lf[r * c + col] = self.lf[(r + 1) * c + col];
+            }
+            for col in p..=r {
+                self.lf[r * c + col] = self.lf[(r + 1) * c + col + 1];
+            }
+            self.df[r] = self.df[r + 1];
+            self.mu[r] = self.mu[r + 1];
+            self.active[r] = self.active[r + 1];
+            self.side[r] = self.side[r + 1];
+            self.pos[self.active[r]] = r + 1;
+            self.wv[r] = self.wv[r + 1];
+        }
+        self.count = k - 1;
+        // Rank-one update of rows/columns p.. with alpha * w w'.
+        for i in p..k - 1 {
+            let pv = self.wv[i];
+            let dnew = self.df[i] + alpha * pv * pv;
+            if dnew == S::ZERO {
+                continue;
+            }
+            let beta = pv * alpha / dnew;
+            alpha = self.df[i] * alpha / dnew;
+            self.df[i] = dnew;
+            for r in i + 1..k - 1 {
+                self.wv[r] -= pv * self.lf[r * c + i];
+                let l = self.lf[r * c + i];
+                self.lf[r * c + i] = l.mul_add(beta, self.wv[r]);
+            }
+        }
+    }
+
+    /// The last active constraint is a combination of the others: move the
+    /// multipliers along the null vector of `M` (the primal point does not
+    /// change) until one of the others reaches zero, and remove it; if none
+    /// does, the dual is unbounded and the QP infeasible.
+    fn singular_step(&mut self) -> Result<(), QpError> {
+        let c = self.n + 1;
+        let k = self.count;
+        let last = k - 1;
+        // p = L^-T e_last.
+        self.tmp[last] = S::ONE;
+        for i in (0..last).rev() {
+            let mut v = S::ZERO;
+            for r in i + 1..k {
+                v -= self.lf[r * c + i] * self.tmp[r];
+            }
+            self.tmp[i] = v;
+        }
+        let sk = if self.side[last] & 1 == 0 {
+            -S::ONE
+        } else {
+            S::ONE
+        };
+        let mut best: Option<(usize, S)> = None;
+        for i in 0..last {
+            if self.is_equality(i) {
+                continue;
+            }
+            let si = if self.side[i] & 1 == 1 {
+                S::ONE
+            } else {
+                -S::ONE
+            };
+            let rate = si * sk * self.tmp[i];
+            if rate < S::ZERO {
+                let tau = (si * self.mu[i]) / (-rate);
+                if best.is_none_or(|(_, t)| tau < t) {
+                    best = Some((i, tau));
+                }
+            }
+        }
+        let (blocking, tau) = best.ok_or(QpError::Infeasible)?;
+        for i in 0..k {
+            let step = sk * self.tmp[i];
+            self.mu[i] = self.mu[i].mul_add(tau, step);
+        }
+        self.remove(blocking);
+        Ok(())
+    }
+}

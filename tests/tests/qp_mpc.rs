@@ -1,0 +1,240 @@
+//! kestrel-qp's dual active-set solver on MPC problems, against
+//! kestrel-mpc's clarabel ReferenceSolver (polished: the exact KKT solution
+//! of its active set) and, where it exists, kestrel-empc's explicit law
+//! (the region containing theta, its affine law).
+//!
+//! Problems: the tricopter thesis-sized problem (identified 5-state
+//! black-box model `models/tricopter-blackbox-5.json`, `N = 2`, `N_s = 1`,
+//! pulses in us: badly scaled), kestrel-empc's random thesis-sized problems
+//! (`testing::thesis_sized`), and the larger tricopter problem (`N = 10`,
+//! blocks `[1, 1, 2, 6]`: no explicit law, clarabel only). Rows of `G`
+//! that bound a single variable become the solver's simple bounds (no
+//! row), the rest are one-sided rows `G z <= W + E theta`.
+//!
+//! The default sample count is 10^4 per thesis-sized problem and 10^3 for
+//! the larger one; `KESTREL_QP_SAMPLES=N` overrides both.
+
+use kestrel_core::formats::{MpqpProblem, SsModel};
+use kestrel_empc::{Settings, solve as solve_mpqp};
+use kestrel_mpc::{QpSettings as RefSettings, ReferenceSolver};
+use kestrel_qp::{QpData, QpSettings, QpSolver, Start, index_len, scalar_len};
+use kestrel_tricopter::{ProblemSize, default_weights, tricopter_problem};
+use nalgebra::DVector;
+use rand::{RngExt, SeedableRng};
+use rand_xoshiro::SplitMix64;
+
+fn samples(default: usize) -> usize {
+    std::env::var("KESTREL_QP_SAMPLES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(default)
+}
+
+fn tricopter(size: ProblemSize) -> MpqpProblem {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../models/tricopter-blackbox-5.json"
+    );
+    let model = SsModel::read(std::path::Path::new(path)).unwrap();
+    let (q1, q2) = default_weights();
+    tricopter_problem(&model, size, q1, q2).unwrap().to_mpqp()
+}
+
+/// The problem split into general rows and simple bounds.
+struct Split {
+    n: usize,
+    h: Vec<f64>,
+    g: Vec<f64>,
+    /// Index in the mpQP of each general row.
+    rows: Vec<usize>,
+    /// `(row, variable, coefficient)` of each single-variable row.
+    bounds: Vec<(usize, usize, f64)>,
+}
+
+impl Split {
+    fn new(p: &MpqpProblem) -> Self {
+        let n = p.n();
+        let h = (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .map(|(i, j)| p.h[(i, j)])
+            .collect();
+        let (mut g, mut rows, mut bounds) = (Vec::new(), Vec::new(), Vec::new());
+        for i in 0..p.m() {
+            let nz: Vec<usize> = (0..n).filter(|&j| p.g[(i, j)] != 0.0).collect();
+            if nz.len() == 1 {
+                bounds.push((i, nz[0], p.g[(i, nz[0])]));
+            } else {
+                rows.push(i);
+                g.extend((0..n).map(|j| p.g[(i, j)]));
+            }
+        }
+        Split {
+            n,
+            h,
+            g,
+            rows,
+            bounds,
+        }
+    }
+
+    /// Solves at theta (cold or warm): `z` and the iterations.
+    fn solve(
+        &self,
+        qp: &mut QpSolver<'_, f64>,
+        p: &MpqpProblem,
+        theta: &DVector<f64>,
+        start: Start,
+    ) -> (Vec<f64>, usize) {
+        let q = p.linear_term(theta);
+        let rhs = p.rhs(theta);
+        let u: Vec<f64> = self.rows.iter().map(|&i| rhs[i]).collect();
+        let l = vec![f64::NEG_INFINITY; u.len()];
+        let mut lb = vec![f64::NEG_INFINITY; self.n];
+        let mut ub = vec![f64::INFINITY; self.n];
+        for &(i, j, a) in &self.bounds {
+            let v = rhs[i] / a;
+            if a > 0.0 {
+                ub[j] = ub[j].min(v)
+            } else {
+                lb[j] = lb[j].max(v)
+            }
+        }
+        let data = QpData {
+            q: q.as_slice(),
+            l: &l,
+            u: &u,
+            lb: &lb,
+            ub: &ub,
+        };
+        let info = qp.solve(&data, start).unwrap();
+        let mut z = vec![0.0; self.n];
+        qp.solution(&mut z).unwrap();
+        (z, info.iterations)
+    }
+}
+
+fn relative(a: &[f64], b: &[f64]) -> f64 {
+    let scale = 1.0 + b.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
+    a.iter()
+        .zip(b)
+        .fold(0.0_f64, |s, (x, y)| s.max((x - y).abs() / scale))
+}
+
+/// Checks `count` random theta: returns the worst deviation from clarabel
+/// and from the explicit law (when `explicit`).
+fn check(name: &str, p: &MpqpProblem, count: usize, explicit: bool) {
+    let split = Split::new(p);
+    let m = split.rows.len();
+    let mut s = vec![0.0; scalar_len(p.n(), m)];
+    let mut ix = vec![0; index_len(p.n(), m)];
+    let mut qp = QpSolver::new(
+        p.n(),
+        m,
+        &split.h,
+        &split.g,
+        QpSettings::default(),
+        &mut s,
+        &mut ix,
+    )
+    .unwrap();
+    let settings = RefSettings {
+        tolerance: 1e-11,
+        max_iter: 400,
+        ..RefSettings::default()
+    };
+    let mut reference = ReferenceSolver::new(p, settings).unwrap();
+    let law = explicit.then(|| solve_mpqp(p, &Settings::default()).unwrap());
+    let mut rng = SplitMix64::seed_from_u64(24);
+    let (mut worst_ref, mut worst_law, mut unpolished) = (0.0_f64, 0.0_f64, 0usize);
+    let (mut max_cold, mut max_warm) = (0usize, 0usize);
+    for _ in 0..count {
+        let theta = DVector::from_iterator(
+            p.p(),
+            (0..p.p())
+                .map(|j| p.theta_lb[j] + (p.theta_ub[j] - p.theta_lb[j]) * rng.random::<f64>()),
+        );
+        let (z, cold) = split.solve(&mut qp, p, &theta, Start::Cold);
+        max_cold = max_cold.max(cold);
+        let r = reference.solve(&theta).unwrap();
+        if r.polished {
+            let dev = relative(&z, r.z.as_slice());
+            assert!(
+                dev <= 1e-9,
+                "{name}: theta {theta:?}: {z:?} vs clarabel {:?} ({dev:e})",
+                r.z
+            );
+            worst_ref = worst_ref.max(dev);
+        } else {
+            unpolished += 1;
+        }
+        if let Some(law) = &law {
+            let ri = law.locate(theta.as_slice(), 1e-7).unwrap();
+            let zl = law.regions[ri].z(theta.as_slice());
+            let dev = relative(&z, zl.as_slice());
+            assert!(
+                dev <= 1e-9,
+                "{name}: theta {theta:?}: {z:?} vs the explicit law {zl:?} ({dev:e})"
+            );
+            worst_law = worst_law.max(dev);
+        }
+        // Warm from this solution at a nearby theta (1 % of the box).
+        let near = DVector::from_iterator(
+            p.p(),
+            (0..p.p()).map(|j| {
+                let step =
+                    0.01 * (p.theta_ub[j] - p.theta_lb[j]) * (2.0 * rng.random::<f64>() - 1.0);
+                (theta[j] + step).clamp(p.theta_lb[j], p.theta_ub[j])
+            }),
+        );
+        let (zw, warm) = split.solve(&mut qp, p, &near, Start::Warm);
+        max_warm = max_warm.max(warm);
+        let (zc, _) = split.solve(&mut qp, p, &near, Start::Cold);
+        assert!(
+            relative(&zw, &zc) <= 1e-9,
+            "{name}: warm {zw:?} vs cold {zc:?}"
+        );
+    }
+    assert!(
+        unpolished * 100 <= count,
+        "{name}: {unpolished} of {count} clarabel solutions not polished"
+    );
+    eprintln!(
+        "{name} (n = {}, {} rows + {} bounds): {count} theta, worst relative deviation from clarabel {worst_ref:.2e} ({unpolished} unpolished skipped), from the explicit law {worst_law:.2e}; most iterations cold {max_cold}, warm (1 % step) {max_warm}",
+        p.n(),
+        m,
+        split.bounds.len(),
+    );
+}
+
+#[test]
+fn thesis_sized_tricopter_equals_clarabel_and_explicit_law() {
+    check(
+        "tricopter thesis-sized",
+        &tricopter(ProblemSize::Thesis),
+        samples(10_000),
+        true,
+    );
+}
+
+#[test]
+fn random_thesis_sized_problems_equal_clarabel_and_explicit_law() {
+    for seed in [1, 2, 3] {
+        let p = kestrel_empc::testing::thesis_sized(seed);
+        check(
+            &format!("empc thesis_sized({seed})"),
+            &p,
+            samples(10_000),
+            true,
+        );
+    }
+}
+
+#[test]
+fn larger_tricopter_equals_clarabel() {
+    check(
+        "tricopter larger",
+        &tricopter(ProblemSize::Larger),
+        samples(1_000),
+        false,
+    );
+}
