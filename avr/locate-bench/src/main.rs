@@ -15,7 +15,7 @@
 //!
 //! USART0 lines: `INIT <0 ok | 1 bad table | 2 chunks not contiguous>`, then per parameter
 //! `L i law steps tests cycles z0 .. z3` (the outputs' bits, or
-//! `L i ERR`), `END`; before them `CAL ram reads flash`, the cycles of 10
+//! `L i ERR`), `END` (`PANIC file line` on a panic); before them `CAL ram reads flash`, the cycles of 10
 //! affine rows of `p` entries in RAM, of reading as many 4-byte numbers
 //! from the table, and of 10 rows evaluated from the table; then it sleeps with interrupts off (simavr ends).
 #![no_std]
@@ -196,7 +196,14 @@ fn table_read(t: &FarTable, i: u32) -> Option<[u8; 4]> {
     core::hint::black_box(t).read_array::<4>(4 * i)
 }
 
+/// Sends `PANIC file line` and stops.
 #[panic_handler]
-fn panic(_: &core::panic::PanicInfo) -> ! {
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    tx(b"PANIC ");
+    if let Some(l) = info.location() {
+        tx(l.file().as_bytes());
+        num(l.line());
+    }
+    tx(b"\n");
     stop()
 }

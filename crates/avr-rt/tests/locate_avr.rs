@@ -488,8 +488,9 @@ fn lists_on_the_avr_1075_regions() {
         return;
     }
     let path = repo_root().join("crates/empc/tests/data/locate-1075.mpqp.json");
-    // f32 only: the Q15.16 build of these tables stops on the AVR at its
-    // first evaluation (a panic, not reproduced on the host; open).
+    // f32 only: the Q15.16 build of these tables stops in simavr after
+    // its calibration line, at its first evaluation (no panic: the
+    // handler would send PANIC; the host's emulation completes). Open.
     measure("p1075", &MpqpProblem::read(&path).unwrap(), false);
 }
 
