@@ -13,11 +13,12 @@
 //! kestrel-avr-rt's `tests/locate_avr.rs`, which builds this program,
 //! runs it in simavr and compares every answer with the host's).
 //!
-//! USART0 lines: `INIT <0 ok | 1 bad table | 2 chunks not contiguous>`, then per parameter
-//! `L i law steps tests cycles z0 .. z3` (the outputs' bits, or
-//! `L i ERR`), `END` (`PANIC file line` on a panic); before them `CAL ram reads flash`, the cycles of 10
-//! affine rows of `p` entries in RAM, of reading as many 4-byte numbers
-//! from the table, and of 10 rows evaluated from the table; then it sleeps with interrupts off (simavr ends).
+//! USART0 lines: `INIT <0 ok | 1 bad table | 2 chunks not contiguous>`;
+//! `CAL ram reads flash`, the cycles of 10 affine rows of `p` entries in
+//! RAM, of reading as many 4-byte numbers from the table and of 10 rows
+//! evaluated from the table; per parameter `L i law steps tests cycles
+//! z0 .. z3` (the outputs' bits) or `L i ERR`; `END` (`PANIC file line`
+//! on a panic); then it sleeps with interrupts off (simavr ends).
 #![no_std]
 #![no_main]
 #![feature(abi_avr_interrupt, asm_experimental_arch)]
