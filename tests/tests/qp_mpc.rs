@@ -19,7 +19,7 @@ use kestrel_empc::{Settings, solve as solve_mpqp};
 use kestrel_mpc::{QpSettings as RefSettings, ReferenceSolver};
 use kestrel_qp::{QpData, QpSettings, QpSolver, Start, index_len, scalar_len};
 use kestrel_tricopter::{ProblemSize, default_weights, tricopter_problem};
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
 use rand_xoshiro::SplitMix64;
 
@@ -40,13 +40,14 @@ fn tricopter(size: ProblemSize) -> MpqpProblem {
     tricopter_problem(&model, size, q1, q2).unwrap().to_mpqp()
 }
 
-/// The problem split into general rows and simple bounds.
+/// The problem split into double-sided general rows and simple bounds.
 struct Split {
     n: usize,
     h: Vec<f64>,
     g: Vec<f64>,
-    /// Index in the mpQP of each general row.
-    rows: Vec<usize>,
+    /// The mpQP rows of each general row's upper and lower bound (`-g'z <=
+    /// r` is the lower bound `g'z >= -r` of the row `g`).
+    rows: Vec<(Option<usize>, Option<usize>)>,
     /// `(row, variable, coefficient)` of each single-variable row.
     bounds: Vec<(usize, usize, f64)>,
 }
@@ -58,14 +59,29 @@ impl Split {
             .flat_map(|i| (0..n).map(move |j| (i, j)))
             .map(|(i, j)| p.h[(i, j)])
             .collect();
-        let (mut g, mut rows, mut bounds) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut g, mut rows, mut bounds) = (Vec::<f64>::new(), Vec::new(), Vec::new());
         for i in 0..p.m() {
             let nz: Vec<usize> = (0..n).filter(|&j| p.g[(i, j)] != 0.0).collect();
             if nz.len() == 1 {
                 bounds.push((i, nz[0], p.g[(i, nz[0])]));
-            } else {
-                rows.push(i);
-                g.extend((0..n).map(|j| p.g[(i, j)]));
+                continue;
+            }
+            let row: Vec<f64> = (0..n).map(|j| p.g[(i, j)]).collect();
+            let mirror = rows
+                .iter()
+                .position(|&(_, lo): &(Option<usize>, Option<usize>)| lo.is_none())
+                .filter(|&k| {
+                    g[k * n..(k + 1) * n]
+                        .iter()
+                        .zip(&row)
+                        .all(|(a, b)| *a == -*b)
+                });
+            match mirror {
+                Some(k) => rows[k].1 = Some(i),
+                None => {
+                    rows.push((Some(i), None));
+                    g.extend(row);
+                }
             }
         }
         Split {
@@ -87,8 +103,16 @@ impl Split {
     ) -> (Vec<f64>, usize) {
         let q = p.linear_term(theta);
         let rhs = p.rhs(theta);
-        let u: Vec<f64> = self.rows.iter().map(|&i| rhs[i]).collect();
-        let l = vec![f64::NEG_INFINITY; u.len()];
+        let u: Vec<f64> = self
+            .rows
+            .iter()
+            .map(|r| r.0.map_or(f64::INFINITY, |i| rhs[i]))
+            .collect();
+        let l: Vec<f64> = self
+            .rows
+            .iter()
+            .map(|r| r.1.map_or(f64::NEG_INFINITY, |i| -rhs[i]))
+            .collect();
         let mut lb = vec![f64::NEG_INFINITY; self.n];
         let mut ub = vec![f64::INFINITY; self.n];
         for &(i, j, a) in &self.bounds {
@@ -111,6 +135,25 @@ impl Split {
         qp.solution(&mut z).unwrap();
         (z, info.iterations)
     }
+}
+
+/// `p` in the variables `w` of `z = T w`, `T = I + 0.3 R` (`R` random in
+/// [-1, 1]): its box rows become general rows, pairs of opposite rows
+/// double-sided ones.
+fn transformed(p: &MpqpProblem, seed: u64) -> MpqpProblem {
+    let n = p.n();
+    let mut rng = SplitMix64::seed_from_u64(seed);
+    let t = DMatrix::from_fn(n, n, |i, j| {
+        let r = 0.3 * (2.0 * rng.random::<f64>() - 1.0);
+        if i == j { 1.0 + r } else { r }
+    });
+    let mut out = p.clone();
+    let h = t.transpose() * &p.h * &t;
+    out.h = (&h + h.transpose()) * 0.5;
+    out.f_theta = &p.f_theta * &t;
+    out.f = t.transpose() * &p.f;
+    out.g = &p.g * &t;
+    out
 }
 
 fn relative(a: &[f64], b: &[f64]) -> f64 {
@@ -237,4 +280,19 @@ fn larger_tricopter_equals_clarabel() {
         samples(1_000),
         false,
     );
+}
+
+#[test]
+fn transformed_thesis_sized_with_general_rows_equals_clarabel_and_explicit_law() {
+    let p = transformed(&tricopter(ProblemSize::Thesis), 5);
+    let split = Split::new(&p);
+    assert!(split.bounds.is_empty() && split.rows.iter().all(|r| r.0.is_some() && r.1.is_some()));
+    check(
+        "tricopter thesis-sized, z = T w (double-sided rows)",
+        &p,
+        samples(10_000),
+        true,
+    );
+    let p = transformed(&kestrel_empc::testing::thesis_sized(1), 6);
+    check("empc thesis_sized(1), z = T w", &p, samples(10_000), true);
 }

@@ -438,6 +438,9 @@ impl<S: QpScalar> QpSolver<'_, S> {
         let mut iterations = 0;
         loop {
             if self.count > 0 && self.df[self.count - 1] == S::ZERO {
+                if iterations >= self.settings.max_iterations {
+                    return Err(QpError::IterationLimit);
+                }
                 self.singular_step()?;
             } else {
                 self.solve_mustar(data);
@@ -486,6 +489,9 @@ impl<S: QpScalar> QpSolver<'_, S> {
         self.clear();
         // The index list below `k` is intact (`clear` resets `pos`, `count`).
         for t in 0..k {
+            if self.count > self.n {
+                break;
+            }
             let j = self.active[t];
             let s = self.side[t];
             let (lo, hi) = Self::bounds(data, self.m, j);
