@@ -18,6 +18,8 @@ mod error;
 #[cfg(feature = "std")]
 mod filter;
 #[cfg(feature = "std")]
+mod fit;
+#[cfg(feature = "std")]
 pub mod linalg;
 #[cfg(feature = "std")]
 pub mod lm;

@@ -56,7 +56,7 @@ impl ArxModel {
                     .unwrap_or(0),
             });
         }
-        Ok(pooled_fit(&y, &yhat))
+        Ok(crate::fit::fit_percent(&y, &yhat))
     }
 
     /// The first sample of an experiment that has a k-step prediction:
@@ -127,30 +127,4 @@ impl ArxModel {
         }
         out
     }
-}
-
-/// The fit (4.11) per output pooled over experiments, as
-/// [`fit_percent`](crate::fit_percent) (kept here so that this module
-/// does not depend on the validation module, which reports ARX
-/// baselines).
-pub(crate) fn pooled_fit(y: &[DMatrix<f64>], yhat: &[DMatrix<f64>]) -> Vec<f64> {
-    let ny = y.first().map(|m| m.ncols()).unwrap_or(0);
-    let n: usize = y.iter().map(|m| m.nrows()).sum();
-    (0..ny)
-        .map(|j| {
-            let mean = y.iter().map(|m| m.column(j).sum()).sum::<f64>() / n.max(1) as f64;
-            let (mut num, mut den) = (0.0, 0.0);
-            for (m, h) in y.iter().zip(yhat) {
-                for t in 0..m.nrows() {
-                    num += (m[(t, j)] - h[(t, j)]).powi(2);
-                    den += (m[(t, j)] - mean).powi(2);
-                }
-            }
-            if den > 0.0 {
-                100.0 * (1.0 - (num / den).sqrt())
-            } else {
-                f64::NAN
-            }
-        })
-        .collect()
 }

@@ -162,7 +162,7 @@ fn k_step_predictions_equal_those_of_the_realisation() {
 }
 
 #[test]
-fn pooled_fit_is_the_validation_modules_fit() {
+fn predict_fit_is_the_fit_over_the_predicted_samples() {
     let truth = synthetic::random_model(2, 1, 2, 3, 0.8);
     let a = synthetic::simulate(&truth, 300, 0.2, 1).unwrap();
     let b = synthetic::simulate(&truth, 200, 0.2, 2).unwrap();
@@ -180,7 +180,6 @@ fn pooled_fit_is_the_validation_modules_fit() {
         .iter()
         .map(|e| e.y.rows(skip, e.len() - skip).into_owned())
         .collect();
-    assert_eq!(predict::pooled_fit(&y, &p), fit_percent(&y, &p));
     assert_eq!(m.predict_fit(&data, 3).unwrap(), fit_percent(&y, &p));
 }
 
