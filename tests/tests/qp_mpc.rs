@@ -11,8 +11,8 @@
 //! that bound a single variable become the solver's simple bounds (no
 //! row), the rest are one-sided rows `G z <= W + E theta`.
 //!
-//! The default sample count is 10^4 per thesis-sized problem and 10^3 for
-//! the larger one; `KESTREL_QP_SAMPLES=N` overrides both.
+//! The sample count is 10^4 theta per problem (`KESTREL_QP_SAMPLES=N`
+//! overrides it); the whole file runs in about 5 s in the dev profile.
 
 use kestrel_core::formats::{MpqpProblem, SsModel};
 use kestrel_empc::{Settings, solve as solve_mpqp};
@@ -242,10 +242,15 @@ fn check(name: &str, p: &MpqpProblem, count: usize, explicit: bool) {
         "{name}: {unpolished} of {count} clarabel solutions not polished"
     );
     eprintln!(
-        "{name} (n = {}, {} rows + {} bounds): {count} theta, worst relative deviation from clarabel {worst_ref:.2e} ({unpolished} unpolished skipped), from the explicit law {worst_law:.2e}; most iterations cold {max_cold}, warm (1 % step) {max_warm}",
+        "{name} (n = {}, {} rows + {} bounds): {count} theta, worst relative deviation from clarabel {worst_ref:.2e} ({unpolished} unpolished skipped), from the explicit law {}; most iterations cold {max_cold}, warm (1 % step) {max_warm}",
         p.n(),
         m,
         split.bounds.len(),
+        if explicit {
+            format!("{worst_law:.2e}")
+        } else {
+            "(no law)".into()
+        },
     );
 }
 
@@ -277,7 +282,7 @@ fn larger_tricopter_equals_clarabel() {
     check(
         "tricopter larger",
         &tricopter(ProblemSize::Larger),
-        samples(1_000),
+        samples(10_000),
         false,
     );
 }
@@ -295,4 +300,105 @@ fn transformed_thesis_sized_with_general_rows_equals_clarabel_and_explicit_law()
     );
     let p = transformed(&kestrel_empc::testing::thesis_sized(1), 6);
     check("empc thesis_sized(1), z = T w", &p, samples(10_000), true);
+}
+
+/// The same problems in f32 ([`QpSettings::for_f32`]) against the f64
+/// solution: the worst relative deviation `|z32 - z64|_inf / (1 +
+/// |z64|_inf)` over the sample, bounded in docs/qp.md.
+fn f32_deviation(p: &MpqpProblem, count: usize) -> f64 {
+    let split = Split::new(p);
+    let m = split.rows.len();
+    let mut s = vec![0.0; scalar_len(p.n(), m)];
+    let mut ix = vec![0; index_len(p.n(), m)];
+    let mut qp = QpSolver::new(
+        p.n(),
+        m,
+        &split.h,
+        &split.g,
+        QpSettings::default(),
+        &mut s,
+        &mut ix,
+    )
+    .unwrap();
+    let c = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
+    let (h32, g32) = (c(&split.h), c(&split.g));
+    let mut s32 = vec![0.0_f32; scalar_len(p.n(), m)];
+    let mut ix32 = vec![0; index_len(p.n(), m)];
+    let mut qp32 = QpSolver::new(
+        p.n(),
+        m,
+        &h32,
+        &g32,
+        QpSettings::for_f32(),
+        &mut s32,
+        &mut ix32,
+    )
+    .unwrap();
+    let mut rng = SplitMix64::seed_from_u64(32);
+    let mut worst = 0.0_f64;
+    for _ in 0..count {
+        let theta = DVector::from_iterator(
+            p.p(),
+            (0..p.p())
+                .map(|j| p.theta_lb[j] + (p.theta_ub[j] - p.theta_lb[j]) * rng.random::<f64>()),
+        );
+        let (z, _) = split.solve(&mut qp, p, &theta, Start::Cold);
+        // The f32 data: the f64 solver's inputs rounded.
+        let q = c(p.linear_term(&theta).as_slice());
+        let rhs = p.rhs(&theta);
+        let u: Vec<f32> = split
+            .rows
+            .iter()
+            .map(|r| r.0.map_or(f32::INFINITY, |i| rhs[i] as f32))
+            .collect();
+        let l: Vec<f32> = split
+            .rows
+            .iter()
+            .map(|r| r.1.map_or(f32::NEG_INFINITY, |i| -rhs[i] as f32))
+            .collect();
+        let mut lb = vec![f32::NEG_INFINITY; p.n()];
+        let mut ub = vec![f32::INFINITY; p.n()];
+        for &(i, j, a) in &split.bounds {
+            let v = (rhs[i] / a) as f32;
+            if a > 0.0 {
+                ub[j] = ub[j].min(v)
+            } else {
+                lb[j] = lb[j].max(v)
+            }
+        }
+        let data = QpData {
+            q: &q,
+            l: &l,
+            u: &u,
+            lb: &lb,
+            ub: &ub,
+        };
+        qp32.solve(&data, Start::Cold).unwrap();
+        let mut z32 = vec![0.0_f32; p.n()];
+        qp32.solution(&mut z32).unwrap();
+        let z32: Vec<f64> = z32.iter().map(|&v| v as f64).collect();
+        worst = worst.max(relative(&z32, &z));
+    }
+    worst
+}
+
+#[test]
+fn f32_within_stated_bound() {
+    for (name, p, bound) in [
+        (
+            "tricopter thesis-sized",
+            tricopter(ProblemSize::Thesis),
+            1e-4,
+        ),
+        (
+            "empc thesis_sized(1)",
+            kestrel_empc::testing::thesis_sized(1),
+            1e-4,
+        ),
+        ("tricopter larger", tricopter(ProblemSize::Larger), 1e-4),
+    ] {
+        let worst = f32_deviation(&p, samples(10_000));
+        eprintln!("{name}: f32 worst relative deviation from f64 {worst:.2e} (bound {bound:e})");
+        assert!(worst <= bound, "{name}: {worst:e}");
+    }
 }

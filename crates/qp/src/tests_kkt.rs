@@ -238,3 +238,78 @@ proptest! {
         prop_assert!(qp.kkt_residual(&z, &mu) < 1e-9);
     }
 }
+
+/// Any value, including NaN, infinities and huge magnitudes.
+fn wild() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        4 => -10.0..10.0f64,
+        1 => Just(f64::NAN),
+        1 => Just(f64::INFINITY),
+        1 => Just(f64::NEG_INFINITY),
+        1 => Just(1e300),
+        1 => Just(0.0),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+    /// Warm start from the optimal active set: no more than one change,
+    /// the same solution.
+    #[test]
+    fn warm_start_from_optimum_is_immediate(seed in any::<u64>(), n in 1usize..9, m in 0usize..14) {
+        let qp = RandomQp::new(seed, n, m);
+        let mut s = vec![0.0; scalar_len(n, m)];
+        let mut ix = vec![0; index_len(n, m)];
+        let mut solver = QpSolver::new(n, m, &qp.h, &qp.g, QpSettings::default(), &mut s, &mut ix).unwrap();
+        solver.solve(&qp.data(), Start::Cold).unwrap();
+        let mut z = vec![0.0; n];
+        solver.solution(&mut z).unwrap();
+        let warm = solver.solve(&qp.data(), Start::Warm).unwrap();
+        prop_assert!(warm.iterations <= 1);
+        let mut zw = vec![0.0; n];
+        solver.solution(&mut zw).unwrap();
+        for (a, b) in z.iter().zip(&zw) {
+            prop_assert!((a - b).abs() <= 1e-10 * (1.0 + a.abs()));
+        }
+    }
+
+    /// No input makes the solver panic: arbitrary (non-finite, indefinite,
+    /// inconsistent) data and warm-start sets give a result or an error.
+    #[test]
+    fn never_panics(
+        n in 1usize..5,
+        m in 0usize..5,
+        vals in proptest::collection::vec(wild(), 80),
+        set in proptest::collection::vec((0usize..12, any::<bool>()), 0..6),
+        cap in 1usize..20,
+    ) {
+        let v = |k: usize| vals[k % vals.len()];
+        let h: Vec<f64> = (0..n * n).map(|k| v(k) + if k % (n + 1) == 0 { 20.0 } else { 0.0 }).collect();
+        let g: Vec<f64> = (0..m * n).map(|k| v(k + 17)).collect();
+        let q: Vec<f64> = (0..n).map(|k| v(k + 31)).collect();
+        let l: Vec<f64> = (0..m).map(|k| v(k + 41)).collect();
+        let u: Vec<f64> = (0..m).map(|k| v(k + 47)).collect();
+        let lb: Vec<f64> = (0..n).map(|k| v(k + 53)).collect();
+        let ub: Vec<f64> = (0..n).map(|k| v(k + 61)).collect();
+        let mut s = vec![0.0; scalar_len(n, m)];
+        let mut ix = vec![0; index_len(n, m)];
+        let settings = QpSettings { max_iterations: cap, ..QpSettings::default() };
+        if let Ok(mut solver) = QpSolver::new(n, m, &h, &g, settings, &mut s, &mut ix) {
+            let data = QpData { q: &q, l: &l, u: &u, lb: &lb, ub: &ub };
+            let warm: Vec<_> = set
+                .iter()
+                .map(|&(index, up)| crate::ActiveConstraint {
+                    index,
+                    side: if up { crate::Side::Upper } else { crate::Side::Lower },
+                })
+                .collect();
+            let _ = solver.solve(&data, Start::Cold);
+            let _ = solver.solve(&data, Start::Warm);
+            if solver.set_active_set(&warm).is_ok() {
+                let _ = solver.solve(&data, Start::Warm);
+            }
+            let mut z = vec![0.0; n];
+            prop_assert!(solver.solution(&mut z).is_ok());
+        }
+    }
+}
