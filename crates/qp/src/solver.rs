@@ -75,15 +75,24 @@ pub struct SolveInfo {
 }
 
 /// Length of the scalar workspace for `n` variables and `m` rows of `G`:
-/// `n^2 + m n + 5 n + 5 (n + 1) + (n + 1)^2`.
+/// `n^2 + m n + 5 n + 5 (n + 1) + (n + 1)^2` (saturating at `usize::MAX`,
+/// which no slice reaches: sizes too large for the address space, as on a
+/// 16-bit AVR, are refused by [`QpSolver::new`] instead of wrapping).
 pub const fn scalar_len(n: usize, m: usize) -> usize {
-    let c = n + 1;
-    n * n + m * n + 5 * n + 5 * c + c * c
+    let c = n.saturating_add(1);
+    n.saturating_mul(n)
+        .saturating_add(m.saturating_mul(n))
+        .saturating_add(n.saturating_mul(5))
+        .saturating_add(c.saturating_mul(5))
+        .saturating_add(c.saturating_mul(c))
 }
 
-/// Length of the index workspace: `2 (n + 1) + m + n`.
+/// Length of the index workspace: `2 (n + 1) + m + n` (saturating).
 pub const fn index_len(n: usize, m: usize) -> usize {
-    2 * (n + 1) + m + n
+    n.saturating_add(1)
+        .saturating_mul(2)
+        .saturating_add(m)
+        .saturating_add(n)
 }
 
 /// The dual active-set solver on caller-owned workspaces (see
@@ -165,14 +174,15 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
                 found: 0,
             });
         }
-        check_len(n * n, h.len())?;
-        check_len(m * n, g.len())?;
         if scalars.len() < scalar_len(n, m) {
             return Err(QpError::Dimension {
                 expected: scalar_len(n, m),
                 found: scalars.len(),
             });
         }
+        // From here on every size below fits (it is at most scalar_len).
+        check_len(n * n, h.len())?;
+        check_len(m * n, g.len())?;
         if indices.len() < index_len(n, m) {
             return Err(QpError::Dimension {
                 expected: index_len(n, m),

@@ -226,6 +226,12 @@ fn sizes_and_inputs_are_checked() {
         QpSolver::new(0, 0, &[], &[], d, &mut s, &mut ix),
         Err(QpError::Dimension { .. })
     ));
+    // Sizes beyond the address space saturate and are refused.
+    assert_eq!(scalar_len(usize::MAX / 2, 3), usize::MAX);
+    assert!(matches!(
+        QpSolver::new(usize::MAX / 2, 3, &h, &[], d, &mut s, &mut ix),
+        Err(QpError::Dimension { .. })
+    ));
     let indefinite = [1.0, 2.0, 2.0, 1.0];
     assert_eq!(
         QpSolver::new(2, 1, &indefinite, &[1.0, 1.0], d, &mut s, &mut ix).unwrap_err(),
