@@ -371,6 +371,39 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
         self.count = 0;
     }
 
+    /// The largest entry of `L D L' - A_A D^-1 A_A'` (the updated factor
+    /// against `M` formed from scratch), relative to the largest of `M`.
+    #[cfg(test)]
+    pub(crate) fn factor_residual(&self) -> f64 {
+        let (c, k) = (self.n + 1, self.count);
+        let (mut worst, mut scale) = (0.0_f64, 0.0_f64);
+        for i in 0..k {
+            for j in 0..=i {
+                let mut ldl = 0.0;
+                for t in 0..=j {
+                    let li = if t == i {
+                        1.0
+                    } else {
+                        self.lf[i * c + t].to_f64()
+                    };
+                    let lj = if t == j {
+                        1.0
+                    } else {
+                        self.lf[j * c + t].to_f64()
+                    };
+                    ldl += li * self.df[t].to_f64() * lj;
+                }
+                let (ai, aj) = (self.vector(self.active[i]), self.vector(self.active[j]));
+                let m: f64 = (0..self.n)
+                    .map(|t| ai[t].to_f64() * self.dinv[t].to_f64() * aj[t].to_f64())
+                    .sum();
+                worst = worst.max((ldl - m).abs());
+                scale = scale.max(m.abs());
+            }
+        }
+        worst / scale.max(f64::MIN_POSITIVE)
+    }
+
     /// The solution `z` of the last successful solve into `z` (`n`).
     pub fn solution(&self, z: &mut [S]) -> Result<(), QpError> {
         check_len(self.n, z.len())?;

@@ -123,6 +123,12 @@ pub(crate) fn solve(
     let mut ix = vec![0; index_len(qp.n, qp.m)];
     let mut solver = QpSolver::new(qp.n, qp.m, &qp.h, &qp.g, settings, &mut s, &mut ix)?;
     let info = solver.solve(&qp.data(), Start::Cold)?;
+    // The factor, updated through every add and remove, equals M.
+    assert!(
+        solver.factor_residual() < 1e-10,
+        "{:e}",
+        solver.factor_residual()
+    );
     let mut z = vec![0.0; qp.n];
     let mut mu = vec![0.0; qp.n + qp.m];
     solver.solution(&mut z)?;
