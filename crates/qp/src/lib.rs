@@ -2,6 +2,7 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 
 mod error;
+mod iterate;
 mod settings;
 mod solver;
 

@@ -100,36 +100,36 @@ pub const fn index_len(n: usize, m: usize) -> usize {
 /// for any `q` and bounds.
 #[derive(Debug)]
 pub struct QpSolver<'w, S> {
-    n: usize,
-    m: usize,
-    settings: QpSettings,
+    pub(crate) n: usize,
+    pub(crate) m: usize,
+    pub(crate) settings: QpSettings,
     /// `L^-T` (upper triangular), row `i` = column `i` of `L^-1`, `n x n`.
-    linvt: &'w mut [S],
+    pub(crate) linvt: &'w mut [S],
     /// `1 / D`, `n`.
-    dinv: &'w mut [S],
+    pub(crate) dinv: &'w mut [S],
     /// `L^-1 G'` as rows `a_j`, `m x n`.
-    rows: &'w mut [S],
+    pub(crate) rows: &'w mut [S],
     /// `L^-1 q`, then scratch `D^-1 a_k`.
-    qt: &'w mut [S],
-    work: &'w mut [S],
-    yunc: &'w mut [S],
-    y: &'w mut [S],
+    pub(crate) qt: &'w mut [S],
+    pub(crate) work: &'w mut [S],
+    pub(crate) yunc: &'w mut [S],
+    pub(crate) y: &'w mut [S],
     /// The active set's LDL' factor, `(n+1) x (n+1)` row-major, unit lower.
-    lf: &'w mut [S],
-    df: &'w mut [S],
-    mu: &'w mut [S],
-    mustar: &'w mut [S],
-    tmp: &'w mut [S],
-    wv: &'w mut [S],
+    pub(crate) lf: &'w mut [S],
+    pub(crate) df: &'w mut [S],
+    pub(crate) mu: &'w mut [S],
+    pub(crate) mustar: &'w mut [S],
+    pub(crate) tmp: &'w mut [S],
+    pub(crate) wv: &'w mut [S],
     /// Active constraint at each position, its side (1 = upper).
-    active: &'w mut [usize],
-    side: &'w mut [usize],
+    pub(crate) active: &'w mut [usize],
+    pub(crate) side: &'w mut [usize],
     /// Position + 1 of each constraint in the active list, 0 if inactive.
-    pos: &'w mut [usize],
-    count: usize,
-    ptol: S,
-    dtol: S,
-    pivtol: S,
+    pub(crate) pos: &'w mut [usize],
+    pub(crate) count: usize,
+    pub(crate) ptol: S,
+    pub(crate) dtol: S,
+    pub(crate) pivtol: S,
 }
 
 fn take<'a, T>(buf: &mut &'a mut [T], len: usize) -> &'a mut [T] {
@@ -138,7 +138,7 @@ fn take<'a, T>(buf: &mut &'a mut [T], len: usize) -> &'a mut [T] {
     head
 }
 
-fn check_len(expected: usize, found: usize) -> Result<(), QpError> {
+pub(crate) fn check_len(expected: usize, found: usize) -> Result<(), QpError> {
     if expected == found {
         Ok(())
     } else {
@@ -146,7 +146,7 @@ fn check_len(expected: usize, found: usize) -> Result<(), QpError> {
     }
 }
 
-fn dot<S: QpScalar>(a: &[S], b: &[S]) -> S {
+pub(crate) fn dot<S: QpScalar>(a: &[S], b: &[S]) -> S {
     S::dot(a, b)
 }
 
@@ -315,7 +315,7 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
     }
 
     /// Constraint `j`'s vector `a_j` in the factor's coordinates.
-    fn vector(&self, j: usize) -> &[S] {
+    pub(crate) fn vector(&self, j: usize) -> &[S] {
         let n = self.n;
         if j < self.m {
             &self.rows[j * n..(j + 1) * n]
@@ -325,7 +325,7 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
         }
     }
 
-    fn bounds(data: &QpData<'_, S>, m: usize, j: usize) -> (S, S) {
+    pub(crate) fn bounds(data: &QpData<'_, S>, m: usize, j: usize) -> (S, S) {
         if j < m {
             (data.l[j], data.u[j])
         } else {
@@ -364,7 +364,7 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
         Ok(())
     }
 
-    fn clear(&mut self) {
+    pub(crate) fn clear(&mut self) {
         for &j in &self.active[..self.count] {
             self.pos[j] = 0;
         }
@@ -425,362 +425,6 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
                 *o = mu;
             }
         }
-        Ok(())
-    }
-}
-
-impl<S: QpScalar> QpSolver<'_, S> {
-    /// Solves `min 1/2 z'Hz + q'z` s.t. `l <= G z <= u`, `lb <= z <= ub`
-    /// from `start`; read the result with [`QpSolver::solution`],
-    /// [`QpSolver::multipliers`] and [`QpSolver::active_set`].
-    ///
-    /// Each iteration adds the most violated constraint (when the current
-    /// multipliers are dual feasible) or removes the constraint that
-    /// blocks the dual step; the LDL' factor of the active constraints is
-    /// updated in `O(n k + k^2)` for `k` active constraints, never
-    /// recomputed.
-    pub fn solve(&mut self, data: &QpData<'_, S>, start: Start) -> Result<SolveInfo, QpError> {
-        let (n, m) = (self.n, self.m);
-        check_len(n, data.q.len())?;
-        check_len(m, data.l.len())?;
-        check_len(m, data.u.len())?;
-        check_len(n, data.lb.len())?;
-        check_len(n, data.ub.len())?;
-        if !data.q.iter().all(|v| v.is_finite()) {
-            return Err(QpError::NonFinite);
-        }
-        for (lo, hi) in data.l.iter().zip(data.u).chain(data.lb.iter().zip(data.ub)) {
-            if lo > hi {
-                return Err(QpError::InvalidBounds);
-            }
-            // NaN compares false both ways.
-            if lo.partial_cmp(hi).is_none() {
-                return Err(QpError::NonFinite);
-            }
-        }
-        // qt = L^-1 q (= linvt' q), y_unc = -D^-1 qt.
-        self.qt.fill(S::ZERO);
-        for (row, &qi) in self.linvt.chunks_exact(n).zip(data.q) {
-            for (t, &r) in self.qt.iter_mut().zip(row) {
-                *t = t.mul_add(r, qi);
-            }
-        }
-        for ((yu, &t), &di) in self
-            .yunc
-            .iter_mut()
-            .zip(self.qt.iter())
-            .zip(self.dinv.iter())
-        {
-            *yu = -(t * di);
-        }
-        match start {
-            Start::Cold => self.clear(),
-            Start::Warm => self.refactor(data),
-        }
-        self.mu.fill(S::ZERO);
-        let mut iterations = 0;
-        loop {
-            if self.count > 0 && self.df[self.count - 1] == S::ZERO {
-                if iterations >= self.settings.max_iterations {
-                    return Err(QpError::IterationLimit);
-                }
-                self.singular_step()?;
-            } else {
-                self.solve_mustar(data);
-                match self.blocking_dual() {
-                    None => {
-                        self.mu[..self.count].copy_from_slice(&self.mustar[..self.count]);
-                        self.primal();
-                        match self.most_violated(data) {
-                            None => {
-                                return Ok(SolveInfo {
-                                    iterations,
-                                    active: self.count,
-                                });
-                            }
-                            Some((j, side)) => {
-                                if iterations >= self.settings.max_iterations {
-                                    return Err(QpError::IterationLimit);
-                                }
-                                if self.count > self.n {
-                                    return Err(QpError::Infeasible);
-                                }
-                                self.add(j, side);
-                            }
-                        }
-                    }
-                    Some((p, alpha)) => {
-                        if iterations >= self.settings.max_iterations {
-                            return Err(QpError::IterationLimit);
-                        }
-                        for i in 0..self.count {
-                            let d = self.mustar[i] - self.mu[i];
-                            self.mu[i] = self.mu[i].mul_add(alpha, d);
-                        }
-                        self.remove(p);
-                    }
-                }
-            }
-            iterations += 1;
-        }
-    }
-
-    /// Rebuilds the factor of the stored active set, dropping constraints
-    /// that are dependent or whose active bound is infinite.
-    fn refactor(&mut self, data: &QpData<'_, S>) {
-        let k = self.count;
-        self.clear();
-        // The index list below `k` is intact (`clear` resets `pos`, `count`).
-        for t in 0..k {
-            if self.count > self.n {
-                break;
-            }
-            let j = self.active[t];
-            let s = self.side[t];
-            let (lo, hi) = Self::bounds(data, self.m, j);
-            let bound = if s == 1 { hi } else { lo };
-            if !bound.is_finite() || self.pos[j] != 0 {
-                continue;
-            }
-            // Writes position `count <= t`: entries not yet read survive.
-            let code = (s & 1) + if lo == hi { 2 } else { 0 };
-            self.add(j, code);
-            if self.df[self.count - 1] == S::ZERO {
-                self.count -= 1;
-                self.pos[j] = 0;
-            }
-        }
-    }
-
-    /// `mustar = M^-1 (A_A y_unc - b_A)` through the LDL' factor.
-    fn solve_mustar(&mut self, data: &QpData<'_, S>) {
-        let k = self.count;
-        let c = self.n + 1;
-        for p in 0..k {
-            let j = self.active[p];
-            let (lo, hi) = Self::bounds(data, self.m, j);
-            let b = if self.side[p] & 1 == 1 { hi } else { lo };
-            let v = dot(self.vector(j), self.yunc) - b;
-            self.mustar[p] = v;
-        }
-        for i in 0..k {
-            let row = &self.lf[i * c..i * c + i];
-            let v = self.mustar[i] - dot(row, &self.mustar[..i]);
-            self.mustar[i] = v;
-        }
-        for i in 0..k {
-            self.mustar[i] = self.mustar[i] / self.df[i];
-        }
-        for i in (0..k).rev() {
-            let mut v = self.mustar[i];
-            for r in i + 1..k {
-                v -= self.lf[r * c + i] * self.mustar[r];
-            }
-            self.mustar[i] = v;
-        }
-    }
-
-    /// Whether `mu + a (mustar - mu)` must stop short at `a < 1` (or 1) to
-    /// keep the multipliers' signs; the blocking position and the step.
-    fn blocking_dual(&self) -> Option<(usize, S)> {
-        let mut best: Option<(usize, S)> = None;
-        for p in 0..self.count {
-            if self.is_equality(p) {
-                continue;
-            }
-            let sgn = if self.side[p] & 1 == 1 {
-                S::ONE
-            } else {
-                -S::ONE
-            };
-            let star = sgn * self.mustar[p];
-            if star < -self.dtol {
-                let cur = sgn * self.mu[p];
-                let alpha = cur / (cur - star);
-                if best.is_none_or(|(_, a)| alpha < a) {
-                    best = Some((p, alpha));
-                }
-            }
-        }
-        best
-    }
-
-    /// An equality row (`l = u`) keeps its multiplier of either sign.
-    /// Side codes: bit 0 the side (1 upper), bit 1 an equality row.
-    fn is_equality(&self, p: usize) -> bool {
-        self.side[p] >= 2
-    }
-
-    /// `y = y_unc - D^-1 A_A' mu`.
-    fn primal(&mut self) {
-        self.y.copy_from_slice(self.yunc);
-        for p in 0..self.count {
-            let mu = self.mu[p];
-            let j = self.active[p];
-            let n = self.n;
-            let a = if j < self.m {
-                &self.rows[j * n..(j + 1) * n]
-            } else {
-                &self.linvt[(j - self.m) * n..(j - self.m + 1) * n]
-            };
-            for ((yi, &ai), &di) in self.y.iter_mut().zip(a).zip(self.dinv.iter()) {
-                *yi -= ai * di * mu;
-            }
-        }
-    }
-
-    /// The inactive constraint violated most (beyond `primal_tol`) at `y`.
-    fn most_violated(&self, data: &QpData<'_, S>) -> Option<(usize, usize)> {
-        let mut best: Option<(usize, usize, S)> = None;
-        for j in 0..self.m + self.n {
-            if self.pos[j] != 0 {
-                continue;
-            }
-            let (lo, hi) = Self::bounds(data, self.m, j);
-            let v = dot(self.vector(j), self.y);
-            let (viol, side) = if v - hi > lo - v {
-                (v - hi, 1)
-            } else {
-                (lo - v, 0)
-            };
-            let side = side + if lo == hi { 2 } else { 0 };
-            if viol > self.ptol && best.is_none_or(|(_, _, b)| viol > b) {
-                best = Some((j, side, viol));
-            }
-        }
-        best.map(|(j, s, _)| (j, s))
-    }
-
-    /// Appends constraint `j` (side code: bit 0 upper, bit 1 equality) to
-    /// the active set and its row to the LDL' factor: `O(n k + k^2)`. A
-    /// dependent constraint gets the pivot 0 (resolved by
-    /// [`Self::singular_step`]).
-    fn add(&mut self, j: usize, code: usize) {
-        let n = self.n;
-        let c = n + 1;
-        let k = self.count;
-        // work = D^-1 a_j
-        let a = if j < self.m {
-            &self.rows[j * n..(j + 1) * n]
-        } else {
-            &self.linvt[(j - self.m) * n..(j - self.m + 1) * n]
-        };
-        for ((w, &ai), &di) in self.work.iter_mut().zip(a).zip(self.dinv.iter()) {
-            *w = ai * di;
-        }
-        let diag = dot(a, self.work);
-        for p in 0..k {
-            self.tmp[p] = dot(self.vector(self.active[p]), self.work);
-        }
-        // Forward solve L t = c, then L_new = t / d, d_new = diag - t' D^-1 t.
-        let mut d = diag;
-        for i in 0..k {
-            let v = self.tmp[i] - dot(&self.lf[i * c..i * c + i], &self.tmp[..i]);
-            self.tmp[i] = v;
-            let l = v / self.df[i];
-            self.lf[k * c + i] = l;
-            d -= l * v;
-        }
-        self.lf[k * c + k] = S::ONE;
-        self.df[k] = if d > self.pivtol * diag { d } else { S::ZERO };
-        self.active[k] = j;
-        self.side[k] = code;
-        self.pos[j] = k + 1;
-        self.mu[k] = S::ZERO;
-        self.count = k + 1;
-    }
-
-    /// Removes position `p` from the active set: deletes its row and column
-    /// of the factor and restores the trailing block by a rank-one update
-    /// `+ d_p l_p l_p'` (Gill, Golub, Murray, Saunders): `O(k^2)`.
-    fn remove(&mut self, p: usize) {
-        let c = self.n + 1;
-        let k = self.count;
-        let mut alpha = self.df[p];
-        for r in p + 1..k {
-            self.wv[r] = self.lf[r * c + p];
-        }
-        self.pos[self.active[p]] = 0;
-        // Shift rows and columns after p up and left by one.
-        for r in p..k - 1 {
-            for col in 0..p {
-                self.lf[r * c + col] = self.lf[(r + 1) * c + col];
-            }
-            for col in p..=r {
-                self.lf[r * c + col] = self.lf[(r + 1) * c + col + 1];
-            }
-            self.df[r] = self.df[r + 1];
-            self.mu[r] = self.mu[r + 1];
-            self.active[r] = self.active[r + 1];
-            self.side[r] = self.side[r + 1];
-            self.pos[self.active[r]] = r + 1;
-            self.wv[r] = self.wv[r + 1];
-        }
-        self.count = k - 1;
-        // Rank-one update of rows/columns p.. with alpha * w w'.
-        for i in p..k - 1 {
-            let pv = self.wv[i];
-            let dnew = self.df[i] + alpha * pv * pv;
-            if dnew == S::ZERO {
-                continue;
-            }
-            let beta = pv * alpha / dnew;
-            alpha = self.df[i] * alpha / dnew;
-            self.df[i] = dnew;
-            for r in i + 1..k - 1 {
-                self.wv[r] -= pv * self.lf[r * c + i];
-                let l = self.lf[r * c + i];
-                self.lf[r * c + i] = l.mul_add(beta, self.wv[r]);
-            }
-        }
-    }
-
-    /// The last active constraint is a combination of the others: move the
-    /// multipliers along the null vector of `M` (the primal point does not
-    /// change) until one of the others reaches zero, and remove it; if none
-    /// does, the dual is unbounded and the QP infeasible.
-    fn singular_step(&mut self) -> Result<(), QpError> {
-        let c = self.n + 1;
-        let k = self.count;
-        let last = k - 1;
-        // p = L^-T e_last.
-        self.tmp[last] = S::ONE;
-        for i in (0..last).rev() {
-            let mut v = S::ZERO;
-            for r in i + 1..k {
-                v -= self.lf[r * c + i] * self.tmp[r];
-            }
-            self.tmp[i] = v;
-        }
-        let sk = if self.side[last] & 1 == 0 {
-            -S::ONE
-        } else {
-            S::ONE
-        };
-        let mut best: Option<(usize, S)> = None;
-        for i in 0..last {
-            if self.is_equality(i) {
-                continue;
-            }
-            let si = if self.side[i] & 1 == 1 {
-                S::ONE
-            } else {
-                -S::ONE
-            };
-            let rate = si * sk * self.tmp[i];
-            if rate < S::ZERO {
-                let tau = (si * self.mu[i]) / (-rate);
-                if best.is_none_or(|(_, t)| tau < t) {
-                    best = Some((i, tau));
-                }
-            }
-        }
-        let (blocking, tau) = best.ok_or(QpError::Infeasible)?;
-        for i in 0..k {
-            let step = sk * self.tmp[i];
-            self.mu[i] = self.mu[i].mul_add(tau, step);
-        }
-        self.remove(blocking);
         Ok(())
     }
 }
