@@ -4,7 +4,7 @@ set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$root/avr"   # picks up avr/rust-toolchain.toml and avr/.cargo/config.toml
 # The no_std crates that must build for the AVR.
-crates=(kestrel-core kestrel-avr-rt kestrel-kalman kestrel-tricopter-model kestrel-fgm kestrel-empc)
+crates=(kestrel-core kestrel-avr-rt kestrel-kalman kestrel-tricopter-model kestrel-fgm kestrel-empc kestrel-qp)
 for c in "${crates[@]}"; do
   echo "== avr-none build: $c"
   cargo build --release --manifest-path "$root/Cargo.toml" -p "$c" --no-default-features

@@ -12,6 +12,8 @@ pub mod cycles;
 pub mod explicit;
 pub mod fgm16;
 pub mod frame;
+#[cfg(feature = "std")]
+pub mod host;
 pub mod interim;
 pub mod kalman16;
 pub mod law;

@@ -22,6 +22,7 @@
 //! --ignored`. Skipped when simavr, avr-gcc, avr-size or rustup is
 //! missing, unless `KESTREL_REQUIRE_AVR` is set (then it fails).
 
+use kestrel_avr_rt::host::{avr_cargo_build, avr_size, missing_tools, simavr};
 use kestrel_avr_rt::locate::{list_bytes, list_bytes_with};
 use kestrel_avr_rt::mac::Q16Mac;
 use kestrel_core::formats::MpqpProblem;
@@ -29,9 +30,8 @@ use kestrel_empc::locate::{ListStats, LocateSettings, build_lists};
 use kestrel_empc::{ListSlices, Outputs, Settings, evaluate_lists, solve};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
 use std::sync::Mutex;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Chunk size of the flash table (2^12 bytes, as the firmware's chunked tables).
 const CHUNK_BITS: u8 = 12;
@@ -44,27 +44,9 @@ fn repo_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-fn have(tool: &str, arg: &str) -> bool {
-    Command::new(tool)
-        .arg(arg)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok()
-}
-
 /// Whether the AVR tools are here (a missing one fails under `KESTREL_REQUIRE_AVR`).
 fn tools() -> bool {
-    let missing: Vec<&str> = [
-        ("avr-gcc", "--version"),
-        ("simavr", "--help"),
-        ("avr-size", "--version"),
-        ("rustup", "--version"),
-    ]
-    .into_iter()
-    .filter(|(t, a)| !have(t, a))
-    .map(|(t, _)| t)
-    .collect();
+    let missing = missing_tools(&["avr-gcc", "simavr", "avr-size", "rustup"]);
     if missing.is_empty() {
         return true;
     }
@@ -243,28 +225,7 @@ fn q16(x: f32) -> Q16Mac {
 /// Builds avr/locate-bench over `generated` with the pinned nightly; the ELF.
 fn build(generated: &Path) -> PathBuf {
     let root = repo_root();
-    let toolchain = std::fs::read_to_string(root.join("avr/rust-toolchain.toml")).unwrap();
-    let channel = toolchain
-        .lines()
-        .find_map(|l| l.trim().strip_prefix("channel"))
-        .and_then(|l| l.split('"').nth(1))
-        .expect("channel in avr/rust-toolchain.toml")
-        .to_string();
-    let mut cmd = Command::new("rustup");
-    cmd.args(["run", &channel, "cargo", "build", "--release", "--quiet"]);
-    for var in [
-        "RUSTUP_TOOLCHAIN",
-        "CARGO_TARGET_DIR",
-        "CARGO_BUILD_TARGET",
-        "RUSTC",
-        "RUSTDOC",
-        "RUSTC_WRAPPER",
-        "RUSTFLAGS",
-        "CARGO_ENCODED_RUSTFLAGS",
-        "CARGO",
-    ] {
-        cmd.env_remove(var);
-    }
+    let mut cmd = avr_cargo_build(&root);
     cmd.env("KESTREL_LOCATE_GENERATED", generated);
     let status = cmd
         .current_dir(root.join("avr/locate-bench"))
@@ -277,67 +238,15 @@ fn build(generated: &Path) -> PathBuf {
     copy
 }
 
-/// simavr's USART0 lines (colour escapes and the trailing '.' removed).
+/// simavr's USART0 lines; a run that does not end within `limit` fails.
 fn simulate(elf: &Path, limit: Duration) -> Vec<String> {
-    let mut child = Command::new("simavr")
-        .args(["-m", "atmega2560", "-f", "16000000"])
-        .arg(elf)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run simavr");
-    let read = |mut r: Box<dyn std::io::Read + Send>| {
-        std::thread::spawn(move || {
-            let mut s = String::new();
-            let _ = r.read_to_string(&mut s);
-            s
-        })
-    };
-    let out = read(Box::new(child.stdout.take().unwrap()));
-    let err = read(Box::new(child.stderr.take().unwrap()));
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > limit {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("simavr did not end within {limit:?}");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let text = out.join().unwrap() + &err.join().unwrap();
-    text.lines()
-        .map(|l| {
-            let mut s = String::new();
-            let mut esc = false;
-            for c in l.chars() {
-                match (esc, c) {
-                    (false, '\x1b') => esc = true,
-                    (true, 'm') => esc = false,
-                    (true, _) => {}
-                    (false, c) => s.push(c),
-                }
-            }
-            s.trim().trim_end_matches('.').to_string()
-        })
-        .filter(|l| !l.is_empty())
-        .collect()
+    let run = simavr(elf, limit).expect("run simavr");
+    assert!(run.ended, "simavr did not end within {limit:?}");
+    run.lines
 }
 
 fn flash_bytes(elf: &Path) -> u64 {
-    let out = Command::new("avr-size")
-        .arg(elf)
-        .output()
-        .expect("avr-size");
-    let text = String::from_utf8_lossy(&out.stdout);
-    let f: Vec<u64> = text
-        .lines()
-        .nth(1)
-        .expect("avr-size output")
-        .split_whitespace()
-        .take(2)
-        .map(|v| v.parse().unwrap())
-        .collect();
-    f[0] + f[1]
+    avr_size(elf).expect("avr-size").flash
 }
 
 /// Builds the lists of `problem`, runs them on the AVR and checks/prints.

@@ -18,12 +18,13 @@ use crate::{
 use kestrel_avr_rt::control::RateLoop;
 use kestrel_avr_rt::cycles::CycleStats;
 use kestrel_avr_rt::frame::{Command, status};
+use kestrel_avr_rt::host::{missing_tools, simavr};
 use kestrel_avr_rt::kalman16::Kalman16;
 use kestrel_avr_rt::law::LawInfo;
 use kestrel_avr_rt::mac::Q16Mac;
 use kestrel_core::ControlLaw;
 use std::path::Path;
-use std::process::{Command as Process, Stdio};
+use std::process::Command as Process;
 use std::time::{Duration, Instant};
 
 /// Periods of the fixed sequence (`PERIODS` in avr/c-example/main.c).
@@ -61,15 +62,6 @@ fn inputs() -> Vec<(bool, Command)> {
         .collect()
 }
 
-fn have(tool: &str, arg: &str) -> bool {
-    Process::new(tool)
-        .arg(arg)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok()
-}
-
 /// Builds the example for `law` (`fgm` or `empc`) and `scalar` (`f32` or
 /// `q16`); the ELF.
 fn build(law: &str, scalar: &str, design: &Path) -> std::path::PathBuf {
@@ -98,72 +90,14 @@ fn build(law: &str, scalar: &str, design: &Path) -> std::path::PathBuf {
 /// Runs the ELF in simavr (at most 30 s: a crashed program leaves simavr
 /// waiting for a debugger); its USART0 lines, and whether it ended.
 fn simulate(elf: &Path) -> (Vec<String>, bool) {
-    let mut child = Process::new("simavr")
-        .args(["-m", "atmega2560", "-f", "16000000"])
-        .arg(elf)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run simavr");
-    let read = |mut r: Box<dyn std::io::Read + Send>| {
-        std::thread::spawn(move || {
-            let mut s = String::new();
-            let _ = r.read_to_string(&mut s);
-            s
-        })
-    };
-    let out = read(Box::new(child.stdout.take().unwrap()));
-    let err = read(Box::new(child.stderr.take().unwrap()));
-    let start = Instant::now();
-    let mut ended = true;
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > Duration::from_secs(30) {
-            let _ = child.kill();
-            let _ = child.wait();
-            ended = false;
-            break;
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let text = out.join().unwrap() + &err.join().unwrap();
-    // simavr wraps each line of the UART in colour escapes.
-    let lines = text
-        .lines()
-        .map(|l| {
-            let mut s = String::new();
-            let mut esc = false;
-            for c in l.chars() {
-                match (esc, c) {
-                    (false, '\x1b') => esc = true,
-                    (true, 'm') => esc = false,
-                    (true, _) => {}
-                    (false, c) => s.push(c),
-                }
-            }
-            // and ends each with a '.'.
-            s.trim().trim_end_matches('.').to_string()
-        })
-        .filter(|l| !l.is_empty())
-        .collect();
-    (lines, ended)
+    let run = simavr(elf, Duration::from_secs(30)).expect("run simavr");
+    (run.lines, run.ended)
 }
 
 /// Flash (text + data) and RAM (data + bss) bytes.
 fn avr_size(elf: &Path) -> (u64, u64) {
-    let out = Process::new("avr-size")
-        .arg(elf)
-        .output()
-        .expect("avr-size");
-    let text = String::from_utf8_lossy(&out.stdout);
-    let f: Vec<u64> = text
-        .lines()
-        .nth(1)
-        .expect("avr-size output")
-        .split_whitespace()
-        .take(3)
-        .map(|v| v.parse().unwrap())
-        .collect();
-    (f[0] + f[1], f[1] + f[2])
+    let size = kestrel_avr_rt::host::avr_size(elf).expect("avr-size");
+    (size.flash, size.ram)
 }
 
 fn json(s: &CycleStats) -> String {
@@ -335,17 +269,7 @@ fn check_scalar<S: Scalar, L: ControlLaw<Scalar = S> + LawInfo>(
 
 #[test]
 fn avr_example_in_simavr() {
-    let missing: Vec<&str> = [
-        ("avr-gcc", "--version"),
-        ("simavr", "--help"),
-        ("avr-size", "--version"),
-        ("make", "--version"),
-        ("rustup", "--version"),
-    ]
-    .into_iter()
-    .filter(|(t, a)| !have(t, a))
-    .map(|(t, _)| t)
-    .collect();
+    let missing = missing_tools(&["avr-gcc", "simavr", "avr-size", "make", "rustup"]);
     if !missing.is_empty() {
         // CI (scripts/test.sh installs the tools) sets KESTREL_REQUIRE_AVR=1.
         assert!(

@@ -99,30 +99,9 @@ fn build_firmware(features: &[&str], generic_float: bool) -> PathBuf {
     }
     let root = repo_root();
     let fw = root.join("avr/firmware");
-    let toolchain = std::fs::read_to_string(root.join("avr/rust-toolchain.toml")).unwrap();
-    let channel = toolchain
-        .lines()
-        .find_map(|l| l.trim().strip_prefix("channel"))
-        .and_then(|l| l.split('"').nth(1))
-        .expect("channel in avr/rust-toolchain.toml")
-        .to_string();
-    let mut cmd = Process::new("rustup");
-    cmd.args(["run", &channel, "cargo", "build", "--release", "--quiet"]);
+    let mut cmd = kestrel_avr_rt::host::avr_cargo_build(&root);
     if !features.is_empty() {
         cmd.args(["--features", &features.join(",")]);
-    }
-    for var in [
-        "RUSTUP_TOOLCHAIN",
-        "CARGO_TARGET_DIR",
-        "CARGO_BUILD_TARGET",
-        "RUSTC",
-        "RUSTDOC",
-        "RUSTC_WRAPPER",
-        "RUSTFLAGS",
-        "CARGO_ENCODED_RUSTFLAGS",
-        "CARGO",
-    ] {
-        cmd.env_remove(var);
     }
     let mut target = root.join("avr/target");
     if generic_float {
@@ -150,18 +129,8 @@ fn build_firmware(features: &[&str], generic_float: bool) -> PathBuf {
 
 /// Flash (text + data) and RAM (data + bss) bytes from avr-size.
 fn avr_size(elf: &Path) -> (u64, u64) {
-    let out = Process::new("avr-size")
-        .arg(elf)
-        .output()
-        .expect("avr-size");
-    let text = String::from_utf8_lossy(&out.stdout);
-    let line = text.lines().nth(1).expect("avr-size output");
-    let f: Vec<u64> = line
-        .split_whitespace()
-        .take(3)
-        .map(|v| v.parse().unwrap())
-        .collect();
-    (f[0] + f[1], f[1] + f[2])
+    let size = kestrel_avr_rt::host::avr_size(elf).expect("avr-size");
+    (size.flash, size.ram)
 }
 
 // ---------------------------------------------------------------- host reference loop
