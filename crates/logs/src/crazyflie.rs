@@ -11,98 +11,36 @@
 
 use crate::error::{LogError, Result};
 use crate::model::{CRAZYFLIE_MAGIC, Field, Issue, Log, LogFormat, ReadOptions, Topic, Unit};
+use crate::number::Number;
 
 const FORMAT: LogFormat = LogFormat::Crazyflie;
 /// Largest forward jump between two records' timestamps taken as real.
 const MAX_JUMP_S: f64 = 10.0;
 
-/// A variable type: its `struct` code's size and decoder.
-#[derive(Clone, Copy, Debug)]
-enum VarType {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    I64,
-    U64,
-    F16,
-    F32,
-    F64,
-    Bool,
-}
-
-impl VarType {
-    fn from_code(c: u8) -> Option<VarType> {
-        Some(match c {
-            b'b' => VarType::I8,
-            b'B' => VarType::U8,
-            b'?' => VarType::Bool,
-            b'h' => VarType::I16,
-            b'H' => VarType::U16,
-            b'i' | b'l' => VarType::I32,
-            b'I' | b'L' => VarType::U32,
-            b'q' => VarType::I64,
-            b'Q' => VarType::U64,
-            b'e' => VarType::F16,
-            b'f' => VarType::F32,
-            b'd' => VarType::F64,
-            _ => return None,
-        })
-    }
-
-    fn size(self) -> usize {
-        match self {
-            VarType::I8 | VarType::U8 | VarType::Bool => 1,
-            VarType::I16 | VarType::U16 | VarType::F16 => 2,
-            VarType::I32 | VarType::U32 | VarType::F32 => 4,
-            VarType::I64 | VarType::U64 | VarType::F64 => 8,
-        }
-    }
-
-    /// Decodes `b` (exactly `size()` bytes).
-    fn decode(self, b: &[u8]) -> f64 {
-        let mut a = [0u8; 8];
-        for (d, s) in a.iter_mut().zip(b) {
-            *d = *s;
-        }
-        let [b0, b1, b2, b3, ..] = a;
-        match self {
-            VarType::I8 => f64::from(b0 as i8),
-            VarType::U8 => f64::from(b0),
-            VarType::Bool => f64::from(u8::from(b0 != 0)),
-            VarType::I16 => f64::from(i16::from_le_bytes([b0, b1])),
-            VarType::U16 => f64::from(u16::from_le_bytes([b0, b1])),
-            VarType::F16 => f16_to_f64(u16::from_le_bytes([b0, b1])),
-            VarType::I32 => f64::from(i32::from_le_bytes([b0, b1, b2, b3])),
-            VarType::U32 => f64::from(u32::from_le_bytes([b0, b1, b2, b3])),
-            VarType::F32 => f64::from(f32::from_le_bytes([b0, b1, b2, b3])),
-            VarType::I64 => i64::from_le_bytes(a) as f64,
-            VarType::U64 => u64::from_le_bytes(a) as f64,
-            VarType::F64 => f64::from_le_bytes(a),
-        }
-    }
-}
-
-/// IEEE half precision to `f64`.
-fn f16_to_f64(h: u16) -> f64 {
-    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
-    let exp = i32::from((h >> 10) & 0x1f);
-    let frac = f64::from(h & 0x3ff);
-    sign * match exp {
-        0 => frac * 2f64.powi(-24),
-        31 if frac == 0.0 => f64::INFINITY,
-        31 => f64::NAN,
-        e => (1.0 + frac / 1024.0) * 2f64.powi(e - 15),
-    }
+/// A variable type from its Python `struct` code.
+fn var_type(c: u8) -> Option<Number> {
+    Some(match c {
+        b'b' => Number::I8,
+        b'B' => Number::U8,
+        b'?' => Number::Bool,
+        b'h' => Number::I16,
+        b'H' => Number::U16,
+        b'i' | b'l' => Number::I32,
+        b'I' | b'L' => Number::U32,
+        b'q' => Number::I64,
+        b'Q' => Number::U64,
+        b'e' => Number::F16,
+        b'f' => Number::F32,
+        b'd' => Number::F64,
+        _ => return None,
+    })
 }
 
 /// One event type of the header.
 struct EventType {
     id: u16,
     name: String,
-    vars: Vec<(String, VarType)>,
+    vars: Vec<(String, Number)>,
     size: usize,
     t: Vec<f64>,
     values: Vec<Vec<f64>>,
@@ -166,14 +104,14 @@ fn corrupt(offset: usize, expected: &str, found: impl Into<String>) -> LogError 
 }
 
 /// Splits `name(T)` into the name and its type.
-fn parse_var(text: &str, offset: usize) -> Result<(String, VarType)> {
+fn parse_var(text: &str, offset: usize) -> Result<(String, Number)> {
     let expected = "a variable \"name(T)\" with T a struct code (b B h H i I q Q e f d ?)";
     let (name, code) = text
         .strip_suffix(')')
         .and_then(|s| s.rsplit_once('('))
         .ok_or_else(|| corrupt(offset, expected, format!("\"{text}\"")))?;
     let ty = match code.as_bytes() {
-        [c] => VarType::from_code(*c),
+        [c] => var_type(*c),
         _ => None,
     }
     .ok_or_else(|| corrupt(offset, expected, format!("\"{text}\"")))?;

@@ -5,6 +5,7 @@ mod crazyflie;
 mod error;
 mod import;
 mod model;
+mod number;
 mod read;
 mod resample;
 mod segments;

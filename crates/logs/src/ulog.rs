@@ -9,6 +9,7 @@
 
 use crate::error::{LogError, Result};
 use crate::model::{Field, Issue, Log, LogFormat, ReadOptions, Topic, ULOG_MAGIC, Unit};
+use crate::number::Number;
 use px4_ulog::full_parser::FlattenedFieldType;
 use px4_ulog::stream_parser::{DataMessage, LogParser};
 use std::cell::Cell;
@@ -37,40 +38,22 @@ struct Gathered {
     values: Vec<Vec<f64>>,
 }
 
-fn type_size(t: &FlattenedFieldType) -> Option<usize> {
-    match t {
-        FlattenedFieldType::Int8 | FlattenedFieldType::UInt8 | FlattenedFieldType::Bool => Some(1),
-        FlattenedFieldType::Int16 | FlattenedFieldType::UInt16 => Some(2),
-        FlattenedFieldType::Int32 | FlattenedFieldType::UInt32 | FlattenedFieldType::Float => {
-            Some(4)
-        }
-        FlattenedFieldType::Int64 | FlattenedFieldType::UInt64 | FlattenedFieldType::Double => {
-            Some(8)
-        }
-        FlattenedFieldType::Char => None,
-    }
-}
-
-fn decode(t: &FlattenedFieldType, b: &[u8]) -> f64 {
-    let mut a = [0u8; 8];
-    for (d, s) in a.iter_mut().zip(b) {
-        *d = *s;
-    }
-    let [b0, b1, b2, b3, ..] = a;
-    match t {
-        FlattenedFieldType::Int8 => f64::from(b0 as i8),
-        FlattenedFieldType::UInt8 => f64::from(b0),
-        FlattenedFieldType::Bool => f64::from(u8::from(b0 != 0)),
-        FlattenedFieldType::Int16 => f64::from(i16::from_le_bytes([b0, b1])),
-        FlattenedFieldType::UInt16 => f64::from(u16::from_le_bytes([b0, b1])),
-        FlattenedFieldType::Int32 => f64::from(i32::from_le_bytes([b0, b1, b2, b3])),
-        FlattenedFieldType::UInt32 => f64::from(u32::from_le_bytes([b0, b1, b2, b3])),
-        FlattenedFieldType::Float => f64::from(f32::from_le_bytes([b0, b1, b2, b3])),
-        FlattenedFieldType::Int64 => i64::from_le_bytes(a) as f64,
-        FlattenedFieldType::UInt64 => u64::from_le_bytes(a) as f64,
-        FlattenedFieldType::Double => f64::from_le_bytes(a),
-        FlattenedFieldType::Char => f64::NAN,
-    }
+/// The number type of a ULog field (`char` fields are not numbers).
+fn number(t: &FlattenedFieldType) -> Option<Number> {
+    Some(match t {
+        FlattenedFieldType::Int8 => Number::I8,
+        FlattenedFieldType::UInt8 => Number::U8,
+        FlattenedFieldType::Bool => Number::Bool,
+        FlattenedFieldType::Int16 => Number::I16,
+        FlattenedFieldType::UInt16 => Number::U16,
+        FlattenedFieldType::Int32 => Number::I32,
+        FlattenedFieldType::UInt32 => Number::U32,
+        FlattenedFieldType::Float => Number::F32,
+        FlattenedFieldType::Int64 => Number::I64,
+        FlattenedFieldType::UInt64 => Number::U64,
+        FlattenedFieldType::Double => Number::F64,
+        FlattenedFieldType::Char => return None,
+    })
 }
 
 fn gather(map: &mut BTreeMap<u16, Gathered>, msg: &DataMessage) {
@@ -82,7 +65,7 @@ fn gather(map: &mut BTreeMap<u16, Gathered>, msg: &DataMessage) {
             .filter(|x| {
                 x.flattened_field_name != "timestamp"
                     && !x.flattened_field_name.starts_with("_padding")
-                    && type_size(&x.field_type).is_some()
+                    && number(&x.field_type).is_some()
             })
             .map(|x| {
                 (
@@ -103,8 +86,8 @@ fn gather(map: &mut BTreeMap<u16, Gathered>, msg: &DataMessage) {
         }
     });
     let read = |off: usize, t: &FlattenedFieldType| {
-        let n = type_size(t).unwrap_or(0);
-        msg.data.get(off..off + n).map(|b| decode(t, b))
+        let t = number(t)?;
+        msg.data.get(off..off + t.size()).map(|b| t.decode(b))
     };
     let Some(t) = g
         .ts_offset
