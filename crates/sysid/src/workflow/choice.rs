@@ -1,5 +1,7 @@
 //! The candidates of the automatic structure choice and what it reports.
 
+#[cfg(doc)]
+use super::spec::AutoSelect;
 use super::spec::{IdentifySpec, PemFocus, Start};
 use crate::n4sid::MatrixEstimate;
 use core::fmt;
@@ -19,6 +21,11 @@ pub struct Candidate {
     pub focus: PemFocus,
     /// Prediction horizon of the prediction-focus PEM stages.
     pub pem_horizon: usize,
+    /// Largest spectral radius of `A` in the first PEM stage
+    /// ([`PemSettings::max_radius_a`](crate::pem::PemSettings::max_radius_a));
+    /// `None`: stable `A`. Above 1 only with the prediction focus: the
+    /// predictor stays stable, the simulation of such a model diverges.
+    pub max_radius_a: Option<f64>,
 }
 
 impl Candidate {
@@ -31,10 +38,12 @@ impl Candidate {
             feedthrough: spec.feedthrough,
             focus: spec.focus,
             pem_horizon: spec.pem_horizon,
+            max_radius_a: None,
         }
     }
 
-    /// `spec` with this candidate's fields.
+    /// `spec` with this candidate's fields (all but
+    /// [`Candidate::max_radius_a`], which the fit takes beside the spec).
     pub fn apply(&self, spec: &IdentifySpec) -> IdentifySpec {
         IdentifySpec {
             order: self.order,
@@ -71,7 +80,10 @@ impl Candidate {
                 format!("PEM 1..{horizon}-step then K ({}-step)", self.pem_horizon)
             }
         };
-        format!("{order}, {start}, {focus}")
+        match self.max_radius_a {
+            Some(r) => format!("{order}, {start}, {focus}, |eig A| <= {r}"),
+            None => format!("{order}, {start}, {focus}"),
+        }
     }
 }
 
@@ -109,9 +121,19 @@ pub struct SelectionReport {
     pub score: f64,
     /// Wall time of the choice in seconds.
     pub seconds: f64,
-    /// Whether the time budget stopped the search before every candidate
-    /// was fitted.
+    /// Whether the wall-clock safety stop ([`AutoSelect::time_budget`])
+    /// fired before every planned candidate was fitted (the choice then
+    /// depends on the machine's speed).
     pub budget_hit: bool,
+    /// The work budget ([`AutoSelect::work_budget`]) and the part of it
+    /// the planned candidates used.
+    pub work: (f64, f64),
+    /// The candidates left out because their estimated work exceeded
+    /// what was left of the budget.
+    pub skipped: Vec<Candidate>,
+    /// The folds' baseline per table horizon (mean fit, %): the better of
+    /// persistence and the best ARX of 2-10 lags.
+    pub reference: Vec<f64>,
 }
 
 impl fmt::Display for SelectionReport {
@@ -123,7 +145,7 @@ impl fmt::Display for SelectionReport {
             self.folds,
             self.seconds,
             if self.budget_hit {
-                ", time budget reached"
+                ", WALL-CLOCK SAFETY STOP FIRED: the choice depends on the machine's load"
             } else {
                 ""
             },
@@ -162,7 +184,24 @@ impl fmt::Display for SelectionReport {
         }
         writeln!(
             f,
-            "chosen: {} (score {:.2}: mean of the k-step fits and the simulation fit clipped at 0)",
+            "work planned {:.2e} of the budget {:.2e} (samples x parameters x states^2 x steps x iterations)",
+            self.work.1, self.work.0
+        )?;
+        write!(
+            f,
+            "  {:<58}{:>10}",
+            "baseline (best of persistence, ARX 2-10)", ""
+        )?;
+        for v in &self.reference {
+            write!(f, "{v:>10.2}")?;
+        }
+        writeln!(f)?;
+        for c in &self.skipped {
+            writeln!(f, "  skipped (work budget): {}", c.label())?;
+        }
+        writeln!(
+            f,
+            "chosen: {} (score {:.2}: mean of the k-step fits and the simulation fit clipped at 0, minus the largest shortfall against the baseline)",
             self.chosen.label(),
             self.score
         )

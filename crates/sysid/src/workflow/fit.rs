@@ -36,7 +36,12 @@ pub(super) struct Fitted {
 /// N4SID, PEM and `balred` of `spec` on the prepared (mean-free,
 /// filtered) estimation data `est`: the part of the workflow that the
 /// structure choice repeats on every fold.
-pub(super) fn fit_structure(est: &IoData, spec: &IdentifySpec) -> Result<Fitted> {
+/// `max_radius_a`: [`PemSettings::max_radius_a`] of the first PEM stage.
+pub(super) fn fit_structure(
+    est: &IoData,
+    spec: &IdentifySpec,
+    max_radius_a: Option<f64>,
+) -> Result<Fitted> {
     let n4 = N4sidSettings {
         order: spec.order,
         max_order: spec.order.unwrap_or(10).max(10),
@@ -98,12 +103,14 @@ pub(super) fn fit_structure(est: &IoData, spec: &IdentifySpec) -> Result<Fitted>
             PemFocus::Simulation | PemFocus::SimulationThenNoise => 1,
         },
         criterion: spec.criterion,
+        max_radius_a,
         ..Default::default()
     };
     let noise = PemSettings {
         focus: Focus::Prediction,
         fixed_dynamics: true,
         feedthrough: false,
+        max_radius_a: None,
         horizon: spec.pem_horizon,
         ..settings.clone()
     };

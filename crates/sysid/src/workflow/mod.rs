@@ -24,7 +24,7 @@ pub use choice::{Candidate, CandidateScore, SelectionReport};
 pub use prefilter::{Prefilter, PrefilterChoice, choose_prefilter};
 pub use rate::{rate_factor, resample_model};
 pub use report::{IdentifyReport, N4sidSummary, PemSummary, ReductionSummary};
-pub use run::{identify, identify_with_progress};
+pub use run::{SIMULATION_FIT_FLOOR, identify, identify_with_progress};
 pub use segment::{Segment, select_segments};
 pub use select::Progress;
 pub use spec::{

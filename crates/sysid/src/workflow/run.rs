@@ -4,13 +4,13 @@ use super::fit::{Fitted, fit_structure};
 use super::prefilter::{Prefilter, choose_prefilter};
 use super::report::IdentifyReport;
 use super::segment::select_segments;
-use super::select::{Progress, choose_structure};
+use super::select::{Progress, capped_iterations, choose_structure, spec_iteration_work};
 use super::spec::IdentifySpec;
 use crate::data::{IoData, Offsets, SignalSelection};
 use crate::error::{Result, SysidError};
 use crate::filter::Butterworth;
 use crate::reduce::transmission_zeros;
-use crate::validate::validate;
+use crate::validate::{ValidationReport, validate};
 use nalgebra::DVector;
 
 fn offset_vec(
@@ -23,6 +23,28 @@ fn offset_vec(
         Some(v) if v.len() != n => Err(SysidError::dim(what, n, v.len())),
         Some(v) => Ok(DVector::from_vec(v.clone())),
         None => Ok(default.clone()),
+    }
+}
+
+/// Lowest simulation fit a report shows, percent: a model whose `A` has
+/// modes beyond the unit circle (the prediction focus with
+/// `max_radius_a` above 1) has a diverging simulation whose fit runs to
+/// minus infinity; the table shows it as this value.
+pub const SIMULATION_FIT_FLOOR: f64 = -9999.99;
+
+/// Clips the simulation rows of `report` at [`SIMULATION_FIT_FLOOR`]
+/// (non-finite values included).
+fn clip_simulation(report: &mut ValidationReport) {
+    for row in report
+        .rows
+        .iter_mut()
+        .filter(|r| r.label.contains("simulation"))
+    {
+        for v in row.fit.iter_mut() {
+            if v.is_nan() || *v < SIMULATION_FIT_FLOOR {
+                *v = SIMULATION_FIT_FLOOR;
+            }
+        }
     }
 }
 
@@ -95,7 +117,15 @@ pub fn identify_with_progress(
     }
     let (spec_for_fit, selection) = match &spec.auto {
         Some(auto) => match choose_structure(&est, spec, auto, progress) {
-            Ok((s, r)) => (s, Some(Ok(r))),
+            Ok((mut s, r)) => {
+                // The final fit's iterations bounded by the same work
+                // estimate as the folds' (AutoSelect::final_work).
+                let per =
+                    spec_iteration_work(&s, est.n_samples(), est.nu(), est.ny(), auto.max_order);
+                s.max_iterations =
+                    capped_iterations(auto.final_work, per, auto.min_iterations, s.max_iterations);
+                (s, Some(Ok(r)))
+            }
             // Too short a record for the folds: the spec as given.
             Err(e @ SysidError::TooFewSamples { .. }) => (spec.clone(), Some(Err(e.to_string()))),
             Err(e) => return Err(e),
@@ -103,6 +133,10 @@ pub fn identify_with_progress(
         None => (spec.clone(), None),
     };
     let spec = &spec_for_fit;
+    let radius = match &selection {
+        Some(Ok(r)) => r.chosen.max_radius_a,
+        Some(Err(_)) | None => None,
+    };
     let Fitted {
         n4sid: n4sid_summary,
         pem: pem_summary,
@@ -111,7 +145,7 @@ pub fn identify_with_progress(
         full_model,
         reduction,
         model,
-    } = fit_structure(&est, spec)?;
+    } = fit_structure(&est, spec, radius)?;
     let zeros = transmission_zeros(&model).map_err(|e| e.to_string());
     let vdata = val.as_ref().unwrap_or(&est);
     let mut validation = validate(&model, vdata, &spec.horizons)?;
@@ -120,6 +154,10 @@ pub fn identify_with_progress(
     } else {
         None
     };
+    clip_simulation(&mut validation);
+    if let Some(v) = full_validation.as_mut() {
+        clip_simulation(v);
+    }
     if let Some(lags) = &spec.arx_baseline {
         validation.add_arx_baseline(&est, vdata, lags.clone(), &spec.horizons)?;
         if let Some(v) = full_validation.as_mut() {

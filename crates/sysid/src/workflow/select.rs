@@ -9,19 +9,28 @@
 //! and scored on the held-out block. The score of a fold is the mean of
 //! the mean k-step fits at the table's horizons and the mean simulation
 //! fit clipped at 0 (a simulation worse than the mean counts as 0); a
-//! candidate's score is its mean over the folds. The search is staged:
+//! candidate's score is its mean over the folds, minus its largest
+//! shortfall at any horizon against the folds' baseline (the better of
+//! persistence and the best ARX of 2-10 lags on the same folds). The search is staged:
 //! first the order (with the multi-step focus when the focus is free),
-//! then focus and start at the chosen order. Jobs run on
-//! [`AutoSelect::threads`] threads and no new job starts after
-//! [`AutoSelect::time_budget`] seconds.
+//! then the start at the chosen order, then the prediction focus with
+//! `A`'s modes allowed onto the unit circle ([`AutoSelect::radius_a`])
+//! and the other foci. What is tried is decided by a work estimate
+//! (samples x parameters x states^2 x steps x iterations) against
+//! [`AutoSelect::work_budget`], and each fit's iterations by
+//! [`AutoSelect::fold_work`], so the choice depends on the data only,
+//! not on the machine's speed or load. Jobs run on
+//! [`AutoSelect::threads`] threads; [`AutoSelect::time_budget`] is a
+//! wall-clock safety stop that the report names when it fires.
 
 use super::choice::{Candidate, CandidateScore, SelectionReport};
 use super::fit::fit_structure;
 use super::spec::{AutoSelect, IdentifySpec, Method, PemFocus, Start};
+use crate::arx::arx_baseline;
 use crate::data::{Experiment, IoData};
 use crate::error::{Result, SysidError};
 use crate::n4sid::MatrixEstimate;
-use crate::validate::{compare, predict_fit};
+use crate::validate::{compare, persistence_fit, predict_fit};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -30,6 +39,31 @@ use std::time::Instant;
 struct Fold {
     fit: IoData,
     held_out: IoData,
+}
+
+/// The baseline to beat on each fold, per table horizon: the better of
+/// persistence and the best ARX of 2-10 lags (fitted on the fold's
+/// estimation blocks, the lag count chosen on its held-out block), mean
+/// over the outputs and the folds.
+fn fold_reference(folds: &[Fold], horizons: &[usize]) -> Vec<f64> {
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    horizons
+        .iter()
+        .map(|&k| {
+            let per: Vec<f64> = folds
+                .iter()
+                .map(|f| {
+                    let p = mean(&persistence_fit(&f.held_out, Some(k)));
+                    let a = arx_baseline(&f.fit, &f.held_out, 2..=10, &[k])
+                        .ok()
+                        .and_then(|b| b.row(k).map(|r| r.mean))
+                        .unwrap_or(f64::NEG_INFINITY);
+                    p.max(a)
+                })
+                .collect();
+            mean(&per)
+        })
+        .collect()
 }
 
 /// Cuts every experiment of `est` into `k` consecutive blocks; fold `j`
@@ -86,22 +120,40 @@ fn folds(est: &IoData, k: usize, min_block: usize, max_block: usize) -> Result<V
 
 /// The mean simulation fit and the mean k-step fits of the candidate
 /// fitted on `fold.fit`, on `fold.held_out`.
-fn score_fold(spec: &IdentifySpec, fold: &Fold) -> Result<Vec<f64>> {
-    let fitted = fit_structure(&fold.fit, spec)?;
+fn score_fold(spec: &IdentifySpec, radius: Option<f64>, fold: &Fold) -> Result<Vec<f64>> {
+    let fitted = fit_structure(&fold.fit, spec, radius)?;
     let mean = |v: Vec<f64>| v.iter().sum::<f64>() / v.len().max(1) as f64;
-    let mut out = vec![mean(compare(&fitted.model, &fold.held_out)?.fit)];
+    // A model whose `A` has modes on or beyond the unit circle (the
+    // prediction focus with `max_radius_a` above 1) has no bounded
+    // simulation: its simulation fit counts as minus infinity (clipped
+    // at 0 by the score) instead of failing the fold.
+    let sim = compare(&fitted.model, &fold.held_out)
+        .map(|c| mean(c.fit))
+        .ok()
+        .filter(|v| v.is_finite())
+        .unwrap_or(f64::NEG_INFINITY);
+    let mut out = vec![sim];
     for &k in &spec.horizons {
         out.push(mean(predict_fit(&fitted.model, &fold.held_out, k)?));
     }
     Ok(out)
 }
 
-/// The score of the mean fits `[simulation, k-step...]`.
-fn score(fits: &[f64]) -> f64 {
+/// The score of the mean fits `[simulation, k-step...]`: their mean with
+/// the simulation fit clipped at 0, minus the largest shortfall against
+/// the folds' baseline (`reference`, per horizon: the better of
+/// persistence and the best ARX) when the candidate loses to it at some
+/// horizon.
+fn score(fits: &[f64], reference: &[f64]) -> f64 {
     let Some((sim, steps)) = fits.split_first() else {
         return f64::NEG_INFINITY;
     };
-    let s = (steps.iter().sum::<f64>() + sim.max(0.0)) / fits.len() as f64;
+    let shortfall = steps
+        .iter()
+        .zip(reference)
+        .map(|(f, r)| if r.is_finite() { r - f } else { 0.0 })
+        .fold(0.0, f64::max);
+    let s = (steps.iter().sum::<f64>() + sim.max(0.0)) / fits.len() as f64 - shortfall;
     if s.is_finite() { s } else { f64::NEG_INFINITY }
 }
 
@@ -117,6 +169,59 @@ pub struct Progress {
     pub last: String,
 }
 
+/// The estimated work of one PEM iteration (unit of
+/// [`AutoSelect::work_budget`]): samples x free parameters x states^2 x
+/// prediction steps, with `nx (nu + 2 ny + 1)` (+ `ny nu` with a
+/// feed-through) parameters.
+pub(super) fn iteration_work(
+    samples: usize,
+    nx: usize,
+    nu: usize,
+    ny: usize,
+    steps: usize,
+    feedthrough: bool,
+) -> f64 {
+    let nx = nx.max(1) as f64;
+    let mut p = nx * (nu + 2 * ny + 1) as f64;
+    if feedthrough {
+        p += (ny * nu) as f64;
+    }
+    samples as f64 * p * nx * nx * steps.max(1) as f64
+}
+
+/// The estimated work of one PEM iteration of `spec` on `samples`
+/// samples (every PEM stage, the noise stage included); `max_order`
+/// stands for an order to be suggested.
+pub(super) fn spec_iteration_work(
+    spec: &IdentifySpec,
+    samples: usize,
+    nu: usize,
+    ny: usize,
+    max_order: usize,
+) -> f64 {
+    if spec.method == Method::N4sid {
+        return 0.0;
+    }
+    let nx = spec.order.unwrap_or(max_order);
+    let w = |h: usize| iteration_work(samples, nx, nu, ny, h, spec.feedthrough);
+    match spec.focus {
+        PemFocus::Prediction => w(spec.pem_horizon),
+        PemFocus::Simulation => w(1),
+        PemFocus::SimulationThenNoise => w(1) + w(1) / 2.0,
+        PemFocus::MultiStepThenNoise { horizon } => w(horizon) + w(spec.pem_horizon) / 2.0,
+    }
+}
+
+/// Iterations `work / per_iteration`, within `min..=max`.
+pub(super) fn capped_iterations(work: f64, per_iteration: f64, min: usize, max: usize) -> usize {
+    if per_iteration <= 0.0 {
+        return max;
+    }
+    let n = (work / per_iteration).floor();
+    let n = if n.is_finite() { n as usize } else { max };
+    n.clamp(min.min(max), max)
+}
+
 /// A fold's figures: candidate, fold, the mean fits or why it failed.
 type FoldResult = (usize, usize, std::result::Result<Vec<f64>, String>);
 
@@ -130,12 +235,58 @@ struct Search<'a> {
     total: AtomicUsize,
     progress: &'a (dyn Fn(&Progress) + Sync),
     budget_hit: Mutex<bool>,
+    /// Work planned so far (the unit of [`AutoSelect::work_budget`]).
+    planned: Mutex<f64>,
+    /// Candidates left out by the work budget.
+    skipped: Mutex<Vec<Candidate>>,
+    /// Largest order (for a suggested order's work).
+    max_order: usize,
+    /// The baseline per table horizon ([`fold_reference`]).
+    reference: Vec<f64>,
 }
 
 impl Search<'_> {
     /// Scores every candidate (on every fold, on the worker threads);
     /// a candidate whose folds did not all finish in time is left out.
     fn run(&self, candidates: &[Candidate]) -> Vec<CandidateScore> {
+        // Plan by the work estimate, in the candidates' order: the
+        // iteration cap of each fit and which candidates fit the budget.
+        let mut iterations = Vec::new();
+        let mut kept = Vec::new();
+        {
+            let mut planned = self.planned.lock().unwrap_or_else(|e| e.into_inner());
+            let mut skipped = self.skipped.lock().unwrap_or_else(|e| e.into_inner());
+            for c in candidates {
+                let spec = c.apply(self.spec);
+                let mut work = 0.0;
+                let mut its = Vec::new();
+                for f in &self.folds {
+                    let per = spec_iteration_work(
+                        &spec,
+                        f.fit.n_samples(),
+                        f.fit.nu(),
+                        f.fit.ny(),
+                        self.max_order,
+                    );
+                    let n = capped_iterations(
+                        self.auto.fold_work,
+                        per,
+                        self.auto.min_iterations,
+                        spec.max_iterations.min(self.auto.fold_iterations),
+                    );
+                    work += per * n as f64;
+                    its.push(n);
+                }
+                if *planned + work <= self.auto.work_budget {
+                    *planned += work;
+                    kept.push(c.clone());
+                    iterations.push(its);
+                } else {
+                    skipped.push(c.clone());
+                }
+            }
+        }
+        let candidates = &kept[..];
         let jobs: Vec<(usize, usize)> = (0..candidates.len())
             .flat_map(|c| (0..self.folds.len()).map(move |f| (c, f)))
             .collect();
@@ -158,8 +309,9 @@ impl Search<'_> {
                             break;
                         };
                         let mut spec = candidates[c].apply(self.spec);
-                        spec.max_iterations = spec.max_iterations.min(self.auto.fold_iterations);
-                        let r = score_fold(&spec, &self.folds[f]).map_err(|e| e.to_string());
+                        spec.max_iterations = iterations[c][f];
+                        let r = score_fold(&spec, candidates[c].max_radius_a, &self.folds[f])
+                            .map_err(|e| e.to_string());
                         let done = self.done.fetch_add(1, Ordering::SeqCst) + 1;
                         (self.progress)(&Progress {
                             done,
@@ -204,7 +356,7 @@ impl Search<'_> {
                     .collect();
                 Some(CandidateScore {
                     candidate: cand.clone(),
-                    score: score(&fits),
+                    score: score(&fits, &self.reference),
                     fits,
                     failed: None,
                 })
@@ -222,6 +374,20 @@ fn best(scores: &[CandidateScore]) -> Option<&CandidateScore> {
             _ => Some(s),
         },
     )
+}
+
+/// The work the search planned.
+fn planned(search: &Search) -> f64 {
+    *search.planned.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// The candidates the work budget left out.
+fn skipped(search: &Search) -> Vec<Candidate> {
+    search
+        .skipped
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .clone()
 }
 
 /// Chooses the free dimensions of `spec` by blocked cross-validation on
@@ -273,20 +439,26 @@ pub(super) fn choose_structure(
     let fits_in = (longest / auto.folds.max(1) / 20).max(1);
     let max_order = auto.max_order.max(1).min(fits_in);
     let min_block = (20 * max_order).max(50);
+    let folds = folds(
+        est,
+        auto.folds,
+        min_block,
+        auto.max_fold_samples / (auto.folds * est.experiments().len()).max(1),
+    )?;
+    let reference = fold_reference(&folds, &spec.horizons);
     let search = Search {
         spec,
         auto,
-        folds: folds(
-            est,
-            auto.folds,
-            min_block,
-            auto.max_fold_samples / (auto.folds * est.experiments().len()).max(1),
-        )?,
+        folds,
         start: Instant::now(),
         done: AtomicUsize::new(0),
         total: AtomicUsize::new(0),
         progress,
         budget_hit: Mutex::new(false),
+        planned: Mutex::new(0.0),
+        skipped: Mutex::new(Vec::new()),
+        max_order,
+        reference,
     };
     // Stage 1: the order, first on every other order (1, 2, 4, 6, 8 for
     // a largest order of 8), then the neighbours of the best.
@@ -315,7 +487,6 @@ pub(super) fn choose_structure(
     }
     let chosen = best(&scores).map_or(focus_first.clone(), |b| b.candidate.clone());
     // Stage 2: focus and start at that order.
-    let mut stage2 = Vec::new();
     let foci: Vec<(PemFocus, usize)> = if free_focus {
         let mut v = vec![(PemFocus::Prediction, 1), (multi, 1)];
         if h > 1 {
@@ -343,32 +514,56 @@ pub(super) fn choose_structure(
     } else {
         vec![(chosen.start, chosen.n4sid_matrices, chosen.feedthrough)]
     };
-    // The chosen focus with the other starts first (what the budget
-    // leaves out comes last).
-    let mut foci = foci;
-    if let Some(i) = foci
-        .iter()
-        .position(|&f| f == (chosen.focus, chosen.pem_horizon))
-    {
-        let f = foci.remove(i);
-        foci.insert(0, f);
-    }
-    for &(focus, pem_horizon) in &foci {
-        for &(start, n4sid_matrices, feedthrough) in &starts {
-            let c = Candidate {
-                start,
-                focus,
-                pem_horizon,
-                n4sid_matrices,
-                feedthrough,
-                ..chosen.clone()
-            };
-            if !stage1.contains(&c) {
-                stage2.push(c);
+    // The chosen focus with the other starts first, then the prediction
+    // focus with A's modes allowed onto the unit circle at the best
+    // start, then the other foci (what the budget leaves out comes last).
+    let stage2 = |foci: &[(PemFocus, usize)], at: &Candidate| -> Vec<Candidate> {
+        let mut v = Vec::new();
+        for &(focus, pem_horizon) in foci {
+            for &(start, n4sid_matrices, feedthrough) in &starts {
+                let c = Candidate {
+                    start,
+                    focus,
+                    pem_horizon,
+                    n4sid_matrices,
+                    feedthrough,
+                    ..at.clone()
+                };
+                if !stage1.contains(&c) {
+                    v.push(c);
+                }
             }
         }
+        v
+    };
+    let (mut first, others): (Vec<_>, Vec<_>) = foci
+        .iter()
+        .copied()
+        .partition(|&f| f == (chosen.focus, chosen.pem_horizon));
+    if first.is_empty() {
+        first.push((chosen.focus, chosen.pem_horizon));
     }
-    scores.extend(search.run(&stage2));
+    let stage2a = stage2(&first, &chosen);
+    scores.extend(search.run(&stage2a));
+    let mut rest = Vec::new();
+    if free_focus && let Some(r) = auto.radius_a {
+        let at = best(&scores).map_or(chosen.clone(), |b| b.candidate.clone());
+        let mut hs = vec![1];
+        if h > 1 {
+            hs.push(h);
+        }
+        for ph in hs {
+            rest.push(Candidate {
+                focus: PemFocus::Prediction,
+                pem_horizon: ph,
+                max_radius_a: Some(r),
+                ..at.clone()
+            });
+        }
+    }
+    rest.extend(stage2(&others, &chosen));
+    rest.retain(|c| !stage1.contains(c) && !stage2a.contains(c));
+    scores.extend(search.run(&rest));
     let budget_hit = search.budget_hit.lock().map(|b| *b).unwrap_or(false);
     let Some(winner) = best(&scores).cloned() else {
         if budget_hit {
@@ -383,6 +578,9 @@ pub(super) fn choose_structure(
                 candidates: scores,
                 seconds: search.start.elapsed().as_secs_f64(),
                 budget_hit,
+                work: (auto.work_budget, planned(&search)),
+                skipped: skipped(&search),
+                reference: search.reference.clone(),
             };
             return Ok((focus_first.apply(spec), report));
         }
@@ -411,6 +609,9 @@ pub(super) fn choose_structure(
         candidates: scores,
         seconds: search.start.elapsed().as_secs_f64(),
         budget_hit,
+        work: (auto.work_budget, planned(&search)),
+        skipped: skipped(&search),
+        reference: search.reference.clone(),
     };
     Ok((winner.candidate.apply(spec), report))
 }

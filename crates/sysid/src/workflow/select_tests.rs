@@ -100,6 +100,47 @@ fn budget_and_folds_are_honoured() {
     ));
 }
 
+/// What is tried is decided by the work estimate, not by the clock: a
+/// small work budget skips the later candidates (reported), the planned
+/// work stays within it, two runs try the same candidates and give the
+/// same model, and with the default budget the prediction focus with
+/// `A`'s modes allowed up to radius 1.02 is among the candidates.
+#[test]
+fn work_budget_decides_the_candidates() {
+    let truth = synthetic::random_model(3, 2, 2, 17, 0.9);
+    let d = synthetic::simulate(&truth, 1800, 0.05, 4).unwrap();
+    let small = IdentifySpec {
+        auto: Some(AutoSelect {
+            max_order: 5,
+            work_budget: 2e7,
+            ..AutoSelect::default()
+        }),
+        ..spec("1200:1799")
+    };
+    let a = identify(&d, &small).unwrap();
+    let b = identify(&d, &small).unwrap();
+    let sa = a.selection.as_ref().unwrap().as_ref().unwrap();
+    let sb = b.selection.as_ref().unwrap().as_ref().unwrap();
+    assert!(!sa.skipped.is_empty(), "{sa}");
+    assert!(sa.work.1 <= sa.work.0 && sa.work.1 > 0.0, "{:?}", sa.work);
+    assert!(!sa.budget_hit);
+    assert_eq!(sa.candidates, sb.candidates);
+    assert_eq!(sa.skipped, sb.skipped);
+    assert_eq!(a.model, b.model);
+    assert!(sa.to_string().contains("skipped (work budget)"));
+    let full = identify(&d, &spec("1200:1799")).unwrap();
+    let sf = full.selection.unwrap().unwrap();
+    assert!(sf.skipped.is_empty(), "{sf}");
+    assert!(
+        sf.candidates
+            .iter()
+            .any(|c| c.candidate.max_radius_a == Some(1.02) && c.failed.is_none()),
+        "{sf}"
+    );
+    assert_eq!(sf.reference.len(), 2);
+    assert!(sf.reference.iter().all(|r| r.is_finite()));
+}
+
 /// The PBSID start reaches the workflow: the same model as PEM started
 /// by hand from `pbsid` with the same settings.
 #[test]

@@ -212,9 +212,34 @@ pub struct AutoSelect {
     /// Largest number of iterations of each PEM stage on a fold (the
     /// final fit uses [`IdentifySpec::max_iterations`]).
     pub fold_iterations: usize,
-    /// No new fit starts after this many seconds (the candidates whose
-    /// folds all finished are compared).
+    /// The work of all fold fits together, in units of one PEM
+    /// iteration's estimated work `N p n^2 h` (samples, free parameters,
+    /// states squared, prediction steps): candidates are planned in their
+    /// order and one whose fold fits would exceed what is left is skipped
+    /// (and reported). The candidates and their iteration caps depend on
+    /// the data's size only, never on the machine's speed or load.
+    pub work_budget: f64,
+    /// The work of one fold fit (same unit): a fit's PEM iterations are
+    /// capped at `fold_work / (work of one iteration)`, between
+    /// [`AutoSelect::min_iterations`] and [`AutoSelect::fold_iterations`].
+    pub fold_work: f64,
+    /// The work of the final fit on all estimation data (same unit): its
+    /// iterations are capped at `final_work / (work of one iteration)`,
+    /// at least [`AutoSelect::min_iterations`] and at most
+    /// [`IdentifySpec::max_iterations`].
+    pub final_work: f64,
+    /// Fewest PEM iterations a work cap leaves a fit.
+    pub min_iterations: usize,
+    /// Safety stop in seconds: no new fold fit starts after it (the
+    /// candidates whose folds all finished are compared, and the report
+    /// says that the stop fired). With the default work budget it fires
+    /// only on a machine several times slower (or busier) than 2 cores.
     pub time_budget: f64,
+    /// Try the prediction focus with `A`'s modes allowed up to this
+    /// radius ([`PemSettings::max_radius_a`]; the predictor stays
+    /// stable, the simulation diverges) at the best order and start;
+    /// `None`: not tried.
+    pub radius_a: Option<f64>,
     /// Worker threads.
     pub threads: usize,
 }
@@ -229,7 +254,12 @@ impl Default for AutoSelect {
             folds: 3,
             fold_iterations: 10,
             max_fold_samples: 6000,
+            work_budget: 1.4e10,
+            fold_work: 8e8,
+            final_work: 2e9,
+            min_iterations: 3,
             time_budget: 40.0,
+            radius_a: Some(1.02),
             threads: std::thread::available_parallelism().map_or(2, |n| n.get().min(4)),
         }
     }
