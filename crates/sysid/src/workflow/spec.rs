@@ -254,7 +254,7 @@ impl Default for AutoSelect {
             folds: 3,
             fold_iterations: 10,
             max_fold_samples: 6000,
-            work_budget: 1.4e10,
+            work_budget: 1.0e10,
             fold_work: 8e8,
             final_work: 2e9,
             min_iterations: 3,
