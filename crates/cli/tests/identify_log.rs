@@ -123,5 +123,13 @@ fn flags_of_the_other_kind_of_file_are_refused() {
     );
     assert!(!r.status.success());
     assert!(String::from_utf8_lossy(&r.stderr).contains("kestrel import"));
+    for bad in ["0", "nan", "inf"] {
+        let r = kestrel(
+            &["identify", "--out", o, "--work-budget", bad, "--data"],
+            &[&log],
+        );
+        assert!(!r.status.success());
+        assert!(String::from_utf8_lossy(&r.stderr).contains("--work-budget must be a positive"));
+    }
     assert!(!out.exists(), "nothing written on an error");
 }
