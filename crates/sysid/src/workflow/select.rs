@@ -566,8 +566,10 @@ pub(super) fn choose_structure(
     scores.extend(search.run(&rest));
     let budget_hit = search.budget_hit.lock().map(|b| *b).unwrap_or(false);
     let Some(winner) = best(&scores).cloned() else {
-        if budget_hit {
-            // Nothing finished in time: the first candidate, unscored.
+        if budget_hit || scores.is_empty() {
+            // Nothing finished in time, or every candidate was over the
+            // work budget (a large fixed order): the first candidate,
+            // unscored; the final fit's own size checks then apply.
             let report = SelectionReport {
                 folds: auto.folds,
                 horizons: spec.horizons.clone(),
