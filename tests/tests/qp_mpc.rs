@@ -17,7 +17,8 @@
 use kestrel_core::formats::{MpqpProblem, SsModel};
 use kestrel_empc::{Settings, solve as solve_mpqp};
 use kestrel_mpc::{QpSettings as RefSettings, ReferenceSolver};
-use kestrel_qp::{QpData, QpSettings, QpSolver, Start, index_len, scalar_len};
+use kestrel_qp::parametric::ParametricQp;
+use kestrel_qp::{QpSettings, QpSolver, Start};
 use kestrel_tricopter::{ProblemSize, default_weights, tricopter_problem};
 use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
@@ -40,101 +41,26 @@ fn tricopter(size: ProblemSize) -> MpqpProblem {
     tricopter_problem(&model, size, q1, q2).unwrap().to_mpqp()
 }
 
-/// The problem split into double-sided general rows and simple bounds.
-struct Split {
-    n: usize,
-    h: Vec<f64>,
-    g: Vec<f64>,
-    /// The mpQP rows of each general row's upper and lower bound (`-g'z <=
-    /// r` is the lower bound `g'z >= -r` of the row `g`).
-    rows: Vec<(Option<usize>, Option<usize>)>,
-    /// `(row, variable, coefficient)` of each single-variable row.
-    bounds: Vec<(usize, usize, f64)>,
+/// Solves at theta (cold or warm): `z` and the iterations.
+fn solve(
+    qp: &mut QpSolver<'_, f64>,
+    par: &ParametricQp,
+    theta: &DVector<f64>,
+    start: Start,
+) -> (Vec<f64>, usize) {
+    let mut buf = par.buffers::<f64>();
+    par.fill(theta.as_slice(), &mut buf).unwrap();
+    let info = qp.solve(&buf.data(), start).unwrap();
+    let mut z = vec![0.0; par.n()];
+    qp.solution(&mut z).unwrap();
+    (z, info.iterations)
 }
 
-impl Split {
-    fn new(p: &MpqpProblem) -> Self {
-        let n = p.n();
-        let h = (0..n)
-            .flat_map(|i| (0..n).map(move |j| (i, j)))
-            .map(|(i, j)| p.h[(i, j)])
-            .collect();
-        let (mut g, mut rows, mut bounds) = (Vec::<f64>::new(), Vec::new(), Vec::new());
-        for i in 0..p.m() {
-            let nz: Vec<usize> = (0..n).filter(|&j| p.g[(i, j)] != 0.0).collect();
-            if nz.len() == 1 {
-                bounds.push((i, nz[0], p.g[(i, nz[0])]));
-                continue;
-            }
-            let row: Vec<f64> = (0..n).map(|j| p.g[(i, j)]).collect();
-            let mirror = rows
-                .iter()
-                .position(|&(_, lo): &(Option<usize>, Option<usize>)| lo.is_none())
-                .filter(|&k| {
-                    g[k * n..(k + 1) * n]
-                        .iter()
-                        .zip(&row)
-                        .all(|(a, b)| *a == -*b)
-                });
-            match mirror {
-                Some(k) => rows[k].1 = Some(i),
-                None => {
-                    rows.push((Some(i), None));
-                    g.extend(row);
-                }
-            }
-        }
-        Split {
-            n,
-            h,
-            g,
-            rows,
-            bounds,
-        }
-    }
-
-    /// Solves at theta (cold or warm): `z` and the iterations.
-    fn solve(
-        &self,
-        qp: &mut QpSolver<'_, f64>,
-        p: &MpqpProblem,
-        theta: &DVector<f64>,
-        start: Start,
-    ) -> (Vec<f64>, usize) {
-        let q = p.linear_term(theta);
-        let rhs = p.rhs(theta);
-        let u: Vec<f64> = self
-            .rows
-            .iter()
-            .map(|r| r.0.map_or(f64::INFINITY, |i| rhs[i]))
-            .collect();
-        let l: Vec<f64> = self
-            .rows
-            .iter()
-            .map(|r| r.1.map_or(f64::NEG_INFINITY, |i| -rhs[i]))
-            .collect();
-        let mut lb = vec![f64::NEG_INFINITY; self.n];
-        let mut ub = vec![f64::INFINITY; self.n];
-        for &(i, j, a) in &self.bounds {
-            let v = rhs[i] / a;
-            if a > 0.0 {
-                ub[j] = ub[j].min(v)
-            } else {
-                lb[j] = lb[j].max(v)
-            }
-        }
-        let data = QpData {
-            q: q.as_slice(),
-            l: &l,
-            u: &u,
-            lb: &lb,
-            ub: &ub,
-        };
-        let info = qp.solve(&data, start).unwrap();
-        let mut z = vec![0.0; self.n];
-        qp.solution(&mut z).unwrap();
-        (z, info.iterations)
-    }
+/// The number of simple bounds (finite on either side) of the mapping.
+fn bound_count(par: &ParametricQp) -> usize {
+    (par.m()..par.m() + par.n())
+        .map(|j| usize::from(par.lower(j).is_some()) + usize::from(par.upper(j).is_some()))
+        .sum()
 }
 
 /// `p` in the variables `w` of `z = T w`, `T = I + 0.3 R` (`R` random in
@@ -166,20 +92,11 @@ fn relative(a: &[f64], b: &[f64]) -> f64 {
 /// Checks `count` random theta: returns the worst deviation from clarabel
 /// and from the explicit law (when `explicit`).
 fn check(name: &str, p: &MpqpProblem, count: usize, explicit: bool) {
-    let split = Split::new(p);
-    let m = split.rows.len();
-    let mut s = vec![0.0; scalar_len(p.n(), m)];
-    let mut ix = vec![0; index_len(p.n(), m)];
-    let mut qp = QpSolver::new(
-        p.n(),
-        m,
-        &split.h,
-        &split.g,
-        QpSettings::default(),
-        &mut s,
-        &mut ix,
-    )
-    .unwrap();
+    let par = ParametricQp::from_mpqp(p).unwrap();
+    let m = par.m();
+    let (ns, ni) = par.workspace_len();
+    let (mut s, mut ix) = (vec![0.0; ns], vec![0; ni]);
+    let mut qp = par.solver(QpSettings::default(), &mut s, &mut ix).unwrap();
     let settings = RefSettings {
         tolerance: 1e-11,
         max_iter: 400,
@@ -196,7 +113,7 @@ fn check(name: &str, p: &MpqpProblem, count: usize, explicit: bool) {
             (0..p.p())
                 .map(|j| p.theta_lb[j] + (p.theta_ub[j] - p.theta_lb[j]) * rng.random::<f64>()),
         );
-        let (z, cold) = split.solve(&mut qp, p, &theta, Start::Cold);
+        let (z, cold) = solve(&mut qp, &par, &theta, Start::Cold);
         max_cold = max_cold.max(cold);
         let r = reference.solve(&theta).unwrap();
         if r.polished {
@@ -229,9 +146,9 @@ fn check(name: &str, p: &MpqpProblem, count: usize, explicit: bool) {
                 (theta[j] + step).clamp(p.theta_lb[j], p.theta_ub[j])
             }),
         );
-        let (zw, warm) = split.solve(&mut qp, p, &near, Start::Warm);
+        let (zw, warm) = solve(&mut qp, &par, &near, Start::Warm);
         max_warm = max_warm.max(warm);
-        let (zc, _) = split.solve(&mut qp, p, &near, Start::Cold);
+        let (zc, _) = solve(&mut qp, &par, &near, Start::Cold);
         assert!(
             relative(&zw, &zc) <= 1e-9,
             "{name}: warm {zw:?} vs cold {zc:?}"
@@ -245,7 +162,7 @@ fn check(name: &str, p: &MpqpProblem, count: usize, explicit: bool) {
         "{name} (n = {}, {} rows + {} bounds): {count} theta, worst relative deviation from clarabel {worst_ref:.2e} ({unpolished} unpolished skipped), from the explicit law {}; most iterations cold {max_cold}, warm (1 % step) {max_warm}",
         p.n(),
         m,
-        split.bounds.len(),
+        bound_count(&par),
         if explicit {
             format!("{worst_law:.2e}")
         } else {
@@ -290,8 +207,11 @@ fn larger_tricopter_equals_clarabel() {
 #[test]
 fn transformed_thesis_sized_with_general_rows_equals_clarabel_and_explicit_law() {
     let p = transformed(&tricopter(ProblemSize::Thesis), 5);
-    let split = Split::new(&p);
-    assert!(split.bounds.is_empty() && split.rows.iter().all(|r| r.0.is_some() && r.1.is_some()));
+    let par = ParametricQp::from_mpqp(&p).unwrap();
+    assert!(
+        bound_count(&par) == 0
+            && (0..par.m()).all(|j| par.lower(j).is_some() && par.upper(j).is_some())
+    );
     check(
         "tricopter thesis-sized, z = T w (double-sided rows)",
         &p,
@@ -306,34 +226,16 @@ fn transformed_thesis_sized_with_general_rows_equals_clarabel_and_explicit_law()
 /// solution: the worst relative deviation `|z32 - z64|_inf / (1 +
 /// |z64|_inf)` over the sample, bounded in docs/qp.md.
 fn f32_deviation(p: &MpqpProblem, count: usize) -> f64 {
-    let split = Split::new(p);
-    let m = split.rows.len();
-    let mut s = vec![0.0; scalar_len(p.n(), m)];
-    let mut ix = vec![0; index_len(p.n(), m)];
-    let mut qp = QpSolver::new(
-        p.n(),
-        m,
-        &split.h,
-        &split.g,
-        QpSettings::default(),
-        &mut s,
-        &mut ix,
-    )
-    .unwrap();
-    let c = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
-    let (h32, g32) = (c(&split.h), c(&split.g));
-    let mut s32 = vec![0.0_f32; scalar_len(p.n(), m)];
-    let mut ix32 = vec![0; index_len(p.n(), m)];
-    let mut qp32 = QpSolver::new(
-        p.n(),
-        m,
-        &h32,
-        &g32,
-        QpSettings::for_f32(),
-        &mut s32,
-        &mut ix32,
-    )
-    .unwrap();
+    let par = ParametricQp::from_mpqp(p).unwrap();
+    let (ns, ni) = par.workspace_len();
+    let (mut s, mut ix) = (vec![0.0; ns], vec![0; ni]);
+    let mut qp = par.solver(QpSettings::default(), &mut s, &mut ix).unwrap();
+    let mut s32 = vec![0.0_f32; ns];
+    let mut ix32 = vec![0; ni];
+    let mut qp32 = par
+        .solver(QpSettings::for_f32(), &mut s32, &mut ix32)
+        .unwrap();
+    let mut buf32 = par.buffers::<f32>();
     let mut rng = SplitMix64::seed_from_u64(32);
     let mut worst = 0.0_f64;
     for _ in 0..count {
@@ -342,37 +244,10 @@ fn f32_deviation(p: &MpqpProblem, count: usize) -> f64 {
             (0..p.p())
                 .map(|j| p.theta_lb[j] + (p.theta_ub[j] - p.theta_lb[j]) * rng.random::<f64>()),
         );
-        let (z, _) = split.solve(&mut qp, p, &theta, Start::Cold);
+        let (z, _) = solve(&mut qp, &par, &theta, Start::Cold);
         // The f32 data: the f64 solver's inputs rounded.
-        let q = c(p.linear_term(&theta).as_slice());
-        let rhs = p.rhs(&theta);
-        let u: Vec<f32> = split
-            .rows
-            .iter()
-            .map(|r| r.0.map_or(f32::INFINITY, |i| rhs[i] as f32))
-            .collect();
-        let l: Vec<f32> = split
-            .rows
-            .iter()
-            .map(|r| r.1.map_or(f32::NEG_INFINITY, |i| -rhs[i] as f32))
-            .collect();
-        let mut lb = vec![f32::NEG_INFINITY; p.n()];
-        let mut ub = vec![f32::INFINITY; p.n()];
-        for &(i, j, a) in &split.bounds {
-            let v = (rhs[i] / a) as f32;
-            if a > 0.0 {
-                ub[j] = ub[j].min(v)
-            } else {
-                lb[j] = lb[j].max(v)
-            }
-        }
-        let data = QpData {
-            q: &q,
-            l: &l,
-            u: &u,
-            lb: &lb,
-            ub: &ub,
-        };
+        par.fill(theta.as_slice(), &mut buf32).unwrap();
+        let data = buf32.data();
         qp32.solve(&data, Start::Cold).unwrap();
         let mut z32 = vec![0.0_f32; p.n()];
         qp32.solution(&mut z32).unwrap();

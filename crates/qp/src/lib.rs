@@ -3,6 +3,8 @@
 
 mod error;
 mod iterate;
+#[cfg(feature = "std")]
+pub mod parametric;
 mod settings;
 mod solver;
 
