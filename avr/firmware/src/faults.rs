@@ -11,16 +11,17 @@
 //!   builds each of its iterations takes `arg` cycles more ([`Slowed`],
 //!   through the solver's deadline hook, so its cycle budget sees the
 //!   overrun and stops the iterations); in the explicit-MPC builds (no
-//!   iterations: a tree walk bounded by its depth) the law's call takes
+//!   iterations: a tree walk bounded by its depth) and the active-set QP
+//!   builds (iterations bounded by the solver's cap) the law's call takes
 //!   `arg` cycles more ([`Stall`]).
 
-#[cfg(feature = "empc")]
+#[cfg(feature = "no-fgm")]
 use kestrel_avr_rt::control::LawInfo;
 use kestrel_avr_rt::cycles::CycleClock;
-#[cfg(not(feature = "empc"))]
+#[cfg(not(feature = "no-fgm"))]
 use kestrel_avr_rt::cycles::Deadline;
 use kestrel_avr_rt::cycles::timer1::Timer1Clock;
-#[cfg(feature = "empc")]
+#[cfg(feature = "no-fgm")]
 use kestrel_core::{ControlLaw, Error};
 
 /// Op code: hang the main loop (the watchdog resets the MCU).
@@ -37,7 +38,7 @@ fn spin(clock: &Timer1Clock, cycles: u32) {
 
 /// A deadline whose every check first takes `extra` cycles: each
 /// iteration of the solver asking it runs `extra` cycles longer.
-#[cfg(not(feature = "empc"))]
+#[cfg(not(feature = "no-fgm"))]
 pub struct Slowed<D> {
     /// The deadline.
     pub inner: D,
@@ -46,7 +47,7 @@ pub struct Slowed<D> {
     clock: Timer1Clock,
 }
 
-#[cfg(not(feature = "empc"))]
+#[cfg(not(feature = "no-fgm"))]
 impl<D> Slowed<D> {
     /// Wraps `inner`, timing the extra work with `clock`.
     pub fn new(inner: D, clock: Timer1Clock) -> Self {
@@ -58,7 +59,7 @@ impl<D> Slowed<D> {
     }
 }
 
-#[cfg(not(feature = "empc"))]
+#[cfg(not(feature = "no-fgm"))]
 impl<C: CycleClock, const STRIDE: u16> Slowed<kestrel_avr_rt::cycles::CycleBudget<C, STRIDE>> {
     /// Starts the budget at `start` ([`CycleBudget::restart_at`]).
     ///
@@ -68,7 +69,7 @@ impl<C: CycleClock, const STRIDE: u16> Slowed<kestrel_avr_rt::cycles::CycleBudge
     }
 }
 
-#[cfg(not(feature = "empc"))]
+#[cfg(not(feature = "no-fgm"))]
 impl<D: Deadline> Deadline for Slowed<D> {
     // Asked before every STRIDE-th iteration: the extra cycles of the
     // STRIDE iterations up to the next question.
@@ -80,7 +81,7 @@ impl<D: Deadline> Deadline for Slowed<D> {
 }
 
 /// A law that takes `extra` more cycles in its next call.
-#[cfg(feature = "empc")]
+#[cfg(feature = "no-fgm")]
 pub struct Stall<L> {
     /// The law.
     pub inner: L,
@@ -89,7 +90,7 @@ pub struct Stall<L> {
     clock: Timer1Clock,
 }
 
-#[cfg(feature = "empc")]
+#[cfg(feature = "no-fgm")]
 impl<L> Stall<L> {
     /// Wraps `inner`, timing the extra work with `clock`.
     pub fn new(inner: L, clock: Timer1Clock) -> Self {
@@ -101,7 +102,7 @@ impl<L> Stall<L> {
     }
 }
 
-#[cfg(feature = "empc")]
+#[cfg(feature = "no-fgm")]
 impl<L: ControlLaw> ControlLaw for Stall<L> {
     type Scalar = L::Scalar;
     fn nx(&self) -> usize {
@@ -125,7 +126,7 @@ impl<L: ControlLaw> ControlLaw for Stall<L> {
     }
 }
 
-#[cfg(feature = "empc")]
+#[cfg(feature = "no-fgm")]
 impl<L: LawInfo> LawInfo for Stall<L> {
     fn iterations(&self) -> u16 {
         self.inner.iterations()

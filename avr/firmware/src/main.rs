@@ -40,7 +40,8 @@ type S = kestrel_avr_rt::mac::Q16Mac;
 #[cfg(not(any(feature = "fixed", feature = "fixed-mac")))]
 type S = f32;
 
-/// Boot-frame configuration code: bit 0 fixed point, bit 1 the MAC variant.
+/// Boot-frame configuration code: bit 0 fixed point, bit 1 the MAC variant,
+/// bit 2 explicit MPC, bit 3 its Ns = 2 table, bit 4 the active-set QP.
 const CONFIG: u8 = (if cfg!(feature = "fixed-mac") {
     3
 } else if cfg!(feature = "fixed") {
@@ -48,7 +49,8 @@ const CONFIG: u8 = (if cfg!(feature = "fixed-mac") {
 } else {
     0
 }) | if cfg!(feature = "empc") { 4 } else { 0 }
-    | if cfg!(feature = "empc-ns2") { 8 } else { 0 };
+    | if cfg!(feature = "empc-ns2") { 8 } else { 0 }
+    | if cfg!(feature = "qp") { 16 } else { 0 };
 
 /// The explicit controller's 16-bit table (kestrel_avr_rt::explicit::tree16),
 /// in flash, read with ELPM; the same bytes for every scalar.
@@ -67,6 +69,16 @@ mod generated_empc;
 #[cfg(feature = "empc-ns2")]
 #[allow(dead_code)]
 mod generated_empc_ns2;
+/// The `qp` builds' box QP (kestrel-qp).
+#[cfg(feature = "qp")]
+#[allow(dead_code)]
+mod generated_qp;
+/// The `qp` builds' law (also the HIL test's host reference, in f64).
+#[cfg(feature = "qp")]
+#[allow(dead_code)]
+mod qp_law;
+#[cfg(all(feature = "qp", any(feature = "fixed", feature = "fixed-mac", feature = "empc")))]
+compile_error!("`qp` runs kestrel-qp in f32: not with `fixed`, `fixed-mac` or `empc`");
 /// Fault injection for the HIL test.
 #[cfg(feature = "hil-faults")]
 mod faults;
@@ -171,15 +183,34 @@ fn watchdog_reset() {
 /// polling at 250 kbaud (22,400 cycles). A solve slowed past it (CPU
 /// stolen by interrupts, a slower clock) stops early with its current
 /// iterate, in the box; the reply's `iterations` tells.
-#[cfg(not(feature = "empc"))]
+#[cfg(not(feature = "no-fgm"))]
 const FGM_BUDGET: u32 = 240_000;
 
 /// The budget is checked before every 4th iteration (7 clock reads in the
 /// 27 iterations, about 1,000 cycles; before each iteration it cost about
 /// 4,500 cycles, 3.6 % of the solve); each check asks whether the next 4
 /// iterations fit.
-#[cfg(not(feature = "empc"))]
+#[cfg(not(feature = "no-fgm"))]
 const FGM_STRIDE: u16 = 4;
+
+/// kestrel-qp's settings in the `qp` builds: f32 tolerances with the
+/// primal one in the problem's units (microseconds of PWM: 1e-3 us, above
+/// f32's rounding of a 2,000 us bound), and the iteration cap: 16
+/// active-set changes (a cold solve of the 4-variable box QP needs at most
+/// 4 additions when no removal occurs; the certified worst case is in
+/// docs/avr-rt.md), 1 in the `qp-fallback-test` build.
+#[cfg(feature = "qp")]
+const QP_SETTINGS: kestrel_qp::QpSettings = kestrel_qp::QpSettings {
+    primal_tol: 1e-3,
+    dual_tol: 1e-6,
+    pivot_tol: 1e-5,
+    max_iterations: if cfg!(feature = "qp-fallback-test") { 1 } else { 16 },
+};
+
+/// Whether the `qp` builds warm-start each solve from the previous
+/// period's active set (not in the `qp-fallback-test` build).
+#[cfg(feature = "qp")]
+const QP_WARM: bool = !cfg!(feature = "qp-fallback-test");
 
 /// WDTCSR value: reset mode (WDE), prescaler 2 (8k cycles of the 128 kHz
 /// oscillator: 64 ms).
@@ -350,7 +381,7 @@ fn v(t: &FarTable, i: usize) -> S {
 fn va<const N: usize>(t: &FarTable, at: usize) -> [S; N] {
     core::array::from_fn(|i| v(t, at + i))
 }
-#[cfg_attr(feature = "empc", allow(dead_code))]
+#[cfg_attr(feature = "no-fgm", allow(dead_code))]
 fn vm<const R: usize, const C: usize>(t: &FarTable, at: usize) -> Matrix<S, R, C> {
     Matrix::from_fn(|i, j| v(t, at + C * i + j))
 }
@@ -379,7 +410,7 @@ pub extern "C" fn main() -> ! {
         loop {}
     }
     let filter = Kalman16::<S, NX, 4, 3>::new(KF16);
-    #[cfg(not(feature = "empc"))]
+    #[cfg(not(feature = "no-fgm"))]
     let law = {
         use kestrel_avr_rt::fgm16::Fgm16Law;
         use kestrel_fgm::FgmTables;
@@ -449,6 +480,42 @@ pub extern "C" fn main() -> ! {
         };
         law
     };
+    // The exact MPC: kestrel-qp's dual active-set solver in f32 on the box
+    // QP of src/generated_qp.rs, its workspaces on main's frame (main
+    // never returns).
+    #[cfg(feature = "qp")]
+    let mut qp_scalars = [0f32; kestrel_qp::scalar_len(generated_qp::QP_N, 0)];
+    #[cfg(feature = "qp")]
+    let mut qp_indices = [0usize; kestrel_qp::index_len(generated_qp::QP_N, 0)];
+    #[cfg(feature = "qp")]
+    let law = {
+        use generated_qp::*;
+        use kestrel_qp::QpSolver;
+        let h: [f32; QP_N * QP_N] = core::array::from_fn(|k| QP_H[k / QP_N][k % QP_N]);
+        let Ok(solver) = QpSolver::new(
+            QP_N,
+            0,
+            &h,
+            &[],
+            QP_SETTINGS,
+            &mut qp_scalars,
+            &mut qp_indices,
+        ) else {
+            loop {}
+        };
+        let maps = qp_law::QpMaps {
+            f: &QP_F,
+            f0: &QP_F0,
+            lo: &QP_LO,
+            lo0: &QP_LO0,
+            hi: &QP_HI,
+            hi0: &QP_HI0,
+        };
+        let Ok(law) = qp_law::QpLaw::<f32, QP_N, QP_P, 4>::new(solver, maps, NX, QP_WARM) else {
+            loop {}
+        };
+        law
+    };
     let bias = va(&table, BIAS);
     let one = S::from_f32_fast(1.0);
     let mixer = Mixer::<S, 4> {
@@ -456,7 +523,7 @@ pub extern "C" fn main() -> ! {
         offset: va(&table, MIX_OFFSET),
         throttle_gain: [one, one, one, S::ZERO],
     };
-    #[cfg(all(feature = "hil-faults", feature = "empc"))]
+    #[cfg(all(feature = "hil-faults", feature = "no-fgm"))]
     let law = faults::Stall::new(law, clock);
     let Ok(mut rate_loop) = RateLoop::new(filter, law, bias, mixer, limits, safe) else {
         loop {}
@@ -517,13 +584,13 @@ pub extern "C" fn main() -> ! {
         // did not run: the bytes that came meanwhile (this period's
         // command among them) are still in the ring.
         drain_rx(&mut decoder, &mut seqs, &mut fresh, &mut stall);
-        #[cfg(not(feature = "empc"))]
+        #[cfg(not(feature = "no-fgm"))]
         rate_loop.law.deadline.restart_at(t0);
-        #[cfg(all(feature = "hil-faults", not(feature = "empc")))]
+        #[cfg(all(feature = "hil-faults", not(feature = "no-fgm")))]
         {
             rate_loop.law.deadline.extra = core::mem::take(&mut stall);
         }
-        #[cfg(all(feature = "hil-faults", feature = "empc"))]
+        #[cfg(all(feature = "hil-faults", feature = "no-fgm"))]
         {
             rate_loop.law.extra = core::mem::take(&mut stall);
         }

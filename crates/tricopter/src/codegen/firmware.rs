@@ -7,8 +7,8 @@
 
 use super::file::{CodegenError, GeneratedFile, parse_input};
 use crate::firmware::{
-    DesignSettings, FirmwareDesign, empc_controller, generate_empc_tables, generate_tables,
-    ns2_problem,
+    DesignSettings, FirmwareDesign, empc_controller, generate_empc_tables, generate_qp_tables,
+    generate_tables, ns2_problem,
 };
 use kestrel_avr_rt::explicit::quantize::{
     Tree16Tables, quantize_tree_layout, tree16_chunked_source,
@@ -30,6 +30,9 @@ pub const GENERATED_EMPC: &str = "avr/firmware/src/generated_empc.rs";
 
 /// The `empc-ns2` build's table (`N = 2`, blocks `[1, 1]`, over a scaled box).
 pub const GENERATED_EMPC_NS2: &str = "avr/firmware/src/generated_empc_ns2.rs";
+
+/// The `qp` builds' table: the design's problem as a box QP (kestrel-qp).
+pub const GENERATED_QP: &str = "avr/firmware/src/generated_qp.rs";
 
 /// What [`empc_file`] names the problem in the file's header.
 pub const EMPC_WHAT: &str = "N = 2, Ns = 1";
@@ -75,6 +78,19 @@ pub fn tables_file(d: &FirmwareDesign) -> Result<GeneratedFile, CodegenError> {
         path: GENERATED,
         contents: generate_tables(d)?,
         generator: "kestrel_tricopter::firmware::generate_tables of the design of models/tricopter-blackbox-5.json",
+    })
+}
+
+/// [`GENERATED_QP`]: the design's problem as the box QP the `qp` builds
+/// solve with kestrel-qp.
+///
+/// # Errors
+/// [`CodegenError::Design`] from [`generate_qp_tables`].
+pub fn qp_file(d: &FirmwareDesign) -> Result<GeneratedFile, CodegenError> {
+    Ok(GeneratedFile {
+        path: GENERATED_QP,
+        contents: generate_qp_tables(d)?,
+        generator: "kestrel_tricopter::firmware::generate_qp_tables of the design of models/tricopter-blackbox-5.json",
     })
 }
 
@@ -134,14 +150,16 @@ pub fn empc_ns2_file(c: &ExplicitController) -> Result<GeneratedFile, CodegenErr
     })
 }
 
-/// The three firmware tables of the design model under `root`.
+/// The four firmware tables of the design model under `root`.
 ///
 /// # Errors
-/// As [`design`], [`tables_file`], [`empc_file`] and [`empc_ns2_file`].
+/// As [`design`], [`tables_file`], [`qp_file`], [`empc_file`] and
+/// [`empc_ns2_file`].
 pub fn files(root: &Path) -> Result<Vec<GeneratedFile>, CodegenError> {
     let d = design(root)?;
     Ok(vec![
         tables_file(&d)?,
+        qp_file(&d)?,
         empc_file(&empc(&d)?)?,
         empc_ns2_file(&ns2_empc(&d)?)?,
     ])

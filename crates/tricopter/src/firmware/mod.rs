@@ -28,6 +28,7 @@ mod consistency;
 mod design;
 mod empc;
 mod error;
+mod qp_tables;
 mod quantize;
 mod settings;
 mod tables;
@@ -39,6 +40,7 @@ pub use consistency::{Consistency, ProblemCheck, ProblemFile, check_problem, est
 pub use design::{FirmwareDesign, schur_realization};
 pub use empc::{empc_controller, empc_layout, empc_table_bytes, generate_empc_tables, ns2_problem};
 pub use error::{DesignError, DesignPart};
+pub use qp_tables::{QpTables, generate_qp_tables};
 pub use quantize::{Kalman16Design, QuantRow, quantize_row};
 pub use settings::{DesignSettings, IterationBudget, NR, NU, NY, Realization, SERVO_CENTER};
 pub use tables::generate_tables;

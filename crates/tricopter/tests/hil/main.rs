@@ -31,7 +31,7 @@
 //! `faults.rs`; its table is in docs/avr-rt.md ("HIL fault injection").
 
 use avr_tester::AvrTester;
-use kestrel_avr_rt::control::{Mixer, RateLoop};
+use kestrel_avr_rt::control::{LawInfo, Mixer, RateLoop};
 use kestrel_avr_rt::cycles::{CycleClock, CycleStats};
 use kestrel_avr_rt::explicit::EmpcLaw;
 use kestrel_avr_rt::frame::{Boot, Command, Frame, FrameDecoder, Kind, MAX_FRAME, Reply, status};
@@ -58,6 +58,11 @@ mod generated_empc {
     include!("../../../../avr/firmware/src/generated_empc.rs");
 }
 
+/// The firmware's `qp` law, run here in f64 as the host reference.
+#[allow(dead_code)]
+#[path = "../../../../avr/firmware/src/qp_law.rs"]
+mod qp_law;
+
 /// The law the firmware runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Solver {
@@ -67,6 +72,10 @@ enum Solver {
     Empc,
     /// Explicit MPC with Ns = 2 ([`ns2_empc`]), feature `empc-ns2`.
     EmpcNs2,
+    /// The exact MPC by kestrel-qp's dual active-set solver (`QpLaw`),
+    /// feature `qp`; `fallback_test`: the `qp-fallback-test` build
+    /// (iteration cap 1, cold starts).
+    Qp { fallback_test: bool },
 }
 
 const TS: f64 = 0.02;
@@ -96,6 +105,9 @@ fn build_firmware(features: &[&str], generic_float: bool) -> PathBuf {
     }
     if features.contains(&"empc-ns2") {
         assert_fresh(&codegen::firmware::empc_ns2_file(ns2_empc()).unwrap());
+    }
+    if features.iter().any(|f| f.starts_with("qp")) {
+        assert_fresh(&codegen::firmware::qp_file(design()).unwrap());
     }
     let root = repo_root();
     let fw = root.join("avr/firmware");
@@ -172,6 +184,62 @@ fn host_empc_loop(controller: &'static ExplicitController) -> HostEmpcLoop {
     )
     .unwrap()
 }
+
+type HostQpLaw = qp_law::QpLaw<'static, f64, { generated::NZ }, { generated::NP }, 4>;
+type HostQpLoop = RateLoop<f64, StationaryFilter<f64, { generated::NX }, 4, 3>, HostQpLaw, 4>;
+
+/// The host reference of the `qp` builds: the firmware's law
+/// (avr/firmware/src/qp_law.rs) in f64 on the f64 box QP of the design
+/// (`firmware::QpTables`, what `src/generated_qp.rs` holds in f32), with
+/// kestrel-qp's f64 tolerances and the firmware's iteration cap and start.
+fn host_qp_loop(fallback_test: bool) -> HostQpLoop {
+    use kestrel_qp::{QpSettings, QpSolver, index_len, scalar_len};
+    const N: usize = generated::NZ;
+    const P: usize = generated::NP;
+    let d = design();
+    let t = kestrel_tricopter::firmware::QpTables::of(d);
+    assert_eq!((t.n, t.p), (N, P));
+    let rows = |v: &[f64]| -> &'static [[f64; P]; N] {
+        Box::leak(Box::new(core::array::from_fn(|i| {
+            core::array::from_fn(|j| v[i * P + j])
+        })))
+    };
+    let vec =
+        |v: &[f64]| -> &'static [f64; N] { Box::leak(Box::new(core::array::from_fn(|i| v[i]))) };
+    let maps = qp_law::QpMaps {
+        f: rows(&t.f),
+        f0: vec(&t.f0),
+        lo: rows(&t.lo),
+        lo0: vec(&t.lo0),
+        hi: rows(&t.hi),
+        hi0: vec(&t.hi0),
+    };
+    let settings = QpSettings {
+        max_iterations: if fallback_test { 1 } else { QP_MAX_ITERATIONS },
+        ..QpSettings::default()
+    };
+    let scalars = Box::leak(vec![0.0; scalar_len(N, 0)].into_boxed_slice());
+    let indices = Box::leak(vec![0; index_len(N, 0)].into_boxed_slice());
+    let solver = QpSolver::new(N, 0, &t.h, &[], settings, scalars, indices).unwrap();
+    let law = qp_law::QpLaw::new(solver, maps, generated::NX, !fallback_test).unwrap();
+    let filter = StationaryFilter::new(d.gains().expect("gains"), [0.0; generated::NX]);
+    RateLoop::new(
+        filter,
+        law,
+        d.bias(),
+        Mixer {
+            m: Matrix::from_fn(|i, j| if i == j { 1.0 } else { 0.0 }),
+            offset: d.mixer_offset(),
+            throttle_gain: [1.0, 1.0, 1.0, 0.0],
+        },
+        PwmLimits::default(),
+        SafeOutput::default(),
+    )
+    .unwrap()
+}
+
+/// The `qp` builds' iteration cap (`QP_SETTINGS` in avr/firmware/src/main.rs).
+const QP_MAX_ITERATIONS: usize = 16;
 
 type HostLaw = FgmLaw<f64, { generated::NZ }, { generated::NP }, { generated::FGM_T }, 4>;
 type HostLoop = RateLoop<f64, StationaryFilter<f64, { generated::NX }, 4, 3>, HostLaw, 4>;
@@ -290,6 +358,10 @@ struct Flight {
     /// Periods whose parameter the host's explicit law found outside its
     /// parameter box (and clamped); `None` for the fast gradient.
     outside: Option<u32>,
+    /// The `qp` builds: the host law's iterations (active-set changes,
+    /// with `qp_law::FALLBACK` when it fell back) in each period the
+    /// firmware solved, beside the firmware's.
+    qp_iterations: Vec<(u16, u16)>,
 }
 
 fn read_frames(avr: &mut AvrTester, dec: &mut FrameDecoder) -> Vec<Frame> {
@@ -338,8 +410,13 @@ fn fly(elf: &Path, periods: usize, solver: Solver) -> Flight {
     let mut host_empc = match solver {
         Solver::Empc => Some(host_empc_loop(empc())),
         Solver::EmpcNs2 => Some(host_empc_loop(ns2_empc())),
-        Solver::Fgm => None,
+        Solver::Fgm | Solver::Qp { .. } => None,
     };
+    let mut host_qp = match solver {
+        Solver::Qp { fallback_test } => Some(host_qp_loop(fallback_test)),
+        _ => None,
+    };
+    let mut qp_iterations = Vec::new();
     let mut replies = Vec::with_capacity(periods);
     let mut rates = Vec::with_capacity(periods);
     let mut pwm = SafeOutput::default().pwm(&PwmLimits::default());
@@ -378,10 +455,16 @@ fn fly(elf: &Path, periods: usize, solver: Solver) -> Flight {
             Fault::Drop | Fault::Corrupt => None,
             _ => Some(cmd),
         };
-        let host_out = match host_empc.as_mut() {
-            Some(h) => h.period(host_cmd.as_ref(), &NoClock),
-            None => host_fgm.period(host_cmd.as_ref(), &NoClock),
+        let host_out = match (host_empc.as_mut(), host_qp.as_mut()) {
+            (Some(h), _) => h.period(host_cmd.as_ref(), &NoClock),
+            (None, Some(h)) => h.period(host_cmd.as_ref(), &NoClock),
+            (None, None) => host_fgm.period(host_cmd.as_ref(), &NoClock),
         };
+        if let (Some(rep), Some(h)) = (reply, host_qp.as_ref())
+            && rep.status & (status::FAILSAFE | status::HOLD) == 0
+        {
+            qp_iterations.push((h.law.iterations(), rep.iterations));
+        }
         if let Some(rep) = reply {
             pwm = rep.pwm;
             for (a, b) in rep.pwm.iter().zip(host_out.pwm) {
@@ -398,6 +481,40 @@ fn fly(elf: &Path, periods: usize, solver: Solver) -> Flight {
         pwm_diff_max,
         boot,
         outside: host_empc.as_ref().map(|h| h.law.outside()),
+        qp_iterations,
+    }
+}
+
+/// The `qp` builds' iterations: the firmware's against the host law's in
+/// every period it solved. The normal build never falls back and makes
+/// the host's active-set changes (f32 against f64: at most 1% of the
+/// periods may differ, by rounding at a constraint's edge); the
+/// `qp-fallback-test` build (cap 1, cold starts) falls back, in the same
+/// periods as the host law with the same cap.
+fn check_qp_iterations(its: &[(u16, u16)], fallback_test: bool, scalar: &str) {
+    use qp_law::FALLBACK;
+    let mut hist = std::collections::BTreeMap::<u16, usize>::new();
+    for &(_, fw) in its {
+        *hist.entry(fw).or_default() += 1;
+    }
+    let differ = its.iter().filter(|(h, f)| h != f).count();
+    let fw_fallbacks = its.iter().filter(|(_, f)| f & FALLBACK != 0).count();
+    let host_fallbacks = its.iter().filter(|(h, _)| h & FALLBACK != 0).count();
+    println!(
+        "{scalar} qp: iterations per period (firmware, {} periods; 0x8000 = fallback): {hist:?}; differing from the host's in {differ}; fallbacks firmware {fw_fallbacks}, host {host_fallbacks}",
+        its.len()
+    );
+    assert!(!its.is_empty(), "no solved period");
+    assert!(
+        differ * 100 <= its.len(),
+        "{scalar} qp: iterations differ from the host's in {differ} of {} periods",
+        its.len()
+    );
+    if fallback_test {
+        assert!(fw_fallbacks > 0, "the fallback test build never fell back");
+    } else {
+        assert_eq!(fw_fallbacks, 0, "{scalar} qp: fallback in a normal flight");
+        assert_eq!(host_fallbacks, 0, "host qp: fallback in a normal flight");
     }
 }
 
@@ -428,7 +545,11 @@ fn json_stats(s: &CycleStats) -> String {
 
 /// Flies the step scenario and checks everything the issue asks of the HIL run.
 fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u16) {
-    let solver = if features.contains(&"empc-ns2") {
+    let solver = if features.contains(&"qp") || features.contains(&"qp-fallback-test") {
+        Solver::Qp {
+            fallback_test: features.contains(&"qp-fallback-test"),
+        }
+    } else if features.contains(&"empc-ns2") {
         Solver::EmpcNs2
     } else if features.contains(&"empc") {
         Solver::Empc
@@ -483,11 +604,24 @@ fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u
     let s = stats(&fl.replies, |r| r.solver_cycles);
     let p = stats(&fl.replies, |r| r.period_cycles);
     let ms = |c: f64| c / 16_000.0;
-    // The fast gradient's iterations, or the explicit tree's depth.
+    // The fast gradient's iterations, the explicit tree's depth, or the
+    // most active-set changes of a period in the flight.
+    let qp_max = fl
+        .qp_iterations
+        .iter()
+        .map(|&(_, fw)| usize::from(fw & !qp_law::FALLBACK))
+        .max()
+        .unwrap_or(0);
     let (solver_name, iters) = match solver {
         Solver::Fgm => ("fgm", design().loop_iterations()),
         Solver::Empc => ("empc", empc().stats.depth),
         Solver::EmpcNs2 => ("empc-ns2", ns2_empc().stats.depth),
+        Solver::Qp {
+            fallback_test: false,
+        } => ("qp", qp_max),
+        Solver::Qp {
+            fallback_test: true,
+        } => ("qp-fallback-test", qp_max),
     };
     println!(
         "{scalar} {solver_name} ({iters} iterations or tree depth): kalman {} cycles, solver {} cycles, period {} cycles (max {:.3} ms at 16 MHz); flash {flash} B, RAM {ram} B; table at 0x{:05x}; max |PWM - f64 ref| = {} us; rate error worst {:.4} mean {:.4} rad/s",
@@ -508,6 +642,9 @@ fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u
         // (also the halved box of the Ns = 2 design): the law is exact in
         // every period, never the clamped fallback.
         assert_eq!(o, 0, "parameter outside the explicit law's box");
+    }
+    if let Solver::Qp { fallback_test } = solver {
+        check_qp_iterations(&fl.qp_iterations, fallback_test, scalar);
     }
 
     // Tables read back through ELPM/RAMPZ match the build.
@@ -639,6 +776,13 @@ fn hil_step_scenario_empc_fixed_q16_mac() {
 #[test]
 fn hil_step_scenario_empc_ns2_fixed_q16_mac() {
     check_flight(&["empc-ns2", "fixed-mac"], false, "fixed-mac", 3);
+}
+
+/// The exact MPC: kestrel-qp's dual active-set solver in f32 on the
+/// thesis-sized box QP, warm-started (feature `qp`).
+#[test]
+fn hil_step_scenario_qp_f32() {
+    check_flight(&["qp"], false, "f32", 1);
 }
 
 #[test]
