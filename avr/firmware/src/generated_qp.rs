@@ -48,3 +48,7 @@ pub static QP_HI: [[f32; QP_P]; QP_N] = [
 ];
 /// The upper bounds' constant `hi0`.
 pub static QP_HI0: [f32; QP_N] = [1.999493e3, 2.0003412e3, 2.0001656e3, 3.5161032e2];
+/// The parameter box's lower end.
+pub static QP_THETA_LB: [f32; QP_P] = [-1e1, -1e1, -1e1, -1e1, -1e1, -3e0, -3e0, -3e0, 1e3];
+/// The parameter box's upper end.
+pub static QP_THETA_UB: [f32; QP_P] = [1e1, 1e1, 1e1, 1e1, 1e1, 3e0, 3e0, 3e0, 2e3];

@@ -73,11 +73,19 @@ mod generated_empc_ns2;
 #[cfg(feature = "qp")]
 #[allow(dead_code)]
 mod generated_qp;
+/// The `qp` builds' set-up and on-target check.
+#[cfg(feature = "qp")]
+mod qp;
 /// The `qp` builds' law (also the HIL test's host reference, in f64).
 #[cfg(feature = "qp")]
 #[allow(dead_code)]
 mod qp_law;
-#[cfg(all(feature = "qp", any(feature = "fixed", feature = "fixed-mac", feature = "empc")))]
+#[cfg(all(feature = "qp-check", feature = "hil-faults"))]
+compile_error!("`hil-faults` wraps the law; `qp-check` needs the bare QP law");
+#[cfg(all(
+    feature = "qp",
+    any(feature = "fixed", feature = "fixed-mac", feature = "empc")
+))]
 compile_error!("`qp` runs kestrel-qp in f32: not with `fixed`, `fixed-mac` or `empc`");
 /// Fault injection for the HIL test.
 #[cfg(feature = "hil-faults")]
@@ -192,25 +200,6 @@ const FGM_BUDGET: u32 = 240_000;
 /// iterations fit.
 #[cfg(not(feature = "no-fgm"))]
 const FGM_STRIDE: u16 = 4;
-
-/// kestrel-qp's settings in the `qp` builds: f32 tolerances with the
-/// primal one in the problem's units (microseconds of PWM: 1e-3 us, above
-/// f32's rounding of a 2,000 us bound), and the iteration cap: 16
-/// active-set changes (a cold solve of the 4-variable box QP needs at most
-/// 4 additions when no removal occurs; the certified worst case is in
-/// docs/avr-rt.md), 1 in the `qp-fallback-test` build.
-#[cfg(feature = "qp")]
-const QP_SETTINGS: kestrel_qp::QpSettings = kestrel_qp::QpSettings {
-    primal_tol: 1e-3,
-    dual_tol: 1e-6,
-    pivot_tol: 1e-5,
-    max_iterations: if cfg!(feature = "qp-fallback-test") { 1 } else { 16 },
-};
-
-/// Whether the `qp` builds warm-start each solve from the previous
-/// period's active set (not in the `qp-fallback-test` build).
-#[cfg(feature = "qp")]
-const QP_WARM: bool = !cfg!(feature = "qp-fallback-test");
 
 /// WDTCSR value: reset mode (WDE), prescaler 2 (8k cycles of the 128 kHz
 /// oscillator: 64 ms).
@@ -484,37 +473,10 @@ pub extern "C" fn main() -> ! {
     // QP of src/generated_qp.rs, its workspaces on main's frame (main
     // never returns).
     #[cfg(feature = "qp")]
-    let mut qp_scalars = [0f32; kestrel_qp::scalar_len(generated_qp::QP_N, 0)];
+    let mut qp_ws = qp::Workspace::new();
     #[cfg(feature = "qp")]
-    let mut qp_indices = [0usize; kestrel_qp::index_len(generated_qp::QP_N, 0)];
-    #[cfg(feature = "qp")]
-    let law = {
-        use generated_qp::*;
-        use kestrel_qp::QpSolver;
-        let h: [f32; QP_N * QP_N] = core::array::from_fn(|k| QP_H[k / QP_N][k % QP_N]);
-        let Ok(solver) = QpSolver::new(
-            QP_N,
-            0,
-            &h,
-            &[],
-            QP_SETTINGS,
-            &mut qp_scalars,
-            &mut qp_indices,
-        ) else {
-            loop {}
-        };
-        let maps = qp_law::QpMaps {
-            f: &QP_F,
-            f0: &QP_F0,
-            lo: &QP_LO,
-            lo0: &QP_LO0,
-            hi: &QP_HI,
-            hi0: &QP_HI0,
-        };
-        let Ok(law) = qp_law::QpLaw::<f32, QP_N, QP_P, 4>::new(solver, maps, NX, QP_WARM) else {
-            loop {}
-        };
-        law
+    let Some(law) = qp::law(&mut qp_ws, qp::SETTINGS, qp::WARM, NX) else {
+        loop {}
     };
     let bias = va(&table, BIAS);
     let one = S::from_f32_fast(1.0);
@@ -553,6 +515,10 @@ pub extern "C" fn main() -> ! {
     fgm_bench(&clock);
     #[cfg(feature = "empc-check")]
     empc_check(&mut rate_loop.law, &clock);
+    #[cfg(feature = "qp-check")]
+    qp::check(&mut rate_loop.law, NX, &clock, &mut |p| {
+        send(Kind::Bench, 0, p)
+    });
 
     let mut decoder = FrameDecoder::new();
     let mut seqs = SeqTracker::new();

@@ -32,6 +32,10 @@ pub struct QpTables {
     pub hi: Vec<f64>,
     /// Upper bound offset, `n`.
     pub hi0: Vec<f64>,
+    /// The parameter box's lower end, `p` (where the problem is posed).
+    pub theta_lb: Vec<f64>,
+    /// The parameter box's upper end, `p`.
+    pub theta_ub: Vec<f64>,
 }
 
 impl QpTables {
@@ -56,6 +60,8 @@ impl QpTables {
             lo0: qp.lo0.iter().copied().collect(),
             hi: rows(&qp.hi_theta),
             hi0: qp.hi0.iter().copied().collect(),
+            theta_lb: qp.theta_lb.iter().copied().collect(),
+            theta_ub: qp.theta_ub.iter().copied().collect(),
         }
     }
 
@@ -107,7 +113,9 @@ pub fn generate_qp_tables(d: &FirmwareDesign) -> Result<String, DesignError> {
             .chain(&t.lo)
             .chain(&t.lo0)
             .chain(&t.hi)
-            .chain(&t.hi0);
+            .chain(&t.hi0)
+            .chain(&t.theta_lb)
+            .chain(&t.theta_ub);
     if let Some(bad) = all
         .clone()
         .find(|v| !v.is_finite() || v.abs() > f32::MAX as f64)
@@ -197,5 +205,16 @@ pub fn generate_qp_tables(d: &FirmwareDesign) -> Result<String, DesignError> {
         "The upper bounds' constant `hi0`.",
         &t.hi0,
     );
+    for (name, doc, v) in [
+        ("QP_THETA_LB", "The parameter box's lower end.", &t.theta_lb),
+        ("QP_THETA_UB", "The parameter box's upper end.", &t.theta_ub),
+    ] {
+        let items: Vec<String> = v.iter().map(num).collect();
+        let _ = writeln!(
+            s,
+            "/// {doc}\npub static {name}: [f32; QP_P] = [{}];",
+            items.join(", ")
+        );
+    }
     Ok(s)
 }

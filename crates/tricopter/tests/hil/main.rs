@@ -188,16 +188,15 @@ fn host_empc_loop(controller: &'static ExplicitController) -> HostEmpcLoop {
 type HostQpLaw = qp_law::QpLaw<'static, f64, { generated::NZ }, { generated::NP }, 4>;
 type HostQpLoop = RateLoop<f64, StationaryFilter<f64, { generated::NX }, 4, 3>, HostQpLaw, 4>;
 
-/// The host reference of the `qp` builds: the firmware's law
-/// (avr/firmware/src/qp_law.rs) in f64 on the f64 box QP of the design
-/// (`firmware::QpTables`, what `src/generated_qp.rs` holds in f32), with
-/// kestrel-qp's f64 tolerances and the firmware's iteration cap and start.
-fn host_qp_loop(fallback_test: bool) -> HostQpLoop {
+/// The firmware's `qp` law (avr/firmware/src/qp_law.rs) in f64 on the
+/// f64 box QP of the design (`firmware::QpTables`, what
+/// `src/generated_qp.rs` holds in f32), with kestrel-qp's f64 tolerances,
+/// the iteration cap `cap` and warm starts or not.
+fn host_qp_law(cap: usize, warm: bool) -> HostQpLaw {
     use kestrel_qp::{QpSettings, QpSolver, index_len, scalar_len};
     const N: usize = generated::NZ;
     const P: usize = generated::NP;
-    let d = design();
-    let t = kestrel_tricopter::firmware::QpTables::of(d);
+    let t = kestrel_tricopter::firmware::QpTables::of(design());
     assert_eq!((t.n, t.p), (N, P));
     let rows = |v: &[f64]| -> &'static [[f64; P]; N] {
         Box::leak(Box::new(core::array::from_fn(|i| {
@@ -215,13 +214,31 @@ fn host_qp_loop(fallback_test: bool) -> HostQpLoop {
         hi0: vec(&t.hi0),
     };
     let settings = QpSettings {
-        max_iterations: if fallback_test { 1 } else { QP_MAX_ITERATIONS },
+        max_iterations: cap,
         ..QpSettings::default()
     };
     let scalars = Box::leak(vec![0.0; scalar_len(N, 0)].into_boxed_slice());
     let indices = Box::leak(vec![0; index_len(N, 0)].into_boxed_slice());
     let solver = QpSolver::new(N, 0, &t.h, &[], settings, scalars, indices).unwrap();
-    let law = qp_law::QpLaw::new(solver, maps, generated::NX, !fallback_test).unwrap();
+    qp_law::QpLaw::new(solver, maps, generated::NX, warm).unwrap()
+}
+
+/// The box `(lo, hi)` of the design's QP at `theta`.
+fn host_qp_box(theta: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let (_, lo, hi) = kestrel_tricopter::firmware::QpTables::of(design()).data_at(theta);
+    (lo, hi)
+}
+
+/// The host reference of the `qp` builds: [`host_qp_law`] with the
+/// firmware's cap and warm starts (cap 1 and cold starts for the
+/// `qp-fallback-test` build) in the f64 loop.
+fn host_qp_loop(fallback_test: bool) -> HostQpLoop {
+    let d = design();
+    let law = if fallback_test {
+        host_qp_law(1, false)
+    } else {
+        host_qp_law(QP_MAX_ITERATIONS, true)
+    };
     let filter = StationaryFilter::new(d.gains().expect("gains"), [0.0; generated::NX]);
     RateLoop::new(
         filter,
@@ -238,7 +255,7 @@ fn host_qp_loop(fallback_test: bool) -> HostQpLoop {
     .unwrap()
 }
 
-/// The `qp` builds' iteration cap (`QP_SETTINGS` in avr/firmware/src/main.rs).
+/// The `qp` builds' iteration cap (`SETTINGS` in avr/firmware/src/qp.rs).
 const QP_MAX_ITERATIONS: usize = 16;
 
 type HostLaw = FgmLaw<f64, { generated::NZ }, { generated::NP }, { generated::FGM_T }, 4>;
@@ -825,3 +842,4 @@ fn far_table_above_64k_reads_back() {
 mod empc_target;
 mod faults;
 mod fgm_bench;
+mod qp_target;
