@@ -2,7 +2,7 @@
 //! [`QpSolver`]: the dual-feasible add of the most violated constraint, the
 //! dual step that removes a blocking one, the step along the null vector
 //! when an entering constraint is dependent, and the LDL' updates of `M =
-//! A_A D^-1 A_A'` for each (coordinates as in the `solver` module).
+//! G_A H^-1 G_A'` for each (in `z` itself, see the `solver` module).
 
 use crate::solver::{QpScalar, QpSolver, check_len, dot};
 use crate::{QpData, QpError, SolveInfo, Start};
@@ -36,26 +36,14 @@ impl<S: QpScalar> QpSolver<'_, S> {
                 return Err(QpError::NonFinite);
             }
         }
-        // qt = L^-1 q (= linvt' q), y_unc = -D^-1 qt.
-        self.qt.fill(S::ZERO);
-        for (row, &qi) in self.linvt.chunks_exact(n).zip(data.q) {
-            for (t, &r) in self.qt.iter_mut().zip(row) {
-                *t = t.mul_add(r, qi);
-            }
-        }
-        for ((yu, &t), &di) in self
-            .yunc
-            .iter_mut()
-            .zip(self.qt.iter())
-            .zip(self.dinv.iter())
-        {
-            *yu = -(t * di);
+        // z_unc = -H^-1 q.
+        for (zu, row) in self.zunc.iter_mut().zip(self.hinv.chunks_exact(n)) {
+            *zu = -dot(row, data.q);
         }
         match start {
             Start::Cold => self.clear(),
             Start::Warm => self.refactor(data),
         }
-        self.mu.fill(S::ZERO);
         let mut iterations = 0;
         loop {
             if self.count > 0 && self.df[self.count - 1] == S::ZERO {
@@ -64,7 +52,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
                 }
                 self.singular_step()?;
             } else {
-                self.solve_mustar(data);
+                self.solve_mustar();
                 match self.blocking_dual() {
                     None => {
                         self.mu[..self.count].copy_from_slice(&self.mustar[..self.count]);
@@ -83,7 +71,8 @@ impl<S: QpScalar> QpSolver<'_, S> {
                                 if self.count > self.n {
                                     return Err(QpError::Infeasible);
                                 }
-                                self.add(j, side);
+                                let (lo, hi) = Self::bounds(data, m, j);
+                                self.add(j, side, if side & 1 == 1 { hi } else { lo });
                             }
                         }
                     }
@@ -122,7 +111,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
             }
             // Writes position `count <= t`: entries not yet read survive.
             let code = (s & 1) + if lo == hi { 2 } else { 0 };
-            self.add(j, code);
+            self.add(j, code, bound);
             if self.df[self.count - 1] == S::ZERO {
                 self.count -= 1;
                 self.pos[j] = 0;
@@ -130,24 +119,22 @@ impl<S: QpScalar> QpSolver<'_, S> {
         }
     }
 
-    /// `mustar = M^-1 (A_A y_unc - b_A)` through the LDL' factor.
-    fn solve_mustar(&mut self, data: &QpData<'_, S>) {
+    /// `mustar = M^-1 (G_A z_unc - b_A)` through the LDL' factor. The
+    /// right-hand side is fixed during a solve and the forward solve
+    /// `L^-1 rhs` of the positions the last changes left alone is kept, so
+    /// only the positions from the first changed one are redone.
+    fn solve_mustar(&mut self) {
         let k = self.count;
         let c = self.n + 1;
-        for p in 0..k {
-            let j = self.active[p];
-            let (lo, hi) = Self::bounds(data, self.m, j);
-            let b = if self.side[p] & 1 == 1 { hi } else { lo };
-            let v = dot(self.vector(j), self.yunc) - b;
-            self.mustar[p] = v;
-        }
-        for i in 0..k {
+        for i in self.fwd_valid.min(k)..k {
             let row = &self.lf[i * c..i * c + i];
-            let v = self.mustar[i] - dot(row, &self.mustar[..i]);
-            self.mustar[i] = v;
+            let v = self.rhs[i] - dot(row, &self.fwd[..i]);
+            self.fwd[i] = v;
         }
-        for i in 0..k {
-            self.mustar[i] = self.mustar[i] / self.df[i];
+        self.fwd_valid = k;
+        let (fwd, df) = (&self.fwd[..k], &self.df[..k]);
+        for ((ms, &f), &d) in self.mustar[..k].iter_mut().zip(fwd).zip(df) {
+            *ms = f / d;
         }
         for i in (0..k).rev() {
             let mut v = self.mustar[i];
@@ -189,33 +176,29 @@ impl<S: QpScalar> QpSolver<'_, S> {
         self.side[p] >= 2
     }
 
-    /// `y = y_unc - D^-1 A_A' mu`.
+    /// `z = z_unc - H^-1 G_A' mu`.
     fn primal(&mut self) {
-        self.y.copy_from_slice(self.yunc);
+        self.z.copy_from_slice(self.zunc);
+        let n = self.n;
         for p in 0..self.count {
             let mu = self.mu[p];
             let j = self.active[p];
-            let n = self.n;
-            let a = if j < self.m {
-                &self.rows[j * n..(j + 1) * n]
+            let w = if j < self.m {
+                &self.w[j * n..(j + 1) * n]
             } else {
-                &self.linvt[(j - self.m) * n..(j - self.m + 1) * n]
+                &self.hinv[(j - self.m) * n..(j - self.m + 1) * n]
             };
-            for ((yi, &ai), &di) in self.y.iter_mut().zip(a).zip(self.dinv.iter()) {
-                *yi -= ai * di * mu;
+            for (zi, &wi) in self.z.iter_mut().zip(w) {
+                *zi -= wi * mu;
             }
         }
     }
 
-    /// The inactive constraint violated most (beyond `primal_tol`) at `y`.
+    /// The inactive constraint violated most (beyond `primal_tol`) at `z`:
+    /// rows `g_j' z` (`O(n)` each), then bounds (`z_i` itself).
     fn most_violated(&self, data: &QpData<'_, S>) -> Option<(usize, usize)> {
         let mut best: Option<(usize, usize, S)> = None;
-        for j in 0..self.m + self.n {
-            if self.pos[j] != 0 {
-                continue;
-            }
-            let (lo, hi) = Self::bounds(data, self.m, j);
-            let v = dot(self.vector(j), self.y);
+        let mut consider = |j: usize, v: S, lo: S, hi: S| {
             let (viol, side) = if v - hi > lo - v {
                 (v - hi, 1)
             } else {
@@ -225,30 +208,34 @@ impl<S: QpScalar> QpSolver<'_, S> {
             if viol > self.ptol && best.is_none_or(|(_, _, b)| viol > b) {
                 best = Some((j, side, viol));
             }
+        };
+        let (n, m) = (self.n, self.m);
+        let rows = self.g.chunks_exact(n).zip(data.l.iter().zip(data.u));
+        for (j, ((gj, (&lo, &hi)), &p)) in rows.zip(self.pos[..m].iter()).enumerate() {
+            if p == 0 {
+                consider(j, dot(gj, self.z), lo, hi);
+            }
+        }
+        let bounds = self.z.iter().zip(data.lb.iter().zip(data.ub));
+        for (i, ((&v, (&lo, &hi)), &p)) in bounds.zip(self.pos[m..].iter()).enumerate() {
+            if p == 0 {
+                consider(m + i, v, lo, hi);
+            }
         }
         best.map(|(j, s, _)| (j, s))
     }
 
-    /// Appends constraint `j` (side code: bit 0 upper, bit 1 equality) to
-    /// the active set and its row to the LDL' factor: `O(n k + k^2)`. A
-    /// dependent constraint gets the pivot 0 (resolved by
-    /// [`Self::singular_step`]).
-    fn add(&mut self, j: usize, code: usize) {
-        let n = self.n;
-        let c = n + 1;
+    /// Appends constraint `j` (side code: bit 0 upper, bit 1 equality; its
+    /// active bound `b`) to the active set and its row to the LDL' factor:
+    /// the new row of `M` is `O(k)` entries of `H^-1` (`O(n k)` for rows
+    /// against rows), the forward solve `O(k^2)`. A dependent constraint
+    /// gets the pivot 0 (resolved by [`Self::singular_step`]).
+    fn add(&mut self, j: usize, code: usize, b: S) {
+        let c = self.n + 1;
         let k = self.count;
-        // work = D^-1 a_j
-        let a = if j < self.m {
-            &self.rows[j * n..(j + 1) * n]
-        } else {
-            &self.linvt[(j - self.m) * n..(j - self.m + 1) * n]
-        };
-        for ((w, &ai), &di) in self.work.iter_mut().zip(a).zip(self.dinv.iter()) {
-            *w = ai * di;
-        }
-        let diag = dot(a, self.work);
+        let diag = self.m_entry(j, j);
         for p in 0..k {
-            self.tmp[p] = dot(self.vector(self.active[p]), self.work);
+            self.tmp[p] = self.m_entry(self.active[p], j);
         }
         // Forward solve L t = c, then L_new = t / d, d_new = diag - t' D^-1 t.
         let mut d = diag;
@@ -261,6 +248,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
         }
         self.lf[k * c + k] = S::ONE;
         self.df[k] = if d > self.pivtol * diag { d } else { S::ZERO };
+        self.rhs[k] = self.value(j, self.zunc) - b;
         self.active[k] = j;
         self.side[k] = code;
         self.pos[j] = k + 1;
@@ -289,12 +277,14 @@ impl<S: QpScalar> QpSolver<'_, S> {
             }
             self.df[r] = self.df[r + 1];
             self.mu[r] = self.mu[r + 1];
+            self.rhs[r] = self.rhs[r + 1];
             self.active[r] = self.active[r + 1];
             self.side[r] = self.side[r + 1];
             self.pos[self.active[r]] = r + 1;
             self.wv[r] = self.wv[r + 1];
         }
         self.count = k - 1;
+        self.fwd_valid = self.fwd_valid.min(p);
         // Rank-one update of rows/columns p.. with alpha * w w'.
         for i in p..k - 1 {
             let pv = self.wv[i];

@@ -1,13 +1,14 @@
-//! The dual active-set solver: set-up (LDL' of `H`, the constraints in its
-//! coordinates) and the Goldfarb-Idnani iterations with LDL' updates of the
-//! active constraints' `M = G_A H^-1 G_A'`.
+//! The dual active-set solver: set-up (LDL' of `H`, `H^-1`, `H^-1 g_j`) and
+//! the accessors; the Goldfarb-Idnani iterations with LDL' updates of the
+//! active constraints' `M = G_A H^-1 G_A'` are in the `iterate` module.
 //!
-//! Coordinates: with `H = L D L'` (unit lower `L`) and `y = L' z`, the QP is
-//! `min 1/2 y'Dy + (L^-1 q)'y` s.t. `lo <= a_j'y <= hi`, where `a_j =
-//! L^-1 g_j` for a row of `G` and `a_j = L^-1 e_i` (column `i` of `L^-1`) for
-//! the bound on `z_i`: simple bounds need no row of `G`. With signed
-//! multipliers `mu` (positive at an upper bound, negative at a lower one),
-//! `y = y_unc - D^-1 A_A' mu` and `M mu = A_A y_unc - b_A`.
+//! Coordinates: the iterations work on `z` itself. With signed multipliers
+//! `mu` (positive at an upper bound, negative at a lower one),
+//! `z = z_unc - H^-1 G_A' mu` (`z_unc = -H^-1 q`) and
+//! `M mu = G_A z_unc - b_A`. The set-up keeps `H^-1` and `w_j = H^-1 g_j`
+//! for each row of `G`, so that every entry of `M` a simple bound takes part
+//! in is an entry of `H^-1` or of a `w_j` (`O(1)`), a row against a row a
+//! dot product `g_i' w_j`, and a bound's value at `z` is `z_i` itself.
 
 use crate::{QpError, QpSettings};
 use core::ops::Div;
@@ -75,15 +76,15 @@ pub struct SolveInfo {
 }
 
 /// Length of the scalar workspace for `n` variables and `m` rows of `G`:
-/// `n^2 + m n + 5 n + 5 (n + 1) + (n + 1)^2` (saturating at `usize::MAX`,
+/// `n^2 + 2 m n + 3 n + 7 (n + 1) + (n + 1)^2` (saturating at `usize::MAX`,
 /// which no slice reaches: sizes too large for the address space, as on a
 /// 16-bit AVR, are refused by [`QpSolver::new`] instead of wrapping).
 pub const fn scalar_len(n: usize, m: usize) -> usize {
     let c = n.saturating_add(1);
     n.saturating_mul(n)
-        .saturating_add(m.saturating_mul(n))
-        .saturating_add(n.saturating_mul(5))
-        .saturating_add(c.saturating_mul(5))
+        .saturating_add(m.saturating_mul(n).saturating_mul(2))
+        .saturating_add(n.saturating_mul(3))
+        .saturating_add(c.saturating_mul(7))
         .saturating_add(c.saturating_mul(c))
 }
 
@@ -103,17 +104,19 @@ pub struct QpSolver<'w, S> {
     pub(crate) n: usize,
     pub(crate) m: usize,
     pub(crate) settings: QpSettings,
-    /// `L^-T` (upper triangular), row `i` = column `i` of `L^-1`, `n x n`.
-    pub(crate) linvt: &'w mut [S],
-    /// `1 / D`, `n`.
-    pub(crate) dinv: &'w mut [S],
-    /// `L^-1 G'` as rows `a_j`, `m x n`.
-    pub(crate) rows: &'w mut [S],
-    /// `L^-1 q`, then scratch `D^-1 a_k`.
-    pub(crate) qt: &'w mut [S],
+    /// `H^-1` (symmetric), `n x n` row-major: row `i` is the vector of the
+    /// bound on `z_i`.
+    pub(crate) hinv: &'w mut [S],
+    /// The rows `g_j` of `G`, `m x n`.
+    pub(crate) g: &'w mut [S],
+    /// `w_j = H^-1 g_j` for each row, `m x n`.
+    pub(crate) w: &'w mut [S],
+    /// `z_unc = -H^-1 q`, `n`.
+    pub(crate) zunc: &'w mut [S],
+    /// The primal point `z`, `n`.
+    pub(crate) z: &'w mut [S],
+    /// Set-up scratch (the pivots of `H`), `n`.
     pub(crate) work: &'w mut [S],
-    pub(crate) yunc: &'w mut [S],
-    pub(crate) y: &'w mut [S],
     /// The active set's LDL' factor, `(n+1) x (n+1)` row-major, unit lower.
     pub(crate) lf: &'w mut [S],
     pub(crate) df: &'w mut [S],
@@ -121,12 +124,17 @@ pub struct QpSolver<'w, S> {
     pub(crate) mustar: &'w mut [S],
     pub(crate) tmp: &'w mut [S],
     pub(crate) wv: &'w mut [S],
+    /// `g_p' z_unc - b_p` of each active position (fixed during a solve).
+    pub(crate) rhs: &'w mut [S],
+    /// `L^-1 rhs`, valid for the positions below `fwd_valid`.
+    pub(crate) fwd: &'w mut [S],
     /// Active constraint at each position, its side (1 = upper).
     pub(crate) active: &'w mut [usize],
     pub(crate) side: &'w mut [usize],
     /// Position + 1 of each constraint in the active list, 0 if inactive.
     pub(crate) pos: &'w mut [usize],
     pub(crate) count: usize,
+    pub(crate) fwd_valid: usize,
     pub(crate) ptol: S,
     pub(crate) dtol: S,
     pub(crate) pivtol: S,
@@ -194,55 +202,61 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
         }
         let c = n + 1;
         let mut buf = scalars;
-        let linvt = take(&mut buf, n * n);
-        let dinv = take(&mut buf, n);
-        let rows = take(&mut buf, m * n);
-        let qt = take(&mut buf, n);
+        let hinv = take(&mut buf, n * n);
+        let gs = take(&mut buf, m * n);
+        let w = take(&mut buf, m * n);
+        let zunc = take(&mut buf, n);
+        let z = take(&mut buf, n);
         let work = take(&mut buf, n);
-        let yunc = take(&mut buf, n);
-        let y = take(&mut buf, n);
         let lf = take(&mut buf, c * c);
         let df = take(&mut buf, c);
         let mu = take(&mut buf, c);
         let mustar = take(&mut buf, c);
         let tmp = take(&mut buf, c);
         let wv = take(&mut buf, c);
+        let rhs = take(&mut buf, c);
+        let fwd = take(&mut buf, c);
         let mut ibuf = indices;
         let active = take(&mut ibuf, c);
         let side = take(&mut ibuf, c);
         let pos = take(&mut ibuf, m + n);
         pos.fill(0);
+        z.fill(S::ZERO);
+        gs.copy_from_slice(g);
         let mut s = QpSolver {
             n,
             m,
             settings,
-            linvt,
-            dinv,
-            rows,
-            qt,
+            hinv,
+            g: gs,
+            w,
+            zunc,
+            z,
             work,
-            yunc,
-            y,
             lf,
             df,
             mu,
             mustar,
             tmp,
             wv,
+            rhs,
+            fwd,
             active,
             side,
             pos,
             count: 0,
+            fwd_valid: 0,
             ptol: S::from_f64(settings.primal_tol),
             dtol: S::from_f64(settings.dual_tol),
             pivtol: S::from_f64(settings.pivot_tol),
         };
         s.factor_h(h)?;
-        s.transform_rows(g);
+        s.invert_h();
+        s.transform_rows();
         Ok(s)
     }
 
-    /// LDL' of `H` into `lf` (as `n x n` scratch), then `L^-T` and `1/D`.
+    /// LDL' of `H` into `lf` (as `n x n` scratch), the pivots into `work`.
     fn factor_h(&mut self, h: &[S]) -> Result<(), QpError> {
         let n = self.n;
         let l = &mut self.lf[..n * n];
@@ -266,35 +280,53 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
                 l[i * n + j] = v / d;
             }
         }
-        for (di, d) in self.dinv.iter_mut().zip(self.work.iter()) {
-            *di = S::ONE / *d;
-        }
-        // Column c of L^-1 (entries c.. n) into row c of linvt.
-        self.linvt.fill(S::ZERO);
-        for c in 0..n {
-            self.linvt[c * n + c] = S::ONE;
-            for i in c + 1..n {
-                let mut v = S::ZERO;
-                for k in c..i {
-                    v -= l[i * n + k] * self.linvt[c * n + k];
-                }
-                self.linvt[c * n + i] = v;
-            }
-        }
         Ok(())
     }
 
-    /// `a_j = L^-1 g_j` by forward substitution (`L` still in `lf`).
-    fn transform_rows(&mut self, g: &[S]) {
+    /// `H^-1 = L^-T D^-1 L^-1` column by column (`L` in `lf`, `D` in
+    /// `work`), then symmetrised.
+    fn invert_h(&mut self) {
         let n = self.n;
         let l = &self.lf[..n * n];
-        for (a, gj) in self.rows.chunks_exact_mut(n).zip(g.chunks_exact(n)) {
-            for k in 0..n {
-                let mut v = gj[k];
-                for i in 0..k {
-                    v -= l[k * n + i] * a[i];
+        for c in 0..n {
+            let x = &mut self.hinv[c * n..(c + 1) * n];
+            // L x = e_c (x_i = 0 above c), scaled by D^-1, then L' x = .
+            x.fill(S::ZERO);
+            x[c] = S::ONE;
+            for i in c + 1..n {
+                let mut v = S::ZERO;
+                for k in c..i {
+                    v -= l[i * n + k] * x[k];
                 }
-                a[k] = v;
+                x[i] = v;
+            }
+            for (xi, &d) in x.iter_mut().zip(self.work.iter()) {
+                *xi = *xi / d;
+            }
+            for i in (0..n).rev() {
+                let mut v = x[i];
+                for k in i + 1..n {
+                    v -= l[k * n + i] * x[k];
+                }
+                x[i] = v;
+            }
+        }
+        let half = S::from_f64(0.5);
+        for i in 0..n {
+            for j in 0..i {
+                let v = (self.hinv[i * n + j] + self.hinv[j * n + i]) * half;
+                self.hinv[i * n + j] = v;
+                self.hinv[j * n + i] = v;
+            }
+        }
+    }
+
+    /// `w_j = H^-1 g_j`.
+    fn transform_rows(&mut self) {
+        let n = self.n;
+        for (wj, gj) in self.w.chunks_exact_mut(n).zip(self.g.chunks_exact(n)) {
+            for (wi, row) in wj.iter_mut().zip(self.hinv.chunks_exact(n)) {
+                *wi = dot(row, gj);
             }
         }
     }
@@ -314,14 +346,42 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
         &self.settings
     }
 
-    /// Constraint `j`'s vector `a_j` in the factor's coordinates.
-    pub(crate) fn vector(&self, j: usize) -> &[S] {
+    /// Constraint `j`'s vector `H^-1 g_j` (`w_j` for a row, row `i` of
+    /// `H^-1` for the bound on `z_i`).
+    #[inline]
+    pub(crate) fn wvec(&self, j: usize) -> &[S] {
+        let n = self.n;
+        let (src, r) = if j < self.m {
+            (&*self.w, j)
+        } else {
+            (&*self.hinv, j - self.m)
+        };
+        src.get(r * n..(r + 1) * n).unwrap_or(&[])
+    }
+
+    /// Constraint `j`'s value `g_j' x` at `x` (`x_i` for the bound on
+    /// `z_i`).
+    #[inline]
+    pub(crate) fn value(&self, j: usize, x: &[S]) -> S {
         let n = self.n;
         if j < self.m {
-            &self.rows[j * n..(j + 1) * n]
+            dot(self.g.get(j * n..(j + 1) * n).unwrap_or(&[]), x)
         } else {
-            let i = j - self.m;
-            &self.linvt[i * n..(i + 1) * n]
+            x.get(j - self.m).copied().unwrap_or(S::ZERO)
+        }
+    }
+
+    /// The entry `g_i' H^-1 g_j` of `M` for constraints `i` and `j`: an
+    /// entry of `H^-1` or of a `w_j` when a bound takes part, `O(1)`.
+    #[inline]
+    pub(crate) fn m_entry(&self, i: usize, j: usize) -> S {
+        let (n, m) = (self.n, self.m);
+        let at = |v: &[S], k: usize| v.get(k).copied().unwrap_or(S::ZERO);
+        match (i < m, j < m) {
+            (false, false) => at(self.hinv, (i - m) * n + (j - m)),
+            (true, false) => at(self.w, i * n + (j - m)),
+            (false, true) => at(self.w, j * n + (i - m)),
+            (true, true) => self.value(i, self.wvec(j)),
         }
     }
 
@@ -369,6 +429,7 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
             self.pos[j] = 0;
         }
         self.count = 0;
+        self.fwd_valid = 0;
     }
 
     /// The largest entry of `L D L' - A_A D^-1 A_A'` (the updated factor
@@ -393,10 +454,22 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
                     };
                     ldl += li * self.df[t].to_f64() * lj;
                 }
-                let (ai, aj) = (self.vector(self.active[i]), self.vector(self.active[j]));
-                let m: f64 = (0..self.n)
-                    .map(|t| ai[t].to_f64() * self.dinv[t].to_f64() * aj[t].to_f64())
-                    .sum();
+                // g_a' H^-1 g_b in f64 from G and H^-1 (not the w_j).
+                let n = self.n;
+                let row = |c: usize, t: usize| -> f64 {
+                    if c < self.m {
+                        self.g[c * n + t].to_f64()
+                    } else {
+                        f64::from(u8::from(c - self.m == t))
+                    }
+                };
+                let (a, b) = (self.active[i], self.active[j]);
+                let mut m = 0.0;
+                for r in 0..n {
+                    for t in 0..n {
+                        m += row(a, r) * self.hinv[r * n + t].to_f64() * row(b, t);
+                    }
+                }
                 worst = worst.max((ldl - m).abs());
                 scale = scale.max(m.abs());
             }
@@ -407,9 +480,7 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
     /// The solution `z` of the last successful solve into `z` (`n`).
     pub fn solution(&self, z: &mut [S]) -> Result<(), QpError> {
         check_len(self.n, z.len())?;
-        for (zi, row) in z.iter_mut().zip(self.linvt.chunks_exact(self.n)) {
-            *zi = dot(row, self.y);
-        }
+        z.copy_from_slice(self.z);
         Ok(())
     }
 
