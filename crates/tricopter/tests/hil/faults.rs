@@ -619,3 +619,13 @@ fn hil_faults_empc_fixed_q16_mac() {
         (200_000, None),
     );
 }
+
+/// The exact MPC by kestrel-qp in f32 (feature `qp`: at most 127k solver
+/// cycles at any parameter of the box, 4 active-set changes; 44k in the
+/// hover flights): 150k more still ends inside the period. Its iterations
+/// are bounded by the solver's cap (16; at the cap the law answers its
+/// bounded fallback), so the scenario past the next tick is not flown.
+#[test]
+fn hil_faults_qp_f32() {
+    check_faults(&["qp", "hil-faults"], "qp f32", (150_000, None));
+}

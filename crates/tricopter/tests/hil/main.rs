@@ -417,6 +417,16 @@ fn wait_boot(avr: &mut AvrTester, dec: &mut FrameDecoder) -> Boot {
 }
 
 fn fly(elf: &Path, periods: usize, solver: Solver) -> Flight {
+    fly_references(elf, periods, solver, reference_at)
+}
+
+/// [`fly`] with the rate references `reference(t)`.
+fn fly_references(
+    elf: &Path,
+    periods: usize,
+    solver: Solver,
+    reference: fn(f64) -> [f64; 3],
+) -> Flight {
     let mut avr = AvrTester::atmega2560().with_clock_of_16_mhz().load(elf);
     let mut dec = FrameDecoder::new();
     let boot = wait_boot(&mut avr, &mut dec);
@@ -441,7 +451,7 @@ fn fly(elf: &Path, periods: usize, solver: Solver) -> Flight {
     for k in 0..periods {
         let t = k as f64 * TS;
         let gyro = plant.measure();
-        let r = reference_at(t);
+        let r = reference(t);
         let mut cmd = Command {
             gyro: gyro.map(|g| g as f32),
             reference: r.map(|x| x as f32),
@@ -842,4 +852,5 @@ fn far_table_above_64k_reads_back() {
 mod empc_target;
 mod faults;
 mod fgm_bench;
+mod qp_fallback;
 mod qp_target;
