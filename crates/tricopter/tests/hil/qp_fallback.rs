@@ -11,7 +11,7 @@ use kestrel_avr_rt::frame::status;
 /// Rate references switching every 0.5 s between `[3, -3, 2]` and
 /// `[-3, 3, -2]` rad/s (the edges of the design's parameter box).
 fn aggressive(t: f64) -> [f64; 3] {
-    if (t / 0.5) as u64 % 2 == 0 {
+    if ((t / 0.5) as u64).is_multiple_of(2) {
         [3.0, -3.0, 2.0]
     } else {
         [-3.0, 3.0, -2.0]
