@@ -60,6 +60,7 @@ pub fn law(ws: &mut Workspace, settings: QpSettings, warm: bool, nx: usize) -> O
         lo0: &QP_LO0,
         hi: &QP_HI,
         hi0: &QP_HI0,
+        hinv: &QP_HINV,
     };
     QpLaw::new(solver, maps, nx, warm).ok()
 }
@@ -76,8 +77,9 @@ pub const CHECK_SAMPLES: u16 = 150;
 /// 2. warm starts along a random walk in the box (each step at most 5 % of
 ///    the box's width per parameter);
 /// 3. a second law with the iteration cap 1 and cold starts at
-///    pseudo-random parameters: the fallback wherever two or more
-///    active-set changes are needed.
+///    pseudo-random parameters: the fallback (the unconstrained optimum
+///    clamped to the box) wherever two or more active-set changes are
+///    needed.
 ///
 /// Per solve it sends two Bench-kind frames through `send`: the index and
 /// the parameter's nine f32 (38 bytes), then the index, the law's

@@ -11,10 +11,11 @@
 //! Errors:
 //! - the solver's [`QpError::IterationLimit`] and [`QpError::Infeasible`]
 //!   (the iteration cap reached, or no solution): the law answers the
-//!   **fallback**, the previous period's solution clamped to this
-//!   period's box (zero, the trim, after a restart), a bounded input in the
-//!   box of this period, and reports it by [`FALLBACK`] in
-//!   [`LawInfo::iterations`]; the next period starts cold;
+//!   **fallback**, the unconstrained optimum `-H^-1 q` clamped to this
+//!   period's box (the clipped unconstrained law: feedback on this
+//!   period's state, a bounded input in this period's box, as
+//!   `kestrel_avr_rt::qp16::Qp16Solver::fallback`), and reports it by
+//!   [`FALLBACK`] in [`LawInfo::iterations`]; the next period starts cold;
 //! - any other error (a non-finite parameter, crossing bounds, wrong
 //!   sizes): the law returns it and the loop applies its safe pulses
 //!   (`kestrel_avr_rt::control::RateLoop`).
@@ -47,6 +48,8 @@ pub struct QpMaps<'a, S, const N: usize, const P: usize> {
     pub hi: &'a [[S; P]; N],
     /// Upper bound constant `hi0`.
     pub hi0: &'a [S; N],
+    /// `H^-1`, for the fallback's unconstrained optimum.
+    pub hinv: &'a [[S; N]; N],
 }
 
 /// Bit `j` set where `row[j]` is not zero (`P <= 16`).
@@ -112,6 +115,7 @@ impl<'w, S: QpScalar, const N: usize, const P: usize, const NU: usize> QpLaw<'w,
         let finite = [maps.f, maps.lo, maps.hi]
             .iter()
             .all(|m| m.iter().flatten().all(|v| v.is_finite()))
+            && maps.hinv.iter().flatten().all(|v| v.is_finite())
             && [maps.f0, maps.lo0, maps.hi0]
                 .iter()
                 .all(|v| v.iter().all(|x| x.is_finite()));
@@ -176,9 +180,10 @@ impl<'w, S: QpScalar, const N: usize, const P: usize, const NU: usize> QpLaw<'w,
                 Ok(())
             }
             Err(QpError::IterationLimit | QpError::Infeasible) => {
-                // The previous solution, clamped to this period's box.
-                for ((zi, &lo), &hi) in self.z.iter_mut().zip(&lb).zip(&ub) {
-                    *zi = zi.clamp_to(lo, hi);
+                // The unconstrained optimum -H^-1 q, clamped to the box.
+                for (i, zi) in self.z.iter_mut().enumerate() {
+                    let unc = -S::dot(&m.hinv[i], &q);
+                    *zi = unc.clamp_to(lb[i], ub[i]);
                 }
                 let cap = self.solver.settings().max_iterations;
                 self.iterations = FALLBACK | cap.min(usize::from(!FALLBACK)) as u16;

@@ -20,6 +20,9 @@ pub struct QpTables {
     pub p: usize,
     /// Hessian, `n x n`, row-major.
     pub h: Vec<f64>,
+    /// Its inverse, `n x n`, row-major (the fallback's unconstrained
+    /// optimum `-H^-1 q`); zeros if `H` is singular.
+    pub hinv: Vec<f64>,
     /// Linear term map, `n x p`, row-major.
     pub f: Vec<f64>,
     /// Constant linear term, `n`.
@@ -53,6 +56,12 @@ impl QpTables {
             n,
             p,
             h: rows(&qp.h),
+            hinv: rows(
+                &qp.h
+                    .clone()
+                    .try_inverse()
+                    .unwrap_or_else(|| nalgebra::DMatrix::zeros(n, n)),
+            ),
             // `f_theta` is p x n (q = f_theta' theta + f): F is its transpose.
             f: rows(&qp.f_theta.transpose()),
             f0: qp.f.iter().copied().collect(),
@@ -108,6 +117,7 @@ pub fn generate_qp_tables(d: &FirmwareDesign) -> Result<String, DesignError> {
     let (n, p) = (t.n, t.p);
     let all =
         t.h.iter()
+            .chain(&t.hinv)
             .chain(&t.f)
             .chain(&t.f0)
             .chain(&t.lo)
@@ -165,6 +175,14 @@ pub fn generate_qp_tables(d: &FirmwareDesign) -> Result<String, DesignError> {
         "QP_H",
         "The Hessian `H` (symmetric positive definite).",
         &t.h,
+        "QP_N",
+        n,
+    );
+    matrix(
+        &mut s,
+        "QP_HINV",
+        "`H^-1` (the fallback's unconstrained optimum `-H^-1 q`).",
+        &t.hinv,
         "QP_N",
         n,
     );

@@ -203,6 +203,11 @@ fn host_qp_law(cap: usize, warm: bool) -> HostQpLaw {
             core::array::from_fn(|j| v[i * P + j])
         })))
     };
+    let rows_n = |v: &[f64]| -> &'static [[f64; N]; N] {
+        Box::leak(Box::new(core::array::from_fn(|i| {
+            core::array::from_fn(|j| v[i * N + j])
+        })))
+    };
     let vec =
         |v: &[f64]| -> &'static [f64; N] { Box::leak(Box::new(core::array::from_fn(|i| v[i]))) };
     let maps = qp_law::QpMaps {
@@ -212,6 +217,7 @@ fn host_qp_law(cap: usize, warm: bool) -> HostQpLaw {
         lo0: vec(&t.lo0),
         hi: rows(&t.hi),
         hi0: vec(&t.hi0),
+        hinv: rows_n(&t.hinv),
     };
     let settings = QpSettings {
         max_iterations: cap,

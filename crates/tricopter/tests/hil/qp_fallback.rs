@@ -2,8 +2,8 @@
 //! (kestrel-qp's iteration cap 1, cold starts) flown against the nonlinear
 //! plant with rate references that drive several inputs to their bounds
 //! at once, so that many periods need two or more active-set changes and
-//! answer the law's fallback (the previous solution clamped to the
-//! period's box).
+//! answer the law's fallback (the unconstrained optimum `-H^-1 q` clamped
+//! to the period's box).
 
 use super::{CYCLES_PER_PERIOD, Solver, build_firmware, fly_references, qp_law};
 use kestrel_avr_rt::frame::status;
