@@ -136,13 +136,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
         for ((ms, &f), &d) in self.mustar[..k].iter_mut().zip(fwd).zip(df) {
             *ms = f / d;
         }
-        for i in (0..k).rev() {
-            let mut v = self.mustar[i];
-            for r in i + 1..k {
-                v -= self.lf[r * c + i] * self.mustar[r];
-            }
-            self.mustar[i] = v;
-        }
+        back_substitute(self.lf, c, &mut self.mustar[..k]);
     }
 
     /// Whether `mu + a (mustar - mu)` must stop short at `a < 1` (or 1) to
@@ -312,14 +306,9 @@ impl<S: QpScalar> QpSolver<'_, S> {
         let k = self.count;
         let last = k - 1;
         // p = L^-T e_last.
+        self.tmp[..last].fill(S::ZERO);
         self.tmp[last] = S::ONE;
-        for i in (0..last).rev() {
-            let mut v = S::ZERO;
-            for r in i + 1..k {
-                v -= self.lf[r * c + i] * self.tmp[r];
-            }
-            self.tmp[i] = v;
-        }
+        back_substitute(self.lf, c, &mut self.tmp[..k]);
         let sk = if self.side[last] & 1 == 0 {
             -S::ONE
         } else {
@@ -350,5 +339,19 @@ impl<S: QpScalar> QpSolver<'_, S> {
         }
         self.remove(blocking);
         Ok(())
+    }
+}
+
+/// `x <- L^-T x` for the unit lower factor `lf` (row stride `c`), by rows
+/// of `L` (contiguous): once `x_r` is final, `x_i -= L_ri x_r` for `i < r`.
+#[inline]
+fn back_substitute<S: QpScalar>(lf: &[S], c: usize, x: &mut [S]) {
+    for r in (1..x.len()).rev() {
+        let (head, tail) = x.split_at_mut(r);
+        let xr = tail[0];
+        let row = lf.get(r * c..r * c + r).unwrap_or(&[]);
+        for (xi, &l) in head.iter_mut().zip(row) {
+            *xi -= l * xr;
+        }
     }
 }
