@@ -277,3 +277,94 @@ fn f32_within_stated_bound() {
         assert!(worst <= bound, "{name}: {worst:e}");
     }
 }
+
+/// kestrel-empc's certificate of the solver (cold, and warm from the
+/// previous optimal active set sorted by index, 5 % step) against the
+/// solver at sampled theta on the tricopter thesis-sized problem: no
+/// sample above the worst case, every sample equal to its region's count,
+/// the worst region's interior point exactly at the worst case.
+#[test]
+fn certified_iterations_hold_on_the_thesis_sized_tricopter() {
+    use kestrel_empc::certify::{CertifySettings, certify};
+    use kestrel_qp::ActiveConstraint;
+    let p = tricopter(ProblemSize::Thesis);
+    let step = 0.05;
+    let settings = CertifySettings {
+        warm_step: Some(step),
+        ..CertifySettings::default()
+    };
+    let c = certify(&p, &settings, &mut |_| {}).unwrap();
+    let warm = c.warm.as_ref().unwrap();
+    let par = ParametricQp::from_mpqp(&p).unwrap();
+    let (ns, ni) = par.workspace_len();
+    let (mut s, mut ix) = (vec![0.0; ns], vec![0; ni]);
+    let mut qp = par.solver(QpSettings::default(), &mut s, &mut ix).unwrap();
+    let mut buf = par.buffers::<f64>();
+    let mut run = |theta: &[f64], set: Option<&[ActiveConstraint]>| {
+        par.fill(theta, &mut buf).unwrap();
+        let start = match set {
+            Some(set) => {
+                qp.set_active_set(set).unwrap();
+                Start::Warm
+            }
+            None => Start::Cold,
+        };
+        let it = qp.solve(&buf.data(), start).unwrap().iterations;
+        let mut fin: Vec<ActiveConstraint> = qp.active_set().collect();
+        fin.sort_by_key(|a| a.index);
+        (it, fin)
+    };
+    let (lb, ub) = (par.theta_lb().to_vec(), par.theta_ub().to_vec());
+    let mut rng = SplitMix64::seed_from_u64(77);
+    let count = samples(2_000);
+    let (mut located, mut most_cold, mut most_warm) = ([0usize; 2], 0, 0);
+    for _ in 0..count {
+        let prev: Vec<f64> = (0..p.p())
+            .map(|k| lb[k] + (ub[k] - lb[k]) * rng.random::<f64>())
+            .collect();
+        let (cold, set) = run(&prev, None);
+        assert!(cold <= c.cold.worst_iterations, "cold {cold} at {prev:?}");
+        if let Some((ci, _)) = c.cold.iterations_at(&prev, None) {
+            assert_eq!(cold, ci, "cold at {prev:?}");
+            located[0] += 1;
+        }
+        let theta: Vec<f64> = (0..p.p())
+            .map(|k| {
+                let d = step * (ub[k] - lb[k]) * (2.0 * rng.random::<f64>() - 1.0);
+                (prev[k] + d).clamp(lb[k], ub[k])
+            })
+            .collect();
+        let (w, _) = run(&theta, Some(&set));
+        assert!(
+            w <= warm.worst_iterations,
+            "warm {w} at {theta:?} from {prev:?}"
+        );
+        if let Some((ci, _)) = warm.iterations_at(&theta, Some(&prev)) {
+            assert_eq!(w, ci, "warm at {theta:?} from {prev:?}");
+            located[1] += 1;
+        }
+        most_cold = most_cold.max(cold);
+        most_warm = most_warm.max(w);
+    }
+    assert!(
+        located.iter().all(|&l| l * 100 >= count * 99),
+        "{located:?} of {count}"
+    );
+    let wc = c.cold.worst.as_ref().unwrap();
+    assert_eq!(run(&wc.theta, None).0, c.cold.worst_iterations);
+    let ww = warm.worst.as_ref().unwrap();
+    let (_, set) = run(ww.theta_prev.as_ref().unwrap(), None);
+    assert_eq!(set, ww.start_set);
+    assert_eq!(run(&ww.theta, Some(&set)).0, warm.worst_iterations);
+    eprintln!(
+        "tricopter thesis-sized: certified cold {} iterations / {} flops ({} regions), warm ({step}) {} / {} ({} regions, {} start sets); {count} samples: most cold {most_cold}, warm {most_warm}; worst cold theta {:?}",
+        c.cold.worst_iterations,
+        c.cold.worst_flops,
+        c.cold.regions,
+        warm.worst_iterations,
+        warm.worst_flops,
+        warm.regions,
+        warm.start_sets,
+        wc.theta
+    );
+}

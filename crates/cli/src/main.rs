@@ -50,6 +50,8 @@ enum Command {
     Export(commands::export::Args),
     /// Write every generated file (firmware tables, golden files) from its inputs; `--check` compares only.
     Codegen(commands::codegen::Args),
+    /// Online dual active-set QP solver: certify its worst-case iterations.
+    Qp(commands::qp::Args),
 }
 
 fn main() -> ExitCode {
@@ -68,6 +70,7 @@ fn main() -> ExitCode {
         Command::Pipeline(args) => commands::pipeline::run(args),
         Command::Export(args) => commands::export::run(args),
         Command::Codegen(args) => commands::codegen::run(args),
+        Command::Qp(args) => commands::qp::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

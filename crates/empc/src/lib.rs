@@ -4,6 +4,9 @@
 pub mod eval;
 
 #[cfg(feature = "std")]
+pub mod certify;
+
+#[cfg(feature = "std")]
 mod error;
 #[cfg(feature = "std")]
 pub mod export;

@@ -11,4 +11,5 @@ pub mod import;
 pub mod kalman;
 pub mod mpc;
 pub mod pipeline;
+pub mod qp;
 pub mod simulate;

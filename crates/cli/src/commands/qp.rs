@@ -1,0 +1,117 @@
+//! `kestrel qp certify`: the complexity certificate of kestrel-qp's dual
+//! active-set solver.
+
+use crate::{io, progress};
+use anyhow::Context;
+use kestrel_core::formats::MpqpProblem;
+use kestrel_empc::certify::{Certificate, CertifySettings, certify};
+use serde_json::json;
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// The online dual active-set QP solver (kestrel-qp).
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: QpCommand,
+}
+
+/// The `qp` subcommands.
+#[derive(clap::Subcommand, Debug)]
+pub enum QpCommand {
+    /// Certify the solver's worst-case iterations and flops over the parameter box.
+    ///
+    /// Input: a `kestrel.mpqp.v1` problem (rows bounding one variable
+    /// become the solver's simple bounds, mirrored rows double-sided rows).
+    /// The parameter box is partitioned by the sequence of active sets the
+    /// solver visits from a cold start (and, with `--warm-step`, from the
+    /// previous optimal active set, sorted by constraint index, with every
+    /// parameter moving at most D times its box width).
+    ///
+    /// Output: a summary on standard output (worst iterations and flops,
+    /// the worst region's interior point, region counts by iterations);
+    /// `--json OUT` writes `kestrel.qp-certificate.v1` (`cold`, `warm`: each
+    /// with `worst_iterations`, `worst_flops`, `regions`, `histogram`,
+    /// `worst_region` {`theta`, `theta_prev`, `path`, `A`, `b`, ...}).
+    Certify(CertifyArgs),
+}
+
+/// Flags of `kestrel qp certify`.
+#[derive(clap::Args, Debug)]
+pub struct CertifyArgs {
+    /// Problem file (`kestrel.mpqp.v1`).
+    pub problem: PathBuf,
+    /// Also certify the warm start for parameter steps up to D times each
+    /// parameter's box width (0 < D <= 1).
+    #[arg(long, value_name = "D")]
+    pub warm_step: Option<f64>,
+    /// Write the certificate as JSON here.
+    #[arg(long, value_name = "OUT")]
+    pub json: Option<PathBuf>,
+    /// Give up after this many regions in one start.
+    #[arg(long, default_value_t = 2_000_000)]
+    pub max_regions: usize,
+    /// Give up after this many seconds.
+    #[arg(long, default_value_t = 600.0)]
+    pub time_limit: f64,
+}
+
+/// Runs `kestrel qp`.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    match args.command {
+        QpCommand::Certify(a) => run_certify(a),
+    }
+}
+
+fn run_certify(a: CertifyArgs) -> anyhow::Result<()> {
+    let name = a.problem.display().to_string();
+    let problem = MpqpProblem::read(&a.problem).with_context(|| name.clone())?;
+    anyhow::ensure!(
+        a.time_limit.is_finite() && a.time_limit > 0.0,
+        "--time-limit must be a positive number of seconds"
+    );
+    let settings = CertifySettings {
+        warm_step: a.warm_step,
+        max_regions: a.max_regions,
+        time_limit: Some(Duration::from_secs_f64(a.time_limit)),
+        keep_regions: false,
+        ..CertifySettings::default()
+    };
+    let bar = if progress::enabled() {
+        let pb = indicatif::ProgressBar::new_spinner();
+        pb.enable_steady_tick(Duration::from_millis(200));
+        pb
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    progress::show(&bar);
+    let mut show = |p: &kestrel_empc::certify::Progress| {
+        bar.set_message(format!(
+            "{}: {} regions, {} open, {} LPs, worst {} iterations, start sets {}/{}",
+            p.phase, p.regions, p.open, p.lps, p.worst_iterations, p.start_sets_done, p.start_sets
+        ));
+    };
+    let result = certify(&problem, &settings, &mut show);
+    bar.finish_and_clear();
+    let c = result.with_context(|| name.clone())?;
+    let (n, m, p) = (c.cold.n, c.cold.m, c.cold.p);
+    let mut text = format!(
+        "{name}: n = {n} variables, m = {m} general rows (besides the bounds), p = {p} parameters\n{}",
+        c.cold
+    );
+    if let Some(w) = &c.warm {
+        text.push_str(&w.to_string());
+    }
+    print!("{text}");
+    if let Some(out) = &a.json {
+        let doc = json!({
+            "format": "kestrel.qp-certificate.v1",
+            "problem": name,
+            "cold": c.cold.to_json(),
+            "warm": c.warm.as_ref().map(Certificate::to_json),
+        });
+        io::write_output(Some(out), &serde_json::to_string_pretty(&doc)?)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,343 @@
+//! Complexity certification of kestrel-qp's dual active-set solver:
+//! the parameter set of a `kestrel.mpqp.v1` problem partitioned by the
+//! sequence of active sets the solver visits, cold and warm started, with
+//! the exact worst-case iteration count, a floating-point operation count
+//! and the region where the worst case occurs.
+//!
+//! ```
+//! use kestrel_empc::certify::{CertifySettings, certify};
+//! let problem = kestrel_empc::testing::thesis_sized(1);
+//! let settings = CertifySettings { warm_step: Some(0.01), ..CertifySettings::default() };
+//! let c = certify(&problem, &settings, &mut |_| {})?;
+//! assert!(c.cold.worst_iterations >= 1);
+//! let warm = c.warm.as_ref().unwrap();
+//! assert!(warm.worst_iterations <= c.cold.worst_iterations + 8);
+//! # Ok::<(), kestrel_empc::certify::CertifyError>(())
+//! ```
+//!
+//! The method (docs/qp-certify.md): regions carry the solver's state as
+//! affine functions of the parameter (multipliers, primal point); each of
+//! the solver's decisions splits a region by affine half-spaces (Arnström
+//! and Axehill's framework, as ASCertain.jl does for DAQP), an LP (the
+//! largest inscribed ball) keeps the pieces with an interior. A warm start
+//! is certified in `(theta, theta_prev)`: `theta_prev` in the critical
+//! region of an optimal active set (stored sorted by constraint index), `|
+//! theta_k - theta_prev,k | <= step (ub_k - lb_k)`.
+
+mod explore;
+mod flops;
+mod geometry;
+mod model;
+mod report;
+mod step;
+
+pub use report::{Certificate, Certification, RegionReport};
+pub use step::{Change, Status};
+
+use explore::{Ctx, Tally, run};
+use geometry::{Geometry, Half, Poly, half, minus, size};
+use kestrel_core::formats::MpqpProblem;
+use kestrel_qp::QpSettings;
+use kestrel_qp::parametric::{ParametricError, ParametricQp};
+use model::{EQUALITY, Model, sign};
+use std::time::{Duration, Instant};
+use step::Node;
+
+/// What the certification needs and how far it may go.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CertifySettings {
+    /// The solver settings certified (tolerances, iteration cap): the
+    /// decisions are mirrored with these values.
+    pub qp: QpSettings,
+    /// Warm start: also certify a start from the previous period's optimal
+    /// active set with `|theta_k - theta_prev,k| <= step (ub_k - lb_k)`
+    /// (a fraction of each parameter's box width). `None`: cold only.
+    pub warm_step: Option<f64>,
+    /// The most regions (finished plus open) of one run before
+    /// [`CertifyError::Limit`]. Default 2,000,000.
+    pub max_regions: usize,
+    /// The longest the whole certification may take before
+    /// [`CertifyError::Limit`]. Default 10 minutes.
+    pub time_limit: Option<Duration>,
+    /// Regions whose largest inscribed ball (in the box normalised to `[-1,
+    /// 1]^p`) is smaller are lower-dimensional and dropped. Default 1e-9.
+    pub min_radius: f64,
+    /// Keep every region (for [`Certificate::iterations_at`]); off for
+    /// large problems to save memory. Default on.
+    pub keep_regions: bool,
+}
+
+impl Default for CertifySettings {
+    fn default() -> Self {
+        CertifySettings {
+            qp: QpSettings::default(),
+            warm_step: None,
+            max_regions: 2_000_000,
+            time_limit: Some(Duration::from_secs(600)),
+            min_radius: 1e-9,
+            keep_regions: true,
+        }
+    }
+}
+
+impl CertifySettings {
+    /// Checks the fields: valid solver settings, a warm step in `(0, 1]`,
+    /// at least one region, a positive time limit, a radius in `(0, 1)`.
+    pub fn validate(&self) -> Result<(), CertifyError> {
+        let bad = |s: &str| Err(CertifyError::InvalidSettings(s.to_string()));
+        if self.qp.validate().is_err() {
+            return bad("qp: a solver setting is out of range");
+        }
+        if let Some(s) = self.warm_step
+            && !(s > 0.0 && s <= 1.0)
+        {
+            return bad("warm_step must be in (0, 1] (a fraction of the box width)");
+        }
+        if self.max_regions == 0 {
+            return bad("max_regions must be at least 1");
+        }
+        if self.time_limit.is_some_and(|t| !explore::positive(t)) {
+            return bad("time_limit must be positive");
+        }
+        if !(self.min_radius > 0.0 && self.min_radius < 1.0) {
+            return bad("min_radius must be in (0, 1)");
+        }
+        Ok(())
+    }
+}
+
+/// How far a certification has got (for a progress display).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Progress {
+    /// `"cold"` or `"warm"`.
+    pub phase: &'static str,
+    /// Finished regions of this phase.
+    pub regions: usize,
+    /// Regions still to split.
+    pub open: usize,
+    /// Regions split so far.
+    pub nodes: usize,
+    /// LPs solved (all phases).
+    pub lps: usize,
+    /// The most iterations of a finished region so far.
+    pub worst_iterations: usize,
+    /// Warm start: start sets done.
+    pub start_sets_done: usize,
+    /// Warm start: start sets (critical regions) in all.
+    pub start_sets: usize,
+    /// Time since the start.
+    pub elapsed: Duration,
+}
+
+/// Why a certification failed.
+#[derive(Debug, thiserror::Error)]
+pub enum CertifyError {
+    /// The problem cannot be put in the solver's form.
+    #[error(transparent)]
+    Problem(#[from] ParametricError),
+    /// `H` is not positive definite.
+    #[error("H is not positive definite")]
+    NotPositiveDefinite,
+    /// A settings field is out of range.
+    #[error("invalid certification settings: {0}")]
+    InvalidSettings(String),
+    /// A linear algebra step failed.
+    #[error("numerical failure: {0}")]
+    Numerical(String),
+    /// The region or time limit was reached: the problem is too large for
+    /// these settings.
+    #[error(
+        "{what} limit reached in the {phase} certification after {elapsed:.1?}: {regions} regions finished, {open} open, {nodes} split, deepest path {deepest} iterations, start sets {start_sets_done} of {start_sets}; raise max_regions / time_limit or certify a smaller parameter set"
+    )]
+    Limit {
+        /// `"region"` or `"time"`.
+        what: &'static str,
+        /// `"cold"` or `"warm"`.
+        phase: &'static str,
+        /// Finished regions.
+        regions: usize,
+        /// Open regions.
+        open: usize,
+        /// Regions split.
+        nodes: usize,
+        /// The longest path seen.
+        deepest: usize,
+        /// Warm start sets done.
+        start_sets_done: usize,
+        /// Warm start sets in all.
+        start_sets: usize,
+        /// Time spent.
+        elapsed: Duration,
+    },
+}
+
+/// A constraint's name in paths and reports: `r<j>` for row `j` of the
+/// solver's `G`, `b<i>` for the bound on `z_i` (`j = m + i`).
+pub fn constraint_name(j: usize, m: usize) -> String {
+    if j < m {
+        format!("r{j}")
+    } else {
+        format!("b{}", j - m)
+    }
+}
+
+/// Certifies kestrel-qp's solver on `problem` over its parameter box
+/// (cold start, and warm start if `settings.warm_step` is set);
+/// `progress` is called every few hundred regions.
+pub fn certify(
+    problem: &MpqpProblem,
+    settings: &CertifySettings,
+    progress: &mut dyn FnMut(&Progress),
+) -> Result<Certification, CertifyError> {
+    settings.validate()?;
+    let par = ParametricQp::from_mpqp(problem)?;
+    let p = par.p();
+    let cold_model = Model::new(&par, p, settings.qp).ok_or(CertifyError::NotPositiveDefinite)?;
+    let started = Instant::now();
+    let mut geo = Geometry::new(settings.min_radius);
+    let mut ctx = Ctx {
+        settings,
+        started,
+        progress,
+        phase: "cold",
+        sets_done: 0,
+        sets_total: 0,
+    };
+    let n = par.n() as u64;
+    let root = Node {
+        poly: Poly::cube(p),
+        active: Vec::new(),
+        mu: Vec::new(),
+        dual: true,
+        singular: false,
+        iterations: 0,
+        flops: flops::preamble(n),
+        path: Vec::new(),
+        start: 0,
+    };
+    let mut cold = Tally::default();
+    let lps0 = geo.lps;
+    run(&cold_model, &mut geo, root, &mut ctx, &mut cold, true)?;
+    let cold_time = started.elapsed();
+    let cold_cert = report::certificate(
+        &cold_model,
+        &par,
+        cold,
+        (Vec::new(), Vec::new()),
+        None,
+        geo.lps - lps0,
+        cold_time,
+    );
+    let warm = match settings.warm_step {
+        None => None,
+        Some(step) => {
+            let finals = cold_cert.finals.clone();
+            let t0 = Instant::now();
+            let lps0 = geo.lps;
+            let model =
+                Model::new(&par, 2 * p, settings.qp).ok_or(CertifyError::NotPositiveDefinite)?;
+            ctx.phase = "warm";
+            ctx.sets_total = finals.len();
+            let mut tally = Tally::default();
+            let mut regions = Vec::new();
+            for (id, set) in finals.iter().enumerate() {
+                ctx.sets_done = id;
+                let Some(poly) = warm_region(&cold_model, &mut geo, set, step) else {
+                    regions.push((vec![0.0; 2 * p], vec![-1.0]));
+                    continue;
+                };
+                regions.push((poly.a.clone(), poly.b.clone()));
+                let root = warm_root(&model, set, poly, id, n);
+                run(&model, &mut geo, root, &mut ctx, &mut tally, false)?;
+            }
+            Some(report::certificate(
+                &model,
+                &par,
+                tally,
+                (finals, regions),
+                Some(step),
+                geo.lps - lps0,
+                t0.elapsed(),
+            ))
+        }
+    };
+    Ok(Certification {
+        cold: cold_cert,
+        warm,
+    })
+}
+
+/// The start region of a warm start from `set`: `theta_prev` (columns
+/// `p..2p`) in the critical region of `set`, `theta` in the box and
+/// within the step.
+fn warm_region(cold: &Model, geo: &mut Geometry, set: &[(usize, u8)], step: f64) -> Option<Poly> {
+    let p = cold.p;
+    let d = 2 * p;
+    let lift = |f: &[f64]| {
+        let mut g = vec![0.0; d + 1];
+        g[p..d].copy_from_slice(&f[..p]);
+        g[d] = f[p];
+        g
+    };
+    let mut hs: Vec<Half> = Vec::new();
+    // |s_k - sp_k| <= 2 step (the box is [-1, 1]).
+    for k in 0..p {
+        for sgn in [1.0, -1.0] {
+            let mut row = vec![0.0; d];
+            row[k] = sgn / 2f64.sqrt();
+            row[p + k] = -sgn / 2f64.sqrt();
+            hs.push(Half::Row(row, 2.0 * step / 2f64.sqrt()));
+        }
+    }
+    let mustar = cold.mustar(set)?;
+    for (&(_, code), m) in set.iter().zip(&mustar) {
+        if code & EQUALITY == 0 {
+            let f: Vec<f64> = m.iter().map(|v| -sign(code) * v).collect();
+            hs.push(half(&lift(&f), false, size(m)));
+        }
+    }
+    let mut active = vec![false; cold.ncons];
+    for &(j, _) in set {
+        active[j] = true;
+    }
+    for j in (0..cold.ncons).filter(|&j| !active[j]) {
+        let v = cold.value(j, set, &mustar);
+        if let Some(hi) = &cold.hi[j] {
+            let f = minus(&v, hi);
+            hs.push(half(&lift(&f), false, size(&v) + size(hi)));
+        }
+        if let Some(lo) = &cold.lo[j] {
+            let f = minus(lo, &v);
+            hs.push(half(&lift(&f), false, size(&v) + size(lo)));
+        }
+    }
+    geo.restrict(&Poly::cube(d), &hs)
+}
+
+/// The solver's state after re-adding `set` (sorted) from `mu = 0`:
+/// dependent constraints and infinite bounds dropped.
+fn warm_root(model: &Model, set: &[(usize, u8)], poly: Poly, id: usize, n: u64) -> Node {
+    let mut active: Vec<(usize, u8)> = Vec::new();
+    let mut flops = flops::preamble(n);
+    for &(j, code) in set {
+        if model.bound(j, code).is_none() || active.len() > model.n {
+            continue;
+        }
+        flops += flops::add(n, active.len() as u64);
+        if !model.dependent(&active, j) {
+            active.push((j, code));
+        }
+    }
+    let k = active.len();
+    Node {
+        poly,
+        active,
+        mu: vec![vec![0.0; model.d + 1]; k],
+        dual: false,
+        singular: false,
+        iterations: 0,
+        flops,
+        path: Vec::new(),
+        start: id,
+    }
+}

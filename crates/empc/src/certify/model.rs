@@ -1,0 +1,229 @@
+//! The mpQP in the solver's form with every quantity the certification
+//! needs as an affine function of the normalised parameter `s` (`theta =
+//! centre + half * s`, the parameter box becoming `[-1, 1]^p`).
+//!
+//! An affine function is a vector of `d + 1` numbers: the coefficients of
+//! the `d` LP variables, then the constant. Cold start: `d = p`, the
+//! variables are `s`. Warm start: `d = 2 p`, `(s, s_prev)`: the solver's
+//! data depend on `s` only, the previous parameter enters through the
+//! start region.
+
+use kestrel_qp::QpSettings;
+use kestrel_qp::parametric::{Affine, ParametricQp};
+use core::cmp::Ordering;
+use nalgebra::DMatrix;
+
+/// `y += a x`.
+pub(super) fn axpy(y: &mut [f64], a: f64, x: &[f64]) {
+    for (u, v) in y.iter_mut().zip(x) {
+        *u += a * v;
+    }
+}
+
+/// Side codes as the solver keeps them: bit 0 the upper side, bit 1 an
+/// equality row.
+pub(super) const UPPER: u8 = 1;
+/// See [`UPPER`].
+pub(super) const EQUALITY: u8 = 2;
+
+/// The sign of a side code's multiplier (`+1` upper, `-1` lower).
+pub(super) fn sign(code: u8) -> f64 {
+    if code & UPPER != 0 { 1.0 } else { -1.0 }
+}
+
+/// The problem data of the certification.
+#[derive(Debug, Clone)]
+pub(super) struct Model {
+    /// Variables.
+    pub n: usize,
+    /// Constraints (rows of the solver's `G`, then the `n` bounds).
+    pub ncons: usize,
+    /// Parameters.
+    pub p: usize,
+    /// LP variables (`p` or `2 p`).
+    pub d: usize,
+    /// Box centre and half-widths of `theta`.
+    pub centre: Vec<f64>,
+    /// See [`Self::centre`].
+    pub half: Vec<f64>,
+    /// `g_a' H^-1 g_b` of every pair of constraints, `ncons x ncons`.
+    pub mm: DMatrix<f64>,
+    /// `g_j' z_unc(s)` of each constraint (`z_unc = -H^-1 q`).
+    pub gz: Vec<Vec<f64>>,
+    /// Lower and upper bound of each constraint, `None` if infinite.
+    pub lo: Vec<Option<Vec<f64>>>,
+    /// See [`Self::lo`].
+    pub hi: Vec<Option<Vec<f64>>>,
+    /// Whether a constraint is an equality row (`l = u` as functions).
+    pub equality: Vec<bool>,
+    /// The solver settings whose rules are mirrored.
+    pub settings: QpSettings,
+}
+
+impl Model {
+    /// Builds the model of `par` with `d` LP variables (`p` or `2 p`).
+    pub fn new(par: &ParametricQp, d: usize, settings: QpSettings) -> Option<Self> {
+        let (n, m, p) = (par.n(), par.m(), par.p());
+        let ncons = m + n;
+        let centre: Vec<f64> = (0..p)
+            .map(|k| 0.5 * (par.theta_lb()[k] + par.theta_ub()[k]))
+            .collect();
+        let half: Vec<f64> = (0..p)
+            .map(|k| 0.5 * (par.theta_ub()[k] - par.theta_lb()[k]))
+            .collect();
+        let to_s = |a: &Affine| -> Vec<f64> {
+            let mut f = vec![0.0; d + 1];
+            for k in 0..p {
+                f[k] = a.e[k] * half[k];
+            }
+            f[d] = a.c + a.e.iter().zip(&centre).map(|(e, c)| e * c).sum::<f64>();
+            f
+        };
+        let h = DMatrix::from_row_slice(n, n, par.h());
+        let hinv = h.cholesky()?.inverse();
+        let g = DMatrix::from_fn(ncons, n, |j, i| par.constraint_row(j)[i]);
+        let hg = &hinv * g.transpose(); // n x ncons
+        let mm = &g * &hg;
+        // z_unc = -H^-1 q(s).
+        let q: Vec<Vec<f64>> = (0..n).map(|i| to_s(par.q(i))).collect();
+        let zunc: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                let mut f = vec![0.0; d + 1];
+                for (k, qk) in q.iter().enumerate() {
+                    axpy(&mut f, -hinv[(i, k)], qk);
+                }
+                f
+            })
+            .collect();
+        let gz = (0..ncons)
+            .map(|j| {
+                let mut f = vec![0.0; d + 1];
+                for (i, zi) in zunc.iter().enumerate() {
+                    axpy(&mut f, g[(j, i)], zi);
+                }
+                f
+            })
+            .collect();
+        let lo: Vec<Option<Vec<f64>>> = (0..ncons).map(|j| par.lower(j).map(to_s)).collect();
+        let hi: Vec<Option<Vec<f64>>> = (0..ncons).map(|j| par.upper(j).map(to_s)).collect();
+        let equality = (0..ncons)
+            .map(|j| matches!((par.lower(j), par.upper(j)), (Some(a), Some(b)) if a == b))
+            .collect();
+        Some(Model {
+            n,
+            ncons,
+            p,
+            d,
+            centre,
+            half,
+            mm,
+            gz,
+            lo,
+            hi,
+            equality,
+            settings,
+        })
+    }
+
+    /// The active bound of constraint `j` on side `code`.
+    pub fn bound(&self, j: usize, code: u8) -> Option<&Vec<f64>> {
+        if code & UPPER != 0 {
+            self.hi[j].as_ref()
+        } else {
+            self.lo[j].as_ref()
+        }
+    }
+
+    /// `M = G_A H^-1 G_A'` of an active list.
+    pub fn m_of(&self, active: &[(usize, u8)]) -> DMatrix<f64> {
+        let k = active.len();
+        DMatrix::from_fn(k, k, |a, b| self.mm[(active[a].0, active[b].0)])
+    }
+
+    /// Solves `M X = R` (`M` of an independent active list, `R` `k x c`).
+    pub fn solve_m(&self, m: &DMatrix<f64>, r: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+        match m.clone().cholesky() {
+            Some(c) => Some(c.solve(r)),
+            None => m.clone().lu().solve(r),
+        }
+    }
+
+    /// `mu*(s) = M^-1 (A_A y_unc - b_A)` of an independent active list, one
+    /// affine function per position.
+    pub fn mustar(&self, active: &[(usize, u8)]) -> Option<Vec<Vec<f64>>> {
+        let k = active.len();
+        if k == 0 {
+            return Some(Vec::new());
+        }
+        let d = self.d;
+        let mut r = DMatrix::zeros(k, d + 1);
+        for (a, &(j, code)) in active.iter().enumerate() {
+            let b = self.bound(j, code)?;
+            for c in 0..=d {
+                r[(a, c)] = self.gz[j][c] - b[c];
+            }
+        }
+        let x = self.solve_m(&self.m_of(active), &r)?;
+        Some((0..k).map(|a| x.row(a).iter().copied().collect()).collect())
+    }
+
+    /// `M^-1 e_last` of an independent active list.
+    pub fn last_column(&self, active: &[(usize, u8)]) -> Option<Vec<f64>> {
+        let k = active.len();
+        let mut e = DMatrix::zeros(k, 1);
+        e[(k - 1, 0)] = 1.0;
+        let x = self.solve_m(&self.m_of(active), &e)?;
+        Some(x.column(0).iter().copied().collect())
+    }
+
+    /// Whether constraint `j` entering after `active` (independent) gets a
+    /// zero pivot: the solver's test `d > pivot_tol * diag` fails for the
+    /// Schur complement `d = diag - t' M^-1 t`, `diag = g_j' H^-1 g_j`.
+    pub fn dependent(&self, active: &[(usize, u8)], j: usize) -> bool {
+        let diag = self.mm[(j, j)];
+        if active.is_empty() {
+            return diag.partial_cmp(&(self.settings.pivot_tol * diag)) != Some(Ordering::Greater);
+        }
+        let k = active.len();
+        let t = DMatrix::from_fn(k, 1, |a, _| self.mm[(active[a].0, j)]);
+        let Some(x) = self.solve_m(&self.m_of(active), &t) else {
+            return true;
+        };
+        let d = diag - t.column(0).dot(&x.column(0));
+        d.partial_cmp(&(self.settings.pivot_tol * diag)) != Some(Ordering::Greater)
+    }
+
+    /// The null vector `p` of `M` (last entry 1) when the last of `active`
+    /// depends on the others: `M_{11} x = -M_{1,last}`.
+    pub fn null_vector(&self, active: &[(usize, u8)]) -> Option<Vec<f64>> {
+        let k = active.len();
+        let head = &active[..k - 1];
+        let mut out = vec![0.0; k];
+        out[k - 1] = 1.0;
+        if k > 1 {
+            let rhs = DMatrix::from_fn(k - 1, 1, |a, _| -self.mm[(head[a].0, active[k - 1].0)]);
+            let x = self.solve_m(&self.m_of(head), &rhs)?;
+            out[..k - 1].copy_from_slice(x.as_slice());
+        }
+        Some(out)
+    }
+
+    /// `g_j' z(s)` at the primal point of multipliers `mu` (one affine
+    /// function per active position): `g_j' z_unc - sum_p (g_j' H^-1
+    /// g_{A_p}) mu_p`.
+    pub fn value(&self, j: usize, active: &[(usize, u8)], mu: &[Vec<f64>]) -> Vec<f64> {
+        let mut f = self.gz[j].clone();
+        for (&(a, _), m) in active.iter().zip(mu) {
+            axpy(&mut f, -self.mm[(j, a)], m);
+        }
+        f
+    }
+
+    /// `theta` of a normalised point's first `p` entries (`offset` 0) or
+    /// of its previous-parameter part (`offset` `p`).
+    pub fn theta(&self, x: &[f64], offset: usize) -> Vec<f64> {
+        (0..self.p)
+            .map(|k| self.centre[k] + self.half[k] * x[offset + k])
+            .collect()
+    }
+}

@@ -1,0 +1,149 @@
+//! The complexity certificate of kestrel-qp's solver against the solver
+//! itself: at sampled parameters (cold, and warm from the previous
+//! parameter's optimal active set within the step) no solve takes more
+//! iterations than certified, each takes exactly its region's count, and
+//! the worst region's interior point takes exactly the worst case.
+//!
+//! `KESTREL_CERTIFY_SAMPLES=N` sets the samples per problem and start
+//! (default 1,000; the 10^4: `KESTREL_CERTIFY_SAMPLES=10000 cargo
+//! test -p kestrel-empc --test certify --release`).
+
+use kestrel_core::formats::MpqpProblem;
+use kestrel_empc::certify::{Certificate, CertifySettings, certify};
+use kestrel_qp::parametric::ParametricQp;
+use kestrel_qp::{ActiveConstraint, QpSettings, QpSolver, Start};
+use rand::{RngExt, SeedableRng};
+use rand_xoshiro::SplitMix64;
+
+fn samples() -> usize {
+    std::env::var("KESTREL_CERTIFY_SAMPLES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1_000)
+}
+
+/// Solves at `theta` from `start` (warm: from `set`): iterations and the
+/// final active set sorted by index.
+fn solve(
+    qp: &mut QpSolver<'_, f64>,
+    par: &ParametricQp,
+    theta: &[f64],
+    set: Option<&[ActiveConstraint]>,
+) -> (usize, Vec<ActiveConstraint>) {
+    let mut buf = par.buffers::<f64>();
+    par.fill(theta, &mut buf).unwrap();
+    let start = match set {
+        Some(s) => {
+            qp.set_active_set(s).unwrap();
+            Start::Warm
+        }
+        None => Start::Cold,
+    };
+    let info = qp.solve(&buf.data(), start).unwrap();
+    let mut fin: Vec<ActiveConstraint> = qp.active_set().collect();
+    fin.sort_by_key(|a| a.index);
+    (info.iterations, fin)
+}
+
+/// Checks one certificate; returns (samples located in a region, samples).
+fn check_start(
+    name: &str,
+    p: &MpqpProblem,
+    cert: &Certificate,
+    warm: Option<f64>,
+    count: usize,
+) -> (usize, usize) {
+    let par = ParametricQp::from_mpqp(p).unwrap();
+    let (ns, ni) = par.workspace_len();
+    let (mut s, mut ix) = (vec![0.0; ns], vec![0; ni]);
+    let mut qp = par.solver(QpSettings::default(), &mut s, &mut ix).unwrap();
+    let mut rng = SplitMix64::seed_from_u64(2024);
+    let (lb, ub) = (par.theta_lb().to_vec(), par.theta_ub().to_vec());
+    let mut located = 0;
+    let mut most = 0;
+    for _ in 0..count {
+        let prev: Vec<f64> = (0..par.p())
+            .map(|k| lb[k] + (ub[k] - lb[k]) * rng.random::<f64>())
+            .collect();
+        let (theta, it, at) = match warm {
+            None => {
+                let (it, _) = solve(&mut qp, &par, &prev, None);
+                (prev.clone(), it, cert.iterations_at(&prev, None))
+            }
+            Some(step) => {
+                let (_, set) = solve(&mut qp, &par, &prev, None);
+                let theta: Vec<f64> = (0..par.p())
+                    .map(|k| {
+                        let d = step * (ub[k] - lb[k]) * (2.0 * rng.random::<f64>() - 1.0);
+                        (prev[k] + d).clamp(lb[k], ub[k])
+                    })
+                    .collect();
+                let (it, _) = solve(&mut qp, &par, &theta, Some(&set));
+                let at = cert.iterations_at(&theta, Some(&prev));
+                (theta, it, at)
+            }
+        };
+        most = most.max(it);
+        assert!(
+            it <= cert.worst_iterations,
+            "{name}: {it} iterations at {theta:?} (previous {prev:?}), certified {}",
+            cert.worst_iterations
+        );
+        if let Some((ci, _)) = at {
+            located += 1;
+            assert_eq!(
+                it, ci,
+                "{name}: {it} iterations at {theta:?} (previous {prev:?}), its region says {ci}"
+            );
+        }
+    }
+    // The worst region's interior point takes exactly the worst case.
+    let w = cert.worst.as_ref().unwrap();
+    let it = match &w.theta_prev {
+        None => solve(&mut qp, &par, &w.theta, None).0,
+        Some(prev) => {
+            let (_, set) = solve(&mut qp, &par, prev, None);
+            assert_eq!(set, w.start_set, "{name}: start set of the worst region");
+            solve(&mut qp, &par, &w.theta, Some(&set)).0
+        }
+    };
+    assert_eq!(
+        it, cert.worst_iterations,
+        "{name}: the worst region's point {:?} takes {it}",
+        w.theta
+    );
+    eprintln!(
+        "{name}: certified {} iterations, {} flops, {} regions ({:.2} s); {count} samples, {located} located, most {most}",
+        cert.worst_iterations,
+        cert.worst_flops,
+        cert.regions,
+        cert.elapsed.as_secs_f64()
+    );
+    (located, count)
+}
+
+fn check(name: &str, p: &MpqpProblem, step: f64) {
+    let settings = CertifySettings {
+        warm_step: Some(step),
+        ..CertifySettings::default()
+    };
+    let c = certify(p, &settings, &mut |_| {}).unwrap();
+    let n = samples();
+    let (lc, nc) = check_start(&format!("{name} cold"), p, &c.cold, None, n);
+    let warm = c.warm.as_ref().unwrap();
+    let (lw, nw) = check_start(&format!("{name} warm {step}"), p, warm, Some(step), n);
+    // Samples on no region lie on dropped slivers: almost never.
+    assert!(
+        lc * 100 >= nc * 99 && lw * 100 >= nw * 99,
+        "{name}: {lc}/{nc}, {lw}/{nw} located"
+    );
+    assert!(c.cold.exact && warm.exact);
+}
+
+#[test]
+fn random_thesis_sized_problems() {
+    for seed in [1, 2, 3] {
+        let p = kestrel_empc::testing::thesis_sized(seed);
+        check(&format!("thesis_sized({seed})"), &p, 0.05);
+    }
+}
