@@ -21,6 +21,7 @@ pub mod locate;
 pub mod mac;
 pub mod output;
 pub mod progmem;
+pub mod qp16;
 mod shift;
 
 pub use crc::crc16;

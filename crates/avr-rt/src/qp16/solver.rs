@@ -1,0 +1,455 @@
+//! The iterations: kestrel-qp's decision rules (most violated bound,
+//! blocking dual step, LDL' of `M = P_AA` updated on add and remove) on
+//! the fixed-point tables.
+#![allow(clippy::needless_range_loop)] // factor rows and columns indexed together
+
+use super::arith::{Recip, frac30, mac_round, mul_round, sat};
+use super::tables::Qp16Tables;
+
+/// How a solve starts (as `kestrel_qp::Start`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Qp16Start {
+    /// From the empty active set.
+    Cold,
+    /// From the previous solve's final active set, re-added in its order
+    /// with zero multipliers.
+    Warm,
+}
+
+/// Why a solve failed; the caller then applies [`Qp16Solver::fallback`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Qp16Error {
+    /// A lower bound exceeds its upper bound at this theta.
+    InvalidBounds,
+    /// A pivot of the active set's factor vanished (an entering bound
+    /// numerically dependent on the active ones; not reached by a table
+    /// the builder accepted) or more than `N` bounds became active.
+    Infeasible,
+    /// [`Qp16Tables::max_iterations`] active-set changes were made without
+    /// reaching the optimum.
+    IterationLimit,
+}
+
+impl core::fmt::Display for Qp16Error {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Qp16Error::InvalidBounds => "a lower bound exceeds its upper bound",
+            Qp16Error::Infeasible => "singular active set",
+            Qp16Error::IterationLimit => "iteration limit reached",
+        })
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for Qp16Error {}
+
+/// What a successful solve did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Qp16Info {
+    /// Active-set changes (adds plus removals), counted as kestrel-qp.
+    pub iterations: u16,
+    /// Size of the final active set.
+    pub active: u8,
+}
+
+/// The solver's state for `N` variables: the active set, its LDL' factor,
+/// the multipliers and the last point (all Q15.16 raw, about `8 N^2 + 40 N`
+/// bytes). `Copy`-free, no allocation; one per controller.
+#[derive(Clone, Debug)]
+pub struct Qp16Solver<const N: usize> {
+    /// Unit lower factor `L` (row `i`, columns `< i`).
+    l: [[i32; N]; N],
+    d: [i32; N],
+    rd: [Recip; N],
+    nu: [i32; N],
+    star: [i32; N],
+    /// `D^-1 L^-1 (w_unc_A - b_A)`, valid for the first `valid` positions
+    /// (an add leaves the earlier ones, a removal at `p` the first `p`).
+    y: [i32; N],
+    /// `L^-1 (w_unc_A - b_A)` (Q15.16), valid as `y`.
+    fwd: [i32; N],
+    valid: usize,
+    /// Variable of each active position; bit 0 of `side` the upper bound,
+    /// bit 1 an equality (`lb = ub`: never blocks).
+    active: [u8; N],
+    side: [u8; N],
+    /// Position + 1 of each variable in the active list (0: inactive).
+    pos: [u8; N],
+    count: usize,
+    w: [i32; N],
+    unc: [i32; N],
+    lo: [i32; N],
+    hi: [i32; N],
+}
+
+impl<const N: usize> Default for Qp16Solver<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> Qp16Solver<N> {
+    /// An empty solver (`N <= 255`).
+    pub const fn new() -> Self {
+        Qp16Solver {
+            l: [[0; N]; N],
+            d: [0; N],
+            rd: [Recip { q: 0, b: 0 }; N],
+            nu: [0; N],
+            star: [0; N],
+            y: [0; N],
+            fwd: [0; N],
+            valid: 0,
+            active: [0; N],
+            side: [0; N],
+            pos: [0; N],
+            count: 0,
+            w: [0; N],
+            unc: [0; N],
+            lo: [0; N],
+            hi: [0; N],
+        }
+    }
+
+    /// The last solution in the scaled variables (raw Q15.16 of `w = z /
+    /// 2^s`; convert with [`Qp16Tables::to_problem_f32`]). Active
+    /// variables sit exactly on their bound.
+    pub fn solution(&self) -> &[i32; N] {
+        &self.w
+    }
+
+    /// The active set of the last solve: `(variable, upper)` in the order
+    /// of entry.
+    pub fn active_set(&self) -> impl Iterator<Item = (u8, bool)> + '_ {
+        (0..self.count.min(N)).map(|p| (self.active[p], self.side[p] & 1 == 1))
+    }
+
+    /// Forgets the active set (the next warm start is a cold one).
+    pub fn reset(&mut self) {
+        self.clear();
+    }
+
+    /// The safe input after a failed solve at the same theta: the
+    /// unconstrained solution clamped to the bounds (to the midpoint of an
+    /// empty box), in the scaled variables. Always within the bounds when
+    /// they are consistent.
+    pub fn fallback(&self) -> [i32; N] {
+        core::array::from_fn(|i| {
+            let (lo, hi) = (self.lo[i], self.hi[i]);
+            if lo > hi {
+                ((lo as i64 + hi as i64) >> 1) as i32
+            } else {
+                self.unc[i].clamp(lo, hi)
+            }
+        })
+    }
+
+    /// Test only: `max |L D L' - P_AA|` over `max |P_AA|`.
+    #[cfg(test)]
+    pub(super) fn factor_residual<const P: usize>(&self, t: &Qp16Tables<N, P>) -> f64 {
+        let k = self.count;
+        let lv = |r: usize, c: usize| -> f64 {
+            if r == c {
+                1.0
+            } else if c < r {
+                self.l[r][c] as f64 / 2f64.powi(t.l_bits as i32)
+            } else {
+                0.0
+            }
+        };
+        let (mut worst, mut big) = (0.0f64, 0.0f64);
+        for r in 0..k {
+            for c in 0..k {
+                let m: f64 = (0..k).map(|i| lv(r, i) * lv(c, i) * self.d[i] as f64).sum();
+                let p = t.hinv[self.active[r] as usize][self.active[c] as usize] as f64;
+                worst = worst.max((m - p).abs());
+                big = big.max(p.abs());
+            }
+        }
+        worst / big.max(1.0)
+    }
+
+    fn clear(&mut self) {
+        self.count = 0;
+        self.valid = 0;
+        self.pos = [0; N];
+    }
+
+    /// Solves at `theta` (Q15.16 raw) with the tables `t`; the solution is
+    /// then [`Qp16Solver::solution`].
+    ///
+    /// # Errors
+    /// [`Qp16Error`]; [`Qp16Solver::fallback`] then gives a bounded input.
+    #[inline(never)]
+    pub fn solve<const P: usize>(
+        &mut self,
+        t: &Qp16Tables<N, P>,
+        theta: &[i32; P],
+        start: Qp16Start,
+    ) -> Result<Qp16Info, Qp16Error> {
+        for i in 0..N {
+            self.unc[i] = t.unc[i].eval(theta);
+            self.lo[i] = t.lb[i].eval(theta);
+            self.hi[i] = t.ub[i].eval(theta);
+        }
+        if (0..N).any(|i| self.lo[i] > self.hi[i]) {
+            self.w = self.fallback();
+            return Err(Qp16Error::InvalidBounds);
+        }
+        match start {
+            Qp16Start::Cold => self.clear(),
+            Qp16Start::Warm => self.refactor(t)?,
+        }
+        self.nu = [0; N];
+        let mut iterations: u16 = 0;
+        loop {
+            self.solve_star(t);
+            match self.blocking(t.dual_tol) {
+                None => {
+                    let k = self.count;
+                    self.nu[..k].copy_from_slice(&self.star[..k]);
+                    self.primal(t);
+                    match self.most_violated(t.primal_tol) {
+                        None => {
+                            return Ok(Qp16Info {
+                                iterations,
+                                active: k as u8,
+                            });
+                        }
+                        Some((j, side)) => {
+                            if iterations >= t.max_iterations {
+                                return Err(Qp16Error::IterationLimit);
+                            }
+                            if self.count >= N {
+                                return Err(Qp16Error::Infeasible);
+                            }
+                            self.add(t, j, side)?;
+                        }
+                    }
+                }
+                Some((p, alpha)) => {
+                    if iterations >= t.max_iterations {
+                        return Err(Qp16Error::IterationLimit);
+                    }
+                    for i in 0..self.count {
+                        let diff = sat(self.star[i] as i64 - self.nu[i] as i64);
+                        self.nu[i] = self.nu[i].saturating_add(mul_round(alpha, diff, 30));
+                    }
+                    self.remove(t, p)?;
+                }
+            }
+            iterations = iterations.saturating_add(1);
+        }
+    }
+
+    /// Re-adds the stored active set in its order (absent bounds dropped).
+    fn refactor<const P: usize>(&mut self, t: &Qp16Tables<N, P>) -> Result<(), Qp16Error> {
+        let k = self.count.min(N);
+        let (active, side) = (self.active, self.side);
+        self.clear();
+        self.valid = 0;
+        for p in 0..k {
+            let j = active[p] as usize;
+            if j >= N || self.pos[j] != 0 {
+                continue;
+            }
+            let upper = side[p] & 1 == 1;
+            let absent = if upper {
+                self.hi[j] == i32::MAX
+            } else {
+                self.lo[j] == i32::MIN
+            };
+            if absent {
+                continue;
+            }
+            let code = (side[p] & 1) | if self.lo[j] == self.hi[j] { 2 } else { 0 };
+            self.add(t, j, code)?;
+        }
+        Ok(())
+    }
+
+    /// The active bound of position `p`.
+    fn bound(&self, p: usize) -> i32 {
+        let j = self.active[p] as usize;
+        if self.side[p] & 1 == 1 {
+            self.hi[j]
+        } else {
+            self.lo[j]
+        }
+    }
+
+    /// `star = M^-1 (w_unc_A - b_A)` through the factor: `L y = r`
+    /// (Q15.16) and `D^-1 y` (multiplier format) for the positions not yet
+    /// solved (the rows of `L` before them have not changed), then
+    /// `L' star = D^-1 y`.
+    fn solve_star<const P: usize>(&mut self, t: &Qp16Tables<N, P>) {
+        let k = self.count;
+        let lb = t.l_bits;
+        let kd = (t.nu_bits + t.p_bits).saturating_sub(16);
+        for i in self.valid.min(k)..k {
+            let j = self.active[i] as usize;
+            let r = sat(self.unc[j] as i64 - self.bound(i) as i64);
+            let v = mac_round(&self.l[i][..i], &self.fwd[..i], lb);
+            self.fwd[i] = r.saturating_sub(v);
+            self.y[i] = self.rd[i].div(self.fwd[i], kd);
+        }
+        self.valid = k;
+        self.star[..k].copy_from_slice(&self.y[..k]);
+        let mut col = [0i32; N];
+        for i in (0..k.saturating_sub(1)).rev() {
+            for r in i + 1..k {
+                col[r] = self.l[r][i];
+            }
+            let v = mac_round(&col[i + 1..k], &self.star[i + 1..k], lb);
+            self.star[i] = self.star[i].saturating_sub(v);
+        }
+    }
+
+    /// The blocking position and the step (Q2.30), if any multiplier of
+    /// `star` has the wrong sign beyond `tol`: the strictly smallest step
+    /// wins (lowest position on ties).
+    fn blocking(&self, tol: i32) -> Option<(usize, i32)> {
+        let mut best: Option<(usize, i32)> = None;
+        for p in 0..self.count {
+            if self.side[p] >= 2 {
+                continue;
+            }
+            let upper = self.side[p] & 1 == 1;
+            let (star, cur) = if upper {
+                (self.star[p] as i64, self.nu[p] as i64)
+            } else {
+                (-(self.star[p] as i64), -(self.nu[p] as i64))
+            };
+            if star < -(tol as i64) {
+                let alpha = frac30(sat(cur), cur - star);
+                if best.is_none_or(|(_, a)| alpha < a) {
+                    best = Some((p, alpha));
+                }
+            }
+        }
+        best
+    }
+
+    /// `w = w_unc - P_{:,A} nu`; active variables exactly on their bound.
+    fn primal<const P: usize>(&mut self, t: &Qp16Tables<N, P>) {
+        let k = self.count;
+        let mut row = [0i32; N];
+        for i in 0..N {
+            if self.pos[i] != 0 {
+                self.w[i] = self.bound(self.pos[i] as usize - 1);
+                continue;
+            }
+            for p in 0..k {
+                row[p] = t.hinv[i][self.active[p] as usize];
+            }
+            let v = mac_round(&row[..k], &self.nu[..k], t.p_bits + t.nu_bits - 16);
+            self.w[i] = self.unc[i].saturating_sub(v);
+        }
+    }
+
+    /// The inactive bound violated most beyond `tol`: `(variable, side)`,
+    /// lowest index on ties.
+    fn most_violated(&self, tol: i32) -> Option<(usize, u8)> {
+        let mut best: Option<(usize, u8, i64)> = None;
+        for j in 0..N {
+            if self.pos[j] != 0 {
+                continue;
+            }
+            let v = self.w[j] as i64;
+            let (up, down) = (v - self.hi[j] as i64, self.lo[j] as i64 - v);
+            let (viol, side) = if up > down { (up, 1) } else { (down, 0) };
+            let side = side | if self.lo[j] == self.hi[j] { 2 } else { 0 };
+            if viol > tol as i64 && best.is_none_or(|(_, _, b)| viol > b) {
+                best = Some((j, side, viol));
+            }
+        }
+        best.map(|(j, s, _)| (j, s))
+    }
+
+    /// Appends the bound on variable `j` (side code) and its row of the
+    /// factor: `t = L^-1 P_{A,j}`, `l = D^-1 t`, `d = P_jj - l't`.
+    fn add<const P: usize>(
+        &mut self,
+        t: &Qp16Tables<N, P>,
+        j: usize,
+        code: u8,
+    ) -> Result<(), Qp16Error> {
+        let k = self.count;
+        let mut tv = [0i32; N];
+        for i in 0..k {
+            let m = t.hinv[self.active[i] as usize][j];
+            let v = mac_round(&self.l[i][..i], &tv[..i], t.l_bits);
+            tv[i] = m.saturating_sub(v);
+        }
+        let mut lrow = [0i32; N];
+        for i in 0..k {
+            lrow[i] = self.rd[i].div(tv[i], t.l_bits);
+        }
+        let diag = t.hinv[j][j];
+        let d = diag.saturating_sub(mac_round(&lrow[..k], &tv[..k], t.l_bits));
+        // Pivot test (kestrel-qp's d > pivot_tol * diag, here 2^-20).
+        let rd = match Recip::new(d, t.pivot_bits) {
+            Some(r) if d > diag >> 20 => r,
+            _ => return Err(Qp16Error::Infeasible),
+        };
+        self.l[k] = lrow;
+        self.d[k] = d;
+        self.rd[k] = rd;
+        self.active[k] = j as u8;
+        self.side[k] = code;
+        self.pos[j] = k as u8 + 1;
+        self.nu[k] = 0;
+        self.count = k + 1;
+        Ok(())
+    }
+
+    /// Removes position `p`: deletes its row and column and restores the
+    /// trailing block by the rank-one update `+ d_p l_p l_p'` (Gill, Golub,
+    /// Murray, Saunders C1), as kestrel-qp.
+    fn remove<const P: usize>(&mut self, t: &Qp16Tables<N, P>, p: usize) -> Result<(), Qp16Error> {
+        let lb = t.l_bits;
+        let k = self.count;
+        let mut alpha = self.d[p];
+        let mut wv = [0i32; N];
+        for r in p + 1..k {
+            wv[r] = self.l[r][p];
+        }
+        self.pos[self.active[p] as usize] = 0;
+        self.valid = self.valid.min(p);
+        for r in p..k - 1 {
+            for col in 0..p {
+                self.l[r][col] = self.l[r + 1][col];
+            }
+            for col in p..r {
+                self.l[r][col] = self.l[r + 1][col + 1];
+            }
+            self.d[r] = self.d[r + 1];
+            self.rd[r] = self.rd[r + 1];
+            self.nu[r] = self.nu[r + 1];
+            self.active[r] = self.active[r + 1];
+            self.side[r] = self.side[r + 1];
+            self.pos[self.active[r] as usize] = r as u8 + 1;
+            wv[r] = wv[r + 1];
+        }
+        self.count = k - 1;
+        for i in p..k - 1 {
+            let pv = wv[i];
+            // dnew = d + alpha pv^2, r = alpha / dnew (<= cond P),
+            // beta = pv r, alpha <- d r: no product beyond its own format.
+            let pv2 = mul_round(pv, pv, lb);
+            let dnew = self.d[i].saturating_add(mul_round(alpha, pv2, lb));
+            let rd = Recip::new(dnew, t.pivot_bits).ok_or(Qp16Error::Infeasible)?;
+            let r = rd.div(alpha, lb);
+            let beta = mul_round(pv, r, lb);
+            alpha = mul_round(self.d[i], r, lb);
+            self.d[i] = dnew;
+            self.rd[i] = rd;
+            for r in i + 1..k - 1 {
+                let l = self.l[r][i];
+                wv[r] = wv[r].saturating_sub(mul_round(pv, l, lb));
+                self.l[r][i] = l.saturating_add(mul_round(beta, wv[r], lb));
+            }
+        }
+        Ok(())
+    }
+}
