@@ -41,7 +41,8 @@ type S = kestrel_avr_rt::mac::Q16Mac;
 type S = f32;
 
 /// Boot-frame configuration code: bit 0 fixed point, bit 1 the MAC variant,
-/// bit 2 explicit MPC, bit 3 its Ns = 2 table, bit 4 the active-set QP.
+/// bit 2 explicit MPC, bit 3 its Ns = 2 table, bit 4 the active-set QP
+/// (kestrel-qp, f32), bit 5 the fixed-point one (`kestrel_avr_rt::qp16`).
 const CONFIG: u8 = (if cfg!(feature = "fixed-mac") {
     3
 } else if cfg!(feature = "fixed") {
@@ -50,7 +51,8 @@ const CONFIG: u8 = (if cfg!(feature = "fixed-mac") {
     0
 }) | if cfg!(feature = "empc") { 4 } else { 0 }
     | if cfg!(feature = "empc-ns2") { 8 } else { 0 }
-    | if cfg!(feature = "qp") { 16 } else { 0 };
+    | if cfg!(feature = "qp") { 16 } else { 0 }
+    | if cfg!(feature = "qp16") { 32 } else { 0 };
 
 /// The explicit controller's 16-bit table (kestrel_avr_rt::explicit::tree16),
 /// in flash, read with ELPM; the same bytes for every scalar.
@@ -80,13 +82,28 @@ mod qp;
 #[cfg(feature = "qp")]
 #[allow(dead_code)]
 mod qp_law;
-#[cfg(all(feature = "qp-check", feature = "hil-faults"))]
+/// The exact MPC's on-target check.
+#[cfg(any(feature = "qp-check", feature = "qp16-check"))]
+mod qp_check;
+#[cfg(all(
+    any(feature = "qp-check", feature = "qp16-check"),
+    feature = "hil-faults"
+))]
 compile_error!("`hil-faults` wraps the law; `qp-check` needs the bare QP law");
 #[cfg(all(
     feature = "qp",
     any(feature = "fixed", feature = "fixed-mac", feature = "empc")
 ))]
 compile_error!("`qp` runs kestrel-qp in f32: not with `fixed`, `fixed-mac` or `empc`");
+/// The `qp16` builds' fixed-point box QP.
+#[cfg(feature = "qp16")]
+#[allow(dead_code)]
+mod generated_qp16;
+/// The `qp16` builds' law.
+#[cfg(feature = "qp16")]
+mod qp16_law;
+#[cfg(all(feature = "qp16", any(feature = "qp", feature = "empc")))]
+compile_error!("`qp16` is a law of its own: not with `qp` or `empc`");
 /// Fault injection for the HIL test.
 #[cfg(feature = "hil-faults")]
 mod faults;
@@ -478,6 +495,11 @@ pub extern "C" fn main() -> ! {
     let Some(law) = qp::law(&mut qp_ws, qp::SETTINGS, qp::WARM, NX) else {
         loop {}
     };
+    // The exact MPC in fixed point (kestrel_avr_rt::qp16), tables in RAM.
+    #[cfg(feature = "qp16")]
+    let Ok(law) = qp16_law::Qp16Law::<S, NZ, NP, 4>::new(&generated_qp16::QP16, NX) else {
+        loop {}
+    };
     let bias = va(&table, BIAS);
     let one = S::from_f32_fast(1.0);
     let mixer = Mixer::<S, 4> {
@@ -516,9 +538,32 @@ pub extern "C" fn main() -> ! {
     #[cfg(feature = "empc-check")]
     empc_check(&mut rate_loop.law, &clock);
     #[cfg(feature = "qp-check")]
-    qp::check(&mut rate_loop.law, NX, &clock, &mut |p| {
-        send(Kind::Bench, 0, p)
-    });
+    {
+        let mut ws = qp::Workspace::new();
+        let cap1 = kestrel_qp::QpSettings {
+            max_iterations: 1,
+            ..qp::SETTINGS
+        };
+        if let Some(mut capped) = qp::law(&mut ws, cap1, false, NX) {
+            use generated_qp::{QP_THETA_LB, QP_THETA_UB};
+            let bx = (&QP_THETA_LB, &QP_THETA_UB);
+            let mut out = |p: &[u8]| send(Kind::Bench, 0, p);
+            qp_check::check(&mut rate_loop.law, &mut capped, bx, NX, &clock, &mut out);
+        }
+    }
+    #[cfg(feature = "qp16-check")]
+    {
+        let cap1 = kestrel_avr_rt::qp16::Qp16Tables {
+            max_iterations: 1,
+            ..generated_qp16::QP16
+        };
+        if let Ok(mut capped) = qp16_law::Qp16Law::<S, NZ, NP, 4>::new(&cap1, NX) {
+            use generated_qp16::{QP16_THETA_LB, QP16_THETA_UB};
+            let bx = (&QP16_THETA_LB, &QP16_THETA_UB);
+            let mut out = |p: &[u8]| send(Kind::Bench, 0, p);
+            qp_check::check(&mut rate_loop.law, &mut capped, bx, NX, &clock, &mut out);
+        }
+    }
 
     let mut decoder = FrameDecoder::new();
     let mut seqs = SeqTracker::new();

@@ -8,7 +8,7 @@
 use super::file::{CodegenError, GeneratedFile, parse_input};
 use crate::firmware::{
     DesignSettings, FirmwareDesign, empc_controller, generate_empc_tables, generate_qp_tables,
-    generate_tables, ns2_problem,
+    generate_qp16_tables, generate_tables, ns2_problem,
 };
 use kestrel_avr_rt::explicit::quantize::{
     Tree16Tables, quantize_tree_layout, tree16_chunked_source,
@@ -33,6 +33,10 @@ pub const GENERATED_EMPC_NS2: &str = "avr/firmware/src/generated_empc_ns2.rs";
 
 /// The `qp` builds' table: the design's problem as a box QP (kestrel-qp).
 pub const GENERATED_QP: &str = "avr/firmware/src/generated_qp.rs";
+
+/// The `qp16` builds' table: the box QP as kestrel-avr-rt's fixed-point
+/// tables (`kestrel_avr_rt::qp16`).
+pub const GENERATED_QP16: &str = "avr/firmware/src/generated_qp16.rs";
 
 /// What [`empc_file`] names the problem in the file's header.
 pub const EMPC_WHAT: &str = "N = 2, Ns = 1";
@@ -94,6 +98,19 @@ pub fn qp_file(d: &FirmwareDesign) -> Result<GeneratedFile, CodegenError> {
     })
 }
 
+/// [`GENERATED_QP16`]: the design's problem as the fixed-point tables the
+/// `qp16` builds solve with `kestrel_avr_rt::qp16`.
+///
+/// # Errors
+/// [`CodegenError::Design`] from [`generate_qp16_tables`].
+pub fn qp16_file(d: &FirmwareDesign) -> Result<GeneratedFile, CodegenError> {
+    Ok(GeneratedFile {
+        path: GENERATED_QP16,
+        contents: generate_qp16_tables(d)?,
+        generator: "kestrel_tricopter::firmware::generate_qp16_tables of the design of models/tricopter-blackbox-5.json",
+    })
+}
+
 /// The explicit controller of the design's own problem (`N = 2, Ns = 1`).
 ///
 /// # Errors
@@ -150,16 +167,17 @@ pub fn empc_ns2_file(c: &ExplicitController) -> Result<GeneratedFile, CodegenErr
     })
 }
 
-/// The four firmware tables of the design model under `root`.
+/// The five firmware tables of the design model under `root`.
 ///
 /// # Errors
-/// As [`design`], [`tables_file`], [`qp_file`], [`empc_file`] and
-/// [`empc_ns2_file`].
+/// As [`design`], [`tables_file`], [`qp_file`], [`qp16_file`],
+/// [`empc_file`] and [`empc_ns2_file`].
 pub fn files(root: &Path) -> Result<Vec<GeneratedFile>, CodegenError> {
     let d = design(root)?;
     Ok(vec![
         tables_file(&d)?,
         qp_file(&d)?,
+        qp16_file(&d)?,
         empc_file(&empc(&d)?)?,
         empc_ns2_file(&ns2_empc(&d)?)?,
     ])

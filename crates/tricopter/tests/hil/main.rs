@@ -76,6 +76,9 @@ enum Solver {
     /// feature `qp`; `fallback_test`: the `qp-fallback-test` build
     /// (iteration cap 1, cold starts).
     Qp { fallback_test: bool },
+    /// The exact MPC in fixed point (`kestrel_avr_rt::qp16`, `Qp16Law`),
+    /// feature `qp16`.
+    Qp16,
 }
 
 const TS: f64 = 0.02;
@@ -108,6 +111,9 @@ fn build_firmware(features: &[&str], generic_float: bool) -> PathBuf {
     }
     if features.iter().any(|f| f.starts_with("qp")) {
         assert_fresh(&codegen::firmware::qp_file(design()).unwrap());
+    }
+    if features.contains(&"qp16") {
+        assert_fresh(&codegen::firmware::qp16_file(design()).unwrap());
     }
     let root = repo_root();
     let fw = root.join("avr/firmware");
@@ -443,10 +449,12 @@ fn fly_references(
     let mut host_empc = match solver {
         Solver::Empc => Some(host_empc_loop(empc())),
         Solver::EmpcNs2 => Some(host_empc_loop(ns2_empc())),
-        Solver::Fgm | Solver::Qp { .. } => None,
+        Solver::Fgm | Solver::Qp { .. } | Solver::Qp16 => None,
     };
+    // The fixed-point solver's reference is the exact f64 solution too.
     let mut host_qp = match solver {
         Solver::Qp { fallback_test } => Some(host_qp_loop(fallback_test)),
+        Solver::Qp16 => Some(host_qp_loop(false)),
         _ => None,
     };
     let mut qp_iterations = Vec::new();
@@ -578,7 +586,9 @@ fn json_stats(s: &CycleStats) -> String {
 
 /// Flies the step scenario and checks everything the issue asks of the HIL run.
 fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u16) {
-    let solver = if features.contains(&"qp") || features.contains(&"qp-fallback-test") {
+    let solver = if features.contains(&"qp16") {
+        Solver::Qp16
+    } else if features.contains(&"qp") || features.contains(&"qp-fallback-test") {
         Solver::Qp {
             fallback_test: features.contains(&"qp-fallback-test"),
         }
@@ -655,6 +665,7 @@ fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u
         Solver::Qp {
             fallback_test: true,
         } => ("qp-fallback-test", qp_max),
+        Solver::Qp16 => ("qp16", qp_max),
     };
     println!(
         "{scalar} {solver_name} ({iters} iterations or tree depth): kalman {} cycles, solver {} cycles, period {} cycles (max {:.3} ms at 16 MHz); flash {flash} B, RAM {ram} B; table at 0x{:05x}; max |PWM - f64 ref| = {} us; rate error worst {:.4} mean {:.4} rad/s",
@@ -676,8 +687,12 @@ fn check_flight(features: &[&str], generic_float: bool, scalar: &str, pwm_tol: u
         // every period, never the clamped fallback.
         assert_eq!(o, 0, "parameter outside the explicit law's box");
     }
-    if let Solver::Qp { fallback_test } = solver {
-        check_qp_iterations(&fl.qp_iterations, fallback_test, scalar);
+    match solver {
+        Solver::Qp { fallback_test } => {
+            check_qp_iterations(&fl.qp_iterations, fallback_test, scalar)
+        }
+        Solver::Qp16 => check_qp_iterations(&fl.qp_iterations, false, scalar),
+        Solver::Fgm | Solver::Empc | Solver::EmpcNs2 => {}
     }
 
     // Tables read back through ELPM/RAMPZ match the build.
@@ -816,6 +831,14 @@ fn hil_step_scenario_empc_ns2_fixed_q16_mac() {
 #[test]
 fn hil_step_scenario_qp_f32() {
     check_flight(&["qp"], false, "f32", 1);
+}
+
+/// The exact MPC in fixed point: `kestrel_avr_rt::qp16` (kestrel-qp's
+/// decision rules on Q15.16 tables), warm-started (features `qp16`,
+/// `fixed-mac`), against the exact f64 solution of the same QP.
+#[test]
+fn hil_step_scenario_qp16_fixed_q16_mac() {
+    check_flight(&["qp16", "fixed-mac"], false, "fixed-mac", 2);
 }
 
 #[test]

@@ -1,0 +1,130 @@
+//! The exact MPC law of the `qp16` builds: kestrel-avr-rt's fixed-point
+//! dual active-set solver (`kestrel_avr_rt::qp16`: kestrel-qp's decision
+//! rules on Q15.16 tables) on the thesis-sized box QP of
+//! `src/generated_qp16.rs`, solved every period, warm-started from the
+//! previous period's active set.
+//!
+//! Each period: `theta = [x; r]` in Q15.16 (read in place for `Q16Mac`,
+//! converted for f32), one solve, the first move out in the loop's scalar.
+//! On any solver error (iteration cap, a singular active set, crossing
+//! bounds) the law answers the solver's fallback (the unconstrained
+//! optimum clamped to the period's box, `Qp16Solver::fallback`), sets
+//! [`FALLBACK`] in [`LawInfo::iterations`] and the next period starts cold;
+//! a non-finite parameter is an error for the loop's failsafe.
+
+use kestrel_avr_rt::control::LawInfo;
+use kestrel_avr_rt::output::RtScalar;
+use kestrel_avr_rt::qp16::{Qp16Solver, Qp16Start, Qp16Tables};
+use kestrel_core::{ControlLaw, Error};
+
+/// Set in [`LawInfo::iterations`] when the period's input is the fallback
+/// (as `qp_law::FALLBACK`); the low bits are then the iteration cap.
+pub const FALLBACK: u16 = 0x8000;
+
+/// The fixed-point solver as the loop's [`ControlLaw`]: `N` variables, `P
+/// = nx + nr` parameters, `NU` outputs (the first move), scalar `S`.
+pub struct Qp16Law<'t, S, const N: usize, const P: usize, const NU: usize> {
+    tables: &'t Qp16Tables<N, P>,
+    solver: Qp16Solver<N>,
+    nx: usize,
+    warm: bool,
+    iterations: u16,
+    _scalar: core::marker::PhantomData<S>,
+}
+
+impl<'t, S: RtScalar, const N: usize, const P: usize, const NU: usize> Qp16Law<'t, S, N, P, NU> {
+    /// The law on `tables`, reading `nx` states.
+    ///
+    /// # Errors
+    /// [`Error::DimensionMismatch`] if `nx > P` or `NU > N`.
+    pub fn new(tables: &'t Qp16Tables<N, P>, nx: usize) -> Result<Self, Error> {
+        for (found, limit) in [(nx, P), (NU, N)] {
+            if found > limit {
+                return Err(Error::DimensionMismatch {
+                    expected: limit,
+                    found,
+                });
+            }
+        }
+        Ok(Qp16Law {
+            tables,
+            solver: Qp16Solver::new(),
+            nx,
+            warm: false,
+            iterations: 0,
+            _scalar: core::marker::PhantomData,
+        })
+    }
+}
+
+/// `w 2^s` (raw Q15.16 of `z`), saturated; `s` the tables' variable shift.
+fn unscale(w: i32, s: i8) -> i32 {
+    let v = if s >= 0 {
+        i64::from(w) << s.min(31)
+    } else {
+        let k = (-i32::from(s)).min(62) as u32;
+        (i64::from(w) + (1i64 << (k - 1))) >> k
+    };
+    v.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+}
+
+impl<S: RtScalar, const N: usize, const P: usize, const NU: usize> ControlLaw
+    for Qp16Law<'_, S, N, P, NU>
+{
+    type Scalar = S;
+    fn nx(&self) -> usize {
+        self.nx
+    }
+    fn nr(&self) -> usize {
+        P - self.nx
+    }
+    fn nu(&self) -> usize {
+        NU
+    }
+    fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
+        for (found, expected) in [(x.len(), self.nx), (r.len(), P - self.nx), (u.len(), NU)] {
+            if found != expected {
+                return Err(Error::DimensionMismatch { expected, found });
+            }
+        }
+        let mut theta = [0i32; P];
+        let (tx, tr) = theta.split_at_mut(self.nx);
+        S::to_q16_all(x, tx).ok_or(Error::NonFinite)?;
+        S::to_q16_all(r, tr).ok_or(Error::NonFinite)?;
+        let start = if self.warm {
+            Qp16Start::Warm
+        } else {
+            Qp16Start::Cold
+        };
+        let w = match self.solver.solve(self.tables, &theta, start) {
+            Ok(info) => {
+                self.iterations = info.iterations.min(!FALLBACK);
+                self.warm = true;
+                *self.solver.solution()
+            }
+            Err(_) => {
+                self.iterations = FALLBACK | self.tables.max_iterations.min(!FALLBACK);
+                self.warm = false;
+                let w = self.solver.fallback();
+                self.solver.reset();
+                w
+            }
+        };
+        for (ui, &wi) in u.iter_mut().zip(&w) {
+            *ui = S::from_q16(unscale(wi, self.tables.var_shift));
+        }
+        Ok(())
+    }
+}
+
+impl<S: RtScalar, const N: usize, const P: usize, const NU: usize> LawInfo
+    for Qp16Law<'_, S, N, P, NU>
+{
+    fn iterations(&self) -> u16 {
+        self.iterations
+    }
+    fn restart(&mut self) {
+        self.warm = false;
+        self.solver.reset();
+    }
+}
