@@ -75,16 +75,16 @@ mod generated_empc_ns2;
 #[cfg(feature = "qp")]
 #[allow(dead_code)]
 mod generated_qp;
-/// The `qp` builds' set-up and on-target check.
+/// The `qp` builds' set-up.
 #[cfg(feature = "qp")]
 mod qp;
+/// The exact MPC's on-target check.
+#[cfg(any(feature = "qp-check", feature = "qp16-check"))]
+mod qp_check;
 /// The `qp` builds' law (also the HIL test's host reference, in f64).
 #[cfg(feature = "qp")]
 #[allow(dead_code)]
 mod qp_law;
-/// The exact MPC's on-target check.
-#[cfg(any(feature = "qp-check", feature = "qp16-check"))]
-mod qp_check;
 #[cfg(all(
     any(feature = "qp-check", feature = "qp16-check"),
     feature = "hil-faults"
@@ -548,7 +548,17 @@ pub extern "C" fn main() -> ! {
             use generated_qp::{QP_THETA_LB, QP_THETA_UB};
             let bx = (&QP_THETA_LB, &QP_THETA_UB);
             let mut out = |p: &[u8]| send(Kind::Bench, 0, p);
-            qp_check::check(&mut rate_loop.law, &mut capped, bx, NX, &clock, &mut out);
+            let mut dec = FrameDecoder::new();
+            let mut inp = |buf: &mut [u8; 40]| recv_bench(&mut dec, buf);
+            qp_check::check(
+                &mut rate_loop.law,
+                &mut capped,
+                bx,
+                NX,
+                &clock,
+                &mut out,
+                &mut inp,
+            );
         }
     }
     #[cfg(feature = "qp16-check")]
@@ -561,7 +571,17 @@ pub extern "C" fn main() -> ! {
             use generated_qp16::{QP16_THETA_LB, QP16_THETA_UB};
             let bx = (&QP16_THETA_LB, &QP16_THETA_UB);
             let mut out = |p: &[u8]| send(Kind::Bench, 0, p);
-            qp_check::check(&mut rate_loop.law, &mut capped, bx, NX, &clock, &mut out);
+            let mut dec = FrameDecoder::new();
+            let mut inp = |buf: &mut [u8; 40]| recv_bench(&mut dec, buf);
+            qp_check::check(
+                &mut rate_loop.law,
+                &mut capped,
+                bx,
+                NX,
+                &clock,
+                &mut out,
+                &mut inp,
+            );
         }
     }
 
@@ -658,6 +678,23 @@ fn drain_rx(
             }
         }
     }
+}
+
+/// The next Bench-kind frame's payload from the receive ring into `buf`
+/// (its length), or 0 when no whole frame is there yet (the exact MPC's
+/// on-target check serves the host's parameters).
+#[cfg(any(feature = "qp-check", feature = "qp16-check"))]
+fn recv_bench(dec: &mut FrameDecoder, buf: &mut [u8; 40]) -> usize {
+    while let Some(b) = rx_pop() {
+        if let Some(Ok(f)) = dec.push(b) {
+            let p = f.payload();
+            if f.kind == Kind::Bench && p.len() <= buf.len() {
+                buf[..p.len()].copy_from_slice(p);
+                return p.len();
+            }
+        }
+    }
+    0
 }
 
 #[inline(always)]

@@ -26,6 +26,12 @@ pub const CHECK_SAMPLES: u16 = 150;
 /// parameter's `P` f32 (`2 + 4 P` bytes), then the index, the law's
 /// iterations (its `FALLBACK` bit; 0xFFFF for an error), the cycles and
 /// the four outputs as f32 (24 bytes).
+///
+/// Then it serves the host's parameters for ever (the check builds do not
+/// fly): each payload of `2 + 4 P` bytes that `recv` gives (an index, the
+/// parameter's `P` f32) is solved by `law`, from a cold start unless bit
+/// 15 of the index is set (then warm from the previous request's active
+/// set), and answered with a result frame as above.
 #[inline(never)] // its own frame, not main's
 pub fn check<S, L, K, const P: usize>(
     law: &mut L,
@@ -34,7 +40,9 @@ pub fn check<S, L, K, const P: usize>(
     nx: usize,
     clock: &impl CycleClock,
     send: &mut dyn FnMut(&[u8]),
-) where
+    recv: &mut dyn FnMut(&mut [u8; 40]) -> usize,
+) -> !
+where
     S: RtScalar,
     L: ControlLaw<Scalar = S> + LawInfo,
     K: ControlLaw<Scalar = S> + LawInfo,
@@ -74,15 +82,36 @@ pub fn check<S, L, K, const P: usize>(
         } else {
             solve_one(law, &th, nx, clock)
         };
-        let mut b = [0u8; 24];
-        b[0..2].copy_from_slice(&i.to_le_bytes());
-        b[2..4].copy_from_slice(&iterations.to_le_bytes());
-        b[4..8].copy_from_slice(&cycles.to_le_bytes());
-        for (k, v) in u.iter().enumerate() {
-            b[8 + 4 * k..12 + 4 * k].copy_from_slice(&v.to_f32().to_le_bytes());
-        }
-        send(&b);
+        send(&result(i, iterations, cycles, &u));
     }
+    let mut req = [0u8; 40];
+    loop {
+        if recv(&mut req) != 2 + 4 * P {
+            continue;
+        }
+        let i = u16::from_le_bytes([req[0], req[1]]);
+        let th: [S; P] = core::array::from_fn(|j| {
+            let b = req.get(2 + 4 * j..6 + 4 * j).unwrap_or(&[0; 4]);
+            S::from_f32_fast(f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        });
+        if i & 0x8000 == 0 {
+            law.restart();
+        }
+        let (iterations, cycles, u) = solve_one(law, &th, nx, clock);
+        send(&result(i, iterations, cycles, &u));
+    }
+}
+
+/// A result frame's payload: index, iterations, cycles, the four outputs.
+fn result<S: RtScalar>(i: u16, iterations: u16, cycles: u32, u: &[S; 4]) -> [u8; 24] {
+    let mut b = [0u8; 24];
+    b[0..2].copy_from_slice(&i.to_le_bytes());
+    b[2..4].copy_from_slice(&iterations.to_le_bytes());
+    b[4..8].copy_from_slice(&cycles.to_le_bytes());
+    for (k, v) in u.iter().enumerate() {
+        b[8 + 4 * k..12 + 4 * k].copy_from_slice(&v.to_f32().to_le_bytes());
+    }
+    b
 }
 
 /// One timed call of `law` at `theta`: its iterations (0xFFFF for an

@@ -881,5 +881,6 @@ fn far_table_above_64k_reads_back() {
 mod empc_target;
 mod faults;
 mod fgm_bench;
+mod qp_certified;
 mod qp_fallback;
 mod qp_target;

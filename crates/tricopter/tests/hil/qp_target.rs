@@ -17,16 +17,27 @@ const PART: usize = 150;
 
 /// One solve on the target.
 #[derive(Clone, Copy, Debug)]
-struct Sample {
-    theta: [f32; generated::NP],
-    iterations: u16,
-    cycles: u32,
-    u: [f32; 4],
+pub(super) struct Sample {
+    pub(super) theta: [f32; generated::NP],
+    pub(super) iterations: u16,
+    pub(super) cycles: u32,
+    pub(super) u: [f32; 4],
+}
+
+/// The result frame's payload (24 bytes) with its parameter.
+pub(super) fn parse_result(p: &[u8], theta: [f32; generated::NP]) -> Sample {
+    let f32_at = |i: usize| f32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
+    Sample {
+        theta,
+        iterations: u16::from_le_bytes([p[2], p[3]]),
+        cycles: u32::from_le_bytes([p[4], p[5], p[6], p[7]]),
+        u: std::array::from_fn(|k| f32_at(8 + 4 * k)),
+    }
 }
 
 /// Runs the check firmware built with `features` and collects its
 /// `3 PART` solves.
-fn on_target(features: &[&str]) -> (Vec<Sample>, (u64, u64)) {
+fn on_target(features: &[&str]) -> (Vec<Sample>, (u64, u64), AvrTester, FrameDecoder) {
     let elf = build_firmware(features, false);
     let mut avr = AvrTester::atmega2560().with_clock_of_16_mhz().load(&elf);
     let mut dec = FrameDecoder::new();
@@ -46,18 +57,13 @@ fn on_target(features: &[&str]) -> (Vec<Sample>, (u64, u64)) {
                 24 => {
                     let (i, th) = theta.take().expect("parameter frame before its result");
                     assert_eq!((i, usize::from(i)), (index, got.len()), "frames in order");
-                    got.push(Sample {
-                        theta: th,
-                        iterations: u16::from_le_bytes([p[2], p[3]]),
-                        cycles: u32::from_le_bytes([p[4], p[5], p[6], p[7]]),
-                        u: std::array::from_fn(|k| f32_at(8 + 4 * k)),
-                    });
+                    got.push(parse_result(p, th));
                 }
                 n => panic!("unexpected Bench frame of {n} bytes"),
             }
         }
         if got.len() == 3 * PART {
-            return (got, avr_size(&elf));
+            return (got, avr_size(&elf), avr, dec);
         }
     }
     panic!("only {} of {} qp-check samples", got.len(), 3 * PART);
@@ -84,7 +90,7 @@ fn qp16_fixed_on_target_equals_host() {
 /// cycles per part and per iteration count (`QP-CHECK {json}` lines with
 /// `KESTREL_HIL_REPORT=1`).
 fn check_on_target(features: &[&str], scalar: &str, solver: &str, tol: f64) {
-    let (samples, (flash, ram)) = on_target(features);
+    let (samples, (flash, ram), mut avr, mut dec) = on_target(features);
     let nx = generated::NX;
     let mut cold = host_qp_law(super::QP_MAX_ITERATIONS, true);
     let mut capped = host_qp_law(1, false);
@@ -184,6 +190,7 @@ fn check_on_target(features: &[&str], scalar: &str, solver: &str, tol: f64) {
             );
         }
     }
+    super::qp_certified::check_certified(&mut avr, &mut dec, scalar, solver, tol);
     assert!(worst <= tol, "outputs differ from the host's by {worst} us");
     for p in 0..3 {
         assert!(
