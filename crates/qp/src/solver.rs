@@ -284,13 +284,16 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
     }
 
     /// `H^-1 = L^-T D^-1 L^-1` column by column (`L` in `lf`, `D` in
-    /// `work`), then symmetrised.
+    /// `work`, replaced by `D^-1`: `n` divisions in all), then symmetrised.
     fn invert_h(&mut self) {
         let n = self.n;
+        for d in self.work.iter_mut() {
+            *d = S::ONE / *d;
+        }
         let l = &self.lf[..n * n];
         for c in 0..n {
             let x = &mut self.hinv[c * n..(c + 1) * n];
-            // L x = e_c (x_i = 0 above c), scaled by D^-1, then L' x = .
+            // L x = e_c (x_i = 0 above c), scaled by D^-1, then L' x = that.
             x.fill(S::ZERO);
             x[c] = S::ONE;
             for i in c + 1..n {
@@ -300,8 +303,9 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
                 }
                 x[i] = v;
             }
-            for (xi, &d) in x.iter_mut().zip(self.work.iter()) {
-                *xi = *xi / d;
+            // Entries above c are zero.
+            for (xi, &dinv) in x.iter_mut().zip(self.work.iter()).skip(c) {
+                *xi *= dinv;
             }
             for i in (0..n).rev() {
                 let mut v = x[i];
