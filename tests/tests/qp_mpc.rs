@@ -310,19 +310,22 @@ fn certified_iterations_hold_on_the_thesis_sized_tricopter() {
             None => Start::Cold,
         };
         let it = qp.solve(&buf.data(), start).unwrap().iterations;
-        let mut fin: Vec<ActiveConstraint> = qp.active_set().collect();
+        let raw: Vec<ActiveConstraint> = qp.active_set().collect();
+        let mut fin = raw.clone();
         fin.sort_by_key(|a| a.index);
-        (it, fin)
+        (it, fin, raw)
     };
     let (lb, ub) = (par.theta_lb().to_vec(), par.theta_ub().to_vec());
     let mut rng = SplitMix64::seed_from_u64(77);
     let count = samples(2_000);
     let (mut located, mut most_cold, mut most_warm) = ([0usize; 2], 0, 0);
+    // The solver's own order (not sorted): measured, not certified.
+    let (mut most_unsorted, mut differ) = (0, 0);
     for _ in 0..count {
         let prev: Vec<f64> = (0..p.p())
             .map(|k| lb[k] + (ub[k] - lb[k]) * rng.random::<f64>())
             .collect();
-        let (cold, set) = run(&prev, None);
+        let (cold, set, raw) = run(&prev, None);
         assert!(cold <= c.cold.worst_iterations, "cold {cold} at {prev:?}");
         if let Some((ci, _)) = c.cold.iterations_at(&prev, None) {
             assert_eq!(cold, ci, "cold at {prev:?}");
@@ -334,7 +337,10 @@ fn certified_iterations_hold_on_the_thesis_sized_tricopter() {
                 (prev[k] + d).clamp(lb[k], ub[k])
             })
             .collect();
-        let (w, _) = run(&theta, Some(&set));
+        let (w, ..) = run(&theta, Some(&set));
+        let (wu, ..) = run(&theta, Some(&raw));
+        most_unsorted = most_unsorted.max(wu);
+        differ += usize::from(wu != w);
         assert!(
             w <= warm.worst_iterations,
             "warm {w} at {theta:?} from {prev:?}"
@@ -353,11 +359,11 @@ fn certified_iterations_hold_on_the_thesis_sized_tricopter() {
     let wc = c.cold.worst.as_ref().unwrap();
     assert_eq!(run(&wc.theta, None).0, c.cold.worst_iterations);
     let ww = warm.worst.as_ref().unwrap();
-    let (_, set) = run(ww.theta_prev.as_ref().unwrap(), None);
+    let (_, set, _) = run(ww.theta_prev.as_ref().unwrap(), None);
     assert_eq!(set, ww.start_set);
     assert_eq!(run(&ww.theta, Some(&set)).0, warm.worst_iterations);
     eprintln!(
-        "tricopter thesis-sized: certified cold {} iterations / {} flops ({} regions), warm ({step}) {} / {} ({} regions, {} start sets); {count} samples: most cold {most_cold}, warm {most_warm}; worst cold theta {:?}",
+        "tricopter thesis-sized: certified cold {} iterations / {} flops ({} regions), warm ({step}) {} / {} ({} regions, {} start sets); {count} samples: most cold {most_cold}, warm {most_warm} (from the unsorted set {most_unsorted}, {differ} samples differ); worst cold theta {:?}",
         c.cold.worst_iterations,
         c.cold.worst_flops,
         c.cold.regions,

@@ -23,8 +23,9 @@ fn samples() -> usize {
 }
 
 /// Solves at `theta` from `start` (warm: from `set`): iterations and the
-/// final active set sorted by index.
-fn solve(
+/// final active set sorted by index (in the solver's order with
+/// `SORTED = false`).
+fn solve_in<const SORTED: bool>(
     qp: &mut QpSolver<'_, f64>,
     par: &ParametricQp,
     theta: &[f64],
@@ -41,8 +42,19 @@ fn solve(
     };
     let info = qp.solve(&buf.data(), start).unwrap();
     let mut fin: Vec<ActiveConstraint> = qp.active_set().collect();
-    fin.sort_by_key(|a| a.index);
+    if SORTED {
+        fin.sort_by_key(|a| a.index);
+    }
     (info.iterations, fin)
+}
+
+fn solve(
+    qp: &mut QpSolver<'_, f64>,
+    par: &ParametricQp,
+    theta: &[f64],
+    set: Option<&[ActiveConstraint]>,
+) -> (usize, Vec<ActiveConstraint>) {
+    solve_in::<true>(qp, par, theta, set)
 }
 
 /// Checks one certificate; returns (samples located in a region, samples).
@@ -146,4 +158,51 @@ fn random_thesis_sized_problems() {
         let p = kestrel_empc::testing::thesis_sized(seed);
         check(&format!("thesis_sized({seed})"), &p, 0.05);
     }
+}
+
+/// Warm start in any stored order: the solver's own order (the order it
+/// added the constraints in) never takes more than the certificate's
+/// count at the point, the most over all orders.
+#[test]
+fn warm_start_in_any_order() {
+    let p = kestrel_empc::testing::thesis_sized(2);
+    let step = 0.05;
+    let settings = CertifySettings {
+        warm_step: Some(step),
+        warm_any_order: true,
+        ..CertifySettings::default()
+    };
+    let c = certify(&p, &settings, &mut |_| {}).unwrap();
+    let warm = c.warm.as_ref().unwrap();
+    assert!(warm.any_order);
+    let par = ParametricQp::from_mpqp(&p).unwrap();
+    let (ns, ni) = par.workspace_len();
+    let (mut s, mut ix) = (vec![0.0; ns], vec![0; ni]);
+    let mut qp = par.solver(QpSettings::default(), &mut s, &mut ix).unwrap();
+    let mut rng = SplitMix64::seed_from_u64(99);
+    let (lb, ub) = (par.theta_lb().to_vec(), par.theta_ub().to_vec());
+    for _ in 0..samples() {
+        let prev: Vec<f64> = (0..par.p())
+            .map(|k| lb[k] + (ub[k] - lb[k]) * rng.random::<f64>())
+            .collect();
+        let (_, set) = solve_in::<false>(&mut qp, &par, &prev, None);
+        let theta: Vec<f64> = (0..par.p())
+            .map(|k| {
+                let d = step * (ub[k] - lb[k]) * (2.0 * rng.random::<f64>() - 1.0);
+                (prev[k] + d).clamp(lb[k], ub[k])
+            })
+            .collect();
+        let (it, _) = solve_in::<false>(&mut qp, &par, &theta, Some(&set));
+        assert!(it <= warm.worst_iterations);
+        if let Some((ci, _)) = warm.iterations_at(&theta, Some(&prev)) {
+            assert!(
+                it <= ci,
+                "{it} iterations at {theta:?} from {prev:?}, certified {ci}"
+            );
+        }
+    }
+    eprintln!(
+        "thesis_sized(2) warm {step} any order: certified {} iterations, {} regions, {} start sets",
+        warm.worst_iterations, warm.regions, warm.start_sets
+    );
 }

@@ -26,8 +26,9 @@ pub enum QpCommand {
     /// become the solver's simple bounds, mirrored rows double-sided rows).
     /// The parameter box is partitioned by the sequence of active sets the
     /// solver visits from a cold start (and, with `--warm-step`, from the
-    /// previous optimal active set, sorted by constraint index, with every
-    /// parameter moving at most D times its box width).
+    /// previous optimal active set, sorted by constraint index or with
+    /// `--any-order` in every order, with every parameter moving at most D
+    /// times its box width).
     ///
     /// Output: a summary on standard output (worst iterations and flops,
     /// the worst region's interior point, region counts by iterations);
@@ -46,9 +47,18 @@ pub struct CertifyArgs {
     /// parameter's box width (0 < D <= 1).
     #[arg(long, value_name = "D")]
     pub warm_step: Option<f64>,
+    /// Certify the warm start from the previous active set in any stored
+    /// order (every permutation; sets of at most 8), not only sorted by
+    /// constraint index.
+    #[arg(long, requires = "warm_step")]
+    pub any_order: bool,
     /// Write the certificate as JSON here.
     #[arg(long, value_name = "OUT")]
     pub json: Option<PathBuf>,
+    /// Certify over the parameter box scaled by F about its centre (0 < F
+    /// <= 1; e.g. 0.1 for a tenth of every parameter's range).
+    #[arg(long, value_name = "F", default_value_t = 1.0)]
+    pub box_scale: f64,
     /// Give up after this many regions in one start.
     #[arg(long, default_value_t = 2_000_000)]
     pub max_regions: usize,
@@ -66,13 +76,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
 fn run_certify(a: CertifyArgs) -> anyhow::Result<()> {
     let name = a.problem.display().to_string();
-    let problem = MpqpProblem::read(&a.problem).with_context(|| name.clone())?;
+    let mut problem = MpqpProblem::read(&a.problem).with_context(|| name.clone())?;
+    anyhow::ensure!(
+        a.box_scale > 0.0 && a.box_scale <= 1.0,
+        "--box-scale must be in (0, 1]"
+    );
+    if a.box_scale < 1.0 {
+        problem.scale_parameter_box(a.box_scale);
+    }
     anyhow::ensure!(
         a.time_limit.is_finite() && a.time_limit > 0.0,
         "--time-limit must be a positive number of seconds"
     );
     let settings = CertifySettings {
         warm_step: a.warm_step,
+        warm_any_order: a.any_order,
         max_regions: a.max_regions,
         time_limit: Some(Duration::from_secs_f64(a.time_limit)),
         keep_regions: false,
@@ -97,7 +115,12 @@ fn run_certify(a: CertifyArgs) -> anyhow::Result<()> {
     let c = result.with_context(|| name.clone())?;
     let (n, m, p) = (c.cold.n, c.cold.m, c.cold.p);
     let mut text = format!(
-        "{name}: n = {n} variables, m = {m} general rows (besides the bounds), p = {p} parameters\n{}",
+        "{name}: n = {n} variables, m = {m} general rows (besides the bounds), p = {p} parameters{}\n{}",
+        if a.box_scale < 1.0 {
+            format!(", parameter box scaled by {}", a.box_scale)
+        } else {
+            String::new()
+        },
         c.cold
     );
     if let Some(w) = &c.warm {
@@ -108,6 +131,7 @@ fn run_certify(a: CertifyArgs) -> anyhow::Result<()> {
         let doc = json!({
             "format": "kestrel.qp-certificate.v1",
             "problem": name,
+            "box_scale": a.box_scale,
             "cold": c.cold.to_json(),
             "warm": c.warm.as_ref().map(Certificate::to_json),
         });

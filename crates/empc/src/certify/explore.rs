@@ -172,6 +172,10 @@ fn limit(ctx: &Ctx<'_>, tally: &Tally, open: usize, what: &'static str) -> Certi
         open,
         nodes: tally.nodes,
         deepest: tally.deepest,
+        worst_so_far: tally
+            .worst_iterations
+            .as_ref()
+            .map_or(0, |w| w.node.iterations),
         start_sets_done: ctx.sets_done,
         start_sets: ctx.sets_total,
         elapsed: ctx.started.elapsed(),

@@ -1,32 +1,30 @@
-//! The floating-point operation model of kestrel-qp's solver: one add,
-//! subtract, multiply or divide is one flop, a fused multiply-add two;
-//! comparisons, sign flips and copies are free. Each function counts what
-//! the corresponding code of `crates/qp/src/iterate.rs` does for `n`
-//! variables, `k` active constraints and `m` general rows (docs/qp-certify.md
-//! lists them).
+//! The floating-point operation model of kestrel-qp's solver (the code of
+//! `crates/qp/src/iterate.rs` as of commit b6d3af5: iterations in `z` with
+//! `H^-1` and `w_j = H^-1 g_j` from the set-up). One add, subtract,
+//! multiply or divide is one flop, a fused multiply-add two; comparisons,
+//! sign flips (multiplying by a side's `+-1`) and copies are free. `n`
+//! variables, `k` active constraints; a "row" is a general row of `G`
+//! (its products cost `2 n`), a bound's are free (an entry of `H^-1`,
+//! `w_j` or `z`). docs/qp-certify.md lists the model.
 
-/// Per solve: `L^-1 q` (an `n x n` triangle as a full product) and
-/// `y_unc = -D^-1 L^-1 q`: `2 n^2 + 2 n`.
+/// Per solve: `z_unc = -H^-1 q`, `2 n^2`.
 pub(super) fn preamble(n: u64) -> u64 {
-    2 * n * n + 2 * n
-}
-
-/// The solution `z = L^-T y` read at the end: `2 n^2`.
-pub(super) fn solution(n: u64) -> u64 {
     2 * n * n
 }
 
-/// `mu* = M^-1 (A_A y_unc - b_A)`: `k` dot products of length `n` and a
-/// subtraction, forward and backward substitution and the diagonal:
-/// `2 n k + 2 k^2 + k`.
-pub(super) fn mustar(n: u64, k: u64) -> u64 {
-    2 * n * k + 2 * k * k + k
+/// `mu* = M^-1 rhs` with the forward solve kept for the first `f`
+/// positions: forward `k^2 - f^2`, diagonal `k`, backward `k (k - 1)`:
+/// `2 k^2 - f^2`.
+pub(super) fn mustar(k: u64, f: u64) -> u64 {
+    let f = f.min(k);
+    2 * k * k - f * f
 }
 
-/// The blocking test over `k` positions (sign products, `cur - star`, the
-/// ratio): at most `4 k`.
+/// The blocking test, counted as if every one of the `k` positions
+/// blocked (`cur - star` and the ratio, `2 k`; an upper bound: a position
+/// that does not block costs nothing).
 pub(super) fn blocking(k: u64) -> u64 {
-    4 * k
+    2 * k
 }
 
 /// The dual step `mu <- mu + alpha (mu* - mu)`: `3 k`.
@@ -41,29 +39,31 @@ pub(super) fn remove(k: u64, p: u64) -> u64 {
     7 * t + 2 * t * t.saturating_sub(1)
 }
 
-/// The primal point `y = y_unc - D^-1 A_A' mu`: `3 n k`.
+/// The primal point `z = z_unc - sum_p w_p mu_p`: `2 n k`.
 pub(super) fn primal(n: u64, k: u64) -> u64 {
-    3 * n * k
+    2 * n * k
 }
 
-/// The most-violated scan over `inactive` constraints: a dot product of
-/// length `n` and two subtractions each, `(2 n + 2) inactive`.
-pub(super) fn scan(n: u64, inactive: u64) -> u64 {
-    (2 * n + 2) * inactive
+/// The most-violated scan: `g_j'z` of each inactive row (`2 n`) and two
+/// subtractions per inactive constraint.
+pub(super) fn scan(n: u64, inactive_rows: u64, inactive: u64) -> u64 {
+    2 * n * inactive_rows + 2 * inactive
 }
 
-/// Adding a constraint to `k` active: `D^-1 a`, its squared norm, `k` dot
-/// products, the forward solve and the new pivot: `3 n + 2 n k + k^2 + 3 k
-/// + 1`.
-pub(super) fn add(n: u64, k: u64) -> u64 {
-    3 * n + 2 * n * k + k * k + 3 * k + 1
+/// Adding a constraint to `k` active of which `rows_active` are rows: the
+/// new row of `M` (`2 n` per entry between two rows, its diagonal `2 n`
+/// for a row), the forward solve `k^2 + 3 k`, the pivot test 1, the
+/// right-hand side `g_j' z_unc - b` (`2 n + 1` for a row, 1 for a bound).
+pub(super) fn add(n: u64, k: u64, row: bool, rows_active: u64) -> u64 {
+    let products = if row { 2 * n * (rows_active + 2) } else { 0 };
+    products + k * k + 3 * k + 2
 }
 
 /// The singular step with `k` active (the last dependent): the null vector
-/// `L^-T e_k`, the ratios, the multiplier update: `k (k - 1) + 4 (k - 1) +
-/// 3 k` (the removal is [`remove`]).
+/// `L^-T e_k` (`k (k - 1)`), a ratio per position (`k - 1`, counted for
+/// all), the multiplier update `2 k` (the removal is [`remove`]).
 pub(super) fn singular(k: u64) -> u64 {
-    k * k.saturating_sub(1) + 4 * k.saturating_sub(1) + 3 * k
+    k * k.saturating_sub(1) + k.saturating_sub(1) + 2 * k
 }
 
 #[cfg(test)]
@@ -74,13 +74,13 @@ mod tests {
     fn small_cases() {
         assert_eq!(remove(1, 0), 0);
         assert_eq!(remove(3, 0), 7 * 2 + 2 * 2);
-        assert_eq!(add(4, 0), 13);
-        assert_eq!(preamble(4), 40);
-        assert_eq!(singular(2), 2 + 4 + 6);
-        assert_eq!(
-            mustar(4, 2) + blocking(2) + dual_step(2),
-            16 + 8 + 2 + 8 + 6
-        );
-        assert_eq!(primal(4, 1) + scan(4, 7) + solution(4), 12 + 70 + 32);
+        assert_eq!(add(4, 0, false, 0), 2);
+        assert_eq!(add(4, 2, true, 1), 8 * 3 + 4 + 6 + 2);
+        assert_eq!(preamble(4), 32);
+        assert_eq!(singular(2), 2 + 1 + 4);
+        assert_eq!(mustar(3, 1), 18 - 1);
+        assert_eq!(mustar(2, 5), 4);
+        assert_eq!(blocking(2) + dual_step(2), 4 + 6);
+        assert_eq!(primal(4, 1) + scan(4, 1, 7), 8 + 8 + 14);
     }
 }

@@ -62,6 +62,11 @@ pub struct CertifySettings {
     /// Regions whose largest inscribed ball (in the box normalised to `[-1,
     /// 1]^p`) is smaller are lower-dimensional and dropped. Default 1e-9.
     pub min_radius: f64,
+    /// Warm start from the previous optimal active set in any stored order
+    /// (every permutation certified: the solver re-adds the set in its
+    /// stored order, and the order can change the path) instead of sorted
+    /// by constraint index. Sets of at most 8 constraints. Default off.
+    pub warm_any_order: bool,
     /// Keep every region (for [`Certificate::iterations_at`]); off for
     /// large problems to save memory. Default on.
     pub keep_regions: bool,
@@ -75,6 +80,7 @@ impl Default for CertifySettings {
             max_regions: 2_000_000,
             time_limit: Some(Duration::from_secs(600)),
             min_radius: 1e-9,
+            warm_any_order: false,
             keep_regions: true,
         }
     }
@@ -147,7 +153,7 @@ pub enum CertifyError {
     /// The region or time limit was reached: the problem is too large for
     /// these settings.
     #[error(
-        "{what} limit reached in the {phase} certification after {elapsed:.1?}: {regions} regions finished, {open} open, {nodes} split, deepest path {deepest} iterations, start sets {start_sets_done} of {start_sets}; raise max_regions / time_limit or certify a smaller parameter set"
+        "{what} limit reached in the {phase} certification after {elapsed:.1?}: {regions} regions finished (the most iterations on them {worst_so_far}, a lower bound of the worst case), {open} open, {nodes} split, deepest path {deepest} iterations, start sets {start_sets_done} of {start_sets}; raise max_regions / time_limit or certify a smaller parameter set"
     )]
     Limit {
         /// `"region"` or `"time"`.
@@ -162,6 +168,8 @@ pub enum CertifyError {
         nodes: usize,
         /// The longest path seen.
         deepest: usize,
+        /// The most iterations of a finished region.
+        worst_so_far: usize,
         /// Warm start sets done.
         start_sets_done: usize,
         /// Warm start sets in all.
@@ -210,6 +218,7 @@ pub fn certify(
         mu: Vec::new(),
         dual: true,
         singular: false,
+        fwd: 0,
         iterations: 0,
         flops: flops::preamble(n),
         path: Vec::new(),
@@ -239,32 +248,67 @@ pub fn certify(
             ctx.phase = "warm";
             ctx.sets_total = finals.len();
             let mut tally = Tally::default();
-            let mut regions = Vec::new();
+            // One root per start order: its stored order and start region.
+            let (mut orders, mut regions) = (Vec::new(), Vec::new());
             for (id, set) in finals.iter().enumerate() {
                 ctx.sets_done = id;
                 let Some(poly) = warm_region(&cold_model, &mut geo, set, step) else {
-                    regions.push((vec![0.0; 2 * p], vec![-1.0]));
                     continue;
                 };
-                regions.push((poly.a.clone(), poly.b.clone()));
-                let root = warm_root(&model, set, poly, id, n);
-                run(&model, &mut geo, root, &mut ctx, &mut tally, false)?;
+                let perms = if settings.warm_any_order {
+                    permutations(set)?
+                } else {
+                    vec![set.clone()]
+                };
+                for order in perms {
+                    let root = warm_root(&model, &order, poly.clone(), orders.len(), n);
+                    orders.push(order);
+                    regions.push((poly.a.clone(), poly.b.clone()));
+                    run(&model, &mut geo, root, &mut ctx, &mut tally, false)?;
+                }
             }
-            Some(report::certificate(
+            let mut cert = report::certificate(
                 &model,
                 &par,
                 tally,
-                (finals, regions),
+                (orders, regions),
                 Some(step),
                 geo.lps - lps0,
                 t0.elapsed(),
-            ))
+            );
+            cert.any_order = settings.warm_any_order;
+            cert.start_sets = finals.len();
+            Some(cert)
         }
     };
     Ok(Certification {
         cold: cold_cert,
         warm,
     })
+}
+
+/// Every order of `set` (at most 8! = 40,320).
+fn permutations(set: &[(usize, u8)]) -> Result<Vec<Vec<(usize, u8)>>, CertifyError> {
+    if set.len() > 8 {
+        return Err(CertifyError::InvalidSettings(format!(
+            "warm_any_order: a start set has {} constraints, more than 8! orders",
+            set.len()
+        )));
+    }
+    let mut out = vec![Vec::new()];
+    for &c in set {
+        out = out
+            .into_iter()
+            .flat_map(|o: Vec<(usize, u8)>| {
+                (0..=o.len()).map(move |i| {
+                    let mut v = o.clone();
+                    v.insert(i, c);
+                    v
+                })
+            })
+            .collect();
+    }
+    Ok(out)
 }
 
 /// The start region of a warm start from `set`: `theta_prev` (columns
@@ -323,7 +367,8 @@ fn warm_root(model: &Model, set: &[(usize, u8)], poly: Poly, id: usize, n: u64) 
         if model.bound(j, code).is_none() || active.len() > model.n {
             continue;
         }
-        flops += flops::add(n, active.len() as u64);
+        let rows = active.iter().filter(|a| a.0 < model.rows).count() as u64;
+        flops += flops::add(n, active.len() as u64, j < model.rows, rows);
         if !model.dependent(&active, j) {
             active.push((j, code));
         }
@@ -335,6 +380,7 @@ fn warm_root(model: &Model, set: &[(usize, u8)], poly: Poly, id: usize, n: u64) 
         mu: vec![vec![0.0; model.d + 1]; k],
         dual: false,
         singular: false,
+        fwd: 0,
         iterations: 0,
         flops,
         path: Vec::new(),

@@ -8,9 +8,9 @@
 //! data depend on `s` only, the previous parameter enters through the
 //! start region.
 
+use core::cmp::Ordering;
 use kestrel_qp::QpSettings;
 use kestrel_qp::parametric::{Affine, ParametricQp};
-use core::cmp::Ordering;
 use nalgebra::DMatrix;
 
 /// `y += a x`.
@@ -38,6 +38,8 @@ pub(super) struct Model {
     pub n: usize,
     /// Constraints (rows of the solver's `G`, then the `n` bounds).
     pub ncons: usize,
+    /// Rows of the solver's `G` (constraint `j >= rows` bounds `z_{j-rows}`).
+    pub rows: usize,
     /// Parameters.
     pub p: usize,
     /// LP variables (`p` or `2 p`).
@@ -112,6 +114,7 @@ impl Model {
         Some(Model {
             n,
             ncons,
+            rows: m,
             p,
             d,
             centre,

@@ -40,7 +40,8 @@ pub struct RegionReport {
     pub halfspaces: Vec<(Vec<f64>, f64)>,
     /// The active-set changes, in order.
     pub path: Vec<Change>,
-    /// Warm start: the set the solver started from (sorted by index).
+    /// Warm start: the set the solver started from, in its stored order
+    /// (sorted by index unless certified for any order).
     pub start_set: Vec<ActiveConstraint>,
 }
 
@@ -80,6 +81,9 @@ pub struct Certificate {
     pub iteration_limit_regions: usize,
     /// Warm start: start sets (critical regions) certified.
     pub start_sets: usize,
+    /// Warm start: every stored order of each start set certified (else
+    /// sorted by constraint index).
+    pub any_order: bool,
     /// LPs solved.
     pub lps: usize,
     /// Time taken.
@@ -162,6 +166,7 @@ pub(super) fn certificate(
         infeasible_regions: tally.infeasible,
         iteration_limit_regions: tally.limited,
         start_sets: starts.len(),
+        any_order: false,
         lps,
         elapsed,
         finals,
@@ -201,8 +206,9 @@ impl Certificate {
 
     /// The iterations and flops the certificate gives for `theta` (and,
     /// for a warm certificate, `theta_prev`): those of the region that
-    /// contains the point most deeply; `None` if no kept region contains
-    /// it (to `1e-9` in the normalised box), as on a dropped sliver.
+    /// contains the point most deeply (for a warm start in any order, the
+    /// most over the orders); `None` if no kept region contains it (to
+    /// `1e-9` in the normalised box), as on a dropped sliver.
     pub fn iterations_at(&self, theta: &[f64], theta_prev: Option<&[f64]>) -> Option<(usize, u64)> {
         let norm = |t: &[f64]| -> Vec<f64> {
             t.iter()
@@ -239,7 +245,14 @@ impl Certificate {
                 continue;
             }
             let s = slack(&leaf.a, &leaf.b);
-            if s >= -1e-9 && best.is_none_or(|(t, _)| s > t) {
+            let key = |l: &Leaf, s: f64| {
+                if self.any_order {
+                    (l.iterations as f64, s)
+                } else {
+                    (s, 0.0)
+                }
+            };
+            if s >= -1e-9 && best.is_none_or(|(t, b)| key(leaf, s) > key(b, t)) {
                 best = Some((s, leaf));
             }
         }
@@ -280,6 +293,7 @@ impl Certificate {
             "infeasible_regions": self.infeasible_regions,
             "iteration_limit_regions": self.iteration_limit_regions,
             "start_sets": self.start_sets,
+            "any_order": self.any_order,
             "lps": self.lps,
             "seconds": self.elapsed.as_secs_f64(),
             "worst_region": region(&self.worst),
@@ -299,7 +313,12 @@ impl fmt::Display for Certificate {
             None => writeln!(f, "cold start (empty active set)")?,
             Some(s) => writeln!(
                 f,
-                "warm start (previous optimal active set, sorted; |theta - theta_prev| <= {s} x box width per parameter; {} start sets)",
+                "warm start (previous optimal active set, {}; |theta - theta_prev| <= {s} x box width per parameter; {} start sets)",
+                if self.any_order {
+                    "any stored order"
+                } else {
+                    "sorted by index"
+                },
                 self.start_sets
             )?,
         }

@@ -69,6 +69,8 @@ pub(super) struct Node {
     pub dual: bool,
     /// The last active constraint got a zero pivot.
     pub singular: bool,
+    /// Positions whose forward solve the solver keeps (its `fwd_valid`).
+    pub fwd: usize,
     pub iterations: usize,
     pub flops: u64,
     pub path: Vec<Change>,
@@ -121,7 +123,7 @@ pub(super) fn expand(
     node: Node,
     out: &mut Vec<Outcome>,
 ) -> Result<(), CertifyError> {
-    let (n, k) = (model.n as u64, node.active.len());
+    let k = node.active.len();
     let limit = model.settings.max_iterations;
     if k > 0 && node.singular {
         if node.iterations >= limit {
@@ -133,7 +135,7 @@ pub(super) fn expand(
     let mustar = model
         .mustar(&node.active)
         .ok_or_else(|| numerical("M of an active set is singular"))?;
-    let top = flops::mustar(n, k as u64) + flops::blocking(k as u64);
+    let top = flops::mustar(k as u64, node.fwd as u64) + flops::blocking(k as u64);
     let dtol = model.settings.dual_tol;
     let star: Vec<Vec<f64>> = (0..k)
         .map(|p| {
@@ -169,6 +171,7 @@ pub(super) fn expand(
                 }
                 let mut child = node.clone();
                 child.flops += top + flops::dual_step(k as u64) + flops::remove(k as u64, p as u64);
+                child.fwd = p;
                 let mu = node.mu.iter().enumerate().filter(|&(q, _)| q != p);
                 let mu = mu.map(|(_, m)| m.clone()).collect();
                 let c = Change::Remove {
@@ -237,6 +240,7 @@ pub(super) fn expand(
                 let mu = moved(&node.mu, &t, &v, i);
                 let mut child = node.clone();
                 child.flops += top + flops::dual_step(k as u64) + flops::remove(k as u64, i as u64);
+                child.fwd = i;
                 let c = Change::Remove {
                     constraint: node.active[i].0,
                 };
@@ -253,6 +257,7 @@ pub(super) fn expand(
     node.mu = mustar;
     node.dual = true;
     node.flops += top;
+    node.fwd = k;
     add_step(model, geo, node, out);
     Ok(())
 }
@@ -267,8 +272,9 @@ fn add_step(model: &Model, geo: &mut Geometry, node: Node, out: &mut Vec<Outcome
     for &(j, _) in &node.active {
         inactive[j] = false;
     }
+    let count = |range: std::ops::Range<usize>| range.filter(|&j| inactive[j]).count() as u64;
     let scan = flops::primal(n as u64, k as u64)
-        + flops::scan(n as u64, inactive.iter().filter(|&&b| b).count() as u64);
+        + flops::scan(n as u64, count(0..model.rows), count(0..model.ncons));
     // (constraint, upper, violation) of every finite side.
     let mut cands: Vec<(usize, bool, Vec<f64>)> = Vec::new();
     for j in (0..model.ncons).filter(|&j| inactive[j]) {
@@ -295,7 +301,7 @@ fn add_step(model: &Model, geo: &mut Geometry, node: Node, out: &mut Vec<Outcome
     if let Some(poly) = geo.restrict(&node.poly, &optimal) {
         let mut leaf = node.clone();
         leaf.poly = poly;
-        leaf.flops += scan + flops::solution(n as u64);
+        leaf.flops += scan;
         out.push(Outcome::Leaf(leaf, Status::Optimal));
     }
     for (t, (j, upper, viol)) in cands.iter().enumerate() {
@@ -328,7 +334,8 @@ fn add_step(model: &Model, geo: &mut Geometry, node: Node, out: &mut Vec<Outcome
         child.active.push((*j, code));
         child.mu.push(vec![0.0; d + 1]);
         child.iterations += 1;
-        child.flops += scan + flops::add(n as u64, k as u64);
+        let rows_active = node.active.iter().filter(|a| a.0 < model.rows).count() as u64;
+        child.flops += scan + flops::add(n as u64, k as u64, *j < model.rows, rows_active);
         child.path.push(Change::Add {
             constraint: *j,
             upper: *upper,
@@ -387,6 +394,7 @@ fn singular_step(
             let mu = moved(&node.mu, &tau[t], &step, i);
             let mut child = node.clone();
             child.flops += flops::singular(k as u64) + flops::remove(k as u64, i as u64);
+            child.fwd = child.fwd.min(i);
             let c = Change::Singular {
                 constraint: node.active[i].0,
             };
