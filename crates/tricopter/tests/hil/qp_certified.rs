@@ -3,7 +3,7 @@
 //! start; warm start from the previous period's optimal active set, in
 //! any stored order, for parameter steps up to [`WARM_STEP`] of each
 //! parameter's box width) gives the regions with the most iterations and
-//! flops; their interior points (on the check's 2^-8 grid) are solved by
+//! flops; their interior points (on a 2^-12 grid) are solved by
 //! the on-target check firmware (`qp-check`, `qp16-check`), which serves
 //! the host's parameters after its own samples.
 
@@ -44,9 +44,10 @@ fn certification() -> &'static Certification {
     })
 }
 
-/// `v` on the check's grid (2^-8, exact in f32 and Q15.16).
+/// `v` on a grid of 2^-12 (exact in f32 up to 2,048 and in Q15.16: the
+/// firmware solves exactly this parameter in both builds).
 fn grid(v: f64) -> f32 {
-    ((v * 256.0).round() / 256.0) as f32
+    ((v * 4096.0).round() / 4096.0) as f32
 }
 
 /// Solves `theta` on the target (cold, or `warm` from the previous
@@ -128,6 +129,17 @@ pub(super) fn check_certified(
             let pf: Vec<f64> = pt.iter().map(|&v| f64::from(v)).collect();
             host.control(&pf[..nx], &pf[nx..], &mut u).unwrap();
         }
+        // The same case at the region's own point (not on the grid), on the
+        // host: whether the rounding left the region.
+        let exact_iterations = {
+            let mut h = host_qp_law(super::QP_MAX_ITERATIONS, true);
+            let mut v = [0.0; 4];
+            if let Some(p) = prev {
+                h.control(&p[..nx], &p[nx..], &mut v).unwrap();
+            }
+            h.control(&theta[..nx], &theta[nx..], &mut v).unwrap();
+            h.iterations()
+        };
         let s = solve(avr, dec, 2 * k as u16 + 1, th, warm);
         let tf: Vec<f64> = th.iter().map(|&v| f64::from(v)).collect();
         host.control(&tf[..nx], &tf[nx..], &mut u).unwrap();
@@ -137,7 +149,7 @@ pub(super) fn check_certified(
                 .map(|(a, b)| (f64::from(*a) - b).abs())
                 .fold(0.0, f64::max);
         println!(
-            "{solver} {scalar} at the certified {name} ({certified} iterations certified): {} iterations on the target, {} on the host, {} cycles, |u - host| {err:.2e} us",
+            "{solver} {scalar} at the certified {name} ({certified} iterations certified; {exact_iterations} by the host law at the region's point): {} iterations on the target, {} on the host, {} cycles, |u - host| {err:.2e} us",
             s.iterations,
             host.iterations(),
             s.cycles
