@@ -115,7 +115,7 @@ pub struct QpSolver<'w, S> {
     pub(crate) zunc: &'w mut [S],
     /// The primal point `z`, `n`.
     pub(crate) z: &'w mut [S],
-    /// Set-up scratch (the pivots of `H`), `n`.
+    /// Set-up scratch (the pivots of `H`, then their reciprocals), `n`.
     pub(crate) work: &'w mut [S],
     /// The active set's LDL' factor, `(n+1) x (n+1)` row-major, unit lower.
     pub(crate) lf: &'w mut [S],
