@@ -1,11 +1,12 @@
 //! The depth-first exploration of the region tree: limits, progress and
 //! the tally of the leaves (the certificate's regions).
 
+use super::error::CertifyError;
 use super::geometry::Geometry;
 use super::model::Model;
+use super::settings::{CertifySettings, Progress};
 use super::step::{Change, Node, Outcome, Status, expand};
-use super::{CertifyError, CertifySettings, Progress};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// A stored leaf region (normalised coordinates).
 #[derive(Debug, Clone)]
@@ -184,7 +185,7 @@ fn limit(ctx: &Ctx<'_>, tally: &Tally, open: usize, what: &'static str) -> Certi
 
 /// A node's path as text (`+b3u` added bound 3 upper, `-r1` removed row 1,
 /// `~b2` removed by a singular step), constraint names as in
-/// [`super::constraint_name`].
+/// [`super::model::constraint_name`].
 pub(super) fn path_text(path: &[Change], m: usize) -> String {
     let mut s = String::new();
     for c in path {
@@ -194,23 +195,18 @@ pub(super) fn path_text(path: &[Change], m: usize) -> String {
         match *c {
             Change::Add { constraint, upper } => {
                 s.push('+');
-                s.push_str(&super::constraint_name(constraint, m));
+                s.push_str(&super::model::constraint_name(constraint, m));
                 s.push(if upper { 'u' } else { 'l' });
             }
             Change::Remove { constraint } => {
                 s.push('-');
-                s.push_str(&super::constraint_name(constraint, m));
+                s.push_str(&super::model::constraint_name(constraint, m));
             }
             Change::Singular { constraint } => {
                 s.push('~');
-                s.push_str(&super::constraint_name(constraint, m));
+                s.push_str(&super::model::constraint_name(constraint, m));
             }
         }
     }
     s
-}
-
-/// Unused-duration guard for settings (a zero time limit is refused).
-pub(super) fn positive(d: Duration) -> bool {
-    d > Duration::ZERO
 }

@@ -24,170 +24,30 @@
 //! region of an optimal active set (stored sorted by constraint index), `|
 //! theta_k - theta_prev,k | <= step (ub_k - lb_k)`.
 
+mod error;
 mod explore;
 mod flops;
 mod geometry;
 mod model;
 mod report;
+mod settings;
 mod step;
+#[cfg(test)]
+mod tests;
 
+pub use error::CertifyError;
+pub use model::constraint_name;
 pub use report::{Certificate, Certification, RegionReport};
+pub use settings::{CertifySettings, Progress};
 pub use step::{Change, Status};
 
 use explore::{Ctx, Tally, run};
 use geometry::{Geometry, Half, Poly, half, minus, size};
 use kestrel_core::formats::MpqpProblem;
-use kestrel_qp::QpSettings;
-use kestrel_qp::parametric::{ParametricError, ParametricQp};
+use kestrel_qp::parametric::ParametricQp;
 use model::{EQUALITY, Model, sign};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 use step::Node;
-
-/// What the certification needs and how far it may go.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CertifySettings {
-    /// The solver settings certified (tolerances, iteration cap): the
-    /// decisions are mirrored with these values.
-    pub qp: QpSettings,
-    /// Warm start: also certify a start from the previous period's optimal
-    /// active set with `|theta_k - theta_prev,k| <= step (ub_k - lb_k)`
-    /// (a fraction of each parameter's box width). `None`: cold only.
-    pub warm_step: Option<f64>,
-    /// The most regions (finished plus open) of one run before
-    /// [`CertifyError::Limit`]. Default 2,000,000.
-    pub max_regions: usize,
-    /// The longest the whole certification may take before
-    /// [`CertifyError::Limit`]. Default 10 minutes.
-    pub time_limit: Option<Duration>,
-    /// Regions whose largest inscribed ball (in the box normalised to `[-1,
-    /// 1]^p`) is smaller are lower-dimensional and dropped. Default 1e-9.
-    pub min_radius: f64,
-    /// Warm start from the previous optimal active set in any stored order
-    /// (every permutation certified: the solver re-adds the set in its
-    /// stored order, and the order can change the path) instead of sorted
-    /// by constraint index. Sets of at most 8 constraints. Default off.
-    pub warm_any_order: bool,
-    /// Keep every region (for [`Certificate::iterations_at`]); off for
-    /// large problems to save memory. Default on.
-    pub keep_regions: bool,
-}
-
-impl Default for CertifySettings {
-    fn default() -> Self {
-        CertifySettings {
-            qp: QpSettings::default(),
-            warm_step: None,
-            max_regions: 2_000_000,
-            time_limit: Some(Duration::from_secs(600)),
-            min_radius: 1e-9,
-            warm_any_order: false,
-            keep_regions: true,
-        }
-    }
-}
-
-impl CertifySettings {
-    /// Checks the fields: valid solver settings, a warm step in `(0, 1]`,
-    /// at least one region, a positive time limit, a radius in `(0, 1)`.
-    pub fn validate(&self) -> Result<(), CertifyError> {
-        let bad = |s: &str| Err(CertifyError::InvalidSettings(s.to_string()));
-        if self.qp.validate().is_err() {
-            return bad("qp: a solver setting is out of range");
-        }
-        if let Some(s) = self.warm_step
-            && !(s > 0.0 && s <= 1.0)
-        {
-            return bad("warm_step must be in (0, 1] (a fraction of the box width)");
-        }
-        if self.max_regions == 0 {
-            return bad("max_regions must be at least 1");
-        }
-        if self.time_limit.is_some_and(|t| !explore::positive(t)) {
-            return bad("time_limit must be positive");
-        }
-        if !(self.min_radius > 0.0 && self.min_radius < 1.0) {
-            return bad("min_radius must be in (0, 1)");
-        }
-        Ok(())
-    }
-}
-
-/// How far a certification has got (for a progress display).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Progress {
-    /// `"cold"` or `"warm"`.
-    pub phase: &'static str,
-    /// Finished regions of this phase.
-    pub regions: usize,
-    /// Regions still to split.
-    pub open: usize,
-    /// Regions split so far.
-    pub nodes: usize,
-    /// LPs solved (all phases).
-    pub lps: usize,
-    /// The most iterations of a finished region so far.
-    pub worst_iterations: usize,
-    /// Warm start: start sets done.
-    pub start_sets_done: usize,
-    /// Warm start: start sets (critical regions) in all.
-    pub start_sets: usize,
-    /// Time since the start.
-    pub elapsed: Duration,
-}
-
-/// Why a certification failed.
-#[derive(Debug, thiserror::Error)]
-pub enum CertifyError {
-    /// The problem cannot be put in the solver's form.
-    #[error(transparent)]
-    Problem(#[from] ParametricError),
-    /// `H` is not positive definite.
-    #[error("H is not positive definite")]
-    NotPositiveDefinite,
-    /// A settings field is out of range.
-    #[error("invalid certification settings: {0}")]
-    InvalidSettings(String),
-    /// A linear algebra step failed.
-    #[error("numerical failure: {0}")]
-    Numerical(String),
-    /// The region or time limit was reached: the problem is too large for
-    /// these settings.
-    #[error(
-        "{what} limit reached in the {phase} certification after {elapsed:.1?}: {regions} regions finished (the most iterations on them {worst_so_far}, a lower bound of the worst case), {open} open, {nodes} split, deepest path {deepest} iterations, start sets {start_sets_done} of {start_sets}; raise max_regions / time_limit or certify a smaller parameter set"
-    )]
-    Limit {
-        /// `"region"` or `"time"`.
-        what: &'static str,
-        /// `"cold"` or `"warm"`.
-        phase: &'static str,
-        /// Finished regions.
-        regions: usize,
-        /// Open regions.
-        open: usize,
-        /// Regions split.
-        nodes: usize,
-        /// The longest path seen.
-        deepest: usize,
-        /// The most iterations of a finished region.
-        worst_so_far: usize,
-        /// Warm start sets done.
-        start_sets_done: usize,
-        /// Warm start sets in all.
-        start_sets: usize,
-        /// Time spent.
-        elapsed: Duration,
-    },
-}
-
-/// A constraint's name in paths and reports: `r<j>` for row `j` of the
-/// solver's `G`, `b<i>` for the bound on `z_i` (`j = m + i`).
-pub fn constraint_name(j: usize, m: usize) -> String {
-    if j < m {
-        format!("r{j}")
-    } else {
-        format!("b{}", j - m)
-    }
-}
 
 /// Certifies kestrel-qp's solver on `problem` over its parameter box
 /// (cold start, and warm start if `settings.warm_step` is set);

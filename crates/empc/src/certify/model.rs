@@ -230,3 +230,13 @@ impl Model {
             .collect()
     }
 }
+
+/// A constraint's name in paths and reports: `r<j>` for row `j` of the
+/// solver's `G`, `b<i>` for the bound on `z_i` (`j = m + i`).
+pub fn constraint_name(j: usize, m: usize) -> String {
+    if j < m {
+        format!("r{j}")
+    } else {
+        format!("b{}", j - m)
+    }
+}

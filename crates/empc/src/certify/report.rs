@@ -272,7 +272,7 @@ impl Certificate {
                 "radius": r.radius,
                 "path": path_text(&r.path, self.m),
                 "start_set": r.start_set.iter().map(|a| format!("{}{}",
-                    super::constraint_name(a.index, self.m),
+                    super::model::constraint_name(a.index, self.m),
                     if a.side == Side::Upper { "u" } else { "l" })).collect::<Vec<_>>(),
                 "A": r.halfspaces.iter().map(|h| h.0.clone()).collect::<Vec<_>>(),
                 "b": r.halfspaces.iter().map(|h| h.1).collect::<Vec<_>>(),

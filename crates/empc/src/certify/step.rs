@@ -17,7 +17,7 @@
 //! along the null vector of `M`). Before the first addition of a warm
 //! start `mu = 0`, every ratio is 0, and the first blocking position wins.
 
-use super::CertifyError;
+use super::error::CertifyError;
 use super::flops;
 use super::geometry::{Geometry, Half, Poly, half, minus, size};
 use super::model::{EQUALITY, Model, UPPER, axpy, sign};
