@@ -4,14 +4,16 @@
 //! variable `KESTREL_QP_GENERATED` (written by kestrel-avr-rt's
 //! `tests/qp_avr.rs`, which builds this program, runs it in simavr and
 //! compares every answer with the host's run of the same code). Each
-//! parameter is solved cold, then warm from the previous parameter's final
-//! active set (the solve before it), each timed with Timer1 (prescaler 1,
-//! overflow interrupt).
+//! parameter is solved cold, then warm from the previous solve's final
+//! active set, with the factor-updating kernel (`Qp16Solver`, modes 0 and
+//! 1) and, where the generated file has per-set tables, with the per-set
+//! kernel (`Qp16SetSolver`, modes 2 and 3), each timed with Timer1
+//! (prescaler 1, overflow interrupt).
 //!
 //! USART0 lines: `INIT N P`; `CAL` with the cycles of a one-term and a
-//! nine-term rounded MAC, of a pivot's reciprocal and of one unconstrained
-//! row; per parameter `Q i mode iterations active
-//! cycles w0 .. w(N-1)` (mode 0 cold, 1 warm; `w` the raw Q15.16 bits) or
+//! nine-term rounded MAC, of a pivot's reciprocal and of the unconstrained
+//! solution (all rows); per parameter `Q i mode iterations active
+//! cycles w0 .. w(N-1)` (mode 0/2 cold, 1/3 warm; `w` the raw Q15.16 bits) or
 //! `Q i mode ERR code cycles w0 ..` (the fallback's bits); `END` (`PANIC
 //! file line` on a panic); then it sleeps with interrupts off (simavr ends).
 #![no_std]
@@ -21,9 +23,9 @@
 use core::ptr::{read_volatile, write_volatile};
 use kestrel_avr_rt::cycles::CycleClock;
 use kestrel_avr_rt::cycles::timer1::{self, Timer1Clock};
-use kestrel_avr_rt::qp16::{Qp16Error, Qp16Solver, Qp16Start};
+use kestrel_avr_rt::qp16::{Qp16Error, Qp16Info, Qp16SetSolver, Qp16Solver, Qp16Start};
 
-// N, P, TABLES, THETAS.
+// N, P, TABLES, SETS (whether SET_TABLES are real), SET_TABLES, THETAS.
 include!(env!("KESTREL_QP_GENERATED"));
 
 const UCSR0A: *mut u8 = 0xC0 as *mut u8;
@@ -106,7 +108,7 @@ pub extern "C" fn main() -> ! {
     let rc = kestrel_avr_rt::qp16::Recip::new(core::hint::black_box(123_456_789), 4);
     let cr = clock.now().wrapping_sub(t0);
     let t0 = clock.now();
-    let rw = TABLES.unc[0].eval(&THETAS[0]);
+    let rw = TABLES.unconstrained(&THETAS[0]);
     let cw = clock.now().wrapping_sub(t0);
     core::hint::black_box((r1, r9, rc, rw));
     tx(b"CAL");
@@ -116,11 +118,22 @@ pub extern "C" fn main() -> ! {
     num(cw);
     tx(b"\n");
     let mut solver = Qp16Solver::<N>::new();
+    let mut per_set = Qp16SetSolver::<N>::new();
+    let modes: &[u32] = if SETS { &[0, 1, 2, 3] } else { &[0, 1] };
     for (i, theta) in THETAS.iter().enumerate() {
-        for (mode, start) in [(0u32, Qp16Start::Cold), (1, Qp16Start::Warm)] {
+        for &mode in modes {
+            let start = if mode % 2 == 0 {
+                Qp16Start::Cold
+            } else {
+                Qp16Start::Warm
+            };
             let theta = core::hint::black_box(theta);
             let t0 = clock.now();
-            let r = solver.solve(&TABLES, theta, start);
+            let r: Result<Qp16Info, Qp16Error> = if mode < 2 {
+                solver.solve(&TABLES, theta, start)
+            } else {
+                per_set.solve(&TABLES, &SET_TABLES, theta, start)
+            };
             let cycles = clock.now().wrapping_sub(t0);
             tx(b"Q");
             num(i as u32);
@@ -129,7 +142,11 @@ pub extern "C" fn main() -> ! {
                 Ok(info) => {
                     num(u32::from(info.iterations));
                     num(u32::from(info.active));
-                    *solver.solution()
+                    if mode < 2 {
+                        *solver.solution()
+                    } else {
+                        *per_set.solution()
+                    }
                 }
                 Err(e) => {
                     tx(b" ERR");
@@ -138,7 +155,11 @@ pub extern "C" fn main() -> ! {
                         Qp16Error::Infeasible => 2,
                         Qp16Error::IterationLimit => 3,
                     });
-                    solver.fallback()
+                    if mode < 2 {
+                        solver.fallback()
+                    } else {
+                        per_set.fallback()
+                    }
                 }
             };
             num(cycles);
@@ -147,6 +168,15 @@ pub extern "C" fn main() -> ! {
             }
             tx(b"\n");
         }
+    }
+    #[cfg(feature = "profile")]
+    {
+        tx(b"PHASES");
+        // SAFETY: the solves are done; single-threaded read.
+        for v in unsafe { *core::ptr::addr_of!(kestrel_avr_rt::qp16::QP16_PROFILE) } {
+            num(v);
+        }
+        tx(b"\n");
     }
     tx(b"END\n");
     stop()

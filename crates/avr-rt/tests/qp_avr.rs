@@ -15,7 +15,10 @@
 //! (then it fails).
 
 use kestrel_avr_rt::host::{avr_cargo_build, avr_size, missing_tools, simavr};
-use kestrel_avr_rt::qp16::{Qp16Error, Qp16Settings, Qp16Solver, Qp16Start, Qp16Tables, theta_q16};
+use kestrel_avr_rt::qp16::{
+    Qp16Error, Qp16Info, Qp16SetSolver, Qp16SetTables, Qp16Settings, Qp16Solver, Qp16Start,
+    Qp16Tables, theta_q16,
+};
 use kestrel_core::formats::MpqpProblem;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -24,8 +27,9 @@ use std::time::Duration;
 
 /// One AVR build and simulation at a time (one target directory).
 static AVR_LOCK: Mutex<()> = Mutex::new(());
-/// Random parameters measured besides the worst ones.
-const RANDOM: usize = 64;
+// Random parameters measured besides the worst ones: 64, and 24 for the
+// larger problem (the parameters sit in the AVR's 8 kB of RAM beside its
+// 3 kB of tables and the solver's factor).
 
 fn repo_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -65,18 +69,38 @@ fn problem(name: &str) -> MpqpProblem {
 
 /// The host's run of the bench's sequence: per parameter and mode (cold,
 /// warm) the expected line after `Q i mode`, without the cycles.
-fn host_lines<const N: usize, const P: usize>(
+fn host_lines<const N: usize, const P: usize, const S: usize, const E: usize>(
     t: &Qp16Tables<N, P>,
+    sets: Option<&Qp16SetTables<N, S, E>>,
     thetas: &[[i32; P]],
 ) -> Vec<(String, Vec<u32>)> {
     let mut s = Qp16Solver::<N>::new();
+    let mut ps = Qp16SetSolver::<N>::new();
     let mut out = Vec::new();
+    let modes: &[u32] = if sets.is_some() {
+        &[0, 1, 2, 3]
+    } else {
+        &[0, 1]
+    };
     for th in thetas {
-        for start in [Qp16Start::Cold, Qp16Start::Warm] {
-            let (head, w) = match s.solve(t, th, start) {
+        for &mode in modes {
+            let start = if mode % 2 == 0 {
+                Qp16Start::Cold
+            } else {
+                Qp16Start::Warm
+            };
+            let r: Result<Qp16Info, Qp16Error> = match (mode < 2, sets) {
+                (false, Some(st)) => ps.solve(t, st, th, start),
+                _ => s.solve(t, th, start),
+            };
+            let (head, w) = match r {
                 Ok(info) => (
                     format!("{} {}", info.iterations, info.active),
-                    *s.solution(),
+                    if mode < 2 {
+                        *s.solution()
+                    } else {
+                        *ps.solution()
+                    },
                 ),
                 Err(e) => {
                     let code = match e {
@@ -84,7 +108,14 @@ fn host_lines<const N: usize, const P: usize>(
                         Qp16Error::Infeasible => 2,
                         Qp16Error::IterationLimit => 3,
                     };
-                    (format!("ERR {code}"), s.fallback())
+                    (
+                        format!("ERR {code}"),
+                        if mode < 2 {
+                            s.fallback()
+                        } else {
+                            ps.fallback()
+                        },
+                    )
                 }
             };
             out.push((head, w.iter().map(|v| *v as u32).collect()));
@@ -98,6 +129,10 @@ fn build(generated: &Path) -> PathBuf {
     let root = repo_root();
     let mut cmd = avr_cargo_build(&root);
     cmd.env("KESTREL_QP_GENERATED", generated);
+    // KESTREL_QP_PROFILE=1: cycles per solver phase (a `PHASES` line).
+    if std::env::var_os("KESTREL_QP_PROFILE").is_some() {
+        cmd.args(["--features", "profile"]);
+    }
     let status = cmd
         .current_dir(root.join("avr/qp-bench"))
         .status()
@@ -120,9 +155,16 @@ fn stats(c: &[u32]) -> String {
 
 /// Runs `thetas` (the first `named` of them named in the report) on the
 /// AVR, checks every answer against the host and prints the report.
-fn measure<const N: usize, const P: usize>(name: &str, file: &str, named: &[(&str, Vec<f64>)]) {
+fn measure<const N: usize, const P: usize, const S: usize, const E: usize>(
+    name: &str,
+    file: &str,
+    named: &[(&str, Vec<f64>)],
+    count: usize,
+) {
     let p = problem(file);
     let (t, scaling) = Qp16Tables::<N, P>::from_mpqp(&p, Qp16Settings::default()).unwrap();
+    // The per-set kernel's tables where they exist (S = 2^N).
+    let sets = t.set_tables::<S, E>().ok();
     let mut rng = Rng(0x2545_F491_4F6C_DD1D);
     let lo: Vec<f64> = p.theta_lb.iter().copied().collect();
     let hi: Vec<f64> = p.theta_ub.iter().copied().collect();
@@ -149,15 +191,25 @@ fn measure<const N: usize, const P: usize>(name: &str, file: &str, named: &[(&st
         thetas.push(theta_q16::<P>(th));
     }
     let n_named = thetas.len();
-    for _ in 0..RANDOM {
+    for _ in 0..count {
         thetas.push(theta_q16::<P>(&random()));
     }
-    let want = host_lines(&t, &thetas);
+    let want = host_lines(&t, sets.as_ref(), &thetas);
+    let n_modes = if sets.is_some() { 4 } else { 2 };
     let dir = repo_root().join(format!("avr/target/qp-bench-gen/{name}"));
     std::fs::create_dir_all(&dir).unwrap();
     let mut g = String::from("// @generated by kestrel-avr-rt's tests/qp_avr.rs; do not edit.\n");
     writeln!(g, "const N: usize = {N};\nconst P: usize = {P};").unwrap();
     g.push_str(&t.to_rust("TABLES"));
+    match &sets {
+        Some(st) => {
+            g.push_str("const SETS: bool = true;\n");
+            g.push_str(&st.to_rust("SET_TABLES"));
+        }
+        None => {
+            writeln!(g, "const SETS: bool = false;\nstatic SET_TABLES: kestrel_avr_rt::qp16::Qp16SetTables<{N}, 1, 0> = kestrel_avr_rt::qp16::Qp16SetTables {{ offset: [0], data: [], minv_bits: 16, w_bits: 16 }};").unwrap();
+        }
+    }
     writeln!(g, "static THETAS: [[i32; P]; {}] = [", thetas.len()).unwrap();
     for th in &thetas {
         writeln!(g, "    {th:?},").unwrap();
@@ -186,10 +238,13 @@ fn measure<const N: usize, const P: usize>(name: &str, file: &str, named: &[(&st
         .map(|l| l.split_whitespace().map(str::to_string).collect())
         .collect();
     assert_eq!(rows.len(), want.len(), "{name}: {lines:#?}");
-    let (mut cold, mut warm) = (Vec::new(), Vec::new());
+    // Random parameters' cycles per mode; the named ones listed.
+    let mut random: Vec<Vec<u32>> = vec![Vec::new(); n_modes];
     let mut named_cycles = Vec::new();
+    let mut by_iter = std::collections::BTreeMap::new();
+    let mode_names = ["cold", "warm", "per-set cold", "per-set warm"];
     for (k, (r, (head, bits))) in rows.iter().zip(&want).enumerate() {
-        let (i, mode) = (k / 2, k % 2);
+        let (i, mode) = (k / n_modes, k % n_modes);
         assert_eq!(r[0], i.to_string());
         assert_eq!(r[1], mode.to_string());
         let got_head = format!("{} {}", r[2], r[3]);
@@ -203,21 +258,31 @@ fn measure<const N: usize, const P: usize>(name: &str, file: &str, named: &[(&st
         if i < n_named {
             named_cycles.push(format!(
                 "{{\"theta\": \"{}\", \"mode\": \"{}\", \"result\": \"{head}\", \"cycles\": {cycles}}}",
-                labels[i],
-                if mode == 0 { "cold" } else { "warm" }
+                labels[i], mode_names[mode]
             ));
-        } else if mode == 0 {
-            cold.push(cycles);
         } else {
-            warm.push(cycles);
+            if mode % 2 == 0 {
+                by_iter
+                    .entry(format!("{} {}", mode_names[mode], r[2]))
+                    .or_insert_with(Vec::new)
+                    .push(cycles);
+            }
+            random[mode].push(cycles);
         }
+    }
+    let per_iter: Vec<String> = by_iter
+        .iter()
+        .map(|(k, v): (&String, &Vec<u32>)| format!("\"{k}\": {}", stats(v)))
+        .collect();
+    if let Some(l) = lines.iter().find(|l| l.starts_with("PHASES")) {
+        println!("{name}: {l}");
     }
     let cal = lines
         .iter()
         .find_map(|l| l.strip_prefix("CAL "))
         .unwrap_or("?");
     println!(
-        "QP-AVR-REPORT {{\"problem\": \"{name}\", \"n\": {N}, \"p\": {P}, \"flash\": {}, \"ram_static\": {}, \"table_bytes\": {}, \"var_shift\": {}, \"obj_shift\": {}, \"bits\": [{}, {}, {}], \"named\": [{}], \"random_cold\": {}, \"random_warm_after_cold\": {}, \"equal_bits\": {}, \"cal_mac1_mac9_recip_row\": \"{cal}\"}}",
+        "QP-AVR-REPORT {{\"problem\": \"{name}\", \"n\": {N}, \"p\": {P}, \"flash\": {}, \"ram_static\": {}, \"table_bytes\": {}, \"var_shift\": {}, \"obj_shift\": {}, \"bits\": [{}, {}, {}], \"named\": [{}], \"random\": {{{}}}, \"random_cold_by_iterations\": {{{}}}, \"equal_bits\": {}, \"cal_mac1_mac9_recip_row\": \"{cal}\"}}",
         flash.flash,
         flash.ram,
         std::mem::size_of::<Qp16Tables<N, P>>(),
@@ -227,8 +292,13 @@ fn measure<const N: usize, const P: usize>(name: &str, file: &str, named: &[(&st
         t.l_bits,
         t.nu_bits,
         named_cycles.join(", "),
-        stats(&cold),
-        stats(&warm),
+        random
+            .iter()
+            .enumerate()
+            .map(|(m, c)| format!("\"{}\": {}", mode_names[m], stats(c)))
+            .collect::<Vec<_>>()
+            .join(", "),
+        per_iter.join(", "),
         rows.len(),
     );
 }
@@ -246,7 +316,7 @@ fn qp16_on_the_avr_thesis_sized() {
         .iter()
         .map(|t| ("certified worst-case region", t.to_vec()))
         .collect();
-    measure::<4, 9>("thesis", "qp16-thesis.mpqp.json", &named);
+    measure::<4, 9, 16, 128>("thesis", "qp16-thesis.mpqp.json", &named, 64);
 }
 
 #[test]
@@ -254,5 +324,5 @@ fn qp16_on_the_avr_larger() {
     if !tools() {
         return;
     }
-    measure::<16, 9>("larger", "qp16-larger.mpqp.json", &[]);
+    measure::<16, 9, 1, 0>("larger", "qp16-larger.mpqp.json", &[], 24);
 }

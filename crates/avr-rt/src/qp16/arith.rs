@@ -40,12 +40,6 @@ pub fn mul_round(a: i32, b: i32, shift: u8) -> i32 {
     mac_round(&[a], &[b], shift)
 }
 
-/// `v` saturated to `i32`.
-#[inline]
-pub fn sat(v: i64) -> i32 {
-    v.clamp(i32::MIN as i64, i32::MAX as i64) as i32
-}
-
 /// `floor(num 2^bits / den)` for `num <= den`, `0 < den < 2^31`, `bits
 /// <= 30` (shift and subtract: no library division).
 fn frac(num: u32, den: u32, bits: u8) -> u32 {
@@ -68,11 +62,12 @@ fn frac(num: u32, den: u32, bits: u8) -> u32 {
     q
 }
 
-/// `num / den` in Q2.30 for `0 <= num < den` (both non-negative; large
-/// operands are scaled down together first): the step of a blocking dual
-/// update, in `[0, 1]`.
-pub fn frac30(num: i32, den: i64) -> i32 {
-    let (mut n, mut d) = (num.max(0) as i64, den.max(1));
+/// `cur / (cur - star)` in Q2.30 for `cur >= 0 > star` (negative `cur`
+/// taken as 0; large operands are scaled down together first): the step
+/// of a blocking dual update, in `[0, 1]`.
+#[inline(never)]
+pub fn frac30(cur: i32, star: i32) -> i32 {
+    let (mut n, mut d) = (cur.max(0) as i64, cur.max(0) as i64 - star as i64);
     while d >= 1 << 30 {
         n >>= 1;
         d >>= 1;
@@ -169,10 +164,10 @@ mod tests {
         }
         assert_eq!(Recip::new(7, 4), None);
         assert_eq!(Recip::new(0, 1), None);
-        assert_eq!(frac30(1, 2), 1 << 29);
-        assert_eq!(frac30(0, 5), 0);
-        assert_eq!(frac30(5, 5), 1 << 30);
-        assert!(((1 << 28) - frac30(i32::MAX, 1i64 << 33)).abs() <= 4);
+        assert_eq!(frac30(1, -1), 1 << 29);
+        assert_eq!(frac30(0, -5), 0);
+        assert_eq!(frac30(5, 0), 1 << 30);
+        assert!(((1 << 29) - frac30(i32::MAX, -i32::MAX)).abs() <= 4);
     }
 
     proptest! {

@@ -21,7 +21,9 @@
 //! The common variable scale keeps the most-violated rule in the problem's
 //! units (a common factor does not change which violation is largest).
 
+use super::sets::Qp16SetTables;
 use super::tables::{Qp16Tables, Row32};
+use crate::mac::Row16;
 use kestrel_core::formats::MpqpProblem;
 use nalgebra::{DMatrix, DVector};
 
@@ -168,6 +170,23 @@ pub fn box_form(
     Ok((h, q, q0, lbt, lb0, ubt, ub0))
 }
 
+/// A 32-bit row as its 16-bit high and low halves (`c = 2^16 hi + lo`,
+/// `lo` in `[-2^15, 2^15)`; a unit row is all high half, shift 0).
+fn split_row<const P: usize>(r: &Row32<P>) -> (Row16<P>, Row16<P>) {
+    let (mut hi, mut lo) = ([0i16; P], [0i16; P]);
+    for (k, &c) in r.c.iter().enumerate() {
+        let l = if r.shift == 0 { 0 } else { c as i16 };
+        lo[k] = l;
+        hi[k] = ((c as i64 - l as i64) >> if r.shift == 0 { 0 } else { 16 }) as i16;
+    }
+    let start = |v: &[i16; P]| v.iter().position(|&x| x != 0).unwrap_or(P) as u8;
+    let hs = r.shift.saturating_sub(16);
+    (
+        Row16::new(hi, hs, start(&hi)),
+        Row16::new(lo, r.shift, start(&lo)),
+    )
+}
+
 /// Largest `|a' theta + c|` on the box.
 fn row_range(a: &[f64], c: f64, lo: &[f64], hi: &[f64]) -> f64 {
     let mut mid = c;
@@ -184,6 +203,16 @@ fn quantise_row<const P: usize>(a: &[f64], c: f64, scale: f64) -> Result<Row32<P
     let c0 = c * scale * 65_536.0;
     if !c0.is_finite() || c0.abs() >= 2f64.powi(31) {
         return Err(Qp16BuildError::Range(format!("row constant {c}")));
+    }
+    // A unit row (coefficients 0 or +-1 after scaling): sums only.
+    if a.iter().all(|&v| [0.0, 1.0, -1.0].contains(&(v * scale))) {
+        let mut row = Row32::constant(c0.round() as i32);
+        row.shift = 0;
+        for (k, v) in a.iter().enumerate().take(P) {
+            row.c[k] = (v * scale) as i32;
+        }
+        row.start = row.c.iter().position(|&v| v != 0).unwrap_or(P) as u8;
+        return Ok(row);
     }
     let mut shift = 46u8;
     while shift > 16 && amax * 2f64.powi(shift as i32) >= 2f64.powi(30) {
@@ -323,12 +352,16 @@ impl<const N: usize, const P: usize> Qp16Tables<N, P> {
                 *v = (pw[(i, j)] * c * 2f64.powi(p_bits as i32)).round() as i32;
             }
         }
-        let mut unc = [Row32::constant(0); N];
+        let mut unc_hi = [Row16::new([0; P], 0, P as u8); N];
+        let mut unc_lo = [Row16::new([0; P], 0, P as u8); N];
+        let mut unc0 = [0i32; N];
         let mut lb = [Row32::constant(i32::MIN); N];
         let mut ub = [Row32::constant(i32::MAX); N];
         for i in 0..N {
             let ki: Vec<f64> = k.row(i).iter().copied().collect();
-            unc[i] = quantise_row(&ki, k0[i], scale)?;
+            let row: Row32<P> = quantise_row(&ki, k0[i], scale)?;
+            (unc_hi[i], unc_lo[i]) = split_row(&row);
+            unc0[i] = row.c0;
             if qp.lb0[i].is_finite() {
                 lb[i] = quantise_row(&qp.lb_theta[i * P..(i + 1) * P], qp.lb0[i], scale)?;
             } else if qp.lb0[i] == f64::INFINITY {
@@ -342,7 +375,9 @@ impl<const N: usize, const P: usize> Qp16Tables<N, P> {
         }
         let tables = Qp16Tables {
             hinv: hinv16,
-            unc,
+            unc_hi,
+            unc_lo,
+            unc0,
             lb,
             ub,
             var_shift: s as i8,
@@ -395,6 +430,80 @@ impl<const N: usize, const P: usize> Qp16Tables<N, P> {
         Self::from_matrices(&qp, settings)
     }
 
+    /// The per-active-set tables of [`super::Qp16SetSolver`] (`S = 2^N`,
+    /// `E = N^2 2^(N-1)`), from this table's `P` (inverted in `f64` per
+    /// set, then rounded).
+    ///
+    /// # Errors
+    /// [`Qp16BuildError::Dimension`] unless `S = 2^N`, `E = N^2 2^(N-1)`
+    /// and `N <= 10`; [`Qp16BuildError::Range`] if an entry does not fit.
+    pub fn set_tables<const S: usize, const E: usize>(
+        &self,
+    ) -> Result<Qp16SetTables<N, S, E>, Qp16BuildError> {
+        if N > 10 || S != 1 << N || E != N * N * (1 << N) / 2 {
+            return Err(Qp16BuildError::Dimension(
+                "S = 2^N, E = N^2 2^(N-1), N <= 10",
+            ));
+        }
+        let pf = |i: usize, j: usize| self.hinv[i][j] as f64 / 2f64.powi(self.p_bits as i32);
+        let mut blocks: Vec<(Vec<f64>, Vec<f64>)> = Vec::with_capacity(S);
+        let (mut mmax, mut wmax) = (0.0f64, 0.0f64);
+        for mask in 0..S {
+            let a: Vec<usize> = (0..N).filter(|j| mask >> j & 1 == 1).collect();
+            let inact: Vec<usize> = (0..N).filter(|j| mask >> j & 1 == 0).collect();
+            let k = a.len();
+            let m = DMatrix::from_fn(k, k, |r, c| pf(a[r], a[c]));
+            let minv = if k == 0 {
+                m
+            } else {
+                m.cholesky()
+                    .ok_or(Qp16BuildError::NotPositiveDefinite)?
+                    .inverse()
+            };
+            let pia = DMatrix::from_fn(inact.len(), k, |r, c| pf(inact[r], a[c]));
+            let w = pia * &minv;
+            mmax = minv.iter().fold(mmax, |x, v| x.max(v.abs()));
+            wmax = w.iter().fold(wmax, |x, v| x.max(v.abs()));
+            // Row-major.
+            let mv: Vec<f64> = (0..k * k).map(|t| minv[(t / k, t % k)]).collect();
+            let wv: Vec<f64> = (0..inact.len() * k).map(|t| w[(t / k, t % k)]).collect();
+            blocks.push((mv, wv));
+        }
+        // Fraction bits of the form 8 m + 1 (17 or 25): the rounding shift
+        // of every MAC is then whole bytes (no bit loop on the AVR).
+        let bits = |m: f64| {
+            let b = (29 - m.max(1e-9).log2().ceil() as i32).clamp(17, 30);
+            (b - (b - 1) % 8) as u8
+        };
+        let (minv_bits, w_bits) = (bits(mmax), bits(wmax));
+        if mmax * 2f64.powi(minv_bits as i32) >= 2f64.powi(31)
+            || wmax * 2f64.powi(w_bits as i32) >= 2f64.powi(31)
+        {
+            return Err(Qp16BuildError::Range(format!(
+                "per-set tables: |M^-1| {mmax:.3e}, |W| {wmax:.3e}"
+            )));
+        }
+        let mut out = Qp16SetTables {
+            offset: [0; S],
+            data: [0; E],
+            minv_bits,
+            w_bits,
+        };
+        let mut at = 0usize;
+        for (mask, (mv, wv)) in blocks.iter().enumerate() {
+            out.offset[mask] = at as u16;
+            for v in mv {
+                out.data[at] = (v * 2f64.powi(minv_bits as i32)).round() as i32;
+                at += 1;
+            }
+            for v in wv {
+                out.data[at] = (v * 2f64.powi(w_bits as i32)).round() as i32;
+                at += 1;
+            }
+        }
+        Ok(out)
+    }
+
     /// The Rust source of these tables as a `static` named `name` (for
     /// firmware and the AVR bench).
     pub fn to_rust(&self, name: &str) -> String {
@@ -404,11 +513,21 @@ impl<const N: usize, const P: usize> Qp16Tables<N, P> {
                 r.c, r.c0, r.shift, r.start
             )
         };
+        let row16 = |r: &Row16<P>| {
+            format!(
+                "kestrel_avr_rt::mac::Row16 {{ c: {:?}, shift: {}, start: {} }}",
+                r.c, r.shift, r.start
+            )
+        };
         let rows = |rs: &[Row32<P>; N]| rs.iter().map(row).collect::<Vec<_>>().join(",\n        ");
+        let rows16 =
+            |rs: &[Row16<P>; N]| rs.iter().map(row16).collect::<Vec<_>>().join(",\n        ");
         format!(
-            "static {name}: kestrel_avr_rt::qp16::Qp16Tables<{N}, {P}> = kestrel_avr_rt::qp16::Qp16Tables {{\n    hinv: {:?},\n    unc: [\n        {}\n    ],\n    lb: [\n        {}\n    ],\n    ub: [\n        {}\n    ],\n    var_shift: {},\n    obj_shift: {},\n    p_bits: {},\n    l_bits: {},\n    nu_bits: {},\n    pivot_bits: {},\n    primal_tol: {},\n    dual_tol: {},\n    max_iterations: {},\n}};\n",
+            "static {name}: kestrel_avr_rt::qp16::Qp16Tables<{N}, {P}> = kestrel_avr_rt::qp16::Qp16Tables {{\n    hinv: {:?},\n    unc_hi: [\n        {}\n    ],\n    unc_lo: [\n        {}\n    ],\n    unc0: {:?},\n    lb: [\n        {}\n    ],\n    ub: [\n        {}\n    ],\n    var_shift: {},\n    obj_shift: {},\n    p_bits: {},\n    l_bits: {},\n    nu_bits: {},\n    pivot_bits: {},\n    primal_tol: {},\n    dual_tol: {},\n    max_iterations: {},\n}};\n",
             self.hinv,
-            rows(&self.unc),
+            rows16(&self.unc_hi),
+            rows16(&self.unc_lo),
+            self.unc0,
             rows(&self.lb),
             rows(&self.ub),
             self.var_shift,
@@ -430,4 +549,14 @@ pub fn theta_q16<const P: usize>(theta: &[f64]) -> [i32; P] {
         let v = theta.get(j).copied().unwrap_or(0.0) * 65_536.0;
         v.round().clamp(i32::MIN as f64, i32::MAX as f64) as i32
     })
+}
+
+impl<const N: usize, const S: usize, const E: usize> Qp16SetTables<N, S, E> {
+    /// The Rust source of these tables as a `static` named `name`.
+    pub fn to_rust(&self, name: &str) -> String {
+        format!(
+            "static {name}: kestrel_avr_rt::qp16::Qp16SetTables<{N}, {S}, {E}> = kestrel_avr_rt::qp16::Qp16SetTables {{\n    offset: {:?},\n    data: {:?},\n    minv_bits: {},\n    w_bits: {},\n}};\n",
+            self.offset, self.data, self.minv_bits, self.w_bits
+        )
+    }
 }

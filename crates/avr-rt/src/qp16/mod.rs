@@ -13,9 +13,11 @@
 //! - `H^-1` scaled (`P = 2^f H^-1 / 4^s`, Q15.16), so `M` needs no
 //!   factorisation of `H` at run time: an active bound adds one row of
 //!   `M` straight from `P`;
-//! - the unconstrained solution `w_unc = K theta + k0` and the bounds as
-//!   affine rows in theta with 32-bit coefficients and their own binary
-//!   point ([`Row32`]), one rounding per row;
+//! - the unconstrained solution `w_unc = K theta + k0` as 16-bit rows
+//!   (the high and low halves of 32-bit coefficients with their own binary
+//!   point, `mac::Row16`, all rows in two calls of the AVR rows routine)
+//!   and the bounds as affine rows ([`Row32`]: sums only for a bound that
+//!   moves with the throttle);
 //! - the state (multipliers, factor, point) in `i32` with fraction bits
 //!   chosen offline per quantity, every product an exact sum of 32 x 32-bit
 //!   products rounded once (the hardware multiplier, one assembly kernel
@@ -34,9 +36,12 @@
 //! ```
 //! use kestrel_avr_rt::qp16::{Qp16Solver, Qp16Start, Qp16Tables, Row32};
 //! // One variable, theta = [r]: min 1/2 z^2 - r z on [-1, 1] (z = clamp(r)).
+//! use kestrel_avr_rt::mac::Row16;
 //! let t = Qp16Tables::<1, 1> {
 //!     hinv: [[65_536]],
-//!     unc: [Row32 { c: [1 << 30], c0: 0, shift: 30, start: 0 }],
+//!     unc_hi: [Row16::new([1], 0, 0)], // w_unc = theta
+//!     unc_lo: [Row16::new([0], 16, 1)],
+//!     unc0: [0],
 //!     lb: [Row32::constant(-65_536)],
 //!     ub: [Row32::constant(65_536)],
 //!     var_shift: 0, obj_shift: 0, p_bits: 16, l_bits: 16, nu_bits: 16, pivot_bits: 4,
@@ -54,12 +59,16 @@ mod arith;
 mod avr;
 #[cfg(feature = "std")]
 mod build;
+mod sets;
 mod solver;
 mod tables;
 
 pub use arith::{Recip, mac_round, mul_round};
 #[cfg(feature = "std")]
 pub use build::{BoxQp, Qp16BuildError, Qp16Scaling, Qp16Settings, box_form, theta_q16};
+pub use sets::{Qp16SetSolver, Qp16SetTables};
+#[cfg(all(target_arch = "avr", feature = "qp16-profile"))]
+pub use solver::QP16_PROFILE;
 pub use solver::{Qp16Error, Qp16Info, Qp16Solver, Qp16Start};
 pub use tables::{Qp16Tables, Row32};
 

@@ -3,8 +3,39 @@
 //! the fixed-point tables.
 #![allow(clippy::needless_range_loop)] // factor rows and columns indexed together
 
-use super::arith::{Recip, frac30, mac_round, mul_round, sat};
+use super::arith::{Recip, frac30, mac_round, mul_round};
 use super::tables::Qp16Tables;
+
+/// Cycles spent per phase of the solves since start-up (feature
+/// `qp16-profile`, AVR only; Timer1 must run at the CPU clock): rows,
+/// `star` solve, blocking test, primal point, most violated, add, remove.
+#[cfg(all(target_arch = "avr", feature = "qp16-profile"))]
+pub static mut QP16_PROFILE: [u32; 7] = [0; 7];
+
+#[inline(always)]
+fn stamp() -> u16 {
+    #[cfg(all(target_arch = "avr", feature = "qp16-profile"))]
+    // SAFETY: reads TCNT1 (low byte first latches the high byte).
+    unsafe {
+        let lo = core::ptr::read_volatile(0x84 as *const u8);
+        let hi = core::ptr::read_volatile(0x85 as *const u8);
+        return u16::from_le_bytes([lo, hi]);
+    }
+    #[allow(unreachable_code)]
+    0
+}
+
+#[inline(always)]
+fn charge(_phase: usize, _since: u16) {
+    #[cfg(all(target_arch = "avr", feature = "qp16-profile"))]
+    // SAFETY: single-threaded profiling counters.
+    unsafe {
+        let p = &mut *core::ptr::addr_of_mut!(QP16_PROFILE);
+        if let Some(v) = p.get_mut(_phase) {
+            *v = v.wrapping_add(u32::from(stamp().wrapping_sub(_since)));
+        }
+    }
+}
 
 /// How a solve starts (as `kestrel_qp::Start`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -187,11 +218,13 @@ impl<const N: usize> Qp16Solver<N> {
         theta: &[i32; P],
         start: Qp16Start,
     ) -> Result<Qp16Info, Qp16Error> {
+        let t0 = stamp();
+        self.unc = t.unconstrained(theta);
         for i in 0..N {
-            self.unc[i] = t.unc[i].eval(theta);
             self.lo[i] = t.lb[i].eval(theta);
             self.hi[i] = t.ub[i].eval(theta);
         }
+        charge(0, t0);
         if (0..N).any(|i| self.lo[i] > self.hi[i]) {
             self.w = self.fallback();
             return Err(Qp16Error::InvalidBounds);
@@ -203,13 +236,23 @@ impl<const N: usize> Qp16Solver<N> {
         self.nu = [0; N];
         let mut iterations: u16 = 0;
         loop {
+            let t0 = stamp();
             self.solve_star(t);
-            match self.blocking(t.dual_tol) {
+            charge(1, t0);
+            let t0 = stamp();
+            let blocking = self.blocking(t.dual_tol);
+            charge(2, t0);
+            match blocking {
                 None => {
                     let k = self.count;
                     self.nu[..k].copy_from_slice(&self.star[..k]);
+                    let t0 = stamp();
                     self.primal(t);
-                    match self.most_violated(t.primal_tol) {
+                    charge(3, t0);
+                    let t0 = stamp();
+                    let most = self.most_violated(t.primal_tol);
+                    charge(4, t0);
+                    match most {
                         None => {
                             return Ok(Qp16Info {
                                 iterations,
@@ -223,7 +266,9 @@ impl<const N: usize> Qp16Solver<N> {
                             if self.count >= N {
                                 return Err(Qp16Error::Infeasible);
                             }
+                            let t0 = stamp();
                             self.add(t, j, side)?;
+                            charge(5, t0);
                         }
                     }
                 }
@@ -232,10 +277,12 @@ impl<const N: usize> Qp16Solver<N> {
                         return Err(Qp16Error::IterationLimit);
                     }
                     for i in 0..self.count {
-                        let diff = sat(self.star[i] as i64 - self.nu[i] as i64);
+                        let diff = self.star[i].saturating_sub(self.nu[i]);
                         self.nu[i] = self.nu[i].saturating_add(mul_round(alpha, diff, 30));
                     }
+                    let t0 = stamp();
                     self.remove(t, p)?;
+                    charge(6, t0);
                 }
             }
             iterations = iterations.saturating_add(1);
@@ -243,6 +290,7 @@ impl<const N: usize> Qp16Solver<N> {
     }
 
     /// Re-adds the stored active set in its order (absent bounds dropped).
+    #[inline(never)]
     fn refactor<const P: usize>(&mut self, t: &Qp16Tables<N, P>) -> Result<(), Qp16Error> {
         let k = self.count.min(N);
         let (active, side) = (self.active, self.side);
@@ -282,13 +330,14 @@ impl<const N: usize> Qp16Solver<N> {
     /// (Q15.16) and `D^-1 y` (multiplier format) for the positions not yet
     /// solved (the rows of `L` before them have not changed), then
     /// `L' star = D^-1 y`.
+    #[inline(never)]
     fn solve_star<const P: usize>(&mut self, t: &Qp16Tables<N, P>) {
         let k = self.count;
         let lb = t.l_bits;
         let kd = (t.nu_bits + t.p_bits).saturating_sub(16);
         for i in self.valid.min(k)..k {
             let j = self.active[i] as usize;
-            let r = sat(self.unc[j] as i64 - self.bound(i) as i64);
+            let r = self.unc[j].saturating_sub(self.bound(i));
             let v = mac_round(&self.l[i][..i], &self.fwd[..i], lb);
             self.fwd[i] = r.saturating_sub(v);
             self.y[i] = self.rd[i].div(self.fwd[i], kd);
@@ -308,20 +357,22 @@ impl<const N: usize> Qp16Solver<N> {
     /// The blocking position and the step (Q2.30), if any multiplier of
     /// `star` has the wrong sign beyond `tol`: the strictly smallest step
     /// wins (lowest position on ties).
+    #[inline(never)]
     fn blocking(&self, tol: i32) -> Option<(usize, i32)> {
         let mut best: Option<(usize, i32)> = None;
+        let limit = tol.saturating_neg();
         for p in 0..self.count {
-            if self.side[p] >= 2 {
+            let code = self.side[p];
+            if code >= 2 {
                 continue;
             }
-            let upper = self.side[p] & 1 == 1;
-            let (star, cur) = if upper {
-                (self.star[p] as i64, self.nu[p] as i64)
+            let (star, cur) = if code == 1 {
+                (self.star[p], self.nu[p])
             } else {
-                (-(self.star[p] as i64), -(self.nu[p] as i64))
+                (self.star[p].saturating_neg(), self.nu[p].saturating_neg())
             };
-            if star < -(tol as i64) {
-                let alpha = frac30(sat(cur), cur - star);
+            if star < limit {
+                let alpha = frac30(cur, star);
                 if best.is_none_or(|(_, a)| alpha < a) {
                     best = Some((p, alpha));
                 }
@@ -331,6 +382,7 @@ impl<const N: usize> Qp16Solver<N> {
     }
 
     /// `w = w_unc - P_{:,A} nu`; active variables exactly on their bound.
+    #[inline(never)]
     fn primal<const P: usize>(&mut self, t: &Qp16Tables<N, P>) {
         let k = self.count;
         let mut row = [0i32; N];
@@ -349,17 +401,18 @@ impl<const N: usize> Qp16Solver<N> {
 
     /// The inactive bound violated most beyond `tol`: `(variable, side)`,
     /// lowest index on ties.
+    #[inline(never)]
     fn most_violated(&self, tol: i32) -> Option<(usize, u8)> {
-        let mut best: Option<(usize, u8, i64)> = None;
+        let mut best: Option<(usize, u8, i32)> = None;
         for j in 0..N {
             if self.pos[j] != 0 {
                 continue;
             }
-            let v = self.w[j] as i64;
-            let (up, down) = (v - self.hi[j] as i64, self.lo[j] as i64 - v);
+            let v = self.w[j];
+            let (up, down) = (v.saturating_sub(self.hi[j]), self.lo[j].saturating_sub(v));
             let (viol, side) = if up > down { (up, 1) } else { (down, 0) };
             let side = side | if self.lo[j] == self.hi[j] { 2 } else { 0 };
-            if viol > tol as i64 && best.is_none_or(|(_, _, b)| viol > b) {
+            if viol > tol && best.is_none_or(|(_, _, b)| viol > b) {
                 best = Some((j, side, viol));
             }
         }
@@ -368,6 +421,7 @@ impl<const N: usize> Qp16Solver<N> {
 
     /// Appends the bound on variable `j` (side code) and its row of the
     /// factor: `t = L^-1 P_{A,j}`, `l = D^-1 t`, `d = P_jj - l't`.
+    #[inline(never)]
     fn add<const P: usize>(
         &mut self,
         t: &Qp16Tables<N, P>,
@@ -406,6 +460,7 @@ impl<const N: usize> Qp16Solver<N> {
     /// Removes position `p`: deletes its row and column and restores the
     /// trailing block by the rank-one update `+ d_p l_p l_p'` (Gill, Golub,
     /// Murray, Saunders C1), as kestrel-qp.
+    #[inline(never)]
     fn remove<const P: usize>(&mut self, t: &Qp16Tables<N, P>, p: usize) -> Result<(), Qp16Error> {
         let lb = t.l_bits;
         let k = self.count;

@@ -2,16 +2,20 @@
 //! point: the scaled `H^-1`, the unconstrained solution and the bounds as
 //! affine rows in theta.
 
+use crate::mac::Row16;
+
 /// One affine row in theta: `round(sum_{j >= start} c_j theta_j /
 /// 2^shift) + c0` with Q15.16 `theta`; the coefficients carry `shift - 16`
-/// fraction bits beyond Q15.16's (`shift` in `16..=46`).
+/// fraction bits beyond Q15.16's (`shift` in `16..=46`), or `shift = 0`
+/// for a unit row (`c0 + sum c_j theta_j` with every `c_j` in `{-1, 0,
+/// 1}`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Row32<const P: usize> {
     /// The coefficients (raw, `shift` fraction bits).
     pub c: [i32; P],
     /// The constant (Q15.16 raw).
     pub c0: i32,
-    /// Fraction bits of the coefficients (16 to 46).
+    /// Fraction bits of the coefficients (16 to 46; 0: a unit row).
     pub shift: u8,
     /// First non-zero coefficient (`P`: the row is the constant).
     pub start: u8,
@@ -28,35 +32,29 @@ impl<const P: usize> Row32<P> {
         }
     }
 
-    /// The row's value at `theta` (Q15.16), saturated. A row whose
-    /// coefficients are all `0` or `+-1` (a bound moving with the throttle)
-    /// is summed without products.
-    #[inline]
+    /// The row's value at `theta` (Q15.16), saturated: one rounded MAC, or
+    /// for a unit row (`shift == 0`: every coefficient `-1`, `0` or `1`,
+    /// as a bound moving with the throttle) sums without products.
+    #[inline(never)]
+    #[allow(clippy::needless_range_loop)] // coefficients and theta together
     pub fn eval(&self, theta: &[i32; P]) -> i32 {
-        let s = (self.start as usize).min(P);
-        if self.shift <= 30 {
-            let one = 1i32 << self.shift;
-            let mut acc = self.c0 as i64;
-            let mut unit = true;
-            for (c, t) in self.c.iter().zip(theta.iter()).skip(s) {
-                if *c == one {
-                    acc += *t as i64;
-                } else if *c == -one {
-                    acc -= *t as i64;
-                } else if *c != 0 {
-                    unit = false;
-                    break;
+        let s = self.start as usize;
+        if s >= P {
+            return self.c0;
+        }
+        if self.shift == 0 {
+            let mut acc = self.c0;
+            for j in s..P {
+                let t = theta[j];
+                match self.c[j] {
+                    1 => acc = acc.saturating_add(t),
+                    -1 => acc = acc.saturating_sub(t),
+                    _ => {}
                 }
             }
-            if unit {
-                return super::arith::sat(acc);
-            }
+            return acc;
         }
-        let v = match (self.c.get(s..), theta.get(s..)) {
-            (Some(c), Some(t)) if !c.is_empty() => super::arith::mac_round(t, c, self.shift),
-            _ => 0,
-        };
-        v.saturating_add(self.c0)
+        super::arith::mac_round(&theta[s..], &self.c[s..], self.shift).saturating_add(self.c0)
     }
 }
 
@@ -71,9 +69,15 @@ pub struct Qp16Tables<const N: usize, const P: usize> {
     /// `P = 2^f H^-1 / 4^s`, raw with [`Qp16Tables::p_bits`] fraction
     /// bits, row-major (symmetric).
     pub hinv: [[i32; N]; N],
-    /// The unconstrained solution `w_unc = -2^-s H^-1 q(theta)`, one row
-    /// per variable.
-    pub unc: [Row32<P>; N],
+    /// The unconstrained solution `w_unc = -2^-s H^-1 q(theta)`: the high
+    /// halves of its 32-bit coefficients `c = 2^16 hi + lo` (`lo` in
+    /// `[-2^15, 2^15)`), with `shift - 16` fraction bits (see
+    /// [`Qp16Tables::unconstrained`]).
+    pub unc_hi: [Row16<P>; N],
+    /// The low halves, with `shift` fraction bits.
+    pub unc_lo: [Row16<P>; N],
+    /// The constants (Q15.16).
+    pub unc0: [i32; N],
     /// Lower bounds `lb(theta) / 2^s`; an absent bound is the constant
     /// `i32::MIN`.
     pub lb: [Row32<P>; N],
@@ -103,6 +107,18 @@ pub struct Qp16Tables<const N: usize, const P: usize> {
 }
 
 impl<const N: usize, const P: usize> Qp16Tables<N, P> {
+    /// `w_unc` at `theta` (Q15.16): `unc0 + round(hi theta) + round(lo
+    /// theta)`, each a rounded 16-bit row and a saturating sum, all rows in
+    /// two calls of the AVR rows routine (`Row16::add_all`, about 68
+    /// cycles per term).
+    #[inline(never)]
+    pub fn unconstrained(&self, theta: &[i32; P]) -> [i32; N] {
+        let mut out = self.unc0;
+        Row16::add_all(&self.unc_hi, theta, &mut out);
+        Row16::add_all(&self.unc_lo, theta, &mut out);
+        out
+    }
+
     /// `w` (raw Q15.16 of the scaled variables) in the problem's units as
     /// `f64`: `w 2^(s - 16)`.
     pub fn to_problem_f64(&self, w: i32) -> f64 {

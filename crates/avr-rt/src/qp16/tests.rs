@@ -117,6 +117,12 @@ fn compare<const N: usize, const P: usize>(
     let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
     let mut s = Qp16Solver::<N>::new();
     let (mut sets, mut iters, mut err, mut most) = (0, 0, 0.0f64, 0);
+    let (mut sets_differ, mut set_err) = (0, 0.0f64);
+    // The per-set kernel where its tables are small (N = 4).
+    let mut per_set = t
+        .set_tables::<16, 128>()
+        .ok()
+        .map(|st| (st, Qp16SetSolver::<N>::new()));
     for _ in 0..count {
         let th = r.random_theta(&mut rng);
         let tq = theta_q16::<P>(&th);
@@ -124,6 +130,19 @@ fn compare<const N: usize, const P: usize>(
         let th: Vec<f64> = tq.iter().map(|&v| v as f64 / 65_536.0).collect();
         let (z, set, it) = r.solve(&th);
         let info = s.solve(&t, &tq, Qp16Start::Cold).unwrap();
+        if let Some((st, ss)) = per_set.as_mut() {
+            // The per-set kernel: the same decisions, its own rounding.
+            let i2 = ss.solve(&t, st, &tq, Qp16Start::Cold).unwrap();
+            let mut g2: Vec<(usize, bool)> =
+                ss.active_set().map(|(j, u)| (j as usize, u)).collect();
+            g2.sort();
+            sets_differ += usize::from(g2 != set || i2.iterations as usize != it);
+            if g2 == set {
+                for (w, zr) in ss.solution().iter().zip(&z) {
+                    set_err = set_err.max((t.to_problem_f64(*w) - zr).abs());
+                }
+            }
+        }
         // The updated factor against P_AA formed from scratch.
         assert!(s.factor_residual(&t) < 1e-5, "{}", s.factor_residual(&t));
         let mut got: Vec<(usize, bool)> = s.active_set().map(|(j, u)| (j as usize, u)).collect();
@@ -138,8 +157,9 @@ fn compare<const N: usize, const P: usize>(
         }
     }
     println!(
-        "qp16 n = {N}: scaling {scaling:?}; {count} theta: {sets} active sets and {iters} iteration counts differ, max |z - z_f64| {err:.3e}, max iterations {most}"
+        "qp16 n = {N}: scaling {scaling:?}; {count} theta: {sets} active sets and {iters} iteration counts differ, max |z - z_f64| {err:.3e}, max iterations {most}; per-set kernel: {sets_differ} differ, max |z - z_f64| {set_err:.3e}"
     );
+    assert_eq!(sets_differ, 0);
     (sets, iters, err, most)
 }
 

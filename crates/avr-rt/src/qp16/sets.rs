@@ -1,0 +1,315 @@
+//! [`Qp16SetSolver`]: the same iterations as [`super::Qp16Solver`] (the
+//! same decision rules, the same tables) with the factorisation replaced by
+//! a table per active set: `M_A^-1 = ((H^-1)_AA)^-1` and `W_A = P_IA
+//! M_A^-1` precomputed offline for every subset `A` of the variables
+//! ([`Qp16SetTables`], `N 2^(N-1)` entries per variable: 128 numbers for
+//! `N = 4`). An iteration is then `N` rounded MACs of `|A|` terms (`nu* =
+//! M_A^-1 r`, `w_I = w_unc_I - W_A r`) and no division: the kernel for small
+//! `N`, where the factor updates' fixed costs dominate.
+#![allow(clippy::needless_range_loop)] // several arrays indexed together
+
+use super::arith::{frac30, mac_round, mul_round};
+use super::solver::{Qp16Error, Qp16Info, Qp16Start};
+use super::tables::Qp16Tables;
+
+/// The per-active-set tables (`S = 2^N` sets, `E = N^2 2^(N-1)` entries;
+/// built by `Qp16Tables::set_tables` with the `std` feature). For the set
+/// with bit mask `A` (`k` members in increasing order) at `offset[A]`:
+/// `M_A^-1` (`k x k`, row-major, [`Qp16SetTables::minv_bits`] fraction
+/// bits), then `W_A` (`(N - k) x k`, the inactive variables in increasing
+/// order, [`Qp16SetTables::w_bits`] fraction bits).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Qp16SetTables<const N: usize, const S: usize, const E: usize> {
+    /// Start of each set's block in `data`.
+    pub offset: [u16; S],
+    /// The blocks.
+    pub data: [i32; E],
+    /// Fraction bits of `M_A^-1` (16 to 30; the multipliers come out in
+    /// Q15.16).
+    pub minv_bits: u8,
+    /// Fraction bits of `W_A` (16 to 30).
+    pub w_bits: u8,
+}
+
+/// The solver state of the per-set kernel (about `30 N` bytes).
+#[derive(Clone, Debug)]
+pub struct Qp16SetSolver<const N: usize> {
+    nu: [i32; N],
+    star: [i32; N],
+    active: [u8; N],
+    side: [u8; N],
+    pos: [u8; N],
+    count: usize,
+    w: [i32; N],
+    unc: [i32; N],
+    lo: [i32; N],
+    hi: [i32; N],
+}
+
+impl<const N: usize> Default for Qp16SetSolver<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> Qp16SetSolver<N> {
+    /// An empty solver (`1 <= N <= 8`).
+    pub const fn new() -> Self {
+        Qp16SetSolver {
+            nu: [0; N],
+            star: [0; N],
+            active: [0; N],
+            side: [0; N],
+            pos: [0; N],
+            count: 0,
+            w: [0; N],
+            unc: [0; N],
+            lo: [0; N],
+            hi: [0; N],
+        }
+    }
+
+    /// As [`super::Qp16Solver::solution`].
+    pub fn solution(&self) -> &[i32; N] {
+        &self.w
+    }
+
+    /// As [`super::Qp16Solver::active_set`].
+    pub fn active_set(&self) -> impl Iterator<Item = (u8, bool)> + '_ {
+        (0..self.count.min(N)).map(|p| (self.active[p], self.side[p] & 1 == 1))
+    }
+
+    /// Forgets the active set.
+    pub fn reset(&mut self) {
+        self.count = 0;
+        self.pos = [0; N];
+    }
+
+    /// As [`super::Qp16Solver::fallback`].
+    pub fn fallback(&self) -> [i32; N] {
+        core::array::from_fn(|i| {
+            let (lo, hi) = (self.lo[i], self.hi[i]);
+            if lo > hi {
+                ((lo as i64 + hi as i64) >> 1) as i32
+            } else {
+                self.unc[i].clamp(lo, hi)
+            }
+        })
+    }
+
+    fn bound(&self, j: usize, upper: bool) -> i32 {
+        if upper { self.hi[j] } else { self.lo[j] }
+    }
+
+    /// As [`super::Qp16Solver::solve`], with the per-set tables `s` of the
+    /// same problem.
+    ///
+    /// # Errors
+    /// [`Qp16Error`]; [`Qp16SetSolver::fallback`] then gives a bounded
+    /// input.
+    #[inline(never)]
+    pub fn solve<const P: usize, const S: usize, const E: usize>(
+        &mut self,
+        t: &Qp16Tables<N, P>,
+        s: &Qp16SetTables<N, S, E>,
+        theta: &[i32; P],
+        start: Qp16Start,
+    ) -> Result<Qp16Info, Qp16Error> {
+        self.unc = t.unconstrained(theta);
+        for i in 0..N {
+            self.lo[i] = t.lb[i].eval(theta);
+            self.hi[i] = t.ub[i].eval(theta);
+        }
+        for i in 0..N {
+            if self.lo[i] > self.hi[i] {
+                self.w = self.fallback();
+                return Err(Qp16Error::InvalidBounds);
+            }
+        }
+        match start {
+            Qp16Start::Cold => self.reset(),
+            Qp16Start::Warm => self.refactor(),
+        }
+        self.nu = [0; N];
+        let mut iterations: u16 = 0;
+        loop {
+            let mut r = [0i32; N];
+            let base = self.solve_star(s, &mut r);
+            match self.blocking(t.dual_tol) {
+                None => {
+                    let k = self.count;
+                    self.nu[..k].copy_from_slice(&self.star[..k]);
+                    self.primal(s, base, &r);
+                    match self.most_violated(t.primal_tol) {
+                        None => {
+                            return Ok(Qp16Info {
+                                iterations,
+                                active: k as u8,
+                            });
+                        }
+                        Some((j, code)) => {
+                            if iterations >= t.max_iterations {
+                                return Err(Qp16Error::IterationLimit);
+                            }
+                            if self.count >= N {
+                                return Err(Qp16Error::Infeasible);
+                            }
+                            let k = self.count;
+                            self.active[k] = j as u8;
+                            self.side[k] = code;
+                            self.pos[j] = k as u8 + 1;
+                            self.nu[k] = 0;
+                            self.count = k + 1;
+                        }
+                    }
+                }
+                Some((p, alpha)) => {
+                    if iterations >= t.max_iterations {
+                        return Err(Qp16Error::IterationLimit);
+                    }
+                    for i in 0..self.count {
+                        let diff = self.star[i].saturating_sub(self.nu[i]);
+                        self.nu[i] = self.nu[i].saturating_add(mul_round(alpha, diff, 30));
+                    }
+                    self.remove(p);
+                }
+            }
+            iterations = iterations.saturating_add(1);
+        }
+    }
+
+    /// Keeps the stored active set in its order (absent bounds dropped).
+    fn refactor(&mut self) {
+        let k = self.count.min(N);
+        let (active, side) = (self.active, self.side);
+        self.reset();
+        for p in 0..k {
+            let j = active[p] as usize;
+            if j >= N || self.pos[j] != 0 {
+                continue;
+            }
+            let upper = side[p] & 1 == 1;
+            let absent = if upper {
+                self.hi[j] == i32::MAX
+            } else {
+                self.lo[j] == i32::MIN
+            };
+            if absent {
+                continue;
+            }
+            let c = self.count;
+            self.active[c] = j as u8;
+            self.side[c] = (side[p] & 1) | if self.lo[j] == self.hi[j] { 2 } else { 0 };
+            self.pos[j] = c as u8 + 1;
+            self.count = c + 1;
+        }
+    }
+
+    fn remove(&mut self, p: usize) {
+        let k = self.count;
+        self.pos[self.active[p] as usize] = 0;
+        for r in p..k - 1 {
+            self.nu[r] = self.nu[r + 1];
+            self.active[r] = self.active[r + 1];
+            self.side[r] = self.side[r + 1];
+            self.pos[self.active[r] as usize] = r as u8 + 1;
+        }
+        self.count = k - 1;
+    }
+
+    /// `star = M_A^-1 r` with `r = w_unc_A - b_A` in increasing variable
+    /// order (returned in `r`); the set's block offset.
+    #[inline(never)]
+    fn solve_star<const S: usize, const E: usize>(
+        &mut self,
+        s: &Qp16SetTables<N, S, E>,
+        r: &mut [i32; N],
+    ) -> usize {
+        let k = self.count;
+        // Members in increasing order: rank of each active variable.
+        let mut mask = 0usize;
+        let mut q = 0;
+        let mut rank = [0u8; N];
+        for j in 0..N {
+            let p = self.pos[j] as usize;
+            if p != 0 {
+                mask |= 1 << j;
+                rank[j] = q as u8;
+                r[q] = self.unc[j].saturating_sub(self.bound(j, self.side[p - 1] & 1 == 1));
+                q += 1;
+            }
+        }
+        let base = s.offset.get(mask).copied().unwrap_or(0) as usize;
+        for p in 0..k {
+            let row = base + rank[self.active[p] as usize] as usize * k;
+            let m = s.data.get(row..row + k).unwrap_or(&[]);
+            // Multipliers in Q15.16 here (only their signs and the
+            // interpolated step use them; the point comes from W_A r).
+            self.star[p] = mac_round(m, &r[..k], s.minv_bits);
+        }
+        base
+    }
+
+    fn blocking(&self, tol: i32) -> Option<(usize, i32)> {
+        let mut best: Option<(usize, i32)> = None;
+        let limit = tol.saturating_neg();
+        for p in 0..self.count {
+            let code = self.side[p];
+            if code >= 2 {
+                continue;
+            }
+            let (star, cur) = if code == 1 {
+                (self.star[p], self.nu[p])
+            } else {
+                (self.star[p].saturating_neg(), self.nu[p].saturating_neg())
+            };
+            if star < limit {
+                let alpha = frac30(cur, star);
+                if best.is_none_or(|(_, a)| alpha < a) {
+                    best = Some((p, alpha));
+                }
+            }
+        }
+        best
+    }
+
+    /// `w_I = w_unc_I - W_A r`; active variables exactly on their bound.
+    #[inline(never)]
+    fn primal<const S: usize, const E: usize>(
+        &mut self,
+        s: &Qp16SetTables<N, S, E>,
+        base: usize,
+        r: &[i32; N],
+    ) {
+        let k = self.count;
+        let mut row = base + k * k;
+        for i in 0..N {
+            let p = self.pos[i] as usize;
+            if p != 0 {
+                self.w[i] = self.bound(i, self.side[p - 1] & 1 == 1);
+                continue;
+            }
+            let wr = s.data.get(row..row + k).unwrap_or(&[]);
+            self.w[i] = self.unc[i].saturating_sub(mac_round(wr, &r[..k], s.w_bits));
+            row += k;
+        }
+    }
+
+    fn most_violated(&self, tol: i32) -> Option<(usize, u8)> {
+        let (mut best, mut code, mut worst) = (N, 0u8, tol);
+        for j in 0..N {
+            if self.pos[j] != 0 {
+                continue;
+            }
+            let v = self.w[j];
+            let (up, down) = (v.saturating_sub(self.hi[j]), self.lo[j].saturating_sub(v));
+            let (viol, side) = if up > down { (up, 1) } else { (down, 0) };
+            if viol > worst {
+                worst = viol;
+                best = j;
+                code = side | if self.lo[j] == self.hi[j] { 2 } else { 0 };
+            }
+        }
+        (best < N).then_some((best, code))
+    }
+}
