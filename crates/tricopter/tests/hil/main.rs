@@ -267,8 +267,10 @@ fn host_qp_loop(fallback_test: bool) -> HostQpLoop {
     .unwrap()
 }
 
-/// The `qp` builds' iteration cap (`SETTINGS` in avr/firmware/src/qp.rs).
-const QP_MAX_ITERATIONS: usize = 16;
+/// The `qp` builds' iteration cap (`SETTINGS` in avr/firmware/src/qp.rs;
+/// `firmware::QP16_MAX_ITERATIONS` for `qp16`): the certified worst case
+/// (`qp_certified` checks it).
+const QP_MAX_ITERATIONS: usize = 8;
 
 type HostLaw = FgmLaw<f64, { generated::NZ }, { generated::NP }, { generated::FGM_T }, 4>;
 type HostLoop = RateLoop<f64, StationaryFilter<f64, { generated::NX }, 4, 3>, HostLaw, 4>;
