@@ -16,7 +16,9 @@
 # all four), EXTRA (more flags for identify, e.g. "--time-budget 20").
 # Takes about 1 minute at 50 Hz and 3 at 500 Hz on 2 cores (each identify
 # is bounded by the work budget; the 40 s safety stop is named in the
-# report when it fires).
+# report when it fires: on a shared machine it does, and the choice then
+# depends on the load; EXTRA="--time-budget 300" gives the work-planned
+# choice whatever the load, as in BENCHMARKS.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if [[ -z "${KESTREL:-}" ]]; then

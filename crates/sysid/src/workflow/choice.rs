@@ -95,8 +95,11 @@ pub struct CandidateScore {
     /// Mean over the folds of the mean fits in percent: simulation, then
     /// each table horizon (empty when a fold failed).
     pub fits: Vec<f64>,
-    /// The score: the mean of the k-step fits and the simulation fit
-    /// clipped at 0 (minus infinity when a fold failed).
+    /// The score: per fold, the mean of the k-step fits and the
+    /// simulation fit clipped at 0, minus the largest shortfall against
+    /// that fold's baseline (the better of persistence and the best ARX
+    /// of 2-10 lags); mean over the folds (minus infinity when a fold
+    /// failed).
     pub score: f64,
     /// Why a fold failed.
     pub failed: Option<String>,
@@ -131,8 +134,9 @@ pub struct SelectionReport {
     /// The candidates left out because their estimated work exceeded
     /// what was left of the budget.
     pub skipped: Vec<Candidate>,
-    /// The folds' baseline per table horizon (mean fit, %): the better of
-    /// persistence and the best ARX of 2-10 lags.
+    /// The folds' baseline per table horizon (mean fit over the folds,
+    /// %): the better of persistence and the best ARX of 2-10 lags, each
+    /// fold's own.
     pub reference: Vec<f64>,
 }
 
@@ -201,7 +205,7 @@ impl fmt::Display for SelectionReport {
         }
         writeln!(
             f,
-            "chosen: {} (score {:.2}: mean of the k-step fits and the simulation fit clipped at 0, minus the largest shortfall against the baseline)",
+            "chosen: {} (score {:.2}: per fold, the mean of the k-step fits and the simulation fit clipped at 0 minus the largest shortfall against that fold's baseline; mean over the folds)",
             self.chosen.label(),
             self.score
         )

@@ -8,6 +8,8 @@
 
 mod choice;
 mod fit;
+#[cfg(test)]
+mod order_study;
 mod prefilter;
 mod rate;
 mod report;
