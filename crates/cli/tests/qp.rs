@@ -1,0 +1,71 @@
+//! End-to-end tests of `kestrel qp certify`.
+
+mod common;
+
+use common::{MODEL, kestrel, thesis_problem_of};
+
+fn temp_dir() -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("kestrel-qp-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn certify_the_thesis_sized_problem_cold_and_warm() {
+    let dir = temp_dir();
+    let problem = thesis_problem_of(MODEL, &dir.join("thesis.json"));
+    let out = dir.join("cert.json");
+    let (ok, stdout, err) = kestrel(&[
+        "qp",
+        "certify",
+        problem.to_str().unwrap(),
+        "--warm-step",
+        "0.05",
+        "--box-scale",
+        "0.5",
+        "--json",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert!(
+        stdout.contains("cold start") && stdout.contains("warm start"),
+        "{stdout}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(v["format"], "kestrel.qp-certificate.v1");
+    for start in ["cold", "warm"] {
+        let c = &v[start];
+        let worst = c["worst_iterations"].as_u64().unwrap();
+        assert!(worst >= 1, "{start}: {c}");
+        assert_eq!(c["worst_region"]["iterations"].as_u64(), Some(worst));
+        assert_eq!(c["worst_region"]["theta"].as_array().unwrap().len(), 9);
+        let hist: u64 = c["histogram"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|h| h.as_u64().unwrap())
+            .sum();
+        assert_eq!(hist, c["regions"].as_u64().unwrap());
+    }
+    assert_eq!(
+        v["warm"]["worst_region"]["theta_prev"]
+            .as_array()
+            .unwrap()
+            .len(),
+        9
+    );
+}
+
+#[test]
+fn bad_flags_and_limits_are_clear_errors() {
+    let dir = temp_dir();
+    let problem = thesis_problem_of(MODEL, &dir.join("thesis2.json"));
+    let p = problem.to_str().unwrap();
+    let (ok, _, err) = kestrel(&["qp", "certify", p, "--warm-step", "2"]);
+    assert!(!ok && err.contains("warm_step"), "{err}");
+    let (ok, _, err) = kestrel(&["qp", "certify", p, "--box-scale", "0"]);
+    assert!(!ok && err.contains("--box-scale"), "{err}");
+    let (ok, _, err) = kestrel(&["qp", "certify", p, "--max-regions", "10"]);
+    assert!(!ok && err.contains("region limit reached"), "{err}");
+}
