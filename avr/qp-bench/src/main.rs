@@ -4,8 +4,8 @@
 //! variable `KESTREL_QP_GENERATED` (written by kestrel-avr-rt's
 //! `tests/qp_avr.rs`, which builds this program, runs it in simavr and
 //! compares every answer with the host's run of the same code). Each
-//! parameter is solved cold, then warm from the previous solve's final
-//! active set, with the factor-updating kernel (`Qp16Solver`, modes 0 and
+//! parameter is solved warm from the previous parameter's final active set
+//! (its cold solve's), then cold, with the factor-updating kernel (`Qp16Solver`, modes 0 and
 //! 1) and, where the generated file has per-set tables, with the per-set
 //! kernel (`Qp16SetSolver`, modes 2 and 3), each timed with Timer1
 //! (prescaler 1, overflow interrupt).
@@ -119,7 +119,7 @@ pub extern "C" fn main() -> ! {
     tx(b"\n");
     let mut solver = Qp16Solver::<N>::new();
     let mut per_set = Qp16SetSolver::<N>::new();
-    let modes: &[u32] = if SETS { &[0, 1, 2, 3] } else { &[0, 1] };
+    let modes: &[u32] = if SETS { &[1, 0, 3, 2] } else { &[1, 0] };
     for (i, theta) in THETAS.iter().enumerate() {
         for &mode in modes {
             let start = if mode % 2 == 0 {

@@ -2,15 +2,17 @@
 //! ATmega2560: the tables of the tricopter thesis-sized problem (`n = 4`,
 //! 9 parameters) and of the larger one (`n = 16`), built on the host,
 //! compiled into `avr/qp-bench` (the pinned nightly) and run in simavr at
-//! 16 MHz. At every parameter the program solves cold, then warm from the
-//! previous solve's active set; every answer (iterations, active-set size,
+//! 16 MHz; every answer (iterations, active-set size,
 //! solution bits, or the error and the fallback's bits) must equal the
 //! host's run of the same code bit for bit, and the Timer1 cycles are
 //! printed, one `QP-AVR-REPORT {json}` line per problem: at the worst
 //! parameters a host search found (most iterations among 20,000 random
-//! ones), at the certified worst-case region's parameter of the thesis-sized
-//! problem (`kestrel qp certify`, written into `CERTIFIED_WORST` below) and
-//! at 64 random parameters in the box. Skipped when simavr, avr-gcc,
+//! ones), at the certified worst-case regions' interior points of the
+//! thesis-sized problem (kestrel-empc's certification: cold, and warm from
+//! the previous period's set for a 5 % parameter step) and at 64 random
+//! parameters in the box (24 for the larger problem). Each parameter is
+//! solved warm from the previous parameter's final set, then cold, by both
+//! kernels (`Qp16Solver`; `Qp16SetSolver` where its per-set tables exist). Skipped when simavr, avr-gcc,
 //! avr-size or rustup is missing, unless `KESTREL_REQUIRE_AVR` is set
 //! (then it fails).
 
@@ -20,6 +22,7 @@ use kestrel_avr_rt::qp16::{
     Qp16Tables, theta_q16,
 };
 use kestrel_core::formats::MpqpProblem;
+use kestrel_empc::certify::{CertifySettings, certify};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -67,8 +70,9 @@ fn problem(name: &str) -> MpqpProblem {
     .unwrap()
 }
 
-/// The host's run of the bench's sequence: per parameter and mode (cold,
-/// warm) the expected line after `Q i mode`, without the cycles.
+/// The host's run of the bench's sequence: per parameter and mode (warm,
+/// cold; per-set warm, cold) the expected line after `Q i mode`, without
+/// the cycles.
 fn host_lines<const N: usize, const P: usize, const S: usize, const E: usize>(
     t: &Qp16Tables<N, P>,
     sets: Option<&Qp16SetTables<N, S, E>>,
@@ -77,10 +81,11 @@ fn host_lines<const N: usize, const P: usize, const S: usize, const E: usize>(
     let mut s = Qp16Solver::<N>::new();
     let mut ps = Qp16SetSolver::<N>::new();
     let mut out = Vec::new();
+    // Warm from the previous parameter's final set, then cold.
     let modes: &[u32] = if sets.is_some() {
-        &[0, 1, 2, 3]
+        &[1, 0, 3, 2]
     } else {
-        &[0, 1]
+        &[1, 0]
     };
     for th in thetas {
         for &mode in modes {
@@ -243,8 +248,9 @@ fn measure<const N: usize, const P: usize, const S: usize, const E: usize>(
     let mut named_cycles = Vec::new();
     let mut by_iter = std::collections::BTreeMap::new();
     let mode_names = ["cold", "warm", "per-set cold", "per-set warm"];
+    let order: &[usize] = if n_modes == 4 { &[1, 0, 3, 2] } else { &[1, 0] };
     for (k, (r, (head, bits))) in rows.iter().zip(&want).enumerate() {
-        let (i, mode) = (k / n_modes, k % n_modes);
+        let (i, mode) = (k / n_modes, order[k % n_modes]);
         assert_eq!(r[0], i.to_string());
         assert_eq!(r[1], mode.to_string());
         let got_head = format!("{} {}", r[2], r[3]);
@@ -303,19 +309,60 @@ fn measure<const N: usize, const P: usize, const S: usize, const E: usize>(
     );
 }
 
-/// The certified worst-case region's parameter of the thesis-sized problem
-/// (from `kestrel qp certify`, /work/coord/h1-bench.md); `None` until known.
-const CERTIFIED_WORST: Option<[f64; 9]> = None;
+/// The certified worst-case regions' interior points (kestrel-empc's
+/// certification of kestrel-qp's decisions, which this kernel shares):
+/// cold (most iterations, most flops) and warm from the previous period's
+/// optimal set for steps up to [`WARM_STEP`] of each box width (each as
+/// the pair `theta_prev`, `theta`: the bench solves `theta` warm from
+/// `theta_prev`'s final set).
+fn certified(file: &str) -> Vec<(String, Vec<f64>)> {
+    let settings = CertifySettings {
+        warm_step: Some(WARM_STEP),
+        warm_any_order: true,
+        ..CertifySettings::default()
+    };
+    let c = certify(&problem(file), &settings, &mut |_| {}).expect("certification");
+    println!(
+        "{file}: certified cold worst {} iterations ({} regions), warm (step {WARM_STEP}, any order) worst {} iterations",
+        c.cold.worst_iterations,
+        c.cold.regions,
+        c.warm.as_ref().map_or(0, |w| w.worst_iterations)
+    );
+    let mut out = Vec::new();
+    for (label, r) in [
+        ("certified cold worst iterations", &c.cold.worst),
+        ("certified cold worst flops", &c.cold.worst_flops_region),
+    ] {
+        if let Some(r) = r {
+            out.push((format!("{label} ({})", r.iterations), r.theta.clone()));
+        }
+    }
+    if let Some(w) = &c.warm {
+        for (label, r) in [
+            ("certified warm worst iterations", &w.worst),
+            ("certified warm worst flops", &w.worst_flops_region),
+        ] {
+            if let Some(r) = r
+                && let Some(prev) = &r.theta_prev
+            {
+                out.push((format!("{label}: previous theta"), prev.clone()));
+                out.push((format!("{label} ({})", r.iterations), r.theta.clone()));
+            }
+        }
+    }
+    out
+}
+
+/// The warm start's certified parameter step (fraction of each box width).
+const WARM_STEP: f64 = 0.05;
 
 #[test]
 fn qp16_on_the_avr_thesis_sized() {
     if !tools() {
         return;
     }
-    let named: Vec<(&str, Vec<f64>)> = CERTIFIED_WORST
-        .iter()
-        .map(|t| ("certified worst-case region", t.to_vec()))
-        .collect();
+    let named = certified("qp16-thesis.mpqp.json");
+    let named: Vec<(&str, Vec<f64>)> = named.iter().map(|(l, t)| (l.as_str(), t.clone())).collect();
     measure::<4, 9, 16, 128>("thesis", "qp16-thesis.mpqp.json", &named, 64);
 }
 
