@@ -497,7 +497,9 @@ pub extern "C" fn main() -> ! {
     };
     // The exact MPC in fixed point (kestrel_avr_rt::qp16), tables in RAM.
     #[cfg(feature = "qp16")]
-    let Ok(law) = qp16_law::Qp16Law::<S, NZ, NP, 4>::new(&generated_qp16::QP16, NX) else {
+    let Ok(law) =
+        qp16_law::Qp16Law::<S, NZ, NP, 4, _, _>::new(&generated_qp16::QP16, qp16_kernel(), NX)
+    else {
         loop {}
     };
     let bias = va(&table, BIAS);
@@ -567,7 +569,9 @@ pub extern "C" fn main() -> ! {
             max_iterations: 1,
             ..generated_qp16::QP16
         };
-        if let Ok(mut capped) = qp16_law::Qp16Law::<S, NZ, NP, 4>::new(&cap1, NX) {
+        if let Ok(mut capped) =
+            qp16_law::Qp16Law::<S, NZ, NP, 4, _, _>::new(&cap1, qp16_kernel(), NX)
+        {
             use generated_qp16::{QP16_THETA_LB, QP16_THETA_UB};
             let bx = (&QP16_THETA_LB, &QP16_THETA_UB);
             let mut out = |p: &[u8]| send(Kind::Bench, 0, p);
@@ -677,6 +681,20 @@ fn drain_rx(
                 }
             }
         }
+    }
+}
+
+/// The `qp16` builds' solver kernel: the per-set tables, or with
+/// `qp16-ldl` the factor updates.
+#[cfg(feature = "qp16")]
+fn qp16_kernel() -> qp16_law::Kernel<'static, NZ, 16, 128> {
+    if cfg!(feature = "qp16-ldl") {
+        qp16_law::Kernel::Ldl(kestrel_avr_rt::qp16::Qp16Solver::new())
+    } else {
+        qp16_law::Kernel::Sets(
+            kestrel_avr_rt::qp16::Qp16SetSolver::new(),
+            &generated_qp16::QP16_SETS,
+        )
     }
 }
 

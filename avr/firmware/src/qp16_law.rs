@@ -2,7 +2,10 @@
 //! dual active-set solver (`kestrel_avr_rt::qp16`: kestrel-qp's decision
 //! rules on Q15.16 tables) on the thesis-sized box QP of
 //! `src/generated_qp16.rs`, solved every period, warm-started from the
-//! previous period's active set.
+//! previous period's active set. Two kernels with the same iterations:
+//! [`Kernel::Sets`] (`Qp16SetSolver`: a precomputed `M_A^-1` per active
+//! set, the `qp16` builds) and [`Kernel::Ldl`] (`Qp16Solver`: the LDL'
+//! factor updated on every change, feature `qp16-ldl`).
 //!
 //! Each period: `theta = [x; r]` in Q15.16 (read in place for `Q16Mac`,
 //! converted for f32), one solve, the first move out in the loop's scalar.
@@ -14,30 +17,93 @@
 
 use kestrel_avr_rt::control::LawInfo;
 use kestrel_avr_rt::output::RtScalar;
-use kestrel_avr_rt::qp16::{Qp16Solver, Qp16Start, Qp16Tables};
+use kestrel_avr_rt::qp16::{
+    Qp16Error, Qp16Info, Qp16SetSolver, Qp16SetTables, Qp16Solver, Qp16Start, Qp16Tables,
+};
 use kestrel_core::{ControlLaw, Error};
 
 /// Set in [`LawInfo::iterations`] when the period's input is the fallback
 /// (as `qp_law::FALLBACK`); the low bits are then the iteration cap.
 pub const FALLBACK: u16 = 0x8000;
 
+/// The solver kernel.
+pub enum Kernel<'t, const N: usize, const SETS: usize, const E: usize> {
+    /// The LDL' factor of the active set updated on every change.
+    Ldl(Qp16Solver<N>),
+    /// A precomputed inverse per active set (no factor, no division).
+    Sets(Qp16SetSolver<N>, &'t Qp16SetTables<N, SETS, E>),
+}
+
+impl<const N: usize, const SETS: usize, const E: usize> Kernel<'_, N, SETS, E> {
+    fn solve<const P: usize>(
+        &mut self,
+        t: &Qp16Tables<N, P>,
+        theta: &[i32; P],
+        start: Qp16Start,
+    ) -> Result<Qp16Info, Qp16Error> {
+        match self {
+            Kernel::Ldl(s) => s.solve(t, theta, start),
+            Kernel::Sets(s, sets) => s.solve(t, sets, theta, start),
+        }
+    }
+    fn solution(&self) -> [i32; N] {
+        match self {
+            Kernel::Ldl(s) => *s.solution(),
+            Kernel::Sets(s, _) => *s.solution(),
+        }
+    }
+    fn fallback(&self) -> [i32; N] {
+        match self {
+            Kernel::Ldl(s) => s.fallback(),
+            Kernel::Sets(s, _) => s.fallback(),
+        }
+    }
+    fn reset(&mut self) {
+        match self {
+            Kernel::Ldl(s) => s.reset(),
+            Kernel::Sets(s, _) => s.reset(),
+        }
+    }
+}
+
 /// The fixed-point solver as the loop's [`ControlLaw`]: `N` variables, `P
 /// = nx + nr` parameters, `NU` outputs (the first move), scalar `S`.
-pub struct Qp16Law<'t, S, const N: usize, const P: usize, const NU: usize> {
+pub struct Qp16Law<
+    't,
+    S,
+    const N: usize,
+    const P: usize,
+    const NU: usize,
+    const SETS: usize,
+    const E: usize,
+> {
     tables: &'t Qp16Tables<N, P>,
-    solver: Qp16Solver<N>,
+    solver: Kernel<'t, N, SETS, E>,
     nx: usize,
     warm: bool,
     iterations: u16,
     _scalar: core::marker::PhantomData<S>,
 }
 
-impl<'t, S: RtScalar, const N: usize, const P: usize, const NU: usize> Qp16Law<'t, S, N, P, NU> {
-    /// The law on `tables`, reading `nx` states.
+impl<
+    't,
+    S: RtScalar,
+    const N: usize,
+    const P: usize,
+    const NU: usize,
+    const SETS: usize,
+    const E: usize,
+> Qp16Law<'t, S, N, P, NU, SETS, E>
+{
+    /// The law on `tables` with the solver `kernel`, reading `nx` states.
     ///
     /// # Errors
     /// [`Error::DimensionMismatch`] if `nx > P` or `NU > N`.
-    pub fn new(tables: &'t Qp16Tables<N, P>, nx: usize) -> Result<Self, Error> {
+    pub fn new(
+        tables: &'t Qp16Tables<N, P>,
+        kernel: Kernel<'t, N, SETS, E>,
+        nx: usize,
+    ) -> Result<Self, Error> {
         for (found, limit) in [(nx, P), (NU, N)] {
             if found > limit {
                 return Err(Error::DimensionMismatch {
@@ -48,7 +114,7 @@ impl<'t, S: RtScalar, const N: usize, const P: usize, const NU: usize> Qp16Law<'
         }
         Ok(Qp16Law {
             tables,
-            solver: Qp16Solver::new(),
+            solver: kernel,
             nx,
             warm: false,
             iterations: 0,
@@ -68,8 +134,14 @@ fn unscale(w: i32, s: i8) -> i32 {
     v.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
 }
 
-impl<S: RtScalar, const N: usize, const P: usize, const NU: usize> ControlLaw
-    for Qp16Law<'_, S, N, P, NU>
+impl<
+    S: RtScalar,
+    const N: usize,
+    const P: usize,
+    const NU: usize,
+    const SETS: usize,
+    const E: usize,
+> ControlLaw for Qp16Law<'_, S, N, P, NU, SETS, E>
 {
     type Scalar = S;
     fn nx(&self) -> usize {
@@ -100,7 +172,7 @@ impl<S: RtScalar, const N: usize, const P: usize, const NU: usize> ControlLaw
             Ok(info) => {
                 self.iterations = info.iterations.min(!FALLBACK);
                 self.warm = true;
-                *self.solver.solution()
+                self.solver.solution()
             }
             Err(_) => {
                 self.iterations = FALLBACK | self.tables.max_iterations.min(!FALLBACK);
@@ -117,8 +189,14 @@ impl<S: RtScalar, const N: usize, const P: usize, const NU: usize> ControlLaw
     }
 }
 
-impl<S: RtScalar, const N: usize, const P: usize, const NU: usize> LawInfo
-    for Qp16Law<'_, S, N, P, NU>
+impl<
+    S: RtScalar,
+    const N: usize,
+    const P: usize,
+    const NU: usize,
+    const SETS: usize,
+    const E: usize,
+> LawInfo for Qp16Law<'_, S, N, P, NU, SETS, E>
 {
     fn iterations(&self) -> u16 {
         self.iterations

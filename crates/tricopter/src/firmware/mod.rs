@@ -42,7 +42,10 @@ pub use design::{FirmwareDesign, schur_realization};
 pub use empc::{empc_controller, empc_layout, empc_table_bytes, generate_empc_tables, ns2_problem};
 pub use error::{DesignError, DesignPart};
 pub use qp_tables::{QpTables, generate_qp_tables};
-pub use qp16_tables::{QP16_MAX_ITERATIONS, QP16_N, QP16_P, generate_qp16_tables, qp16_tables};
+pub use qp16_tables::{
+    QP16_MAX_ITERATIONS, QP16_N, QP16_P, QP16_SET_ENTRIES, QP16_SETS, generate_qp16_tables,
+    qp16_tables,
+};
 pub use quantize::{Kalman16Design, QuantRow, quantize_row};
 pub use settings::{DesignSettings, IterationBudget, NR, NU, NY, Realization, SERVO_CENTER};
 pub use tables::generate_tables;

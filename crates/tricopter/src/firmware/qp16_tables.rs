@@ -12,8 +12,16 @@ pub const QP16_N: usize = 4;
 /// Parameters of the `qp16` builds' tables.
 pub const QP16_P: usize = 9;
 
-/// The `qp16` builds' iteration cap (as the `qp` builds').
-pub const QP16_MAX_ITERATIONS: u16 = 16;
+/// Active sets of the per-set tables (`2^QP16_N`).
+pub const QP16_SETS: usize = 1 << QP16_N;
+/// Entries of the per-set tables (`QP16_N^2 2^(QP16_N - 1)`).
+pub const QP16_SET_ENTRIES: usize = QP16_N * QP16_N * (1 << QP16_N) / 2;
+
+/// The `qp16` builds' iteration cap (as the `qp` builds'): the certified
+/// worst case of the design's problem (kestrel-empc's certification of
+/// kestrel-qp's rules, which `kestrel_avr_rt::qp16` follows: 6 cold, 8
+/// warm for parameter steps up to 5 % of the box's width).
+pub const QP16_MAX_ITERATIONS: u16 = 8;
 
 /// kestrel-avr-rt's fixed-point tables of the design's problem (with the
 /// default tolerances and the cap [`QP16_MAX_ITERATIONS`]) and their
@@ -49,6 +57,9 @@ pub fn qp16_tables(
 /// As [`qp16_tables`].
 pub fn generate_qp16_tables(d: &FirmwareDesign) -> Result<String, DesignError> {
     let (t, sc) = qp16_tables(d)?;
+    let sets = t
+        .set_tables::<QP16_SETS, QP16_SET_ENTRIES>()
+        .map_err(|e| DesignError::Unsupported(format!("qp16 per-set tables: {e}")))?;
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -64,6 +75,11 @@ pub fn generate_qp16_tables(d: &FirmwareDesign) -> Result<String, DesignError> {
         s,
         "/// The fixed-point tables of the box QP.\n#[rustfmt::skip]\npub {}",
         t.to_rust("QP16")
+    );
+    let _ = write!(
+        s,
+        "/// The per-active-set tables (`M_A^-1`, `W_A` of every subset; the `qp16` kernel).\n#[rustfmt::skip]\npub {}",
+        sets.to_rust("QP16_SETS")
     );
     let items = |v: &nalgebra::DVector<f64>| -> String {
         let v: Vec<String> = v.iter().map(|x| format!("{:e}", *x as f32)).collect();

@@ -40,6 +40,17 @@ fn certification() -> &'static Certification {
             c.warm.as_ref().map_or(0, |w| w.worst_iterations),
             c.warm.as_ref().map_or(0, |w| w.worst_flops),
         );
+        // The firmware's iteration caps are the certified worst case.
+        let worst = c
+            .cold
+            .worst_iterations
+            .max(c.warm.as_ref().map_or(0, |w| w.worst_iterations));
+        assert_eq!(worst, super::QP_MAX_ITERATIONS, "the qp builds' cap is not the certified worst case");
+        assert_eq!(
+            usize::from(kestrel_tricopter::firmware::QP16_MAX_ITERATIONS),
+            worst,
+            "the qp16 builds' cap is not the certified worst case"
+        );
         c
     })
 }

@@ -76,11 +76,22 @@ fn qp_f32_on_target_equals_host() {
     check_on_target(&["qp-check"], "f32", "qp", 0.05);
 }
 
-/// The fixed-point build (`kestrel_avr_rt::qp16`, `fixed-mac`): outputs
-/// within 0.05 us of the f64 law's.
+/// The fixed-point build (`kestrel_avr_rt::qp16`'s per-set kernel,
+/// `fixed-mac`): outputs within 0.05 us of the f64 law's.
 #[test]
 fn qp16_fixed_on_target_equals_host() {
     check_on_target(&["qp16-check", "fixed-mac"], "fixed-mac", "qp16", 0.05);
+}
+
+/// The fixed-point build with the LDL'-update kernel (`qp16-ldl`).
+#[test]
+fn qp16_ldl_fixed_on_target_equals_host() {
+    check_on_target(
+        &["qp16-check", "qp16-ldl", "fixed-mac"],
+        "fixed-mac",
+        "qp16-ldl",
+        0.05,
+    );
 }
 
 /// The firmware's solves equal the host's f64 law at the same parameters:
