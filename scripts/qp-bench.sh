@@ -16,6 +16,11 @@
 # too). No Python runs in the timed path: the harness is a C program that
 # reads the problems and parameters the Rust example writes.
 #
+# The run fails (exit 1) if DAQP's, clarabel's or kestrel-qp's warm
+# solution differs from kestrel-qp's cold f64 one by more than 1e-9
+# relative, or any of them fails: both active-set solvers must solve the
+# same QP.
+#
 # Environment: SAMPLES (default 10000), CC (default gcc), DAQP_SRC,
 # OUT (work directory, default target/qp-bench).
 # Takes about 1 minute after the build.

@@ -18,7 +18,9 @@
 //! and bounds at each theta (evaluated before timing), kestrel-fgm and
 //! clarabel theta itself (their affine maps are inside their solves).
 //! Each solve is timed on its own (`Instant`, i.e. `clock_gettime`), the
-//! table gives the median, the 99th percentile and the maximum.
+//! table gives the median, the 99th percentile and the maximum. Exits
+//! with 1 if DAQP's, clarabel's or the warm solution differs from
+//! kestrel-qp's cold f64 one by more than 1e-9 relative, or a solve fails.
 //!
 //! `cargo run --release -p kestrel-benches --example qp_compare --
 //! [--samples N] [--daqp PATH_TO_daqp_bench] [--dir DIR]`
@@ -334,6 +336,8 @@ fn main() {
     }))
     .collect();
     let mut table = String::new();
+    // Problems where the exact solvers disagree or fail (checked below).
+    let mut mismatches: Vec<String> = vec![];
     let _ = writeln!(
         table,
         "| problem | solver | start | median ns | p99 ns | max ns | iterations mean / max | median vs DAQP | max deviation |"
@@ -401,10 +405,23 @@ fn main() {
                 &[("cold", &cold64, &zc, &ic), ("warm", &warm64, &zw, &iw)],
             );
             daqp = run_daqp(bin, &file);
+            // Both solve the same QP: DAQP's solution is kestrel-qp's.
+            for (label, st) in &daqp {
+                if st.deviation > 1e-9 || st.deviation.is_nan() || st.failures > 0 {
+                    mismatches.push(format!("{name}: DAQP {label}"));
+                }
+            }
         }
         let fgm = fgm_data(p, *fgm_error);
         rows.push(("kestrel-fgm f64", "cold", time_fgm(&fgm, &sets[0], &zc)));
         rows.push(("clarabel", "-", time_clarabel(p, &sets[0], &zc)));
+        for (solver, start, st) in &rows {
+            // Exact solvers: kestrel-qp f64 (warm against cold) and clarabel.
+            let exact = solver.starts_with("kestrel-qp f64") || *solver == "clarabel";
+            if st.failures > 0 || (exact && st.deviation > 1e-9) {
+                mismatches.push(format!("{name}: {solver} {start}"));
+            }
+        }
         let daqp_median = |start: &str| {
             daqp.iter()
                 .find(|(l, _)| l == start)
@@ -450,4 +467,8 @@ fn main() {
     println!(
         "median vs DAQP: the solver's median over DAQP's (same start; clarabel and the FGM against DAQP cold); < 1 is faster. max deviation: from kestrel-qp f64's solution (DAQP, f32, FGM, clarabel; kestrel-qp warm: from its own cold solve), relative |z - z_ref|_inf / (1 + |z_ref|_inf). Iterations: active-set changes for kestrel-qp, DAQP's own count (its loop passes), the certified count for the FGM, interior-point iterations for clarabel."
     );
+    if !mismatches.is_empty() {
+        eprintln!("solutions differ by more than 1e-9 relative, or solves failed: {mismatches:?}");
+        std::process::exit(1);
+    }
 }
