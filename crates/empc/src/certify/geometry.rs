@@ -62,6 +62,46 @@ pub(super) struct Poly {
     pub centre: Vec<f64>,
     /// Its radius.
     pub radius: f64,
+    /// A box containing the polyhedron (bound propagation over its rows).
+    pub lo: Vec<f64>,
+    /// See [`Self::lo`].
+    pub hi: Vec<f64>,
+}
+
+/// The smallest and largest value of `a x` over the box `[lo, hi]`.
+fn range(a: &[f64], lo: &[f64], hi: &[f64]) -> (f64, f64) {
+    a.iter()
+        .zip(lo.iter().zip(hi))
+        .fold((0.0, 0.0), |(mn, mx), (&ak, (&l, &h))| {
+            let (u, v) = (ak * l, ak * h);
+            (mn + u.min(v), mx + u.max(v))
+        })
+}
+
+/// Tightens `[lo, hi]` to contain `{a x <= b}` ∩ the box: each row bounds
+/// each coordinate by the smallest value its other terms take (two
+/// passes; coefficients below 1e-9 are not divided by; the result is
+/// widened by 1e-12 against rounding).
+fn propagate(a: &[f64], b: &[f64], lo: &mut [f64], hi: &mut [f64]) {
+    let d = lo.len();
+    for _ in 0..2 {
+        for (row, &bi) in a.chunks_exact(d).zip(b) {
+            let (mn, _) = range(row, lo, hi);
+            for k in 0..d {
+                let ak = row[k];
+                if ak.abs() < 1e-9 {
+                    continue;
+                }
+                let own = (ak * lo[k]).min(ak * hi[k]);
+                let bound = (bi - (mn - own)) / ak;
+                if ak > 0.0 && bound + 1e-12 < hi[k] {
+                    hi[k] = bound + 1e-12;
+                } else if ak < 0.0 && bound - 1e-12 > lo[k] {
+                    lo[k] = bound - 1e-12;
+                }
+            }
+        }
+    }
 }
 
 impl Poly {
@@ -82,6 +122,8 @@ impl Poly {
             b,
             centre: vec![0.0; d],
             radius: 1.0,
+            lo: vec![-1.0; d],
+            hi: vec![1.0; d],
         }
     }
 }
@@ -94,6 +136,8 @@ pub(super) struct Geometry {
     lb: Vec<f64>,
     /// LPs solved.
     pub lps: usize,
+    /// Pieces found empty on a bounding box (no LP).
+    pub pruned: usize,
     /// Regions whose ball is smaller are dropped (lower-dimensional).
     pub min_radius: f64,
 }
@@ -108,7 +152,9 @@ impl Geometry {
     }
 
     /// `parent` cut by `extra`: `None` if a half-space never holds or the
-    /// result has no ball of radius `min_radius`.
+    /// result has no ball of radius `min_radius`. Rows that hold on the
+    /// parent's bounding box are implied and left out; a row that fails on
+    /// all of it makes the result empty without an LP.
     pub fn restrict(&mut self, parent: &Poly, extra: &[Half]) -> Option<Poly> {
         let mut a = parent.a.clone();
         let mut b = parent.b.clone();
@@ -117,20 +163,42 @@ impl Geometry {
                 Half::Never => return None,
                 Half::Always => {}
                 Half::Row(r, c) => {
+                    let (mn, mx) = range(r, &parent.lo, &parent.hi);
+                    if mn > *c + 1e-12 {
+                        self.pruned += 1;
+                        return None;
+                    }
+                    if mx <= *c {
+                        continue;
+                    }
                     a.extend_from_slice(r);
                     b.push(*c);
                 }
             }
         }
-        if b.len() == parent.b.len() {
+        let added = b.len() - parent.b.len();
+        if added == 0 {
             return Some(parent.clone());
         }
         let (centre, radius) = self.chebyshev(&a, &b, &parent.centre)?;
-        (radius >= self.min_radius).then_some(Poly {
+        if radius < self.min_radius {
+            return None;
+        }
+        let (mut lo, mut hi) = (parent.lo.clone(), parent.hi.clone());
+        let d = lo.len();
+        propagate(
+            &a[a.len() - added * d..],
+            &b[b.len() - added..],
+            &mut lo,
+            &mut hi,
+        );
+        Some(Poly {
             a,
             b,
             centre,
             radius,
+            lo,
+            hi,
         })
     }
 
