@@ -34,6 +34,45 @@ pub fn mac_round(a: &[i32], b: &[i32], shift: u8) -> i32 {
     r.clamp(i32::MIN as i128, i32::MAX as i128) as i32
 }
 
+/// `out[i] = round(sum_j data[i k + j] r[j] / 2^shift)` for the `out.len()`
+/// rows of `k = r.len()` terms (ties up, saturated to `i32`), each sum taken
+/// modulo `2^64` (exact for the kernel's tables: `|sum| < 2^63`); `shift`
+/// clamped to `16..=46`. On the AVR all rows in one assembly call.
+pub fn rows_round(data: &[i32], r: &[i32], shift: u8, out: &mut [i32]) {
+    let k = r.len();
+    let rows = out.len();
+    let shift = shift.clamp(16, 46);
+    if k == 0 || data.len() < rows * k {
+        out.fill(0);
+        return;
+    }
+    #[cfg(target_arch = "avr")]
+    if k <= 255 && (1..=255).contains(&rows) {
+        // SAFETY: `data` holds rows k elements, `r` k, `out` rows; 16 <= shift <= 46.
+        unsafe {
+            super::avr::rows_round_avr(
+                data.as_ptr(),
+                rows as u8,
+                k as u8,
+                r.as_ptr(),
+                shift,
+                out.as_mut_ptr(),
+            )
+        };
+        return;
+    }
+    for (o, row) in out.iter_mut().zip(data.chunks_exact(k)) {
+        let mut acc: i128 = 0;
+        for (x, y) in row.iter().zip(r) {
+            acc += *x as i128 * *y as i128;
+        }
+        let acc = acc as i64 as i128; // modulo 2^64
+        let q = acc >> (shift - 1);
+        let v = (q >> 1) + (q & 1);
+        *o = v.clamp(i32::MIN as i128, i32::MAX as i128) as i32;
+    }
+}
+
 /// `round(a b / 2^shift)` ([`mac_round`] of one term).
 #[inline]
 pub fn mul_round(a: i32, b: i32, shift: u8) -> i32 {
@@ -171,6 +210,21 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn rows_are_rounded_sums(
+            v in proptest::collection::vec(-(1i32 << 30)..(1 << 30), 1..40),
+            k in 1usize..5,
+            s in 16u8..=46,
+        ) {
+            let r: Vec<i32> = v.iter().take(k).copied().collect();
+            let rows = v.len() / r.len();
+            let mut out = vec![0; rows];
+            rows_round(&v, &r, s, &mut out);
+            for (i, o) in out.iter().enumerate() {
+                prop_assert_eq!(*o, reference(&v[i * r.len()..(i + 1) * r.len()], &r, s));
+            }
+        }
+
         #[test]
         fn mac_is_the_rounded_exact_sum(
             v in proptest::collection::vec((any::<i32>(), any::<i32>()), 0..40),

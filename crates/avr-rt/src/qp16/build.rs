@@ -475,7 +475,9 @@ impl<const N: usize, const P: usize> Qp16Tables<N, P> {
             let b = (29 - m.max(1e-9).log2().ceil() as i32).clamp(17, 30);
             (b - (b - 1) % 8) as u8
         };
-        let (minv_bits, w_bits) = (bits(mmax), bits(wmax));
+        // One shift for the whole block (one call of the rows routine).
+        let minv_bits = bits(mmax).min(bits(wmax));
+        let w_bits = minv_bits;
         if mmax * 2f64.powi(minv_bits as i32) >= 2f64.powi(31)
             || wmax * 2f64.powi(w_bits as i32) >= 2f64.powi(31)
         {

@@ -8,7 +8,7 @@
 //! `N`, where the factor updates' fixed costs dominate.
 #![allow(clippy::needless_range_loop)] // several arrays indexed together
 
-use super::arith::{frac30, mac_round, mul_round};
+use super::arith::{frac30, mul_round, rows_round};
 use super::solver::{Qp16Error, Qp16Info, Qp16Start};
 use super::tables::Qp16Tables;
 
@@ -25,9 +25,9 @@ pub struct Qp16SetTables<const N: usize, const S: usize, const E: usize> {
     /// The blocks.
     pub data: [i32; E],
     /// Fraction bits of `M_A^-1` (16 to 30; the multipliers come out in
-    /// Q15.16).
+    /// Q15.16). The solver uses this shift for the whole block.
     pub minv_bits: u8,
-    /// Fraction bits of `W_A` (16 to 30).
+    /// Fraction bits of `W_A`: equal to `minv_bits` (one shift per block).
     pub w_bits: u8,
 }
 
@@ -36,6 +36,8 @@ pub struct Qp16SetTables<const N: usize, const S: usize, const E: usize> {
 pub struct Qp16SetSolver<const N: usize> {
     nu: [i32; N],
     star: [i32; N],
+    /// This pass's block product: `M_A^-1 r` then `W_A r`.
+    wr: [i32; N],
     active: [u8; N],
     side: [u8; N],
     pos: [u8; N],
@@ -58,6 +60,7 @@ impl<const N: usize> Qp16SetSolver<N> {
         Qp16SetSolver {
             nu: [0; N],
             star: [0; N],
+            wr: [0; N],
             active: [0; N],
             side: [0; N],
             pos: [0; N],
@@ -134,12 +137,12 @@ impl<const N: usize> Qp16SetSolver<N> {
         let mut iterations: u16 = 0;
         loop {
             let mut r = [0i32; N];
-            let base = self.solve_star(s, &mut r);
+            self.solve_star(s, &mut r);
             match self.blocking(t.dual_tol) {
                 None => {
                     let k = self.count;
                     self.nu[..k].copy_from_slice(&self.star[..k]);
-                    self.primal(s, base, &r);
+                    self.primal();
                     match self.most_violated(t.primal_tol) {
                         None => {
                             return Ok(Qp16Info {
@@ -218,13 +221,13 @@ impl<const N: usize> Qp16SetSolver<N> {
     }
 
     /// `star = M_A^-1 r` with `r = w_unc_A - b_A` in increasing variable
-    /// order (returned in `r`); the set's block offset.
+    /// order (returned in `r`), and `W_A r` for the primal point.
     #[inline(never)]
     fn solve_star<const S: usize, const E: usize>(
         &mut self,
         s: &Qp16SetTables<N, S, E>,
         r: &mut [i32; N],
-    ) -> usize {
+    ) {
         let k = self.count;
         // Members in increasing order: rank of each active variable.
         let mut mask = 0usize;
@@ -240,14 +243,16 @@ impl<const N: usize> Qp16SetSolver<N> {
             }
         }
         let base = s.offset.get(mask).copied().unwrap_or(0) as usize;
+        // The set's whole block (M_A^-1 rows, then W_A rows: N rows of k)
+        // times r in one call: the multipliers (Q15.16 here: only their
+        // signs and the interpolated step use them) and W_A r.
+        let mut out = [0i32; N];
+        let block = s.data.get(base..base + N * k).unwrap_or(&[]);
+        rows_round(block, &r[..k], s.minv_bits, &mut out);
         for p in 0..k {
-            let row = base + rank[self.active[p] as usize] as usize * k;
-            let m = s.data.get(row..row + k).unwrap_or(&[]);
-            // Multipliers in Q15.16 here (only their signs and the
-            // interpolated step use them; the point comes from W_A r).
-            self.star[p] = mac_round(m, &r[..k], s.minv_bits);
+            self.star[p] = out[rank[self.active[p] as usize] as usize];
         }
-        base
+        self.wr = out;
     }
 
     fn blocking(&self, tol: i32) -> Option<(usize, i32)> {
@@ -273,25 +278,18 @@ impl<const N: usize> Qp16SetSolver<N> {
         best
     }
 
-    /// `w_I = w_unc_I - W_A r`; active variables exactly on their bound.
-    #[inline(never)]
-    fn primal<const S: usize, const E: usize>(
-        &mut self,
-        s: &Qp16SetTables<N, S, E>,
-        base: usize,
-        r: &[i32; N],
-    ) {
-        let k = self.count;
-        let mut row = base + k * k;
+    /// `w_I = w_unc_I - W_A r` (from the pass's block); active variables
+    /// exactly on their bound.
+    fn primal(&mut self) {
+        let mut q = self.count;
         for i in 0..N {
             let p = self.pos[i] as usize;
             if p != 0 {
                 self.w[i] = self.bound(i, self.side[p - 1] & 1 == 1);
-                continue;
+            } else {
+                self.w[i] = self.unc[i].saturating_sub(self.wr[q]);
+                q += 1;
             }
-            let wr = s.data.get(row..row + k).unwrap_or(&[]);
-            self.w[i] = self.unc[i].saturating_sub(mac_round(wr, &r[..k], s.w_bits));
-            row += k;
         }
     }
 
