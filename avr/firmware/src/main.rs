@@ -498,7 +498,7 @@ pub extern "C" fn main() -> ! {
     // The exact MPC in fixed point (kestrel_avr_rt::qp16), tables in RAM.
     #[cfg(feature = "qp16")]
     let Ok(law) =
-        qp16_law::Qp16Law::<S, NZ, NP, 4, _, _>::new(&generated_qp16::QP16, qp16_kernel(), NX)
+        qp16_law::Qp16Law::<S, NZ, NP, 4, _, _>::new(&generated_qp16::QP16, qp16_law::kernel(), NX)
     else {
         loop {}
     };
@@ -551,7 +551,7 @@ pub extern "C" fn main() -> ! {
             let bx = (&QP_THETA_LB, &QP_THETA_UB);
             let mut out = |p: &[u8]| send(Kind::Bench, 0, p);
             let mut dec = FrameDecoder::new();
-            let mut inp = |buf: &mut [u8; 40]| recv_bench(&mut dec, buf);
+            let mut inp = |buf: &mut [u8; 40]| qp_check::recv_bench(&mut dec, rx_pop, buf);
             qp_check::check(
                 &mut rate_loop.law,
                 &mut capped,
@@ -570,13 +570,13 @@ pub extern "C" fn main() -> ! {
             ..generated_qp16::QP16
         };
         if let Ok(mut capped) =
-            qp16_law::Qp16Law::<S, NZ, NP, 4, _, _>::new(&cap1, qp16_kernel(), NX)
+            qp16_law::Qp16Law::<S, NZ, NP, 4, _, _>::new(&cap1, qp16_law::kernel(), NX)
         {
             use generated_qp16::{QP16_THETA_LB, QP16_THETA_UB};
             let bx = (&QP16_THETA_LB, &QP16_THETA_UB);
             let mut out = |p: &[u8]| send(Kind::Bench, 0, p);
             let mut dec = FrameDecoder::new();
-            let mut inp = |buf: &mut [u8; 40]| recv_bench(&mut dec, buf);
+            let mut inp = |buf: &mut [u8; 40]| qp_check::recv_bench(&mut dec, rx_pop, buf);
             qp_check::check(
                 &mut rate_loop.law,
                 &mut capped,
@@ -682,37 +682,6 @@ fn drain_rx(
             }
         }
     }
-}
-
-/// The `qp16` builds' solver kernel: the per-set tables, or with
-/// `qp16-ldl` the factor updates.
-#[cfg(feature = "qp16")]
-fn qp16_kernel() -> qp16_law::Kernel<'static, NZ, 16, 128> {
-    if cfg!(feature = "qp16-ldl") {
-        qp16_law::Kernel::Ldl(kestrel_avr_rt::qp16::Qp16Solver::new())
-    } else {
-        qp16_law::Kernel::Sets(
-            kestrel_avr_rt::qp16::Qp16SetSolver::new(),
-            &generated_qp16::QP16_SETS,
-        )
-    }
-}
-
-/// The next Bench-kind frame's payload from the receive ring into `buf`
-/// (its length), or 0 when no whole frame is there yet (the exact MPC's
-/// on-target check serves the host's parameters).
-#[cfg(any(feature = "qp-check", feature = "qp16-check"))]
-fn recv_bench(dec: &mut FrameDecoder, buf: &mut [u8; 40]) -> usize {
-    while let Some(b) = rx_pop() {
-        if let Some(Ok(f)) = dec.push(b) {
-            let p = f.payload();
-            if f.kind == Kind::Bench && p.len() <= buf.len() {
-                buf[..p.len()].copy_from_slice(p);
-                return p.len();
-            }
-        }
-    }
-    0
 }
 
 #[inline(always)]

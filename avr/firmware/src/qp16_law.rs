@@ -206,3 +206,13 @@ impl<
         self.solver.reset();
     }
 }
+
+/// The `qp16` builds' solver kernel: the per-set tables of
+/// `src/generated_qp16.rs`, or with `qp16-ldl` the factor updates.
+pub fn kernel() -> Kernel<'static, 4, 16, 128> {
+    if cfg!(feature = "qp16-ldl") {
+        Kernel::Ldl(Qp16Solver::new())
+    } else {
+        Kernel::Sets(Qp16SetSolver::new(), &crate::generated_qp16::QP16_SETS)
+    }
+}

@@ -4,6 +4,7 @@
 
 use kestrel_avr_rt::control::LawInfo;
 use kestrel_avr_rt::cycles::CycleClock;
+use kestrel_avr_rt::frame::{FrameDecoder, Kind};
 use kestrel_avr_rt::output::RtScalar;
 use kestrel_core::ControlLaw;
 
@@ -130,4 +131,24 @@ fn solve_one<S: RtScalar, L: ControlLaw<Scalar = S> + LawInfo, const P: usize>(
     let cycles = clock.now().wrapping_sub(t0);
     let iterations = if r.is_ok() { law.iterations() } else { 0xFFFF };
     (iterations, cycles, u)
+}
+
+/// The next Bench-kind frame's payload from the bytes `pop` gives (the
+/// receive ring) into `buf` (its length), or 0 when no whole frame is
+/// there yet.
+pub fn recv_bench(
+    dec: &mut FrameDecoder,
+    mut pop: impl FnMut() -> Option<u8>,
+    buf: &mut [u8; 40],
+) -> usize {
+    while let Some(b) = pop() {
+        if let Some(Ok(f)) = dec.push(b) {
+            let p = f.payload();
+            if f.kind == Kind::Bench && p.len() <= buf.len() {
+                buf[..p.len()].copy_from_slice(p);
+                return p.len();
+            }
+        }
+    }
+    0
 }
