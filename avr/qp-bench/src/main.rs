@@ -119,6 +119,8 @@ pub extern "C" fn main() -> ! {
     tx(b"\n");
     let mut solver = Qp16Solver::<N>::new();
     let mut per_set = Qp16SetSolver::<N>::new();
+    #[cfg(feature = "profile")]
+    let mut set_profile = [0u32; 7];
     let modes: &[u32] = if SETS { &[1, 0, 3, 2] } else { &[1, 0] };
     for (i, theta) in THETAS.iter().enumerate() {
         for &mode in modes {
@@ -129,11 +131,22 @@ pub extern "C" fn main() -> ! {
             };
             let theta = core::hint::black_box(theta);
             let t0 = clock.now();
+            #[cfg(feature = "profile")]
+            // SAFETY: single-threaded read of the profile counters.
+            let before = unsafe { *core::ptr::addr_of!(kestrel_avr_rt::qp16::QP16_PROFILE) };
             let r: Result<Qp16Info, Qp16Error> = if mode < 2 {
                 solver.solve(&TABLES, theta, start)
             } else {
                 per_set.solve(&TABLES, &SET_TABLES, theta, start)
             };
+            #[cfg(feature = "profile")]
+            if mode >= 2 {
+                // SAFETY: as above.
+                let after = unsafe { *core::ptr::addr_of!(kestrel_avr_rt::qp16::QP16_PROFILE) };
+                for ((p, a), b) in set_profile.iter_mut().zip(after).zip(before) {
+                    *p += a.wrapping_sub(b);
+                }
+            }
             let cycles = clock.now().wrapping_sub(t0);
             tx(b"Q");
             num(i as u32);
@@ -173,7 +186,13 @@ pub extern "C" fn main() -> ! {
     {
         tx(b"PHASES");
         // SAFETY: the solves are done; single-threaded read.
-        for v in unsafe { *core::ptr::addr_of!(kestrel_avr_rt::qp16::QP16_PROFILE) } {
+        let all = unsafe { *core::ptr::addr_of!(kestrel_avr_rt::qp16::QP16_PROFILE) };
+        for (v, p) in all.iter().zip(set_profile) {
+            num(v.wrapping_sub(p));
+        }
+        tx(b"\n");
+        tx(b"PHASES-PER-SET");
+        for v in set_profile {
             num(v);
         }
         tx(b"\n");

@@ -280,7 +280,7 @@ fn measure<const N: usize, const P: usize, const S: usize, const E: usize>(
         .iter()
         .map(|(k, v): (&String, &Vec<u32>)| format!("\"{k}\": {}", stats(v)))
         .collect();
-    if let Some(l) = lines.iter().find(|l| l.starts_with("PHASES")) {
+    for l in lines.iter().filter(|l| l.starts_with("PHASES")) {
         println!("{name}: {l}");
     }
     let cal = lines

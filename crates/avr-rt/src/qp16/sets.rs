@@ -9,7 +9,7 @@
 #![allow(clippy::needless_range_loop)] // several arrays indexed together
 
 use super::arith::{frac30, mul_round, rows_round};
-use super::solver::{Qp16Error, Qp16Info, Qp16Start};
+use super::solver::{Qp16Error, Qp16Info, Qp16Start, charge, stamp};
 use super::tables::Qp16Tables;
 
 /// The per-active-set tables (`S = 2^N` sets, `E = N^2 2^(N-1)` entries;
@@ -118,11 +118,13 @@ impl<const N: usize> Qp16SetSolver<N> {
         theta: &[i32; P],
         start: Qp16Start,
     ) -> Result<Qp16Info, Qp16Error> {
+        let t0 = stamp();
         self.unc = t.unconstrained(theta);
         for i in 0..N {
             self.lo[i] = t.lb[i].eval(theta);
             self.hi[i] = t.ub[i].eval(theta);
         }
+        charge(0, t0);
         for i in 0..N {
             if self.lo[i] > self.hi[i] {
                 self.w = self.fallback();
@@ -137,13 +139,23 @@ impl<const N: usize> Qp16SetSolver<N> {
         let mut iterations: u16 = 0;
         loop {
             let mut r = [0i32; N];
+            let t0 = stamp();
             self.solve_star(s, &mut r);
-            match self.blocking(t.dual_tol) {
+            charge(1, t0);
+            let t0 = stamp();
+            let blocking = self.blocking(t.dual_tol);
+            charge(2, t0);
+            match blocking {
                 None => {
                     let k = self.count;
                     self.nu[..k].copy_from_slice(&self.star[..k]);
+                    let t0 = stamp();
                     self.primal();
-                    match self.most_violated(t.primal_tol) {
+                    charge(3, t0);
+                    let t0 = stamp();
+                    let most = self.most_violated(t.primal_tol);
+                    charge(4, t0);
+                    match most {
                         None => {
                             return Ok(Qp16Info {
                                 iterations,
@@ -170,11 +182,13 @@ impl<const N: usize> Qp16SetSolver<N> {
                     if iterations >= t.max_iterations {
                         return Err(Qp16Error::IterationLimit);
                     }
+                    let t0 = stamp();
                     for i in 0..self.count {
                         let diff = self.star[i].saturating_sub(self.nu[i]);
                         self.nu[i] = self.nu[i].saturating_add(mul_round(alpha, diff, 30));
                     }
                     self.remove(p);
+                    charge(6, t0);
                 }
             }
             iterations = iterations.saturating_add(1);

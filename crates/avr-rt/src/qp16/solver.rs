@@ -12,8 +12,9 @@ use super::tables::Qp16Tables;
 #[cfg(all(target_arch = "avr", feature = "qp16-profile"))]
 pub static mut QP16_PROFILE: [u32; 7] = [0; 7];
 
+/// Timer1's count (profiling only; 0 without the feature).
 #[inline(always)]
-fn stamp() -> u16 {
+pub(super) fn stamp() -> u16 {
     #[cfg(all(target_arch = "avr", feature = "qp16-profile"))]
     // SAFETY: reads TCNT1 (low byte first latches the high byte).
     unsafe {
@@ -25,8 +26,9 @@ fn stamp() -> u16 {
     0
 }
 
+/// Adds the cycles since `_since` to a phase (profiling only).
 #[inline(always)]
-fn charge(_phase: usize, _since: u16) {
+pub(super) fn charge(_phase: usize, _since: u16) {
     #[cfg(all(target_arch = "avr", feature = "qp16-profile"))]
     // SAFETY: single-threaded profiling counters.
     unsafe {
