@@ -28,7 +28,7 @@ pub struct CertifySettings {
     /// stored order, and the order can change the path) instead of sorted
     /// by constraint index. Sets of at most 8 constraints. Default off.
     pub warm_any_order: bool,
-    /// Keep every region (for [`Certificate::iterations_at`]); off for
+    /// Keep every region (for [`crate::certify::Certificate::iterations_at`]); off for
     /// large problems to save memory. Default on.
     pub keep_regions: bool,
 }
