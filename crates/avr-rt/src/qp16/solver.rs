@@ -336,7 +336,7 @@ impl<const N: usize> Qp16Solver<N> {
     fn solve_star<const P: usize>(&mut self, t: &Qp16Tables<N, P>) {
         let k = self.count;
         let lb = t.l_bits;
-        let kd = (t.nu_bits + t.p_bits).saturating_sub(16);
+        let kd = t.nu_bits.saturating_add(t.p_bits).saturating_sub(16);
         for i in self.valid.min(k)..k {
             let j = self.active[i] as usize;
             let r = self.unc[j].saturating_sub(self.bound(i));
@@ -396,7 +396,11 @@ impl<const N: usize> Qp16Solver<N> {
             for p in 0..k {
                 row[p] = t.hinv[i][self.active[p] as usize];
             }
-            let v = mac_round(&row[..k], &self.nu[..k], t.p_bits + t.nu_bits - 16);
+            let v = mac_round(
+                &row[..k],
+                &self.nu[..k],
+                t.p_bits.saturating_add(t.nu_bits).saturating_sub(16),
+            );
             self.w[i] = self.unc[i].saturating_sub(v);
         }
     }

@@ -312,3 +312,75 @@ fn errors_and_fallback() {
         Err(Qp16Error::InvalidBounds)
     );
 }
+
+mod never_panics {
+    use super::*;
+    use crate::mac::Row16;
+    use proptest::prelude::*;
+
+    fn row32(v: &[i32], s: u8) -> Row32<3> {
+        Row32 {
+            c: [v[0], v[1], v[2]],
+            c0: v[3],
+            shift: s,
+            start: (v[4] & 7) as u8,
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(300))]
+        /// Arbitrary tables, parameters, caps and starts (overflow checks
+        /// on in tests): every solve of both kernels returns a result or an
+        /// error, and the fallback stays in consistent bounds.
+        #[test]
+        fn on_arbitrary_tables(
+            v in proptest::collection::vec(any::<i32>(), 120),
+            bits in proptest::collection::vec(any::<u8>(), 12),
+            theta in proptest::collection::vec(any::<i32>(), 3),
+        ) {
+            let b = |i: usize| bits[i];
+            let t = Qp16Tables::<2, 3> {
+                hinv: [[v[0], v[1]], [v[2], v[3]]],
+                unc_hi: [Row16::new([v[4] as i16, v[5] as i16, v[6] as i16], b(0), b(1) & 3),
+                         Row16::new([v[7] as i16, v[8] as i16, v[9] as i16], b(2), b(3) & 3)],
+                unc_lo: [Row16::new([v[10] as i16, v[11] as i16, v[12] as i16], b(4), 0),
+                         Row16::new([v[13] as i16, v[14] as i16, v[15] as i16], b(5), 0)],
+                unc0: [v[16], v[17]],
+                lb: [row32(&v[20..25], b(6)), row32(&v[25..30], b(7))],
+                ub: [row32(&v[30..35], b(8)), row32(&v[35..40], b(9))],
+                var_shift: b(10) as i8,
+                obj_shift: 0,
+                p_bits: b(11),
+                l_bits: b(0),
+                nu_bits: b(1),
+                pivot_bits: b(2),
+                primal_tol: v[40],
+                dual_tol: v[41],
+                max_iterations: (v[42] & 15) as u16,
+            };
+            let sets = Qp16SetTables::<2, 4, 8> {
+                offset: [0, 0, 1, 2],
+                data: [v[50], v[51], v[52], v[53], v[54], v[55], v[56], v[57]],
+                minv_bits: b(3),
+                w_bits: b(3),
+            };
+            let th = [theta[0], theta[1], theta[2]];
+            let mut s = Qp16Solver::<2>::new();
+            let mut ps = Qp16SetSolver::<2>::new();
+            for start in [Qp16Start::Cold, Qp16Start::Warm, Qp16Start::Warm] {
+                let r = s.solve(&t, &th, start);
+                let rp = ps.solve(&t, &sets, &th, start);
+                for (res, fb) in [(r.is_err(), s.fallback()), (rp.is_err(), ps.fallback())] {
+                    if res {
+                        for i in 0..2 {
+                            let (lo, hi) = (t.lb[i].eval(&th), t.ub[i].eval(&th));
+                            if lo <= hi {
+                                prop_assert!(lo <= fb[i] && fb[i] <= hi);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
