@@ -372,10 +372,10 @@ mod never_panics {
                 let rp = ps.solve(&t, &sets, &th, start);
                 for (res, fb) in [(r.is_err(), s.fallback()), (rp.is_err(), ps.fallback())] {
                     if res {
-                        for i in 0..2 {
+                        for (i, f) in fb.iter().enumerate() {
                             let (lo, hi) = (t.lb[i].eval(&th), t.ub[i].eval(&th));
                             if lo <= hi {
-                                prop_assert!(lo <= fb[i] && fb[i] <= hi);
+                                prop_assert!(lo <= *f && *f <= hi);
                             }
                         }
                     }
