@@ -206,3 +206,148 @@ fn warm_start_in_any_order() {
         warm.worst_iterations, warm.regions, warm.start_sets
     );
 }
+
+mod counted {
+    //! An `f64` that counts its arithmetic operators (`+ - * /`; a
+    //! multiply-add two; negation free), to measure the flop model.
+    use kestrel_core::Scalar;
+    use std::cell::Cell;
+    use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
+
+    thread_local!(static OPS: Cell<u64> = const { Cell::new(0) });
+
+    /// Operators counted since the last call.
+    pub fn take() -> u64 {
+        OPS.with(|c| c.replace(0))
+    }
+
+    fn tick() {
+        OPS.with(|c| c.set(c.get() + 1));
+    }
+
+    #[derive(Clone, Copy, Debug, Default, PartialEq, PartialOrd)]
+    pub struct C(pub f64);
+
+    macro_rules! op {
+        ($tr:ident, $f:ident, $o:tt, $tra:ident, $fa:ident) => {
+            impl $tr for C {
+                type Output = C;
+                fn $f(self, r: C) -> C {
+                    tick();
+                    C(self.0 $o r.0)
+                }
+            }
+            impl $tra for C {
+                fn $fa(&mut self, r: C) {
+                    tick();
+                    self.0 = self.0 $o r.0;
+                }
+            }
+        };
+    }
+    op!(Add, add, +, AddAssign, add_assign);
+    op!(Sub, sub, -, SubAssign, sub_assign);
+    op!(Mul, mul, *, MulAssign, mul_assign);
+    impl Div for C {
+        type Output = C;
+        fn div(self, r: C) -> C {
+            tick();
+            C(self.0 / r.0)
+        }
+    }
+    impl Neg for C {
+        type Output = C;
+        fn neg(self) -> C {
+            C(-self.0)
+        }
+    }
+    impl Scalar for C {
+        const ZERO: C = C(0.0);
+        const ONE: C = C(1.0);
+        const MAX: C = C(f64::MAX);
+        const MIN: C = C(f64::MIN);
+        const RESOLUTION: f64 = f64::EPSILON;
+        fn from_f64(v: f64) -> C {
+            C(v)
+        }
+        fn to_f64(self) -> f64 {
+            self.0
+        }
+        fn is_finite(self) -> bool {
+            self.0.is_finite()
+        }
+    }
+}
+
+/// The flop model against the solver's operators counted by a counting
+/// scalar: at sampled theta (cold, and warm within the step) the counted
+/// operators of a solve never exceed its region's certified flops, and
+/// cold solves of regions without a multi-candidate dual step match.
+#[test]
+fn flop_model_bounds_the_counted_operators() {
+    use counted::C;
+    // Cold and warm on seed 2 (a small warm partition), cold on seed 1.
+    for (seed, with_warm) in [(2, true), (1, false)] {
+        let p = kestrel_empc::testing::thesis_sized(seed);
+        let step = 0.05;
+        let settings = CertifySettings {
+            warm_step: with_warm.then_some(step),
+            ..CertifySettings::default()
+        };
+        let c = certify(&p, &settings, &mut |_| {}).unwrap();
+        let par = ParametricQp::from_mpqp(&p).unwrap();
+        let (ns, ni) = par.workspace_len();
+        let (mut s, mut ix) = (vec![C(0.0); ns], vec![0; ni]);
+        let mut qp = par
+            .solver::<C>(QpSettings::default(), &mut s, &mut ix)
+            .unwrap();
+        let mut buf = par.buffers::<C>();
+        let mut rng = SplitMix64::seed_from_u64(5);
+        let (lb, ub) = (par.theta_lb().to_vec(), par.theta_ub().to_vec());
+        let (mut exact, mut worst_gap, mut count) = (0, 0u64, 0);
+        for _ in 0..samples() / 4 {
+            let prev: Vec<f64> = (0..par.p())
+                .map(|k| lb[k] + (ub[k] - lb[k]) * rng.random::<f64>())
+                .collect();
+            par.fill(&prev, &mut buf).unwrap();
+            counted::take();
+            qp.solve(&buf.data(), Start::Cold).unwrap();
+            let ops = counted::take();
+            let mut set: Vec<ActiveConstraint> = qp.active_set().collect();
+            set.sort_by_key(|a| a.index);
+            if let Some((_, f)) = c.cold.iterations_at(&prev, None) {
+                assert!(ops <= f, "cold at {prev:?}: {ops} counted, {f} certified");
+                exact += usize::from(ops == f);
+                worst_gap = worst_gap.max(f - ops);
+                count += 1;
+            }
+            let theta: Vec<f64> = (0..par.p())
+                .map(|k| {
+                    let d = step * (ub[k] - lb[k]) * (2.0 * rng.random::<f64>() - 1.0);
+                    (prev[k] + d).clamp(lb[k], ub[k])
+                })
+                .collect();
+            par.fill(&theta, &mut buf).unwrap();
+            qp.set_active_set(&set).unwrap();
+            counted::take();
+            qp.solve(&buf.data(), Start::Warm).unwrap();
+            let ops = counted::take();
+            let Some(warm) = c.warm.as_ref() else {
+                continue;
+            };
+            if let Some((_, f)) = warm.iterations_at(&theta, Some(&prev)) {
+                assert!(ops <= f, "warm at {theta:?}: {ops} counted, {f} certified");
+                exact += usize::from(ops == f);
+                worst_gap = worst_gap.max(f - ops);
+                count += 1;
+            }
+        }
+        assert!(
+            exact * 2 >= count,
+            "thesis_sized({seed}): only {exact} of {count} exact"
+        );
+        eprintln!(
+            "thesis_sized({seed}): flops counted = certified on {exact} of {count} solves, largest over-count {worst_gap}"
+        );
+    }
+}

@@ -1,8 +1,10 @@
 //! The floating-point operation model of kestrel-qp's solver (the code of
 //! `crates/qp/src/iterate.rs` as of commit b6d3af5: iterations in `z` with
 //! `H^-1` and `w_j = H^-1 g_j` from the set-up). One add, subtract,
-//! multiply or divide is one flop, a fused multiply-add two; comparisons,
-//! sign flips (multiplying by a side's `+-1`) and copies are free. `n`
+//! multiply or divide is one flop (a multiplication by a side's `+-1`
+//! included), a multiply-add two; comparisons, negations and copies are
+//! free: every arithmetic operator the solver's code executes, as a
+//! counting scalar type measures it (tests/certify.rs). `n`
 //! variables, `k` active constraints; a "row" is a general row of `G`
 //! (its products cost `2 n`), a bound's are free (an entry of `H^-1`,
 //! `w_j` or `z`). docs/qp-certify.md lists the model.
@@ -20,11 +22,11 @@ pub(super) fn mustar(k: u64, f: u64) -> u64 {
     2 * k * k - f * f
 }
 
-/// The blocking test, counted as if every one of the `k` positions
-/// blocked (`cur - star` and the ratio, `2 k`; an upper bound: a position
-/// that does not block costs nothing).
-pub(super) fn blocking(k: u64) -> u64 {
-    2 * k
+/// The blocking test: `star` of each of the `free` non-equality positions,
+/// and `cur`, `cur - star` and the ratio of each of `blocking` blocking
+/// ones: `free + 3 blocking`.
+pub(super) fn blocking(free: u64, blocking: u64) -> u64 {
+    free + 3 * blocking
 }
 
 /// The dual step `mu <- mu + alpha (mu* - mu)`: `3 k`.
@@ -44,10 +46,11 @@ pub(super) fn primal(n: u64, k: u64) -> u64 {
     2 * n * k
 }
 
-/// The most-violated scan: `g_j'z` of each inactive row (`2 n`) and two
-/// subtractions per inactive constraint.
+/// The most-violated scan: `g_j'z` of each inactive row (`2 n`) and three
+/// subtractions per inactive constraint (both differences, then the
+/// larger again).
 pub(super) fn scan(n: u64, inactive_rows: u64, inactive: u64) -> u64 {
-    2 * n * inactive_rows + 2 * inactive
+    2 * n * inactive_rows + 3 * inactive
 }
 
 /// Adding a constraint to `k` active of which `rows_active` are rows: the
@@ -60,8 +63,10 @@ pub(super) fn add(n: u64, k: u64, row: bool, rows_active: u64) -> u64 {
 }
 
 /// The singular step with `k` active (the last dependent): the null vector
-/// `L^-T e_k` (`k (k - 1)`), a ratio per position (`k - 1`, counted for
-/// all), the multiplier update `2 k` (the removal is [`remove`]).
-pub(super) fn singular(k: u64) -> u64 {
-    k * k.saturating_sub(1) + k.saturating_sub(1) + 2 * k
+/// `L^-T e_k` (`k (k - 1)`), the rate of each of the `free` non-equality
+/// positions before the last (2) and the ratio of each of the `blocking`
+/// ones with a negative rate (2), the multiplier update `3 k` (the
+/// removal is [`remove`]).
+pub(super) fn singular(k: u64, free: u64, blocking: u64) -> u64 {
+    k * k.saturating_sub(1) + 2 * free + 2 * blocking + 3 * k
 }

@@ -135,7 +135,10 @@ pub(super) fn expand(
     let mustar = model
         .mustar(&node.active)
         .ok_or_else(|| numerical("M of an active set is singular"))?;
-    let top = flops::mustar(k as u64, node.fwd as u64) + flops::blocking(k as u64);
+    let free_count = node.active.iter().filter(|a| a.1 & EQUALITY == 0).count() as u64;
+    // mu* and the blocking test when nothing blocks; a blocking piece adds
+    // 3 per position that may block there (an upper bound).
+    let top = flops::mustar(k as u64, node.fwd as u64) + flops::blocking(free_count, 0);
     let dtol = model.settings.dual_tol;
     let star: Vec<Vec<f64>> = (0..k)
         .map(|p| {
@@ -170,7 +173,11 @@ pub(super) fn expand(
                     continue;
                 }
                 let mut child = node.clone();
-                child.flops += top + flops::dual_step(k as u64) + flops::remove(k as u64, p as u64);
+                // The earlier positions do not block, `p` and later may.
+                child.flops += top
+                    + flops::blocking(0, (cands.len() - t) as u64)
+                    + flops::dual_step(k as u64)
+                    + flops::remove(k as u64, p as u64);
                 child.fwd = p;
                 let mu = node.mu.iter().enumerate().filter(|&(q, _)| q != p);
                 let mu = mu.map(|(_, m)| m.clone()).collect();
@@ -239,7 +246,10 @@ pub(super) fn expand(
                 let t: Vec<f64> = node.mu[i].iter().map(|x| -x / v[i]).collect();
                 let mu = moved(&node.mu, &t, &v, i);
                 let mut child = node.clone();
-                child.flops += top + flops::dual_step(k as u64) + flops::remove(k as u64, i as u64);
+                child.flops += top
+                    + flops::blocking(0, cands.len() as u64)
+                    + flops::dual_step(k as u64)
+                    + flops::remove(k as u64, i as u64);
                 child.fwd = i;
                 let c = Change::Remove {
                     constraint: node.active[i].0,
@@ -359,6 +369,9 @@ fn singular_step(
         .ok_or_else(|| numerical("the active set before a dependent constraint is singular"))?;
     let sk = sign(node.active[last].1);
     let pmax = pv.iter().fold(0.0_f64, |s, x| s.max(x.abs()));
+    let free = (0..last)
+        .filter(|&i| node.active[i].1 & EQUALITY == 0)
+        .count();
     let cands: Vec<(usize, f64)> = (0..last)
         .filter(|&i| node.active[i].1 & EQUALITY == 0)
         .map(|i| (i, sign(node.active[i].1) * sk * pv[i]))
@@ -393,7 +406,8 @@ fn singular_step(
         if let Some(poly) = geo.restrict(&node.poly, &hs) {
             let mu = moved(&node.mu, &tau[t], &step, i);
             let mut child = node.clone();
-            child.flops += flops::singular(k as u64) + flops::remove(k as u64, i as u64);
+            child.flops += flops::singular(k as u64, free as u64, cands.len() as u64)
+                + flops::remove(k as u64, i as u64);
             child.fwd = child.fwd.min(i);
             let c = Change::Singular {
                 constraint: node.active[i].0,
