@@ -67,5 +67,16 @@ fn bad_flags_and_limits_are_clear_errors() {
     let (ok, _, err) = kestrel(&["qp", "certify", p, "--box-scale", "0"]);
     assert!(!ok && err.contains("--box-scale"), "{err}");
     let (ok, _, err) = kestrel(&["qp", "certify", p, "--max-regions", "10"]);
+    assert!(!ok && err.contains("is estimated at"), "{err}");
+    let args = [
+        "qp",
+        "certify",
+        p,
+        "--max-regions",
+        "10",
+        "--estimate-probes",
+        "0",
+    ];
+    let (ok, _, err) = kestrel(&args);
     assert!(!ok && err.contains("region limit reached"), "{err}");
 }

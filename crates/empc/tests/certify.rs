@@ -139,7 +139,15 @@ fn check(name: &str, p: &MpqpProblem, step: f64) {
         warm_step: Some(step),
         ..CertifySettings::default()
     };
-    let c = certify(p, &settings, &mut |_| {}).unwrap();
+    let mut estimate = None;
+    let c = certify(p, &settings, &mut |pr| estimate = estimate.or(pr.estimate)).unwrap();
+    // The up-front estimate of the cold partition is within a factor 2.
+    let e = estimate.unwrap().regions;
+    let r = c.cold.regions as f64;
+    assert!(
+        e >= 0.5 * r && e <= 2.0 * r,
+        "{name}: estimated {e}, found {r}"
+    );
     let n = samples();
     let (lc, nc) = check_start(&format!("{name} cold"), p, &c.cold, None, n);
     let warm = c.warm.as_ref().unwrap();

@@ -59,6 +59,11 @@ pub struct CertifyArgs {
     /// <= 1; e.g. 0.1 for a tenth of every parameter's range).
     #[arg(long, value_name = "F", default_value_t = 1.0)]
     pub box_scale: f64,
+    /// Random walks of the up-front size estimate (0: none); a partition
+    /// estimated beyond --max-regions or four times --time-limit is refused
+    /// at once.
+    #[arg(long, default_value_t = 64)]
+    pub estimate_probes: usize,
     /// Give up after this many regions in one start.
     #[arg(long, default_value_t = 2_000_000)]
     pub max_regions: usize,
@@ -94,6 +99,7 @@ fn run_certify(a: CertifyArgs) -> anyhow::Result<()> {
         max_regions: a.max_regions,
         time_limit: Some(Duration::from_secs_f64(a.time_limit)),
         keep_regions: false,
+        estimate_probes: a.estimate_probes,
         ..CertifySettings::default()
     };
     let bar = if progress::enabled() {
@@ -105,6 +111,14 @@ fn run_certify(a: CertifyArgs) -> anyhow::Result<()> {
     };
     progress::show(&bar);
     let mut show = |p: &kestrel_empc::certify::Progress| {
+        if let Some(e) = p.estimate {
+            bar.suspend(|| {
+                eprintln!(
+                    "note: the cold-start partition is estimated at about {:.0} regions, {:.0} s ({} random walks)",
+                    e.regions, e.seconds, e.probes
+                )
+            });
+        }
         bar.set_message(format!(
             "{}: {} regions, {} open, {} LPs, worst {} iterations, start sets {}/{}",
             p.phase, p.regions, p.open, p.lps, p.worst_iterations, p.start_sets_done, p.start_sets

@@ -45,4 +45,19 @@ pub enum CertifyError {
         /// Time spent.
         elapsed: Duration,
     },
+    /// The up-front estimate says the partition is too large for the
+    /// settings' limits.
+    #[error(
+        "the cold-start partition is estimated at {regions:.0} regions and {seconds:.0} s (random walks), beyond max_regions {max_regions} or four times the time limit {time_limit:?}; raise the limits or certify a smaller parameter set"
+    )]
+    TooLarge {
+        /// Estimated regions.
+        regions: f64,
+        /// Estimated seconds.
+        seconds: f64,
+        /// The settings' region limit.
+        max_regions: usize,
+        /// The settings' time limit.
+        time_limit: Option<Duration>,
+    },
 }

@@ -162,6 +162,7 @@ pub(super) fn progress(ctx: &Ctx<'_>, tally: &Tally, geo: &Geometry, open: usize
         start_sets_done: ctx.sets_done,
         start_sets: ctx.sets_total,
         elapsed: ctx.started.elapsed(),
+        estimate: None,
     }
 }
 

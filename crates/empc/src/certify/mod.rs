@@ -25,6 +25,7 @@
 //! theta_k - theta_prev,k | <= step (ub_k - lb_k)`.
 
 mod error;
+mod estimate;
 mod explore;
 mod flops;
 mod geometry;
@@ -36,6 +37,7 @@ mod step;
 mod tests;
 
 pub use error::CertifyError;
+pub use estimate::Estimate;
 pub use model::constraint_name;
 pub use report::{Certificate, Certification, RegionReport};
 pub use settings::{CertifySettings, Progress};
@@ -84,6 +86,25 @@ pub fn certify(
         path: Vec::new(),
         start: 0,
     };
+    if settings.estimate_probes > 0 {
+        let e = estimate::estimate(&cold_model, &mut geo, &root, settings.estimate_probes)?;
+        let report = Progress {
+            estimate: Some(e),
+            ..explore::progress(&ctx, &Tally::default(), &geo, 0)
+        };
+        (ctx.progress)(&report);
+        let too_slow = settings
+            .time_limit
+            .is_some_and(|t| e.seconds > 4.0 * t.as_secs_f64());
+        if e.regions > settings.max_regions as f64 || too_slow {
+            return Err(CertifyError::TooLarge {
+                regions: e.regions,
+                seconds: e.seconds,
+                max_regions: settings.max_regions,
+                time_limit: settings.time_limit,
+            });
+        }
+    }
     let mut cold = Tally::default();
     let lps0 = geo.lps;
     run(&cold_model, &mut geo, root, &mut ctx, &mut cold, true)?;

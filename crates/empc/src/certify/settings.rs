@@ -28,6 +28,11 @@ pub struct CertifySettings {
     /// stored order, and the order can change the path) instead of sorted
     /// by constraint index. Sets of at most 8 constraints. Default off.
     pub warm_any_order: bool,
+    /// Random walks of the up-front size estimate ([`crate::certify::Estimate`]):
+    /// the certification is refused with [`CertifyError::TooLarge`] when the
+    /// estimated regions exceed `max_regions` or the estimated time is more
+    /// than four times `time_limit`. 0: no estimate. Default 64.
+    pub estimate_probes: usize,
     /// Keep every region (for [`crate::certify::Certificate::iterations_at`]); off for
     /// large problems to save memory. Default on.
     pub keep_regions: bool,
@@ -42,6 +47,7 @@ impl Default for CertifySettings {
             time_limit: Some(Duration::from_secs(600)),
             min_radius: 1e-9,
             warm_any_order: false,
+            estimate_probes: 64,
             keep_regions: true,
         }
     }
@@ -94,4 +100,6 @@ pub struct Progress {
     pub start_sets: usize,
     /// Time since the start.
     pub elapsed: Duration,
+    /// The up-front size estimate, once (then `None`).
+    pub estimate: Option<crate::certify::Estimate>,
 }
