@@ -11,7 +11,8 @@ use super::step::{Node, Outcome, expand};
 use crate::rng::Rng;
 use std::time::Instant;
 
-/// What [`estimate`] found.
+/// The up-front size estimate of a cold-start partition (see
+/// [`crate::certify::CertifySettings::estimate_probes`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Estimate {
     /// Estimated regions of the cold-start partition.
