@@ -356,6 +356,38 @@ fn certified_iterations_hold_on_the_thesis_sized_tricopter() {
         located.iter().all(|&l| l * 100 >= count * 99),
         "{located:?} of {count}"
     );
+    // f32 (`QpSettings::for_f32`, inputs rounded) against the certificate
+    // with the f32 tolerances: never above its worst case; the count of
+    // the sample's region except where rounding crosses a boundary.
+    let settings32 = CertifySettings {
+        qp: QpSettings::for_f32(),
+        ..CertifySettings::default()
+    };
+    let c32 = certify(&p, &settings32, &mut |_| {}).unwrap().cold;
+    let mut s32 = vec![0.0_f32; ns];
+    let mut ix32 = vec![0; ni];
+    let mut qp32 = par
+        .solver(QpSettings::for_f32(), &mut s32, &mut ix32)
+        .unwrap();
+    let mut buf32 = par.buffers::<f32>();
+    let (mut differ32, mut most32) = (0, 0);
+    for _ in 0..count {
+        let theta: Vec<f64> = (0..p.p())
+            .map(|k| lb[k] + (ub[k] - lb[k]) * rng.random::<f64>())
+            .collect();
+        par.fill(&theta, &mut buf32).unwrap();
+        let it = qp32.solve(&buf32.data(), Start::Cold).unwrap().iterations;
+        assert!(it <= c32.worst_iterations, "f32: {it} at {theta:?}");
+        most32 = most32.max(it);
+        differ32 += usize::from(
+            c32.iterations_at(&theta, None)
+                .is_some_and(|(ci, _)| ci != it),
+        );
+    }
+    eprintln!(
+        "f32: certified cold {} iterations; {count} samples, most {most32}, {differ32} off their region's count",
+        c32.worst_iterations
+    );
     let wc = c.cold.worst.as_ref().unwrap();
     assert_eq!(run(&wc.theta, None).0, c.cold.worst_iterations);
     let ww = warm.worst.as_ref().unwrap();

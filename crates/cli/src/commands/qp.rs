@@ -4,7 +4,7 @@
 use crate::{io, progress};
 use anyhow::Context;
 use kestrel_core::formats::MpqpProblem;
-use kestrel_empc::certify::{Certificate, CertifySettings, certify};
+use kestrel_empc::certify::{Certificate, CertifySettings, QpSettings, certify};
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -52,6 +52,10 @@ pub struct CertifyArgs {
     /// constraint index.
     #[arg(long, requires = "warm_step")]
     pub any_order: bool,
+    /// Mirror the solver's f32 tolerances (`QpSettings::for_f32`) instead
+    /// of the f64 defaults.
+    #[arg(long)]
+    pub f32_tolerances: bool,
     /// Write the certificate as JSON here.
     #[arg(long, value_name = "OUT")]
     pub json: Option<PathBuf>,
@@ -96,6 +100,11 @@ fn run_certify(a: CertifyArgs) -> anyhow::Result<()> {
     let settings = CertifySettings {
         warm_step: a.warm_step,
         warm_any_order: a.any_order,
+        qp: if a.f32_tolerances {
+            QpSettings::for_f32()
+        } else {
+            CertifySettings::default().qp
+        },
         max_regions: a.max_regions,
         time_limit: Some(Duration::from_secs_f64(a.time_limit)),
         keep_regions: false,

@@ -38,6 +38,8 @@ mod tests;
 
 pub use error::CertifyError;
 pub use estimate::Estimate;
+/// The solver settings a certificate mirrors ([`CertifySettings::qp`]).
+pub use kestrel_qp::QpSettings;
 pub use model::constraint_name;
 pub use report::{Certificate, Certification, RegionReport};
 pub use settings::{CertifySettings, Progress};
