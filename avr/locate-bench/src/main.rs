@@ -23,7 +23,7 @@
 #![no_main]
 #![feature(abi_avr_interrupt, asm_experimental_arch)]
 
-use core::ptr::{read_volatile, write_volatile};
+use kestrel_avr_rt::bench_uart::{self, num, stop, tx};
 use kestrel_avr_rt::cycles::CycleClock;
 use kestrel_avr_rt::cycles::timer1::{self, Timer1Clock};
 use kestrel_avr_rt::locate::{FlashLists, ListLayout};
@@ -49,13 +49,6 @@ impl Bits for kestrel_avr_rt::mac::Q16Mac {
 // S (the scalar), LAYOUT, P, K, N_CHUNKS, CHUNK_BYTES, chunks(), THETAS.
 include!(env!("KESTREL_LOCATE_GENERATED"));
 
-const UCSR0A: *mut u8 = 0xC0 as *mut u8;
-const UCSR0B: *mut u8 = 0xC1 as *mut u8;
-const UCSR0C: *mut u8 = 0xC2 as *mut u8;
-const UBRR0L: *mut u8 = 0xC4 as *mut u8;
-const UBRR0H: *mut u8 = 0xC5 as *mut u8;
-const UDR0: *mut u8 = 0xC6 as *mut u8;
-
 /// Timer1 overflow: the cycle counter's high half.
 #[unsafe(no_mangle)]
 pub unsafe extern "avr-interrupt" fn __vector_20() {
@@ -63,50 +56,10 @@ pub unsafe extern "avr-interrupt" fn __vector_20() {
     unsafe { timer1::on_overflow() }
 }
 
-fn tx(bytes: &[u8]) {
-    for &b in bytes {
-        // SAFETY: USART0 registers; wait for an empty data register.
-        unsafe {
-            while read_volatile(UCSR0A) & (1 << 5) == 0 {}
-            write_volatile(UDR0, b);
-        }
-    }
-}
-
-/// ` v` in decimal.
-fn num(v: u32) {
-    let mut buf = [b' '; 11];
-    let mut i = buf.len();
-    let mut v = v;
-    loop {
-        i -= 1;
-        if let Some(b) = buf.get_mut(i) {
-            *b = b'0' + (v % 10) as u8;
-        }
-        v /= 10;
-        if v == 0 || i <= 1 {
-            break;
-        }
-    }
-    tx(buf.get(i - 1..).unwrap_or(&[]));
-}
-
-fn stop() -> ! {
-    // SAFETY: ends the simulation (simavr: sleeping with interrupts off).
-    unsafe { core::arch::asm!("cli", "sleep") };
-    loop {}
-}
-
 #[unsafe(no_mangle)]
 pub extern "C" fn main() -> ! {
-    // SAFETY: one-time USART0 set-up, 250000 baud 8N1, transmit only.
-    unsafe {
-        write_volatile(UBRR0H, 0);
-        write_volatile(UBRR0L, 3);
-        write_volatile(UCSR0A, 0);
-        write_volatile(UCSR0C, 0x06);
-        write_volatile(UCSR0B, 1 << 3);
-    }
+    // SAFETY: USART0 is this program's alone.
+    unsafe { bench_uart::init() };
     // SAFETY: Timer1 is ours; interrupts are still off.
     let clock = unsafe { Timer1Clock::start() };
     // SAFETY: enables the Timer1 overflow interrupt.

@@ -202,6 +202,25 @@ pub fn missing_tools<'a>(tools: &[&'a str]) -> Vec<&'a str> {
         .collect()
 }
 
+/// Whether every tool of `tools` runs here, for a test named `test` that
+/// needs them: a missing tool skips the test (printing which) unless
+/// `KESTREL_REQUIRE_AVR` is set, as in CI, where it fails the test.
+///
+/// # Panics
+/// When a tool is missing and `KESTREL_REQUIRE_AVR` is set.
+pub fn tools_present(test: &str, tools: &[&str]) -> bool {
+    let missing = missing_tools(tools);
+    if missing.is_empty() {
+        return true;
+    }
+    assert!(
+        std::env::var_os("KESTREL_REQUIRE_AVR").is_none(),
+        "KESTREL_REQUIRE_AVR is set but {missing:?} not installed"
+    );
+    println!("{test} skipped: {missing:?} not installed");
+    false
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -6,6 +6,8 @@
 #[cfg(target_arch = "avr")]
 #[macro_use]
 mod avr_asm;
+#[cfg(target_arch = "avr")]
+pub mod bench_uart;
 pub mod control;
 pub mod crc;
 pub mod cycles;

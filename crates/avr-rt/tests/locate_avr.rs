@@ -22,7 +22,7 @@
 //! --ignored`. Skipped when simavr, avr-gcc, avr-size or rustup is
 //! missing, unless `KESTREL_REQUIRE_AVR` is set (then it fails).
 
-use kestrel_avr_rt::host::{avr_cargo_build, avr_size, missing_tools, simavr};
+use kestrel_avr_rt::host::{avr_cargo_build, avr_size, simavr, tools_present};
 use kestrel_avr_rt::locate::{list_bytes, list_bytes_with};
 use kestrel_avr_rt::mac::Q16Mac;
 use kestrel_core::formats::MpqpProblem;
@@ -46,16 +46,7 @@ fn repo_root() -> PathBuf {
 
 /// Whether the AVR tools are here (a missing one fails under `KESTREL_REQUIRE_AVR`).
 fn tools() -> bool {
-    let missing = missing_tools(&["avr-gcc", "simavr", "avr-size", "rustup"]);
-    if missing.is_empty() {
-        return true;
-    }
-    assert!(
-        std::env::var_os("KESTREL_REQUIRE_AVR").is_none(),
-        "KESTREL_REQUIRE_AVR is set but {missing:?} not installed"
-    );
-    println!("locate_avr skipped: {missing:?} not installed");
-    false
+    tools_present("locate_avr", &["avr-gcc", "simavr", "avr-size", "rustup"])
 }
 
 struct Rng(u64);

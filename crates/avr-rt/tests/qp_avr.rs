@@ -16,7 +16,7 @@
 //! avr-size or rustup is missing, unless `KESTREL_REQUIRE_AVR` is set
 //! (then it fails).
 
-use kestrel_avr_rt::host::{avr_cargo_build, avr_size, missing_tools, simavr};
+use kestrel_avr_rt::host::{avr_cargo_build, avr_size, simavr, tools_present};
 use kestrel_avr_rt::qp16::{
     Qp16Error, Qp16Info, Qp16SetSolver, Qp16SetTables, Qp16Settings, Qp16Solver, Qp16Start,
     Qp16Tables, theta_q16,
@@ -38,17 +38,9 @@ fn repo_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
+/// Whether the AVR tools are here (a missing one fails under `KESTREL_REQUIRE_AVR`).
 fn tools() -> bool {
-    let missing = missing_tools(&["avr-gcc", "simavr", "avr-size", "rustup"]);
-    if missing.is_empty() {
-        return true;
-    }
-    assert!(
-        std::env::var_os("KESTREL_REQUIRE_AVR").is_none(),
-        "KESTREL_REQUIRE_AVR is set but {missing:?} not installed"
-    );
-    println!("qp_avr skipped: {missing:?} not installed");
-    false
+    tools_present("qp_avr", &["avr-gcc", "simavr", "avr-size", "rustup"])
 }
 
 struct Rng(u64);
