@@ -8,7 +8,7 @@
 //! `N`, where the factor updates' fixed costs dominate.
 #![allow(clippy::needless_range_loop)] // several arrays indexed together
 
-use super::arith::{frac30, mul_round, rows_round};
+use super::arith::{frac30, rows_round};
 use super::solver::{Qp16Error, Qp16Info, Qp16Start, charge, stamp};
 use super::tables::Qp16Tables;
 
@@ -36,8 +36,6 @@ pub struct Qp16SetTables<const N: usize, const S: usize, const E: usize> {
 pub struct Qp16SetSolver<const N: usize> {
     nu: [i32; N],
     star: [i32; N],
-    /// This pass's block product: `M_A^-1 r` then `W_A r`.
-    wr: [i32; N],
     active: [u8; N],
     side: [u8; N],
     pos: [u8; N],
@@ -60,7 +58,6 @@ impl<const N: usize> Qp16SetSolver<N> {
         Qp16SetSolver {
             nu: [0; N],
             star: [0; N],
-            wr: [0; N],
             active: [0; N],
             side: [0; N],
             pos: [0; N],
@@ -100,10 +97,6 @@ impl<const N: usize> Qp16SetSolver<N> {
         })
     }
 
-    fn bound(&self, j: usize, upper: bool) -> i32 {
-        if upper { self.hi[j] } else { self.lo[j] }
-    }
-
     /// As [`super::Qp16Solver::solve`], with the per-set tables `s` of the
     /// same problem.
     ///
@@ -137,23 +130,67 @@ impl<const N: usize> Qp16SetSolver<N> {
         }
         self.nu = [0; N];
         let mut iterations: u16 = 0;
+        let limit = t.dual_tol.saturating_neg();
         loop {
-            let mut r = [0i32; N];
+            // One pass: the members' residuals, the block product, the
+            // multipliers with the blocking test, then (none blocking) the
+            // primal point with the most-violated scan, each in one loop.
             let t0 = stamp();
-            self.solve_star(s, &mut r);
+            let k = self.count.min(N);
+            let mut r = [0i32; N];
+            // rank[p]: the rank (in increasing variable order) of the
+            // member at entry position p.
+            let mut rank = [0u8; N];
+            let mut mask = 0usize;
+            let mut q = 0usize;
+            for j in 0..N {
+                let p = self.pos[j] as usize;
+                if p != 0 && p <= N {
+                    mask |= 1 << j;
+                    rank[p - 1] = q as u8;
+                    let b = if self.side[p - 1] & 1 == 1 {
+                        self.hi[j]
+                    } else {
+                        self.lo[j]
+                    };
+                    r[q] = self.unc[j].saturating_sub(b);
+                    q += 1;
+                }
+            }
+            let base = s.offset.get(mask).copied().unwrap_or(0) as usize;
+            // The set's whole block (M_A^-1 rows, then W_A rows: N rows of
+            // k) times r in one call: the multipliers and W_A r.
+            let mut out = [0i32; N];
+            let block = s.data.get(base..base + N * k).unwrap_or(&[]);
+            rows_round(block, &r[..k.min(q)], s.minv_bits, &mut out);
             charge(1, t0);
             let t0 = stamp();
-            let blocking = self.blocking(t.dual_tol);
+            let mut blocking: Option<(usize, i32)> = None;
+            for p in 0..k {
+                let star = out[rank[p] as usize % N];
+                self.star[p] = star;
+                let code = self.side[p];
+                if code >= 2 {
+                    continue;
+                }
+                let (star, cur) = if code == 1 {
+                    (star, self.nu[p])
+                } else {
+                    (star.saturating_neg(), self.nu[p].saturating_neg())
+                };
+                if star < limit {
+                    let alpha = frac30(cur, star);
+                    if blocking.is_none_or(|(_, a)| alpha < a) {
+                        blocking = Some((p, alpha));
+                    }
+                }
+            }
             charge(2, t0);
             match blocking {
                 None => {
-                    let k = self.count;
                     self.nu[..k].copy_from_slice(&self.star[..k]);
                     let t0 = stamp();
-                    self.primal();
-                    charge(3, t0);
-                    let t0 = stamp();
-                    let most = self.most_violated(t.primal_tol);
+                    let most = self.primal_most_violated(&out, t.primal_tol);
                     charge(4, t0);
                     match most {
                         None => {
@@ -166,10 +203,9 @@ impl<const N: usize> Qp16SetSolver<N> {
                             if iterations >= t.max_iterations {
                                 return Err(Qp16Error::IterationLimit);
                             }
-                            if self.count >= N {
+                            if k >= N {
                                 return Err(Qp16Error::Infeasible);
                             }
-                            let k = self.count;
                             self.active[k] = j as u8;
                             self.side[k] = code;
                             self.pos[j] = k as u8 + 1;
@@ -183,9 +219,16 @@ impl<const N: usize> Qp16SetSolver<N> {
                         return Err(Qp16Error::IterationLimit);
                     }
                     let t0 = stamp();
-                    for i in 0..self.count {
-                        let diff = self.star[i].saturating_sub(self.nu[i]);
-                        self.nu[i] = self.nu[i].saturating_add(mul_round(alpha, diff, 30));
+                    // nu += alpha (star - nu): all members' rounded
+                    // products in one call.
+                    let mut diff = [0i32; N];
+                    for i in 0..k {
+                        diff[i] = self.star[i].saturating_sub(self.nu[i]);
+                    }
+                    let mut step = [0i32; N];
+                    rows_round(&diff[..k], &[alpha], 30, &mut step[..k]);
+                    for i in 0..k {
+                        self.nu[i] = self.nu[i].saturating_add(step[i]);
                     }
                     self.remove(p);
                     charge(6, t0);
@@ -234,92 +277,32 @@ impl<const N: usize> Qp16SetSolver<N> {
         self.count = k - 1;
     }
 
-    /// `star = M_A^-1 r` with `r = w_unc_A - b_A` in increasing variable
-    /// order (returned in `r`), and `W_A r` for the primal point.
-    #[inline(never)]
-    fn solve_star<const S: usize, const E: usize>(
-        &mut self,
-        s: &Qp16SetTables<N, S, E>,
-        r: &mut [i32; N],
-    ) {
-        let k = self.count;
-        // Members in increasing order: rank of each active variable.
-        let mut mask = 0usize;
-        let mut q = 0;
-        let mut rank = [0u8; N];
+    /// The point `w` (`w_I = w_unc_I - W_A r` from the pass's block
+    /// `out`, active variables exactly on their bound) and, in the same
+    /// loop, the most violated inactive bound.
+    fn primal_most_violated(&mut self, out: &[i32; N], tol: i32) -> Option<(usize, u8)> {
+        let (mut best, mut code, mut worst) = (N, 0u8, tol);
+        let mut q = self.count;
         for j in 0..N {
             let p = self.pos[j] as usize;
+            let (lo, hi) = (self.lo[j], self.hi[j]);
             if p != 0 {
-                mask |= 1 << j;
-                rank[j] = q as u8;
-                r[q] = self.unc[j].saturating_sub(self.bound(j, self.side[p - 1] & 1 == 1));
-                q += 1;
-            }
-        }
-        let base = s.offset.get(mask).copied().unwrap_or(0) as usize;
-        // The set's whole block (M_A^-1 rows, then W_A rows: N rows of k)
-        // times r in one call: the multipliers (Q15.16 here: only their
-        // signs and the interpolated step use them) and W_A r.
-        let mut out = [0i32; N];
-        let block = s.data.get(base..base + N * k).unwrap_or(&[]);
-        rows_round(block, &r[..k], s.minv_bits, &mut out);
-        for p in 0..k {
-            self.star[p] = out[rank[self.active[p] as usize] as usize];
-        }
-        self.wr = out;
-    }
-
-    fn blocking(&self, tol: i32) -> Option<(usize, i32)> {
-        let mut best: Option<(usize, i32)> = None;
-        let limit = tol.saturating_neg();
-        for p in 0..self.count {
-            let code = self.side[p];
-            if code >= 2 {
+                self.w[j] = if self.side[(p - 1) % N] & 1 == 1 {
+                    hi
+                } else {
+                    lo
+                };
                 continue;
             }
-            let (star, cur) = if code == 1 {
-                (self.star[p], self.nu[p])
-            } else {
-                (self.star[p].saturating_neg(), self.nu[p].saturating_neg())
-            };
-            if star < limit {
-                let alpha = frac30(cur, star);
-                if best.is_none_or(|(_, a)| alpha < a) {
-                    best = Some((p, alpha));
-                }
-            }
-        }
-        best
-    }
-
-    /// `w_I = w_unc_I - W_A r` (from the pass's block); active variables
-    /// exactly on their bound.
-    fn primal(&mut self) {
-        let mut q = self.count;
-        for i in 0..N {
-            let p = self.pos[i] as usize;
-            if p != 0 {
-                self.w[i] = self.bound(i, self.side[p - 1] & 1 == 1);
-            } else {
-                self.w[i] = self.unc[i].saturating_sub(self.wr[q]);
-                q += 1;
-            }
-        }
-    }
-
-    fn most_violated(&self, tol: i32) -> Option<(usize, u8)> {
-        let (mut best, mut code, mut worst) = (N, 0u8, tol);
-        for j in 0..N {
-            if self.pos[j] != 0 {
-                continue;
-            }
-            let v = self.w[j];
-            let (up, down) = (v.saturating_sub(self.hi[j]), self.lo[j].saturating_sub(v));
+            let v = self.unc[j].saturating_sub(out[q % N]);
+            q += 1;
+            self.w[j] = v;
+            let (up, down) = (v.saturating_sub(hi), lo.saturating_sub(v));
             let (viol, side) = if up > down { (up, 1) } else { (down, 0) };
             if viol > worst {
                 worst = viol;
                 best = j;
-                code = side | if self.lo[j] == self.hi[j] { 2 } else { 0 };
+                code = side | if lo == hi { 2 } else { 0 };
             }
         }
         (best < N).then_some((best, code))
