@@ -35,26 +35,43 @@ impl<const P: usize> Row32<P> {
     /// The row's value at `theta` (Q15.16), saturated: one rounded MAC, or
     /// for a unit row (`shift == 0`: every coefficient `-1`, `0` or `1`,
     /// as a bound moving with the throttle) sums without products.
-    #[inline(never)]
-    #[allow(clippy::needless_range_loop)] // coefficients and theta together
+    #[inline]
     pub fn eval(&self, theta: &[i32; P]) -> i32 {
         let s = self.start as usize;
         if s >= P {
             return self.c0;
         }
         if self.shift == 0 {
-            let mut acc = self.c0;
-            for j in s..P {
-                let t = theta[j];
-                match self.c[j] {
-                    1 => acc = acc.saturating_add(t),
-                    -1 => acc = acc.saturating_sub(t),
-                    _ => {}
-                }
-            }
-            return acc;
+            return self.eval_unit(theta, s);
         }
-        super::arith::mac_round(&theta[s..], &self.c[s..], self.shift).saturating_add(self.c0)
+        self.eval_mac(theta, s)
+    }
+
+    /// A unit row from its first non-zero coefficient `s < P` (inlined:
+    /// a call would save and restore most registers for a few adds).
+    #[inline(never)]
+    fn eval_unit(&self, theta: &[i32; P], s: usize) -> i32 {
+        let mut acc = self.c0;
+        let mut j = s;
+        while j < P {
+            let c = self.c[j];
+            if c == 1 {
+                acc = acc.saturating_add(theta[j]);
+            } else if c == -1 {
+                acc = acc.saturating_sub(theta[j]);
+            }
+            j += 1;
+        }
+        acc
+    }
+
+    /// A row with products: one rounded MAC from `s < P`.
+    #[inline(never)]
+    fn eval_mac(&self, theta: &[i32; P], s: usize) -> i32 {
+        match (theta.get(s..), self.c.get(s..)) {
+            (Some(t), Some(c)) => super::arith::mac_round(t, c, self.shift).saturating_add(self.c0),
+            _ => self.c0,
+        }
     }
 }
 
