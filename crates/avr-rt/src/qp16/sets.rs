@@ -138,25 +138,8 @@ impl<const N: usize> Qp16SetSolver<N> {
             let t0 = stamp();
             let k = self.count.min(N);
             let mut r = [0i32; N];
-            // rank[p]: the rank (in increasing variable order) of the
-            // member at entry position p.
             let mut rank = [0u8; N];
-            let mut mask = 0usize;
-            let mut q = 0usize;
-            for j in 0..N {
-                let p = self.pos[j] as usize;
-                if p != 0 && p <= N {
-                    mask |= 1 << j;
-                    rank[p - 1] = q as u8;
-                    let b = if self.side[p - 1] & 1 == 1 {
-                        self.hi[j]
-                    } else {
-                        self.lo[j]
-                    };
-                    r[q] = self.unc[j].saturating_sub(b);
-                    q += 1;
-                }
-            }
+            let (mask, q) = self.members(&mut r, &mut rank);
             let base = s.offset.get(mask).copied().unwrap_or(0) as usize;
             // The set's whole block (M_A^-1 rows, then W_A rows: N rows of
             // k) times r in one call: the multipliers and W_A r.
@@ -165,26 +148,7 @@ impl<const N: usize> Qp16SetSolver<N> {
             rows_round(block, &r[..k.min(q)], s.minv_bits, &mut out);
             charge(1, t0);
             let t0 = stamp();
-            let mut blocking: Option<(usize, i32)> = None;
-            for p in 0..k {
-                let star = out[rank[p] as usize % N];
-                self.star[p] = star;
-                let code = self.side[p];
-                if code >= 2 {
-                    continue;
-                }
-                let (star, cur) = if code == 1 {
-                    (star, self.nu[p])
-                } else {
-                    (star.saturating_neg(), self.nu[p].saturating_neg())
-                };
-                if star < limit {
-                    let alpha = frac30(cur, star);
-                    if blocking.is_none_or(|(_, a)| alpha < a) {
-                        blocking = Some((p, alpha));
-                    }
-                }
-            }
+            let blocking = self.star_blocking(&out, &rank, limit);
             charge(2, t0);
             match blocking {
                 None => {
@@ -221,14 +185,13 @@ impl<const N: usize> Qp16SetSolver<N> {
                     let t0 = stamp();
                     // nu += alpha (star - nu): all members' rounded
                     // products in one call.
-                    let mut diff = [0i32; N];
+                    // (r and out are free again: the difference and the step.)
                     for i in 0..k {
-                        diff[i] = self.star[i].saturating_sub(self.nu[i]);
+                        r[i] = self.star[i].saturating_sub(self.nu[i]);
                     }
-                    let mut step = [0i32; N];
-                    rows_round(&diff[..k], &[alpha], 30, &mut step[..k]);
+                    rows_round(&r[..k], &[alpha], 30, &mut out[..k]);
                     for i in 0..k {
-                        self.nu[i] = self.nu[i].saturating_add(step[i]);
+                        self.nu[i] = self.nu[i].saturating_add(out[i]);
                     }
                     self.remove(p);
                     charge(6, t0);
@@ -280,7 +243,106 @@ impl<const N: usize> Qp16SetSolver<N> {
     /// The point `w` (`w_I = w_unc_I - W_A r` from the pass's block
     /// `out`, active variables exactly on their bound) and, in the same
     /// loop, the most violated inactive bound.
+    /// The members' residuals `r = w_unc_A - b_A` in increasing variable
+    /// order, `rank[p]` the rank of the member at entry position `p`;
+    /// returns the set's bit mask and the member count.
+    #[inline(always)]
+    fn members(&self, r: &mut [i32; N], rank: &mut [u8; N]) -> (usize, usize) {
+        let mut mask = 0usize;
+        let mut q = 0usize;
+        for j in 0..N {
+            let p = self.pos[j] as usize;
+            if p != 0 && p <= N {
+                mask |= 1 << j;
+                rank[p - 1] = q as u8;
+                let b = if self.side[p - 1] & 1 == 1 {
+                    self.hi[j]
+                } else {
+                    self.lo[j]
+                };
+                r[q % N] = self.unc[j].saturating_sub(b);
+                q += 1;
+            }
+        }
+        (mask, q)
+    }
+
+    /// The multipliers `star` (entry order) from the pass's block `out`
+    /// and the blocking test: the strictly smallest step over the
+    /// wrong-sign ones (lowest position on ties).
+    #[inline(always)]
+    fn star_blocking(
+        &mut self,
+        out: &[i32; N],
+        rank: &[u8; N],
+        limit: i32,
+    ) -> Option<(usize, i32)> {
+        let mut blocking: Option<(usize, i32)> = None;
+        for p in 0..self.count.min(N) {
+            let star = out[rank[p] as usize % N];
+            self.star[p] = star;
+            let code = self.side[p];
+            if code >= 2 {
+                continue;
+            }
+            let (star, cur) = if code == 1 {
+                (star, self.nu[p])
+            } else {
+                (star.saturating_neg(), self.nu[p].saturating_neg())
+            };
+            if star < limit {
+                let alpha = frac30(cur, star);
+                if blocking.is_none_or(|(_, a)| alpha < a) {
+                    blocking = Some((p, alpha));
+                }
+            }
+        }
+        blocking
+    }
+
+    #[inline(always)]
     fn primal_most_violated(&mut self, out: &[i32; N], tol: i32) -> Option<(usize, u8)> {
+        if tol < 0 {
+            return self.primal_most_violated_any(out, tol);
+        }
+        // tol >= 0 (every built table), and lo <= hi: at most one side is
+        // violated, so only a bound the point lies beyond is a candidate
+        // (the same choice as the general rule below).
+        let (mut best, mut code, mut worst) = (N, 0u8, tol);
+        let mut q = self.count;
+        for j in 0..N {
+            let p = self.pos[j] as usize;
+            let (lo, hi) = (self.lo[j], self.hi[j]);
+            if p != 0 {
+                self.w[j] = if self.side[(p - 1) % N] & 1 == 1 {
+                    hi
+                } else {
+                    lo
+                };
+                continue;
+            }
+            let v = self.unc[j].saturating_sub(out[q % N]);
+            q += 1;
+            self.w[j] = v;
+            let (viol, side) = if v > hi {
+                (v.saturating_sub(hi), 1)
+            } else if v < lo {
+                (lo.saturating_sub(v), 0)
+            } else {
+                continue;
+            };
+            if viol > worst {
+                worst = viol;
+                best = j;
+                code = side | if lo == hi { 2 } else { 0 };
+            }
+        }
+        (best < N).then_some((best, code))
+    }
+
+    /// [`Self::primal_most_violated`] for any tolerance.
+    #[inline(never)]
+    fn primal_most_violated_any(&mut self, out: &[i32; N], tol: i32) -> Option<(usize, u8)> {
         let (mut best, mut code, mut worst) = (N, 0u8, tol);
         let mut q = self.count;
         for j in 0..N {
