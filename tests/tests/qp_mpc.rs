@@ -406,3 +406,30 @@ fn certified_iterations_hold_on_the_thesis_sized_tricopter() {
         wc.theta
     );
 }
+
+/// The worst region of the larger problem on half its parameter box
+/// (`kestrel qp certify larger.json --box-scale 0.5`: 15 iterations cold,
+/// docs/qp-certify.md): its interior point takes exactly 15.
+#[test]
+fn larger_half_box_worst_point_takes_the_certified_count() {
+    let p = tricopter(ProblemSize::Larger);
+    let par = ParametricQp::from_mpqp(&p).unwrap();
+    let (ns, ni) = par.workspace_len();
+    let (mut s, mut ix) = (vec![0.0; ns], vec![0; ni]);
+    let mut qp = par.solver(QpSettings::default(), &mut s, &mut ix).unwrap();
+    let theta = [
+        4.960326616768745,
+        4.981434060045298,
+        4.981434060045299,
+        1.7405136962438794,
+        -4.981434060045299,
+        -1.4896216526267565,
+        -1.4944302180135896,
+        -1.4944302180135898,
+        1250.928296997735,
+    ];
+    let mut buf = par.buffers::<f64>();
+    par.fill(&theta, &mut buf).unwrap();
+    let info = qp.solve(&buf.data(), Start::Cold).unwrap();
+    assert_eq!(info.iterations, 15);
+}
