@@ -17,6 +17,7 @@ const FOLDERS: &[&str] = &[
     "crates/empc/tests/data",
     "crates/fgm/tests/data",
     "crates/tricopter/data",
+    "crates/avr-rt/tests/data",
     // kestrel-ffi's sources and cbindgen.toml: the C header's inputs.
     "crates/ffi",
     "crates/ffi/src",

@@ -70,6 +70,9 @@ pub enum CodegenError {
     /// The firmware design refused the model.
     #[error("firmware design: {0}")]
     Design(#[from] crate::firmware::DesignError),
+    /// The tricopter problem could not be built from the model.
+    #[error("tricopter problem: {0}")]
+    Problem(#[from] crate::TricopterError),
     /// kestrel-empc refused a problem or a table.
     #[error("explicit MPC: {0}")]
     Empc(#[from] kestrel_empc::EmpcError),

@@ -8,6 +8,7 @@
 use super::file::{CodegenError, GeneratedFile, parse_input, read_input};
 use super::firmware::MODEL;
 use crate::firmware::ns2_problem;
+use crate::{ProblemSize, default_weights, tricopter_problem};
 use kestrel_core::Q16;
 use kestrel_core::formats::{MpqpProblem, SsModel};
 use kestrel_empc::export::{ExportScalar, rust_source};
@@ -27,6 +28,12 @@ pub const FGM_Q16: &str = "crates/fgm/tests/data/fgm_q16.rs";
 /// The `Ns = 2` thesis problem as a kestrel-empc fixture.
 pub const THESIS_NS2: &str = "crates/empc/tests/data/thesis-ns2.json";
 
+/// The thesis-sized tricopter problem (`kestrel mpc --tricopter --horizon 2
+/// --blocks 2`, default weights) for kestrel-avr-rt's `qp16` tests.
+pub const QP16_THESIS: &str = "crates/avr-rt/tests/data/qp16-thesis.mpqp.json";
+/// The larger problem (N = 10, blocks [1, 1, 2, 6]) for kestrel-avr-rt's
+/// `qp16` tests (kestrel-avr-rt cannot depend on this crate).
+pub const QP16_LARGER: &str = "crates/avr-rt/tests/data/qp16-larger.mpqp.json";
 /// This crate's embedded copy of [`MODEL`] (`identified_model`).
 pub const MODEL_COPY: &str = "crates/tricopter/data/tricopter-blackbox-5.json";
 
@@ -112,12 +119,15 @@ pub fn fgm_file(root: &Path) -> Result<GeneratedFile, CodegenError> {
 
 /// The fixtures derived from the design model [`MODEL`]: kestrel-empc's
 /// [`THESIS_NS2`] (the `Ns = 2` problem of the model as given, checked by
-/// `cargo test -p kestrel-tests --test empc_ns2`) and this crate's
+/// `cargo test -p kestrel-tests --test empc_ns2`), kestrel-avr-rt's
+/// [`QP16_THESIS`] and [`QP16_LARGER`] (the tricopter problems of its `qp16`
+/// tests, with the model's fingerprint) and this crate's
 /// embedded copy [`MODEL_COPY`].
 ///
 /// # Errors
 /// [`CodegenError::Io`] or [`CodegenError::Format`] for the model
-/// file; [`CodegenError::Design`] from [`ns2_problem`].
+/// file; [`CodegenError::Design`] from [`ns2_problem`];
+/// [`CodegenError::Problem`] from [`tricopter_problem`].
 pub fn model_files(root: &Path) -> Result<Vec<GeneratedFile>, CodegenError> {
     let text = read_input(root, MODEL)?;
     let model = parse_input(root, MODEL, SsModel::from_json_str)?;
@@ -128,9 +138,28 @@ pub fn model_files(root: &Path) -> Result<Vec<GeneratedFile>, CodegenError> {
             generator: "kestrel_tricopter::firmware::ns2_problem of models/tricopter-blackbox-5.json",
         },
         GeneratedFile {
+            path: QP16_THESIS,
+            contents: qp16_problem(&model, ProblemSize::Thesis)?,
+            generator: "kestrel_tricopter::tricopter_problem (thesis-sized, default weights) of models/tricopter-blackbox-5.json",
+        },
+        GeneratedFile {
+            path: QP16_LARGER,
+            contents: qp16_problem(&model, ProblemSize::Larger)?,
+            generator: "kestrel_tricopter::tricopter_problem (larger, default weights) of models/tricopter-blackbox-5.json",
+        },
+        GeneratedFile {
             path: MODEL_COPY,
             contents: text,
             generator: "a copy of models/tricopter-blackbox-5.json",
         },
     ])
+}
+
+/// The tricopter problem of `size` with the default weights, as the
+/// `kestrel.mpqp.v1` text `kestrel mpc --tricopter` writes.
+fn qp16_problem(model: &SsModel, size: ProblemSize) -> Result<String, CodegenError> {
+    let (q1, q2) = default_weights();
+    Ok(tricopter_problem(model, size, q1, q2)?
+        .to_mpqp()
+        .to_json_string_for_model(model))
 }
