@@ -173,22 +173,8 @@ fn empc() -> &'static ExplicitController {
 /// The host reference of the `empc` builds: the same loop in f64 with the
 /// f64 tables of `controller` ([`empc`] or [`ns2_empc`]) read from RAM.
 fn host_empc_loop(controller: &'static ExplicitController) -> HostEmpcLoop {
-    let d = design();
-    let filter = StationaryFilter::new(d.gains().expect("gains"), [0.0; generated::NX]);
     let law = EmpcLaw::new(controller.tables.tables(), generated::NX).unwrap();
-    RateLoop::new(
-        filter,
-        law,
-        d.bias(),
-        Mixer {
-            m: Matrix::from_fn(|i, j| if i == j { 1.0 } else { 0.0 }),
-            offset: d.mixer_offset(),
-            throttle_gain: [1.0, 1.0, 1.0, 0.0],
-        },
-        PwmLimits::default(),
-        SafeOutput::default(),
-    )
-    .unwrap()
+    host_rate_loop(law)
 }
 
 type HostQpLaw = qp_law::QpLaw<'static, f64, { generated::NZ }, { generated::NP }, 4>;
@@ -245,26 +231,12 @@ fn host_qp_box(theta: &[f64]) -> (Vec<f64>, Vec<f64>) {
 /// firmware's cap and warm starts (cap 1 and cold starts for the
 /// `qp-fallback-test` build) in the f64 loop.
 fn host_qp_loop(fallback_test: bool) -> HostQpLoop {
-    let d = design();
     let law = if fallback_test {
         host_qp_law(1, false)
     } else {
         host_qp_law(QP_MAX_ITERATIONS, true)
     };
-    let filter = StationaryFilter::new(d.gains().expect("gains"), [0.0; generated::NX]);
-    RateLoop::new(
-        filter,
-        law,
-        d.bias(),
-        Mixer {
-            m: Matrix::from_fn(|i, j| if i == j { 1.0 } else { 0.0 }),
-            offset: d.mixer_offset(),
-            throttle_gain: [1.0, 1.0, 1.0, 0.0],
-        },
-        PwmLimits::default(),
-        SafeOutput::default(),
-    )
-    .unwrap()
+    host_rate_loop(law)
 }
 
 /// The `qp` builds' iteration cap (`SETTINGS` in avr/firmware/src/qp.rs;
@@ -285,7 +257,6 @@ fn design() -> &'static FirmwareDesign {
 /// independent reference for the firmware's tables and arithmetic).
 fn host_loop() -> HostLoop {
     let d = design();
-    let filter = StationaryFilter::new(d.gains().expect("gains"), [0.0; generated::NX]);
     let tables = d.data_f64.to_tables().expect("f64 tables");
     let law = FgmLaw::new(
         tables,
@@ -298,6 +269,18 @@ fn host_loop() -> HostLoop {
         d.loop_iterations() as u16,
     )
     .unwrap();
+    host_rate_loop(law)
+}
+
+/// The firmware's composition on the host in f64 around `law`: the
+/// design's stationary filter, gyro bias and mixer, default PWM limits
+/// and safe output.
+fn host_rate_loop<L>(law: L) -> RateLoop<f64, StationaryFilter<f64, { generated::NX }, 4, 3>, L, 4>
+where
+    L: kestrel_core::ControlLaw<Scalar = f64> + LawInfo,
+{
+    let d = design();
+    let filter = StationaryFilter::new(d.gains().expect("gains"), [0.0; generated::NX]);
     RateLoop::new(
         filter,
         law,
