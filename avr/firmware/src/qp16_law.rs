@@ -20,7 +20,7 @@ use kestrel_avr_rt::output::RtScalar;
 use kestrel_avr_rt::qp16::{
     Qp16Error, Qp16Info, Qp16SetSolver, Qp16SetTables, Qp16Solver, Qp16Start, Qp16Tables,
 };
-use kestrel_core::{ControlLaw, Error};
+use kestrel_core::{ControlLaw, Error, check_len};
 
 /// Set in [`LawInfo::iterations`] when the period's input is the fallback
 /// (as `qp_law::FALLBACK`); the low bits are then the iteration cap.
@@ -154,11 +154,9 @@ impl<
         NU
     }
     fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
-        for (found, expected) in [(x.len(), self.nx), (r.len(), P - self.nx), (u.len(), NU)] {
-            if found != expected {
-                return Err(Error::DimensionMismatch { expected, found });
-            }
-        }
+        check_len(x, self.nx)?;
+        check_len(r, P - self.nx)?;
+        check_len(u, NU)?;
         let mut theta = [0i32; P];
         let (tx, tr) = theta.split_at_mut(self.nx);
         S::to_q16_all(x, tx).ok_or(Error::NonFinite)?;

@@ -25,7 +25,7 @@
 //! and runs it in f64.
 
 use kestrel_avr_rt::control::LawInfo;
-use kestrel_core::{ControlLaw, Error};
+use kestrel_core::{ControlLaw, Error, check_len};
 use kestrel_qp::{QpData, QpError, QpScalar, QpSolver, Start};
 
 /// Set in [`LawInfo::iterations`] when the period's input is the fallback
@@ -229,11 +229,9 @@ impl<S: QpScalar, const N: usize, const P: usize, const NU: usize> ControlLaw
         NU
     }
     fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
-        for (found, expected) in [(x.len(), self.nx), (r.len(), P - self.nx), (u.len(), NU)] {
-            if found != expected {
-                return Err(Error::DimensionMismatch { expected, found });
-            }
-        }
+        check_len(x, self.nx)?;
+        check_len(r, P - self.nx)?;
+        check_len(u, NU)?;
         let theta: [S; P] =
             core::array::from_fn(|j| if j < self.nx { x[j] } else { r[j - self.nx] });
         self.solve(&theta)?;
