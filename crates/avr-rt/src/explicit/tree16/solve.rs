@@ -7,7 +7,7 @@ use crate::law::LawInfo;
 use crate::output::RtScalar;
 use crate::progmem::TableRead;
 use crate::shift::round_shift32;
-use kestrel_core::{ControlLaw, Error};
+use kestrel_core::{ControlLaw, Error, check_len};
 
 impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize> ControlLaw
     for Empc16Law<S, T, P, NU, R>
@@ -15,11 +15,9 @@ impl<S: RtScalar, T: TableRead, const P: usize, const NU: usize, const R: usize>
     type Scalar = S;
     crate::law::parametric_law_sizes!();
     fn control(&mut self, x: &[S], r: &[S], u: &mut [S]) -> Result<(), Error> {
-        for (found, expected) in [(x.len(), self.nx), (r.len(), P - self.nx), (u.len(), NU)] {
-            if found != expected {
-                return Err(Error::DimensionMismatch { expected, found });
-            }
-        }
+        check_len(x, self.nx)?;
+        check_len(r, P - self.nx)?;
+        check_len(u, NU)?;
         self.solve(x, r, u)
     }
 }
