@@ -60,6 +60,8 @@ mod avr;
 #[cfg(feature = "std")]
 mod build;
 mod sets;
+#[cfg(target_arch = "avr")]
+mod sets_avr;
 mod solver;
 mod tables;
 

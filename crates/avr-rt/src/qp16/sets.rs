@@ -31,19 +31,56 @@ pub struct Qp16SetTables<const N: usize, const S: usize, const E: usize> {
     pub w_bits: u8,
 }
 
-/// The solver state of the per-set kernel (about `30 N` bytes).
+/// One variable's state, one record per variable so that the AVR pass
+/// routines (`qp16::sets_avr`) walk them with one pointer and fixed
+/// offsets: `unc` 0, `lo` 4, `hi` 8, `w` 12, `star` 16 (the multiplier of
+/// this variable's bound while it is a member), `pos` 20 (the entry
+/// position plus one, 0 when inactive), `code` 21 (the member's side code:
+/// bit 0 upper, bit 1 equal bounds).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C)]
+struct Var {
+    unc: i32,
+    lo: i32,
+    hi: i32,
+    w: i32,
+    star: i32,
+    pos: u8,
+    code: u8,
+}
+
+#[cfg(target_arch = "avr")]
+const _: () = {
+    assert!(core::mem::size_of::<Var>() == super::sets_avr::VAR_SIZE as usize);
+    assert!(core::mem::offset_of!(Var, lo) == 4);
+    assert!(core::mem::offset_of!(Var, hi) == 8);
+    assert!(core::mem::offset_of!(Var, w) == 12);
+    assert!(core::mem::offset_of!(Var, star) == 16);
+    assert!(core::mem::offset_of!(Var, pos) == 20);
+    assert!(core::mem::offset_of!(Var, code) == 21);
+};
+
+const VAR0: Var = Var {
+    unc: 0,
+    lo: 0,
+    hi: 0,
+    w: 0,
+    star: 0,
+    pos: 0,
+    code: 0,
+};
+
+/// The solver state of the per-set kernel (about `40 N` bytes).
 #[derive(Clone, Debug)]
 pub struct Qp16SetSolver<const N: usize> {
+    var: [Var; N],
     nu: [i32; N],
-    star: [i32; N],
     active: [u8; N],
     side: [u8; N],
-    pos: [u8; N],
     count: usize,
     w: [i32; N],
-    unc: [i32; N],
-    lo: [i32; N],
-    hi: [i32; N],
+    r: [i32; N],
+    out: [i32; N],
 }
 
 impl<const N: usize> Default for Qp16SetSolver<N> {
@@ -56,16 +93,14 @@ impl<const N: usize> Qp16SetSolver<N> {
     /// An empty solver (`1 <= N <= 8`).
     pub const fn new() -> Self {
         Qp16SetSolver {
+            var: [VAR0; N],
             nu: [0; N],
-            star: [0; N],
             active: [0; N],
             side: [0; N],
-            pos: [0; N],
             count: 0,
             w: [0; N],
-            unc: [0; N],
-            lo: [0; N],
-            hi: [0; N],
+            r: [0; N],
+            out: [0; N],
         }
     }
 
@@ -82,17 +117,20 @@ impl<const N: usize> Qp16SetSolver<N> {
     /// Forgets the active set.
     pub fn reset(&mut self) {
         self.count = 0;
-        self.pos = [0; N];
+        for v in self.var.iter_mut() {
+            v.pos = 0;
+        }
     }
 
     /// As [`super::Qp16Solver::fallback`].
     pub fn fallback(&self) -> [i32; N] {
         core::array::from_fn(|i| {
-            let (lo, hi) = (self.lo[i], self.hi[i]);
+            let v = &self.var[i];
+            let (lo, hi) = (v.lo, v.hi);
             if lo > hi {
                 ((lo as i64 + hi as i64) >> 1) as i32
             } else {
-                self.unc[i].clamp(lo, hi)
+                v.unc.clamp(lo, hi)
             }
         })
     }
@@ -112,14 +150,16 @@ impl<const N: usize> Qp16SetSolver<N> {
         start: Qp16Start,
     ) -> Result<Qp16Info, Qp16Error> {
         let t0 = stamp();
-        self.unc = t.unconstrained(theta);
+        let unc = t.unconstrained(theta);
         for i in 0..N {
-            self.lo[i] = t.lb[i].eval(theta);
-            self.hi[i] = t.ub[i].eval(theta);
+            let v = &mut self.var[i];
+            v.unc = unc[i];
+            v.lo = t.lb[i].eval(theta);
+            v.hi = t.ub[i].eval(theta);
         }
         charge(0, t0);
         for i in 0..N {
-            if self.lo[i] > self.hi[i] {
+            if self.var[i].lo > self.var[i].hi {
                 self.w = self.fallback();
                 return Err(Qp16Error::InvalidBounds);
             }
@@ -134,27 +174,29 @@ impl<const N: usize> Qp16SetSolver<N> {
         loop {
             // One pass: the members' residuals, the block product, the
             // multipliers with the blocking test, then (none blocking) the
-            // primal point with the most-violated scan, each in one loop.
+            // primal point with the most-violated scan.
             let t0 = stamp();
             let k = self.count.min(N);
-            let mut r = [0i32; N];
-            let mut rank = [0u8; N];
-            let (mask, q) = self.members(&mut r, &mut rank);
+            let (mask, q) = members(&self.var, &mut self.r);
             let base = s.offset.get(mask).copied().unwrap_or(0) as usize;
             // The set's whole block (M_A^-1 rows, then W_A rows: N rows of
             // k) times r in one call: the multipliers and W_A r.
-            let mut out = [0i32; N];
             let block = s.data.get(base..base + N * k).unwrap_or(&[]);
-            rows_round(block, &r[..k.min(q)], s.minv_bits, &mut out);
+            rows_round(block, &self.r[..k.min(q)], s.minv_bits, &mut self.out);
             charge(1, t0);
             let t0 = stamp();
-            let blocking = self.star_blocking(&out, &rank, limit);
+            let blocking = self.star_blocking(limit);
             charge(2, t0);
             match blocking {
                 None => {
-                    self.nu[..k].copy_from_slice(&self.star[..k]);
+                    for p in 0..k {
+                        self.nu[p] = self.var[self.active[p] as usize % N].star;
+                    }
                     let t0 = stamp();
-                    let most = self.primal_most_violated(&out, t.primal_tol);
+                    let most = self.primal_most_violated(k, t.primal_tol);
+                    for j in 0..N {
+                        self.w[j] = self.var[j].w;
+                    }
                     charge(4, t0);
                     match most {
                         None => {
@@ -172,7 +214,8 @@ impl<const N: usize> Qp16SetSolver<N> {
                             }
                             self.active[k] = j as u8;
                             self.side[k] = code;
-                            self.pos[j] = k as u8 + 1;
+                            self.var[j].pos = k as u8 + 1;
+                            self.var[j].code = code;
                             self.nu[k] = 0;
                             self.count = k + 1;
                         }
@@ -184,14 +227,15 @@ impl<const N: usize> Qp16SetSolver<N> {
                     }
                     let t0 = stamp();
                     // nu += alpha (star - nu): all members' rounded
-                    // products in one call.
-                    // (r and out are free again: the difference and the step.)
+                    // products in one call (r and out are free again: the
+                    // difference and the step).
                     for i in 0..k {
-                        r[i] = self.star[i].saturating_sub(self.nu[i]);
+                        let star = self.var[self.active[i] as usize % N].star;
+                        self.r[i] = star.saturating_sub(self.nu[i]);
                     }
-                    rows_round(&r[..k], &[alpha], 30, &mut out[..k]);
+                    rows_round(&self.r[..k], &[alpha], 30, &mut self.out[..k]);
                     for i in 0..k {
-                        self.nu[i] = self.nu[i].saturating_add(out[i]);
+                        self.nu[i] = self.nu[i].saturating_add(self.out[i]);
                     }
                     self.remove(p);
                     charge(6, t0);
@@ -208,157 +252,100 @@ impl<const N: usize> Qp16SetSolver<N> {
         self.reset();
         for p in 0..k {
             let j = active[p] as usize;
-            if j >= N || self.pos[j] != 0 {
+            if j >= N || self.var[j].pos != 0 {
                 continue;
             }
+            let v = &mut self.var[j];
             let upper = side[p] & 1 == 1;
             let absent = if upper {
-                self.hi[j] == i32::MAX
+                v.hi == i32::MAX
             } else {
-                self.lo[j] == i32::MIN
+                v.lo == i32::MIN
             };
             if absent {
                 continue;
             }
             let c = self.count;
+            let code = (side[p] & 1) | if v.lo == v.hi { 2 } else { 0 };
             self.active[c] = j as u8;
-            self.side[c] = (side[p] & 1) | if self.lo[j] == self.hi[j] { 2 } else { 0 };
-            self.pos[j] = c as u8 + 1;
+            self.side[c] = code;
+            v.pos = c as u8 + 1;
+            v.code = code;
             self.count = c + 1;
         }
     }
 
     fn remove(&mut self, p: usize) {
         let k = self.count;
-        self.pos[self.active[p] as usize] = 0;
+        self.var[self.active[p] as usize % N].pos = 0;
         for r in p..k - 1 {
             self.nu[r] = self.nu[r + 1];
             self.active[r] = self.active[r + 1];
             self.side[r] = self.side[r + 1];
-            self.pos[self.active[r] as usize] = r as u8 + 1;
+            self.var[self.active[r] as usize % N].pos = r as u8 + 1;
         }
         self.count = k - 1;
     }
 
-    /// The point `w` (`w_I = w_unc_I - W_A r` from the pass's block
-    /// `out`, active variables exactly on their bound) and, in the same
-    /// loop, the most violated inactive bound.
-    /// The members' residuals `r = w_unc_A - b_A` in increasing variable
-    /// order, `rank[p]` the rank of the member at entry position `p`;
-    /// returns the set's bit mask and the member count.
-    #[inline(always)]
-    fn members(&self, r: &mut [i32; N], rank: &mut [u8; N]) -> (usize, usize) {
-        let mut mask = 0usize;
-        let mut q = 0usize;
-        for j in 0..N {
-            let p = self.pos[j] as usize;
-            if p != 0 && p <= N {
-                mask |= 1 << j;
-                rank[p - 1] = q as u8;
-                let b = if self.side[p - 1] & 1 == 1 {
-                    self.hi[j]
-                } else {
-                    self.lo[j]
-                };
-                r[q % N] = self.unc[j].saturating_sub(b);
-                q += 1;
-            }
-        }
-        (mask, q)
-    }
-
-    /// The multipliers `star` (entry order) from the pass's block `out`
-    /// and the blocking test: the strictly smallest step over the
+    /// The multipliers (each member's `star`, from the pass's block
+    /// `out`) and the blocking test: the strictly smallest step over the
     /// wrong-sign ones (lowest position on ties).
     #[inline(always)]
-    fn star_blocking(
-        &mut self,
-        out: &[i32; N],
-        rank: &[u8; N],
-        limit: i32,
-    ) -> Option<(usize, i32)> {
+    fn star_blocking(&mut self, limit: i32) -> Option<(usize, i32)> {
+        let cand = stars(&mut self.var, &self.out, limit);
+        if cand == 0 {
+            return None;
+        }
         let mut blocking: Option<(usize, i32)> = None;
-        for p in 0..self.count.min(N) {
-            let star = out[rank[p] as usize % N];
-            self.star[p] = star;
-            let code = self.side[p];
-            if code >= 2 {
+        for j in 0..N {
+            if (cand >> j) & 1 == 0 {
                 continue;
             }
-            let (star, cur) = if code == 1 {
-                (star, self.nu[p])
+            let v = &self.var[j];
+            let p = (v.pos as usize).wrapping_sub(1) % N;
+            let (star, cur) = if v.code == 1 {
+                (v.star, self.nu[p])
             } else {
-                (star.saturating_neg(), self.nu[p].saturating_neg())
+                (v.star.saturating_neg(), self.nu[p].saturating_neg())
             };
-            if star < limit {
-                let alpha = frac30(cur, star);
-                if blocking.is_none_or(|(_, a)| alpha < a) {
-                    blocking = Some((p, alpha));
-                }
+            let alpha = frac30(cur, star);
+            if blocking.is_none_or(|(bp, a)| alpha < a || (alpha == a && p < bp)) {
+                blocking = Some((p, alpha));
             }
         }
         blocking
     }
 
+    /// The point `w` (`w_I = w_unc_I - W_A r` from the pass's block
+    /// `out`, active variables exactly on their bound, into each
+    /// variable's record) and the most violated inactive bound.
     #[inline(always)]
-    fn primal_most_violated(&mut self, out: &[i32; N], tol: i32) -> Option<(usize, u8)> {
+    fn primal_most_violated(&mut self, k: usize, tol: i32) -> Option<(usize, u8)> {
         if tol < 0 {
-            return self.primal_most_violated_any(out, tol);
+            return self.primal_most_violated_any(k, tol);
         }
         // tol >= 0 (every built table), and lo <= hi: at most one side is
         // violated, so only a bound the point lies beyond is a candidate
         // (the same choice as the general rule below).
-        let (mut best, mut code, mut worst) = (N, 0u8, tol);
-        let mut q = self.count;
-        for j in 0..N {
-            let p = self.pos[j] as usize;
-            let (lo, hi) = (self.lo[j], self.hi[j]);
-            if p != 0 {
-                self.w[j] = if self.side[(p - 1) % N] & 1 == 1 {
-                    hi
-                } else {
-                    lo
-                };
-                continue;
-            }
-            let v = self.unc[j].saturating_sub(out[q % N]);
-            q += 1;
-            self.w[j] = v;
-            let (viol, side) = if v > hi {
-                (v.saturating_sub(hi), 1)
-            } else if v < lo {
-                (lo.saturating_sub(v), 0)
-            } else {
-                continue;
-            };
-            if viol > worst {
-                worst = viol;
-                best = j;
-                code = side | if lo == hi { 2 } else { 0 };
-            }
-        }
+        let (best, code) = scan(&mut self.var, &self.out, k, tol);
         (best < N).then_some((best, code))
     }
 
     /// [`Self::primal_most_violated`] for any tolerance.
     #[inline(never)]
-    fn primal_most_violated_any(&mut self, out: &[i32; N], tol: i32) -> Option<(usize, u8)> {
+    fn primal_most_violated_any(&mut self, k: usize, tol: i32) -> Option<(usize, u8)> {
         let (mut best, mut code, mut worst) = (N, 0u8, tol);
-        let mut q = self.count;
+        let mut q = k;
         for j in 0..N {
-            let p = self.pos[j] as usize;
-            let (lo, hi) = (self.lo[j], self.hi[j]);
-            if p != 0 {
-                self.w[j] = if self.side[(p - 1) % N] & 1 == 1 {
-                    hi
-                } else {
-                    lo
-                };
+            let x = &mut self.var[j];
+            let (lo, hi) = (x.lo, x.hi);
+            if x.pos != 0 {
+                x.w = if x.code & 1 == 1 { hi } else { lo };
                 continue;
             }
-            let v = self.unc[j].saturating_sub(out[q % N]);
+            let v = x.unc.saturating_sub(self.out[q % N]);
             q += 1;
-            self.w[j] = v;
+            x.w = v;
             let (up, down) = (v.saturating_sub(hi), lo.saturating_sub(v));
             let (viol, side) = if up > down { (up, 1) } else { (down, 0) };
             if viol > worst {
@@ -369,4 +356,115 @@ impl<const N: usize> Qp16SetSolver<N> {
         }
         (best < N).then_some((best, code))
     }
+}
+
+/// The members' residuals `r = w_unc_A - b_A` in increasing variable
+/// order; the set's bit mask and the member count. On the AVR one
+/// assembly routine (`sets_avr::members_avr`).
+#[inline(always)]
+fn members<const N: usize>(var: &[Var; N], r: &mut [i32; N]) -> (usize, usize) {
+    #[cfg(target_arch = "avr")]
+    if N <= 8 {
+        // SAFETY: N (1..=8) records of the checked layout; at most N
+        // members, so at most N residuals written to `r`.
+        let (mask, q) = unsafe {
+            super::sets_avr::members_avr(var.as_ptr() as *const u8, N as u8, r.as_mut_ptr())
+        };
+        return (mask as usize, q as usize);
+    }
+    let (mut mask, mut q) = (0usize, 0usize);
+    for (j, v) in var.iter().enumerate() {
+        if v.pos != 0 {
+            mask |= 1 << j;
+            let b = if v.code & 1 == 1 { v.hi } else { v.lo };
+            r[q % N] = v.unc.saturating_sub(b);
+            q += 1;
+        }
+    }
+    (mask, q)
+}
+
+/// Each member's multiplier `star` (the block's row of its rank) into its
+/// record; the bit mask (by variable) of the members whose multiplier,
+/// signed for its side, is below `limit` (equal-bound members never). On
+/// the AVR one assembly routine (`sets_avr::stars_avr`).
+#[inline(always)]
+fn stars<const N: usize>(var: &mut [Var; N], out: &[i32; N], limit: i32) -> u32 {
+    #[cfg(target_arch = "avr")]
+    if N <= 8 {
+        // SAFETY: N (1..=8) records of the checked layout; at most N
+        // members, so at most N values read from `out`.
+        return u32::from(unsafe {
+            super::sets_avr::stars_avr(var.as_mut_ptr() as *mut u8, N as u8, out.as_ptr(), limit)
+        });
+    }
+    let (mut cand, mut q) = (0u32, 0usize);
+    for (j, v) in var.iter_mut().enumerate() {
+        if v.pos == 0 {
+            continue;
+        }
+        let star = out[q % N];
+        q += 1;
+        v.star = star;
+        if v.code >= 2 {
+            continue;
+        }
+        let s = if v.code == 1 {
+            star
+        } else {
+            star.saturating_neg()
+        };
+        if s < limit {
+            cand |= 1 << (j % 32);
+        }
+    }
+    cand
+}
+
+/// The point and the most violated bound for a tolerance `tol >= 0`:
+/// each variable's `w` (members exactly on their bound, the others
+/// `w_unc - out[q]` from `out[k]` on) and `(best, code)`, `best = N` if no
+/// bound is violated beyond `tol`. On the AVR one assembly routine
+/// (`sets_avr::scan_avr`).
+#[inline(always)]
+fn scan<const N: usize>(var: &mut [Var; N], out: &[i32; N], k: usize, tol: i32) -> (usize, u8) {
+    #[cfg(target_arch = "avr")]
+    if N <= 8 && k <= N {
+        // SAFETY: N (1..=8) records of the checked layout; the N - k
+        // inactive variables read out[k..N].
+        let (best, code) = unsafe {
+            super::sets_avr::scan_avr(
+                var.as_mut_ptr() as *mut u8,
+                N as u8,
+                out.as_ptr().add(k),
+                tol,
+            )
+        };
+        return ((best as usize).min(N), code);
+    }
+    let (mut best, mut code, mut worst) = (N, 0u8, tol);
+    let mut q = k;
+    for (j, x) in var.iter_mut().enumerate() {
+        let (lo, hi) = (x.lo, x.hi);
+        if x.pos != 0 {
+            x.w = if x.code & 1 == 1 { hi } else { lo };
+            continue;
+        }
+        let v = x.unc.saturating_sub(out[q % N]);
+        q += 1;
+        x.w = v;
+        let (viol, side) = if v > hi {
+            (v.saturating_sub(hi), 1)
+        } else if v < lo {
+            (lo.saturating_sub(v), 0)
+        } else {
+            continue;
+        };
+        if viol > worst {
+            worst = viol;
+            best = j;
+            code = side | if lo == hi { 2 } else { 0 };
+        }
+    }
+    (best, code)
 }
