@@ -47,8 +47,9 @@ pub fn rows_round(data: &[i32], r: &[i32], shift: u8, out: &mut [i32]) {
         return;
     }
     #[cfg(target_arch = "avr")]
-    if k <= 255 && (1..=255).contains(&rows) {
-        // SAFETY: `data` holds rows k elements, `r` k, `out` rows; 16 <= shift <= 46.
+    if k <= 63 && (1..=255).contains(&rows) {
+        // SAFETY: `data` holds rows k elements, `r` k (1..=63), `out` rows;
+        // 16 <= shift <= 46.
         unsafe {
             super::avr::rows_round_avr(
                 data.as_ptr(),
