@@ -42,7 +42,7 @@ pub static QP16: kestrel_avr_rt::qp16::Qp16Tables<4, 9> = kestrel_avr_rt::qp16::
     pivot_bits: 12,
     primal_tol: 2,
     dual_tol: 2,
-    max_iterations: 8,
+    max_iterations: 6,
 };
 /// The per-active-set tables (`M_A^-1`, `W_A` of every subset; the `qp16` kernel).
 #[rustfmt::skip]

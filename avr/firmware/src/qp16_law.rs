@@ -1,19 +1,23 @@
 //! The exact MPC law of the `qp16` builds: kestrel-avr-rt's fixed-point
 //! dual active-set solver (`kestrel_avr_rt::qp16`: kestrel-qp's decision
 //! rules on Q15.16 tables) on the thesis-sized box QP of
-//! `src/generated_qp16.rs`, solved every period, warm-started from the
-//! previous period's active set. Two kernels with the same iterations:
+//! `src/generated_qp16.rs`, solved every period from a cold start (the
+//! empty active set) with the iteration cap of the tables: the certified
+//! cold worst case (6 for the thesis-sized problem; a warm start from the
+//! previous period's set has the larger certified worst case, 8, so a
+//! bounded period starts cold). Two kernels with the same iterations:
 //! [`Kernel::Sets`] (`Qp16SetSolver`: a precomputed `M_A^-1` per active
 //! set, the `qp16` builds) and [`Kernel::Ldl`] (`Qp16Solver`: the LDL'
 //! factor updated on every change, feature `qp16-ldl`).
 //!
 //! Each period: `theta = [x; r]` in Q15.16 (read in place for `Q16Mac`,
-//! converted for f32), one solve, the first move out in the loop's scalar.
-//! On any solver error (iteration cap, a singular active set, crossing
-//! bounds) the law answers the solver's fallback (the unconstrained
-//! optimum clamped to the period's box, `Qp16Solver::fallback`), sets
-//! [`FALLBACK`] in [`LawInfo::iterations`] and the next period starts cold;
-//! a non-finite parameter is an error for the loop's failsafe.
+//! converted for f32), one cold solve, the first move out in the loop's
+//! scalar. On any solver error (iteration cap, a singular active set,
+//! crossing bounds) the law answers the solver's fallback (the
+//! unconstrained optimum clamped to the period's box,
+//! `Qp16Solver::fallback`) and sets [`FALLBACK`] in
+//! [`LawInfo::iterations`]; a non-finite parameter is an error for the
+//! loop's failsafe.
 
 use kestrel_avr_rt::control::LawInfo;
 use kestrel_avr_rt::output::RtScalar;
@@ -80,7 +84,6 @@ pub struct Qp16Law<
     tables: &'t Qp16Tables<N, P>,
     solver: Kernel<'t, N, SETS, E>,
     nx: usize,
-    warm: bool,
     iterations: u16,
     _scalar: core::marker::PhantomData<S>,
 }
@@ -116,7 +119,6 @@ impl<
             tables,
             solver: kernel,
             nx,
-            warm: false,
             iterations: 0,
             _scalar: core::marker::PhantomData,
         })
@@ -161,23 +163,14 @@ impl<
         let (tx, tr) = theta.split_at_mut(self.nx);
         S::to_q16_all(x, tx).ok_or(Error::NonFinite)?;
         S::to_q16_all(r, tr).ok_or(Error::NonFinite)?;
-        let start = if self.warm {
-            Qp16Start::Warm
-        } else {
-            Qp16Start::Cold
-        };
-        let w = match self.solver.solve(self.tables, &theta, start) {
+        let w = match self.solver.solve(self.tables, &theta, Qp16Start::Cold) {
             Ok(info) => {
                 self.iterations = info.iterations.min(!FALLBACK);
-                self.warm = true;
                 self.solver.solution()
             }
             Err(_) => {
                 self.iterations = FALLBACK | self.tables.max_iterations.min(!FALLBACK);
-                self.warm = false;
-                let w = self.solver.fallback();
-                self.solver.reset();
-                w
+                self.solver.fallback()
             }
         };
         for (ui, &wi) in u.iter_mut().zip(&w) {
@@ -200,7 +193,7 @@ impl<
         self.iterations
     }
     fn restart(&mut self) {
-        self.warm = false;
+        // Every period starts cold already; forget the last set anyway.
         self.solver.reset();
     }
 }

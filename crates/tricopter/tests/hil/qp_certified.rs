@@ -40,16 +40,18 @@ fn certification() -> &'static Certification {
             c.warm.as_ref().map_or(0, |w| w.worst_iterations),
             c.warm.as_ref().map_or(0, |w| w.worst_flops),
         );
-        // The firmware's iteration caps are the certified worst case.
+        // The firmware's iteration caps are the certified worst case: of
+        // warm and cold starts for the qp builds (warm-started), of cold
+        // starts for the qp16 builds (cold every period).
         let worst = c
             .cold
             .worst_iterations
             .max(c.warm.as_ref().map_or(0, |w| w.worst_iterations));
         assert_eq!(worst, super::QP_MAX_ITERATIONS, "the qp builds' cap is not the certified worst case");
         assert_eq!(
-            usize::from(kestrel_tricopter::firmware::QP16_MAX_ITERATIONS),
-            worst,
-            "the qp16 builds' cap is not the certified worst case"
+            super::qp16_max_iterations(),
+            c.cold.worst_iterations,
+            "the qp16 builds' cap is not the certified cold worst case"
         );
         c
     })
@@ -128,10 +130,13 @@ pub(super) fn check_certified(
             }
         }
     }
+    // The host reference of the build: warm-started with the warm cap (qp),
+    // or cold every period with the cold cap (qp16, qp16-ldl).
+    let (cap, warm_law) = super::qp_reference(solver);
     let mut stats = CycleStats::new();
     for (k, (name, prev, theta, certified)) in cases.iter().enumerate() {
         let th: [f32; generated::NP] = std::array::from_fn(|j| grid(theta[j]));
-        let mut host = host_qp_law(super::QP_MAX_ITERATIONS, true);
+        let mut host = host_qp_law(cap, warm_law);
         let mut u = [0.0; 4];
         let warm = prev.is_some();
         if let Some(p) = prev {
@@ -143,7 +148,7 @@ pub(super) fn check_certified(
         // The same case at the region's own point (not on the grid), on the
         // host: whether the rounding left the region.
         let exact_iterations = {
-            let mut h = host_qp_law(super::QP_MAX_ITERATIONS, true);
+            let mut h = host_qp_law(cap, warm_law);
             let mut v = [0.0; 4];
             if let Some(p) = prev {
                 h.control(&p[..nx], &p[nx..], &mut v).unwrap();
@@ -181,9 +186,7 @@ pub(super) fn check_certified(
             stats.min,
             stats.mean().unwrap_or(0.0),
             stats.max,
-            c.cold
-                .worst_iterations
-                .max(c.warm.as_ref().map_or(0, |w| w.worst_iterations))
+            cap
         );
     }
 }

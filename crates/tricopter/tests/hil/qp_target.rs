@@ -103,7 +103,10 @@ fn qp16_ldl_fixed_on_target_equals_host() {
 fn check_on_target(features: &[&str], scalar: &str, solver: &str, tol: f64) {
     let (samples, (flash, ram), mut avr, mut dec) = on_target(features);
     let nx = generated::NX;
-    let mut cold = host_qp_law(super::QP_MAX_ITERATIONS, true);
+    // The build's host reference: warm starts along the walk (qp), or cold
+    // every period (qp16, qp16-ldl: the law never warm-starts).
+    let (cap, warm_law) = super::qp_reference(solver);
+    let mut cold = host_qp_law(cap, warm_law);
     let mut capped = host_qp_law(1, false);
     let box_of = super::host_qp_box;
     // Largest output difference where the iterations agree, and where
