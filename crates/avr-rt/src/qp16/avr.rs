@@ -470,6 +470,18 @@ pub(super) unsafe fn rows_round_avr(
             "push r16",
             // ---- round(acc / 2^shift): shift by shift - 1, then halve rounding up
             "dec r16",
+            // whole bytes: two at a time, then one
+            "10:",
+            "cpi r16, 16",
+            "brlo 4f",
+            "movw r2, r4",
+            "movw r4, r6",
+            "movw r6, r8",
+            "lsl r9",
+            "sbc r9, r9",
+            "mov r8, r9",
+            "subi r16, 16",
+            "rjmp 10b",
             "4:",
             "cpi r16, 8",
             "brlo 5f",
