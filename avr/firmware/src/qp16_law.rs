@@ -126,7 +126,11 @@ impl<
 }
 
 /// `w 2^s` (raw Q15.16 of `z`), saturated; `s` the tables' variable shift.
+#[inline(never)]
 fn unscale(w: i32, s: i8) -> i32 {
+    if s == 0 {
+        return w; // the thesis-sized tables: no 64-bit shift
+    }
     let v = if s >= 0 {
         i64::from(w) << s.min(31)
     } else {
