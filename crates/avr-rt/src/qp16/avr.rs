@@ -316,7 +316,9 @@ pub(super) fn frac_avr(num: u32, den: u32, bits: u8) -> u32 {
 /// column with the carry out of the column's second byte counted in one
 /// of four carry bytes (columns 0-3; the carry bytes are added into the
 /// accumulator once per row, so `k <= 63` keeps every count below 256),
-/// then the signed corrections; then the rounding tail of `mac_round_avr`.
+/// then the signed corrections; then the rounding tail of `mac_round_avr`
+/// (for a shift of 25, the per-set tables' `M_A^-1` bits, directly on the
+/// accumulator's bytes 3..7: no byte moves).
 /// `k`, the shift, the row count and the output pointer are kept on the
 /// stack.
 ///
@@ -468,6 +470,42 @@ pub(super) unsafe fn rows_round_avr(
             "pop r14",
             "push r14",
             "push r16",
+            // ---- shift 25 (three whole bytes and the rounding bit, the
+            // per-set tables' M_A^-1): bytes 3..7 are acc / 2^24; halve
+            // them rounding up, saturate, store
+            "cpi r16, 25",
+            "brne 11f",
+            "asr r9",
+            "ror r8",
+            "ror r7",
+            "ror r6",
+            "ror r5",
+            "adc r5, r10",
+            "adc r6, r10",
+            "adc r7, r10",
+            "adc r8, r10",
+            "adc r9, r10",
+            "mov r17, r8",
+            "lsl r17",
+            "sbc r17, r17",
+            "cp r9, r17",
+            "breq 13f",
+            "mov r5, r9",
+            "lsl r5",
+            "sbc r5, r5",
+            "com r5",
+            "mov r6, r5",
+            "mov r7, r5",
+            "mov r8, r5",
+            "ldi r16, 0x80",
+            "eor r8, r16",
+            "13:",
+            "st X+, r5",
+            "st X+, r6",
+            "st X+, r7",
+            "st X+, r8",
+            "rjmp 12f",
+            "11:",
             // ---- round(acc / 2^shift): shift by shift - 1, then halve rounding up
             "dec r16",
             // whole bytes: two at a time, then one
@@ -551,6 +589,7 @@ pub(super) unsafe fn rows_round_avr(
             "st X+, r3",
             "st X+, r4",
             "st X+, r5",
+            "12:",
             "dec r15",
             "breq 9f",
             "push r15",
