@@ -33,10 +33,11 @@ pub struct Qp16SetTables<const N: usize, const S: usize, const E: usize> {
 
 /// One variable's state, one record per variable so that the AVR pass
 /// routines (`qp16::sets_avr`) walk them with one pointer and fixed
-/// offsets: `unc` 0, `lo` 4, `hi` 8, `w` 12, `star` 16 (the multiplier of
-/// this variable's bound while it is a member), `pos` 20 (the entry
-/// position plus one, 0 when inactive), `code` 21 (the member's side code:
-/// bit 0 upper, bit 1 equal bounds).
+/// offsets: `unc` 0, `lo` 4, `hi` 8, `w` 12, `star` 16 (the pass's
+/// multiplier of this variable's bound while it is a member), `pos` 20
+/// (the entry position plus one, 0 when inactive), `code` 21 (the member's
+/// side code: bit 0 upper, bit 1 equal bounds), `nu` 22 (the current
+/// multiplier of its bound).
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C)]
 struct Var {
@@ -47,6 +48,7 @@ struct Var {
     star: i32,
     pos: u8,
     code: u8,
+    nu: i32,
 }
 
 #[cfg(target_arch = "avr")]
@@ -58,6 +60,7 @@ const _: () = {
     assert!(core::mem::offset_of!(Var, star) == 16);
     assert!(core::mem::offset_of!(Var, pos) == 20);
     assert!(core::mem::offset_of!(Var, code) == 21);
+    assert!(core::mem::offset_of!(Var, nu) == 22);
 };
 
 const VAR0: Var = Var {
@@ -68,13 +71,13 @@ const VAR0: Var = Var {
     star: 0,
     pos: 0,
     code: 0,
+    nu: 0,
 };
 
 /// The solver state of the per-set kernel (about `40 N` bytes).
 #[derive(Clone, Debug)]
 pub struct Qp16SetSolver<const N: usize> {
     var: [Var; N],
-    nu: [i32; N],
     active: [u8; N],
     side: [u8; N],
     count: usize,
@@ -94,7 +97,6 @@ impl<const N: usize> Qp16SetSolver<N> {
     pub const fn new() -> Self {
         Qp16SetSolver {
             var: [VAR0; N],
-            nu: [0; N],
             active: [0; N],
             side: [0; N],
             count: 0,
@@ -161,6 +163,9 @@ impl<const N: usize> Qp16SetSolver<N> {
         for i in 0..N {
             if self.var[i].lo > self.var[i].hi {
                 self.w = self.fallback();
+                for (v, w) in self.var.iter_mut().zip(self.w) {
+                    v.w = w; // the point of the last return, as `w`
+                }
                 return Err(Qp16Error::InvalidBounds);
             }
         }
@@ -168,7 +173,9 @@ impl<const N: usize> Qp16SetSolver<N> {
             Qp16Start::Cold => self.reset(),
             Qp16Start::Warm => self.refactor(),
         }
-        self.nu = [0; N];
+        for v in self.var.iter_mut() {
+            v.nu = 0;
+        }
         let mut iterations: u16 = 0;
         let limit = t.dual_tol.saturating_neg();
         loop {
@@ -189,17 +196,13 @@ impl<const N: usize> Qp16SetSolver<N> {
             charge(2, t0);
             match blocking {
                 None => {
-                    for p in 0..k {
-                        self.nu[p] = self.var[self.active[p] as usize % N].star;
-                    }
+                    // nu = star (by the scan), the point, the most violated.
                     let t0 = stamp();
                     let most = self.primal_most_violated(k, t.primal_tol);
-                    for j in 0..N {
-                        self.w[j] = self.var[j].w;
-                    }
                     charge(4, t0);
                     match most {
                         None => {
+                            self.copy_point();
                             return Ok(Qp16Info {
                                 iterations,
                                 active: k as u8,
@@ -207,22 +210,26 @@ impl<const N: usize> Qp16SetSolver<N> {
                         }
                         Some((j, code)) => {
                             if iterations >= t.max_iterations {
+                                self.copy_point();
                                 return Err(Qp16Error::IterationLimit);
                             }
                             if k >= N {
+                                self.copy_point();
                                 return Err(Qp16Error::Infeasible);
                             }
                             self.active[k] = j as u8;
                             self.side[k] = code;
-                            self.var[j].pos = k as u8 + 1;
-                            self.var[j].code = code;
-                            self.nu[k] = 0;
+                            let v = &mut self.var[j];
+                            v.pos = k as u8 + 1;
+                            v.code = code;
+                            v.nu = 0;
                             self.count = k + 1;
                         }
                     }
                 }
                 Some((p, alpha)) => {
                     if iterations >= t.max_iterations {
+                        self.copy_point();
                         return Err(Qp16Error::IterationLimit);
                     }
                     let t0 = stamp();
@@ -230,18 +237,26 @@ impl<const N: usize> Qp16SetSolver<N> {
                     // products in one call (r and out are free again: the
                     // difference and the step).
                     for i in 0..k {
-                        let star = self.var[self.active[i] as usize % N].star;
-                        self.r[i] = star.saturating_sub(self.nu[i]);
+                        let v = &self.var[self.active[i] as usize % N];
+                        self.r[i] = v.star.saturating_sub(v.nu);
                     }
                     rows_round(&self.r[..k], &[alpha], 30, &mut self.out[..k]);
                     for i in 0..k {
-                        self.nu[i] = self.nu[i].saturating_add(self.out[i]);
+                        let v = &mut self.var[self.active[i] as usize % N];
+                        v.nu = v.nu.saturating_add(self.out[i]);
                     }
                     self.remove(p);
                     charge(6, t0);
                 }
             }
             iterations = iterations.saturating_add(1);
+        }
+    }
+
+    /// The point of the last scan (each record's `w`) as the solution.
+    fn copy_point(&mut self) {
+        for (w, v) in self.w.iter_mut().zip(&self.var) {
+            *w = v.w;
         }
     }
 
@@ -279,7 +294,6 @@ impl<const N: usize> Qp16SetSolver<N> {
         let k = self.count;
         self.var[self.active[p] as usize % N].pos = 0;
         for r in p..k - 1 {
-            self.nu[r] = self.nu[r + 1];
             self.active[r] = self.active[r + 1];
             self.side[r] = self.side[r + 1];
             self.var[self.active[r] as usize % N].pos = r as u8 + 1;
@@ -304,9 +318,9 @@ impl<const N: usize> Qp16SetSolver<N> {
             let v = &self.var[j];
             let p = (v.pos as usize).wrapping_sub(1) % N;
             let (star, cur) = if v.code == 1 {
-                (v.star, self.nu[p])
+                (v.star, v.nu)
             } else {
-                (v.star.saturating_neg(), self.nu[p].saturating_neg())
+                (v.star.saturating_neg(), v.nu.saturating_neg())
             };
             let alpha = frac30(cur, star);
             if blocking.is_none_or(|(bp, a)| alpha < a || (alpha == a && p < bp)) {
@@ -316,9 +330,10 @@ impl<const N: usize> Qp16SetSolver<N> {
         blocking
     }
 
-    /// The point `w` (`w_I = w_unc_I - W_A r` from the pass's block
-    /// `out`, active variables exactly on their bound, into each
-    /// variable's record) and the most violated inactive bound.
+    /// The members' multipliers `nu = star`, the point `w` (`w_I = w_unc_I -
+    /// W_A r` from the pass's block `out`, active variables exactly on
+    /// their bound, into each variable's record) and the most violated
+    /// inactive bound.
     #[inline(always)]
     fn primal_most_violated(&mut self, k: usize, tol: i32) -> Option<(usize, u8)> {
         if tol < 0 {
@@ -341,6 +356,7 @@ impl<const N: usize> Qp16SetSolver<N> {
             let (lo, hi) = (x.lo, x.hi);
             if x.pos != 0 {
                 x.w = if x.code & 1 == 1 { hi } else { lo };
+                x.nu = x.star;
                 continue;
             }
             let v = x.unc.saturating_sub(self.out[q % N]);
@@ -422,10 +438,10 @@ fn stars<const N: usize>(var: &mut [Var; N], out: &[i32; N], limit: i32) -> u32 
 }
 
 /// The point and the most violated bound for a tolerance `tol >= 0`:
-/// each variable's `w` (members exactly on their bound, the others
-/// `w_unc - out[q]` from `out[k]` on) and `(best, code)`, `best = N` if no
-/// bound is violated beyond `tol`. On the AVR one assembly routine
-/// (`sets_avr::scan_avr`).
+/// each member's `nu = star`, each variable's `w` (members exactly on
+/// their bound, the others `w_unc - out[q]` from `out[k]` on) and `(best,
+/// code)`, `best = N` if no bound is violated beyond `tol`. On the AVR one
+/// assembly routine (`sets_avr::scan_avr`).
 #[inline(always)]
 fn scan<const N: usize>(var: &mut [Var; N], out: &[i32; N], k: usize, tol: i32) -> (usize, u8) {
     #[cfg(target_arch = "avr")]
@@ -448,6 +464,7 @@ fn scan<const N: usize>(var: &mut [Var; N], out: &[i32; N], k: usize, tol: i32) 
         let (lo, hi) = (x.lo, x.hi);
         if x.pos != 0 {
             x.w = if x.code & 1 == 1 { hi } else { lo };
+            x.nu = x.star;
             continue;
         }
         let v = x.unc.saturating_sub(out[q % N]);

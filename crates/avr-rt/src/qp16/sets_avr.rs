@@ -2,13 +2,13 @@
 //! members' residuals, the multipliers with the wrong-sign test, and the
 //! primal point with the most-violated scan, each one assembly loop over
 //! the variables' records (`sets::Var`: `unc` at 0, `lo` 4, `hi` 8, `w`
-//! 12, `star` 16, `pos` 20, `code` 21; [`VAR_SIZE`] bytes, checked in
-//! `sets`). Each computes what the portable loop in `sets` computes, bit
+//! 12, `star` 16, `pos` 20, `code` 21, `nu` 22; [`VAR_SIZE`] bytes,
+//! checked in `sets`). Each computes what the portable loop in `sets` computes, bit
 //! for bit (`i32` saturating differences and negation, signed
 //! comparisons).
 
 /// The size of one variable's record.
-pub(super) const VAR_SIZE: u8 = 22;
+pub(super) const VAR_SIZE: u8 = 26;
 
 /// The members' residuals `unc - (upper ? hi : lo)` (saturated) into `r`
 /// in increasing variable order; returns the members' bit mask and count.
@@ -176,8 +176,8 @@ pub(super) unsafe fn stars_avr(var: *mut u8, n: u8, out: *const i32, limit: i32)
     cand
 }
 
-/// The point and the most violated bound for `tol >= 0`: a member's `w`
-/// is its bound (`hi` if `code` bit 0, else `lo`), an inactive
+/// The point and the most violated bound for `tol >= 0`: a member's
+/// `nu` becomes its `star` and its `w` its bound (`hi` if `code` bit 0, else `lo`), an inactive
 /// variable's `w = unc - out[q]` (saturated, `out` read in order); among
 /// the inactive ones with `w > hi` (violation `w - hi`, side 1) or `w <
 /// lo` (`lo - w`, side 0), saturated, the first strictly largest
@@ -221,6 +221,14 @@ pub(super) unsafe fn scan_avr(var: *mut u8, n: u8, out: *const i32, tol: i32) ->
             "std Z+13, {v1}",
             "std Z+14, {v2}",
             "std Z+15, {v3}",
+            "ldd {v0}, Z+16",
+            "ldd {v1}, Z+17",
+            "ldd {v2}, Z+18",
+            "ldd {v3}, Z+19",
+            "std Z+22, {v0}",
+            "std Z+23, {v1}",
+            "std Z+24, {v2}",
+            "std Z+25, {v3}",
             "rjmp 9f",
             "2:",
             // v = unc - out[q], saturated.
