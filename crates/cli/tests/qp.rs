@@ -80,3 +80,54 @@ fn bad_flags_and_limits_are_clear_errors() {
     let (ok, _, err) = kestrel(&args);
     assert!(!ok && err.contains("region limit reached"), "{err}");
 }
+
+#[test]
+fn merged_certificate_is_an_upper_bound_of_the_exact_one() {
+    let dir = temp_dir();
+    let problem = thesis_problem_of(MODEL, &dir.join("thesis3.json"));
+    let p = problem.to_str().unwrap();
+    let read = |path: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    };
+    let exact_out = dir.join("exact.json");
+    let (ok, _, err) = kestrel(&[
+        "qp",
+        "certify",
+        p,
+        "--box-scale",
+        "0.5",
+        "--json",
+        exact_out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let merged_out = dir.join("merged.json");
+    let (ok, stdout, err) = kestrel(&[
+        "qp",
+        "certify",
+        p,
+        "--box-scale",
+        "0.5",
+        "--merge",
+        "--warm-step",
+        "0.05",
+        "--json",
+        merged_out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert!(
+        stdout.contains("upper bound") && stdout.contains("worst chain"),
+        "{stdout}"
+    );
+    let (e, m) = (read(&exact_out), read(&merged_out));
+    assert_eq!(e["cold"]["exact"], true);
+    assert_eq!(m["cold"]["exact"], false);
+    assert_eq!(m["merge_history"], 2);
+    assert!(e.get("merge_history").is_none());
+    let worst = |v: &serde_json::Value, key: &str| v["cold"][key].as_u64().unwrap();
+    assert!(worst(&m, "worst_iterations") >= worst(&e, "worst_iterations"));
+    assert!(worst(&m, "worst_flops") >= worst(&e, "worst_flops"));
+    assert!(m["warm"]["worst_iterations"].as_u64().unwrap() >= 1);
+    assert!(m["cold"]["canonical_states"].as_u64().unwrap() >= 1);
+    let (ok, _, err) = kestrel(&["qp", "certify", p, "--merge", "0"]);
+    assert!(!ok && err.contains("merge"), "{err}");
+}

@@ -359,3 +359,184 @@ fn flop_model_bounds_the_counted_operators() {
         );
     }
 }
+
+/// The larger tricopter problem (`N = 10`, blocks `[1, 1, 2, 6]`), as
+/// `kestrel codegen` writes it for kestrel-avr-rt's tests.
+fn larger() -> MpqpProblem {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../avr-rt/tests/data/qp16-larger.mpqp.json"
+    );
+    MpqpProblem::read(std::path::Path::new(path)).unwrap()
+}
+
+/// Iterations of kestrel-qp at `count` sampled parameters (cold, or warm
+/// from the previous sample's optimal active set sorted within `warm`):
+/// the most.
+fn most_sampled(p: &MpqpProblem, warm: Option<f64>, count: usize, seed: u64) -> usize {
+    let par = ParametricQp::from_mpqp(p).unwrap();
+    let (ns, ni) = par.workspace_len();
+    let (mut s, mut ix) = (vec![0.0; ns], vec![0; ni]);
+    let mut qp = par.solver(QpSettings::default(), &mut s, &mut ix).unwrap();
+    let mut rng = SplitMix64::seed_from_u64(seed);
+    let (lb, ub) = (par.theta_lb().to_vec(), par.theta_ub().to_vec());
+    let mut most = 0;
+    for _ in 0..count {
+        let prev: Vec<f64> = (0..par.p())
+            .map(|k| lb[k] + (ub[k] - lb[k]) * rng.random::<f64>())
+            .collect();
+        let (it, set) = solve(&mut qp, &par, &prev, None);
+        let it = match warm {
+            None => it,
+            Some(step) => {
+                let theta: Vec<f64> = (0..par.p())
+                    .map(|k| {
+                        let d = step * (ub[k] - lb[k]) * (2.0 * rng.random::<f64>() - 1.0);
+                        (prev[k] + d).clamp(lb[k], ub[k])
+                    })
+                    .collect();
+                solve(&mut qp, &par, &theta, Some(&set)).0
+            }
+        };
+        most = most.max(it);
+    }
+    most
+}
+
+/// The merged (over-approximating) certificate against the exact one and
+/// the solver: never below the exact worst case (iterations and flops),
+/// never below a sampled solve, marked not exact.
+#[test]
+fn merged_certificate_bounds_the_exact_one() {
+    let mut larger1 = larger();
+    larger1.scale_parameter_box(0.1);
+    let mut larger2 = larger();
+    larger2.scale_parameter_box(0.2);
+    let cases: Vec<(String, MpqpProblem, Option<f64>)> = vec![
+        (
+            "thesis_sized(1)".into(),
+            kestrel_empc::testing::thesis_sized(1),
+            None,
+        ),
+        (
+            "thesis_sized(2)".into(),
+            kestrel_empc::testing::thesis_sized(2),
+            Some(0.05),
+        ),
+        (
+            "thesis_sized(3)".into(),
+            kestrel_empc::testing::thesis_sized(3),
+            None,
+        ),
+        ("larger x 0.1".into(), larger1, Some(0.05)),
+        ("larger x 0.2".into(), larger2, None),
+    ];
+    let n = samples();
+    for (name, p, warm_step) in cases {
+        let exact = certify(
+            &p,
+            &CertifySettings {
+                warm_step,
+                estimate_probes: 0,
+                keep_regions: false,
+                ..CertifySettings::default()
+            },
+            &mut |_| {},
+        )
+        .unwrap();
+        let merged = certify(
+            &p,
+            &CertifySettings {
+                warm_step,
+                merge: Some(2),
+                ..CertifySettings::default()
+            },
+            &mut |_| {},
+        )
+        .unwrap();
+        let mut pairs = vec![("cold", &exact.cold, &merged.cold, None)];
+        if let (Some(e), Some(m)) = (&exact.warm, &merged.warm) {
+            pairs.push(("warm", e, m, warm_step));
+        }
+        for (start, e, m, step) in pairs {
+            assert!(e.exact && !m.exact);
+            assert!(
+                m.worst_iterations >= e.worst_iterations && m.worst_flops >= e.worst_flops,
+                "{name} {start}: merged {} it / {} flops below exact {} / {}",
+                m.worst_iterations,
+                m.worst_flops,
+                e.worst_iterations,
+                e.worst_flops
+            );
+            let most = most_sampled(&p, step, n, 7);
+            assert!(most <= m.worst_iterations, "{name} {start}: sampled {most}");
+            // The worst chain is a path of the bound's length.
+            let w = m.worst.as_ref().unwrap();
+            assert!(w.path.len() <= m.worst_iterations, "{name} {start}");
+            eprintln!(
+                "{name} {start}: merged {} it / {} flops ({} bounds, {:.2} s), exact {} / {} ({} regions, {:.2} s), sampled {most}",
+                m.worst_iterations,
+                m.worst_flops,
+                m.regions,
+                m.elapsed.as_secs_f64(),
+                e.worst_iterations,
+                e.worst_flops,
+                e.regions,
+                e.elapsed.as_secs_f64()
+            );
+        }
+    }
+}
+
+#[test]
+#[ignore]
+fn merged_experiment() {
+    let scale: f64 = std::env::var("KESTREL_MERGE_SCALE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0.1);
+    let exact = std::env::var("KESTREL_MERGE_EXACT").is_ok();
+    let mut p = larger();
+    p.scale_parameter_box(scale);
+    let mut probs = vec![(format!("larger x {scale}"), p)];
+    for seed in [1, 2, 3] {
+        probs.push((
+            format!("thesis_sized({seed})"),
+            kestrel_empc::testing::thesis_sized(seed),
+        ));
+    }
+    for (name, p) in probs {
+        let depth: usize = std::env::var("KESTREL_MERGE_DEPTH")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(1);
+        let settings = CertifySettings {
+            merge: Some(depth),
+            time_limit: None,
+            ..CertifySettings::default()
+        };
+        let mut last = 0.0;
+        let c = certify(&p, &settings, &mut |pr| {
+            let t = pr.elapsed.as_secs_f64();
+            if t > last + 30.0 {
+                last = t;
+                eprintln!(
+                    "{name}: {t:.0} s, {} bounds, {} nodes, {} LPs, {} open, worst so far {}",
+                    pr.states, pr.nodes, pr.lps, pr.open, pr.worst_iterations
+                );
+            }
+        })
+        .unwrap();
+        eprintln!("{name} merged: {}", c.cold);
+        if std::env::var("KESTREL_MERGE_ONLY_LARGER").is_ok() {
+            return;
+        }
+        if exact {
+            let e = certify(&p, &CertifySettings::default(), &mut |_| {}).unwrap();
+            eprintln!(
+                "{name} exact: {} it {} flops",
+                e.cold.worst_iterations, e.cold.worst_flops
+            );
+        }
+    }
+}

@@ -74,6 +74,14 @@ pub struct CertifyArgs {
     /// Give up after this many seconds.
     #[arg(long, default_value_t = 600.0)]
     pub time_limit: f64,
+    /// Certify an upper bound instead of the exact partition: merge on
+    /// the solver's canonical states (after each full dual step),
+    /// remembering H segments of history (default 2; larger is tighter
+    /// and slower). For parameter boxes whose exact partition is out of
+    /// reach; the certificate says `exact: false`, `--max-regions` limits
+    /// the memoised bounds and no up-front estimate is made.
+    #[arg(long, value_name = "H", num_args = 0..=1, default_missing_value = "2", conflicts_with = "any_order")]
+    pub merge: Option<usize>,
 }
 
 /// Runs `kestrel qp`.
@@ -109,6 +117,7 @@ fn run_certify(a: CertifyArgs) -> anyhow::Result<()> {
         time_limit: Some(Duration::from_secs_f64(a.time_limit)),
         keep_regions: false,
         estimate_probes: a.estimate_probes,
+        merge: a.merge,
         ..CertifySettings::default()
     };
     let bar = if progress::enabled() {
@@ -129,8 +138,19 @@ fn run_certify(a: CertifyArgs) -> anyhow::Result<()> {
             });
         }
         bar.set_message(format!(
-            "{}: {} regions, {} open, {} LPs, worst {} iterations, start sets {}/{}",
-            p.phase, p.regions, p.open, p.lps, p.worst_iterations, p.start_sets_done, p.start_sets
+            "{}: {} {}, {} open, {} LPs, worst {} iterations, start sets {}/{}",
+            p.phase,
+            p.regions,
+            if a.merge.is_some() {
+                "merged bounds"
+            } else {
+                "regions"
+            },
+            p.open,
+            p.lps,
+            p.worst_iterations,
+            p.start_sets_done,
+            p.start_sets
         ));
     };
     let result = certify(&problem, &settings, &mut show);
@@ -151,13 +171,16 @@ fn run_certify(a: CertifyArgs) -> anyhow::Result<()> {
     }
     print!("{text}");
     if let Some(out) = &a.json {
-        let doc = json!({
+        let mut doc = json!({
             "format": "kestrel.qp-certificate.v1",
             "problem": name,
             "box_scale": a.box_scale,
             "cold": c.cold.to_json(),
             "warm": c.warm.as_ref().map(Certificate::to_json),
         });
+        if let Some(h) = a.merge {
+            doc["merge_history"] = json!(h);
+        }
         io::write_output(Some(out), &serde_json::to_string_pretty(&doc)?)?;
     }
     Ok(())

@@ -46,6 +46,7 @@ pub(super) fn estimate(
                 match o {
                     Outcome::Leaf(..) => total += weight,
                     Outcome::Node(n) => inner.push(n),
+                    Outcome::Canonical(_) => return Err(super::explore::merged_model()),
                 }
             }
             if inner.is_empty() {

@@ -142,10 +142,16 @@ pub(super) fn run(
                 Outcome::Leaf(n, s) => {
                     tally.record(n, s, ctx.settings.keep_regions, collect_finals)
                 }
+                Outcome::Canonical(_) => return Err(merged_model()),
             }
         }
     }
     Ok(())
+}
+
+/// A merged-mode outcome where the exact exploration runs.
+pub(super) fn merged_model() -> CertifyError {
+    CertifyError::Numerical("a merged-mode model in the exact exploration".to_string())
 }
 
 pub(super) fn progress(ctx: &Ctx<'_>, tally: &Tally, geo: &Geometry, open: usize) -> Progress {
@@ -163,6 +169,7 @@ pub(super) fn progress(ctx: &Ctx<'_>, tally: &Tally, geo: &Geometry, open: usize
         start_sets: ctx.sets_total,
         elapsed: ctx.started.elapsed(),
         estimate: None,
+        states: 0,
     }
 }
 

@@ -40,6 +40,16 @@ pub(super) fn half(f: &[f64], strict: bool, scale: f64) -> Half {
     Half::Row(f[..d].iter().map(|v| v / norm).collect(), -f[d] / norm)
 }
 
+/// [`half`], except that with `both` a comparison of identical functions
+/// (a zero constant) holds either way: the tie-break of the solver depends
+/// on an order the caller does not know, so both outcomes are kept.
+pub(super) fn half_tie(f: &[f64], strict: bool, scale: f64, both: bool) -> Half {
+    match half(f, strict, scale) {
+        Half::Never if both && size(f) <= ZERO * scale.max(f64::MIN_POSITIVE) => Half::Always,
+        h => h,
+    }
+}
+
 /// The largest magnitude of an affine function's entries.
 pub(super) fn size(f: &[f64]) -> f64 {
     f.iter().fold(0.0_f64, |s, v| s.max(v.abs()))

@@ -23,18 +23,25 @@
 //! is certified in `(theta, theta_prev)`: `theta_prev` in the critical
 //! region of an optimal active set (stored sorted by constraint index), `|
 //! theta_k - theta_prev,k | <= step (ub_k - lb_k)`.
+//!
+//! [`CertifySettings::merge`] trades exactness for reach: an upper bound
+//! (`exact: false`) memoised per canonical solver state (after each full
+//! dual step) and a few segments of history, for boxes whose exact
+//! partition is too large (module `merge`, docs/qp-certify.md).
 
 mod error;
 mod estimate;
 mod explore;
 mod flops;
 mod geometry;
+mod merge;
 mod model;
 mod report;
 mod settings;
 mod step;
 #[cfg(test)]
 mod tests;
+mod warm;
 
 pub use error::CertifyError;
 pub use estimate::Estimate;
@@ -46,12 +53,13 @@ pub use settings::{CertifySettings, Progress};
 pub use step::{Change, Status};
 
 use explore::{Ctx, Tally, run};
-use geometry::{Geometry, Half, Poly, half, minus, size};
+use geometry::{Geometry, Poly};
 use kestrel_core::formats::MpqpProblem;
 use kestrel_qp::parametric::ParametricQp;
-use model::{EQUALITY, Model, sign};
+use model::Model;
 use std::time::Instant;
 use step::Node;
+use warm::{permutations, warm_region, warm_root};
 
 /// Certifies kestrel-qp's solver on `problem` over its parameter box
 /// (cold start, and warm start if `settings.warm_step` is set);
@@ -63,6 +71,9 @@ pub fn certify(
 ) -> Result<Certification, CertifyError> {
     settings.validate()?;
     let par = ParametricQp::from_mpqp(problem)?;
+    if settings.merge.is_some() {
+        return merge::certify_merged(&par, settings, progress);
+    }
     let p = par.p();
     let cold_model = Model::new(&par, p, settings.qp).ok_or(CertifyError::NotPositiveDefinite)?;
     let started = Instant::now();
@@ -168,105 +179,4 @@ pub fn certify(
         cold: cold_cert,
         warm,
     })
-}
-
-/// Every order of `set` (at most 8! = 40,320).
-fn permutations(set: &[(usize, u8)]) -> Result<Vec<Vec<(usize, u8)>>, CertifyError> {
-    if set.len() > 8 {
-        return Err(CertifyError::InvalidSettings(format!(
-            "warm_any_order: a start set has {} constraints, more than 8! orders",
-            set.len()
-        )));
-    }
-    let mut out = vec![Vec::new()];
-    for &c in set {
-        out = out
-            .into_iter()
-            .flat_map(|o: Vec<(usize, u8)>| {
-                (0..=o.len()).map(move |i| {
-                    let mut v = o.clone();
-                    v.insert(i, c);
-                    v
-                })
-            })
-            .collect();
-    }
-    Ok(out)
-}
-
-/// The start region of a warm start from `set`: `theta_prev` (columns
-/// `p..2p`) in the critical region of `set`, `theta` in the box and
-/// within the step.
-fn warm_region(cold: &Model, geo: &mut Geometry, set: &[(usize, u8)], step: f64) -> Option<Poly> {
-    let p = cold.p;
-    let d = 2 * p;
-    let lift = |f: &[f64]| {
-        let mut g = vec![0.0; d + 1];
-        g[p..d].copy_from_slice(&f[..p]);
-        g[d] = f[p];
-        g
-    };
-    let mut hs: Vec<Half> = Vec::new();
-    // |s_k - sp_k| <= 2 step (the box is [-1, 1]).
-    for k in 0..p {
-        for sgn in [1.0, -1.0] {
-            let mut row = vec![0.0; d];
-            row[k] = sgn / 2f64.sqrt();
-            row[p + k] = -sgn / 2f64.sqrt();
-            hs.push(Half::Row(row, 2.0 * step / 2f64.sqrt()));
-        }
-    }
-    let mustar = cold.mustar(set)?;
-    for (&(_, code), m) in set.iter().zip(&mustar) {
-        if code & EQUALITY == 0 {
-            let f: Vec<f64> = m.iter().map(|v| -sign(code) * v).collect();
-            hs.push(half(&lift(&f), false, size(m)));
-        }
-    }
-    let mut active = vec![false; cold.ncons];
-    for &(j, _) in set {
-        active[j] = true;
-    }
-    for j in (0..cold.ncons).filter(|&j| !active[j]) {
-        let v = cold.value(j, set, &mustar);
-        if let Some(hi) = &cold.hi[j] {
-            let f = minus(&v, hi);
-            hs.push(half(&lift(&f), false, size(&v) + size(hi)));
-        }
-        if let Some(lo) = &cold.lo[j] {
-            let f = minus(lo, &v);
-            hs.push(half(&lift(&f), false, size(&v) + size(lo)));
-        }
-    }
-    geo.restrict(&Poly::cube(d), &hs)
-}
-
-/// The solver's state after re-adding `set` (sorted) from `mu = 0`:
-/// dependent constraints and infinite bounds dropped.
-fn warm_root(model: &Model, set: &[(usize, u8)], poly: Poly, id: usize, n: u64) -> Node {
-    let mut active: Vec<(usize, u8)> = Vec::new();
-    let mut flops = flops::preamble(n);
-    for &(j, code) in set {
-        if model.bound(j, code).is_none() || active.len() > model.n {
-            continue;
-        }
-        let rows = active.iter().filter(|a| a.0 < model.rows).count() as u64;
-        flops += flops::add(n, active.len() as u64, j < model.rows, rows);
-        if !model.dependent(&active, j) {
-            active.push((j, code));
-        }
-    }
-    let k = active.len();
-    Node {
-        poly,
-        active,
-        mu: vec![vec![0.0; model.d + 1]; k],
-        dual: false,
-        singular: false,
-        fwd: 0,
-        iterations: 0,
-        flops,
-        path: Vec::new(),
-        start: id,
-    }
 }

@@ -60,6 +60,12 @@ pub(super) struct Model {
     pub equality: Vec<bool>,
     /// The solver settings whose rules are mirrored.
     pub settings: QpSettings,
+    /// Merged mode (`crate::certify::merge`): the active list is a
+    /// canonical order, not the solver's, so a tie between identical
+    /// functions takes both outcomes, a removal costs the most any position
+    /// could ([`Self::position`]), and a full dual step stops at its
+    /// canonical state.
+    pub merge: bool,
 }
 
 impl Model {
@@ -125,7 +131,16 @@ impl Model {
             hi,
             equality,
             settings,
+            merge: false,
         })
+    }
+
+    /// The solver position the flop model charges for removing list
+    /// position `p`: `p` itself, or 0 in merged mode (the solver's order is
+    /// unknown there; removing the first position costs the most and
+    /// invalidates the whole kept forward solve).
+    pub fn position(&self, p: usize) -> usize {
+        if self.merge { 0 } else { p }
     }
 
     /// The active bound of constraint `j` on side `code`.

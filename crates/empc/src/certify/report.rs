@@ -86,6 +86,11 @@ pub struct Certificate {
     pub any_order: bool,
     /// LPs solved.
     pub lps: usize,
+    /// Merged (over-approximating) certificates: the canonical solver
+    /// states whose domain was split (0 for an exact certificate; there
+    /// `regions` counts the bounds memoised, `histogram` is empty and the
+    /// worst region's `path` is the chain of the bound, without a point).
+    pub canonical_states: usize,
     /// Time taken.
     pub elapsed: Duration,
     /// Cold: the optimal active sets found (sorted); warm: the start sets.
@@ -100,7 +105,7 @@ pub struct Certificate {
 /// A normalised polyhedron `a x <= b` (rows of `a` concatenated).
 pub(super) type Region = (Vec<f64>, Vec<f64>);
 
-fn active(set: &[(usize, u8)]) -> Vec<ActiveConstraint> {
+pub(super) fn active(set: &[(usize, u8)]) -> Vec<ActiveConstraint> {
     set.iter()
         .map(|&(index, code)| ActiveConstraint {
             index,
@@ -168,10 +173,64 @@ pub(super) fn certificate(
         start_sets: starts.len(),
         any_order: false,
         lps,
+        canonical_states: 0,
         elapsed,
         finals,
         leaves: tally.leaves,
         start_regions,
+        centre: model.centre.clone(),
+        half: model.half.clone(),
+    }
+}
+
+/// What a merged (over-approximating) certification found
+/// (`crate::certify::merge`).
+#[derive(Debug)]
+pub(super) struct Merged {
+    pub warm_step: Option<f64>,
+    pub worst_iterations: usize,
+    pub worst_flops: u64,
+    pub worst: Option<RegionReport>,
+    pub worst_flops_region: Option<RegionReport>,
+    /// Bounds memoised (the certificate's `regions`).
+    pub pieces: usize,
+    /// Left empty (no partition).
+    pub histogram: Vec<usize>,
+    pub infeasible: usize,
+    pub limited: usize,
+    pub states: usize,
+    pub start_sets: usize,
+    pub lps: usize,
+    pub elapsed: Duration,
+    /// Optimal active sets met (sorted), for the warm start's start sets.
+    pub finals: Vec<Vec<(usize, u8)>>,
+}
+
+/// The certificate of a merged certification: `exact` false, no regions
+/// kept.
+pub(super) fn merged(model: &Model, par: &ParametricQp, m: Merged) -> Certificate {
+    Certificate {
+        warm_step: m.warm_step,
+        exact: false,
+        n: par.n(),
+        m: par.m(),
+        p: par.p(),
+        worst_iterations: m.worst_iterations,
+        worst_flops: m.worst_flops,
+        worst: m.worst,
+        worst_flops_region: m.worst_flops_region,
+        regions: m.pieces,
+        histogram: m.histogram,
+        infeasible_regions: m.infeasible,
+        iteration_limit_regions: m.limited,
+        start_sets: m.start_sets,
+        any_order: false,
+        lps: m.lps,
+        canonical_states: m.states,
+        elapsed: m.elapsed,
+        finals: m.finals,
+        leaves: Vec::new(),
+        start_regions: Vec::new(),
         centre: model.centre.clone(),
         half: model.half.clone(),
     }
@@ -278,7 +337,7 @@ impl Certificate {
                 "b": r.halfspaces.iter().map(|h| h.1).collect::<Vec<_>>(),
             }),
         };
-        json!({
+        let mut doc = json!({
             "format": "kestrel.qp-certificate.v1",
             "start": if self.warm_step.is_some() { "warm" } else { "cold" },
             "warm_step": self.warm_step,
@@ -298,7 +357,11 @@ impl Certificate {
             "seconds": self.elapsed.as_secs_f64(),
             "worst_region": region(&self.worst),
             "worst_flops_region": region(&self.worst_flops_region),
-        })
+        });
+        if !self.exact {
+            doc["canonical_states"] = json!(self.canonical_states);
+        }
+        doc
     }
 }
 
@@ -336,6 +399,22 @@ impl fmt::Display for Certificate {
             .filter(|(_, c)| **c > 0)
             .map(|(i, c)| format!("{i}: {c}"))
             .collect();
+        if !self.exact {
+            writeln!(
+                f,
+                "  merged: {} canonical states split, {} bounds memoised, infeasible pieces {}, at the iteration cap {}; {} LPs, {:.2} s",
+                self.canonical_states,
+                self.regions,
+                self.infeasible_regions,
+                self.iteration_limit_regions,
+                self.lps,
+                self.elapsed.as_secs_f64()
+            )?;
+            if let Some(w) = &self.worst {
+                writeln!(f, "  worst chain: {}", path_text(&w.path, self.m))?;
+            }
+            return Ok(());
+        }
         writeln!(
             f,
             "  regions: {} (iterations: {}), infeasible {}, at the iteration cap {}; {} LPs, {:.2} s",

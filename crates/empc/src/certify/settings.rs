@@ -36,6 +36,15 @@ pub struct CertifySettings {
     /// Keep every region (for [`crate::certify::Certificate::iterations_at`]); off for
     /// large problems to save memory. Default on.
     pub keep_regions: bool,
+    /// `Some(h)`: over-approximate by merging on canonical solver states
+    /// (after every full dual step the solver's future depends on its
+    /// active set and the parameter only), remembering `h >= 1` segments
+    /// of history: an upper bound on iterations and flops valid for every
+    /// parameter, `exact: false`, no regions kept, no up-front estimate;
+    /// `max_regions` then limits the memoised bounds. Larger `h` is
+    /// tighter and slower. docs/qp-certify.md. Default `None` (the exact
+    /// partition).
+    pub merge: Option<usize>,
 }
 
 impl Default for CertifySettings {
@@ -49,6 +58,7 @@ impl Default for CertifySettings {
             warm_any_order: false,
             estimate_probes: 64,
             keep_regions: true,
+            merge: None,
         }
     }
 }
@@ -74,6 +84,12 @@ impl CertifySettings {
         }
         if !(self.min_radius > 0.0 && self.min_radius < 1.0) {
             return bad("min_radius must be in (0, 1)");
+        }
+        if self.merge == Some(0) {
+            return bad("merge must be at least 1 segment of history");
+        }
+        if self.merge.is_some() && self.warm_any_order {
+            return bad("merge does not support warm_any_order");
         }
         Ok(())
     }
@@ -102,4 +118,6 @@ pub struct Progress {
     pub elapsed: Duration,
     /// The up-front size estimate, once (then `None`).
     pub estimate: Option<crate::certify::Estimate>,
+    /// Merged mode: canonical states memoised so far (0 otherwise).
+    pub states: usize,
 }

@@ -19,11 +19,11 @@
 
 use super::error::CertifyError;
 use super::flops;
-use super::geometry::{Geometry, Half, Poly, half, minus, size};
+use super::geometry::{Geometry, Half, Poly, half, half_tie, minus, size};
 use super::model::{EQUALITY, Model, UPPER, axpy, sign};
 
 /// One active-set change of a path.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Change {
     /// The most violated constraint entered (index as in kestrel-qp:
     /// solver rows, then the bound on `z_i` at `m + i`), on its upper side
@@ -85,6 +85,10 @@ pub(super) enum Outcome {
     Node(Node),
     /// The solve ends here.
     Leaf(Node, Status),
+    /// Merged mode ([`Model::merge`]): a full dual step reached the
+    /// canonical state of the active set (`mu = mu*`); the solver's future
+    /// depends on the set and the parameter only (`crate::certify::merge`).
+    Canonical(Node),
 }
 
 fn numerical(what: &str) -> CertifyError {
@@ -174,11 +178,12 @@ pub(super) fn expand(
                 }
                 let mut child = node.clone();
                 // The earlier positions do not block, `p` and later may.
+                let at = model.position(p);
                 child.flops += top
                     + flops::blocking(0, (cands.len() - t) as u64)
                     + flops::dual_step(k as u64)
-                    + flops::remove(k as u64, p as u64);
-                child.fwd = p;
+                    + flops::remove(k as u64, at as u64);
+                child.fwd = at;
                 let mu = node.mu.iter().enumerate().filter(|&(q, _)| q != p);
                 let mu = mu.map(|(_, m)| m.clone()).collect();
                 let c = Change::Remove {
@@ -233,7 +238,7 @@ pub(super) fn expand(
                     .map(|(a, b)| sk * (a * w[j] - b * w[i]))
                     .collect();
                 let sc = size(&cur[i]) * w[j].abs() + size(&cur[j]) * w[i].abs();
-                hs.push(half(&f, j < i, sc));
+                hs.push(half_tie(&f, j < i, sc, model.merge));
             }
             if let Some(poly) = geo.restrict(&node.poly, &hs) {
                 if node.iterations >= limit {
@@ -246,11 +251,12 @@ pub(super) fn expand(
                 let t: Vec<f64> = node.mu[i].iter().map(|x| -x / v[i]).collect();
                 let mu = moved(&node.mu, &t, &v, i);
                 let mut child = node.clone();
+                let at = model.position(i);
                 child.flops += top
                     + flops::blocking(0, cands.len() as u64)
                     + flops::dual_step(k as u64)
-                    + flops::remove(k as u64, i as u64);
-                child.fwd = i;
+                    + flops::remove(k as u64, at as u64);
+                child.fwd = at;
                 let c = Change::Remove {
                     constraint: node.active[i].0,
                 };
@@ -268,13 +274,17 @@ pub(super) fn expand(
     node.dual = true;
     node.flops += top;
     node.fwd = k;
-    add_step(model, geo, node, out);
+    if model.merge {
+        out.push(Outcome::Canonical(node));
+    } else {
+        add_step(model, geo, node, out);
+    }
     Ok(())
 }
 
 /// The dual-feasible branch: the primal point and the most violated
 /// constraint (or the optimum).
-fn add_step(model: &Model, geo: &mut Geometry, node: Node, out: &mut Vec<Outcome>) {
+pub(super) fn add_step(model: &Model, geo: &mut Geometry, node: Node, out: &mut Vec<Outcome>) {
     let (n, k) = (model.n, node.active.len());
     let d = model.d;
     let ptol = model.settings.primal_tol;
@@ -396,19 +406,21 @@ fn singular_step(
             .enumerate()
             .filter(|&(u, _)| u != t)
             .map(|(u, &(j, _))| {
-                half(
+                half_tie(
                     &minus(&tau[t], &tau[u]),
                     j < i,
                     size(&tau[t]) + size(&tau[u]),
+                    model.merge,
                 )
             })
             .collect();
         if let Some(poly) = geo.restrict(&node.poly, &hs) {
             let mu = moved(&node.mu, &tau[t], &step, i);
             let mut child = node.clone();
+            let at = model.position(i);
             child.flops += flops::singular(k as u64, free as u64, cands.len() as u64)
-                + flops::remove(k as u64, i as u64);
-            child.fwd = child.fwd.min(i);
+                + flops::remove(k as u64, at as u64);
+            child.fwd = child.fwd.min(at);
             let c = Change::Singular {
                 constraint: node.active[i].0,
             };
