@@ -536,6 +536,7 @@ pub(super) fn certify_merged(
     // The empty set is canonical at once (mu* of no constraint).
     let root = m.state(&Vec::new())?;
     let pre = flops::preamble(n);
+    let cap = settings.qp.max_iterations;
     let cold_cert = finish(&m, par, &root, pre, None, &[], (m.geo.lps, started));
     let warm = match settings.warm_step {
         None => None,
@@ -546,6 +547,10 @@ pub(super) fn certify_merged(
                 Model::new(par, 2 * p, settings.qp).ok_or(CertifyError::NotPositiveDefinite)?;
             wm.merge = true;
             let sets: Vec<Key> = m.finals.iter().cloned().collect();
+            // A cut chain left the cold solves below it unexplored: their
+            // optimal sets may be missing from the start sets.
+            let cold_cut = m.capped > 0;
+            m.capped = 0;
             m.ctx.phase = "warm";
             m.ctx.sets_total = sets.len();
             (m.infeasible, m.limited) = (0, 0);
@@ -584,6 +589,10 @@ pub(super) fn certify_merged(
                         }
                     }
                 }
+            }
+            if cold_cut {
+                all.offer(cap + 1, u64::MAX / 4, Status::IterationLimit, None);
+                m.capped += 1;
             }
             let mut c = finish(&m, par, &all, 0, Some(step), &sets, (m.geo.lps - lps0, t0));
             c.start_sets = sets.len();
@@ -638,7 +647,7 @@ fn finish(
             pieces: m.bounds.len(),
             histogram: Vec::new(),
             infeasible: m.infeasible,
-            limited: m.limited + usize::from(b.iterations > cap),
+            limited: m.limited + m.capped + usize::from(b.iterations > cap),
             states: m.pieces.len(),
             start_sets: sets.len(),
             lps,
