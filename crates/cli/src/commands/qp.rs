@@ -79,7 +79,8 @@ pub struct CertifyArgs {
     /// remembering H segments of history (default 2; larger is tighter
     /// and slower). For parameter boxes whose exact partition is out of
     /// reach; the certificate says `exact: false`, `--max-regions` limits
-    /// the memoised bounds and no up-front estimate is made.
+    /// the memoised bounds and no up-front estimate is made. Write
+    /// `--merge=H` before the problem file.
     #[arg(long, value_name = "H", num_args = 0..=1, default_missing_value = "2", conflicts_with = "any_order")]
     pub merge: Option<usize>,
 }
