@@ -45,6 +45,10 @@ use std::time::Instant;
 /// a deeper chain is bounded by the solver's iteration cap.
 const MAX_LEVELS: usize = 2_000;
 
+/// The most numbers the stored pieces may hold (4 GB of `f64`) before
+/// [`CertifyError::Limit`].
+const MAX_STORED: usize = 500_000_000;
+
 /// An active set sorted by constraint (constraint, side code).
 type Key = Vec<(usize, u8)>;
 /// The changes of a segment.
@@ -122,6 +126,9 @@ struct Merger<'m, 'x, 'c> {
     level: usize,
     deepest: usize,
     capped: usize,
+    /// Numbers held by the stored pieces' polyhedra (limited by
+    /// [`MAX_STORED`]).
+    stored: usize,
     nodes: usize,
     inline: usize,
     infeasible: usize,
@@ -259,6 +266,7 @@ impl Merger<'_, '_, '_> {
                             "two pieces of one state with the same history".into(),
                         ));
                     }
+                    self.stored += n.poly.a.len() + n.poly.b.len();
                     let piece = Piece {
                         iterations: n.iterations,
                         flops: n.flops,
@@ -416,7 +424,7 @@ impl Merger<'_, '_, '_> {
     fn check(&mut self, open: usize) -> Result<(), CertifyError> {
         let ctx = &mut *self.ctx;
         let states = self.bounds.len();
-        let what = if states > ctx.settings.max_regions {
+        let what = if states > ctx.settings.max_regions || self.stored > MAX_STORED {
             Some("region")
         } else if ctx
             .settings
@@ -526,6 +534,7 @@ pub(super) fn certify_merged(
         level: 0,
         deepest: 0,
         capped: 0,
+        stored: 0,
         nodes: 0,
         inline: 0,
         infeasible: 0,

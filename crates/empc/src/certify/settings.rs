@@ -41,7 +41,8 @@ pub struct CertifySettings {
     /// active set and the parameter only), remembering `h >= 1` segments
     /// of history: an upper bound on iterations and flops valid for every
     /// parameter, `exact: false`, no regions kept, no up-front estimate;
-    /// `max_regions` then limits the memoised bounds. Larger `h` is
+    /// `max_regions` then limits the memoised bounds (and the pieces kept
+    /// for them to 4 GB, as the same region limit). Larger `h` is
     /// tighter and slower. docs/qp-certify.md. Default `None` (the exact
     /// partition).
     pub merge: Option<usize>,
