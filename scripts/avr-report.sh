@@ -6,7 +6,8 @@
 #    "qp_check": [{"scalar": "f32", "solver": "qp", "start": "cold", "cycles": {...}, ...}, ...]}
 # "configs": one entry per flown configuration (solver "fgm", "empc", "empc-ns2", "qp", ...);
 # "qp_check": the exact MPC's whole-law cycles on the target at pseudo-random
-# parameters of the whole box (cold, warm, iteration cap 1), beside the flights.
+# parameters of the whole box ("start": cold, warm along a random walk -- "walk-cold" for
+# the qp16 builds, which start cold every period --, cap1: iteration cap 1), beside the flights.
 # Usage: bash scripts/avr-report.sh   (from any directory)
 set -uo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"

@@ -16,8 +16,9 @@ pub const CHECK_SAMPLES: u16 = 150;
 ///
 /// 1. `law` with cold starts (restarted before each solve) at
 ///    pseudo-random parameters in the box `[lb, ub]`;
-/// 2. `law` with its warm starts along a random walk in the box (each
-///    step at most 5 % of the box's width per parameter);
+/// 2. `law` as it flies (warm starts for `qp`, cold every period for the
+///    qp16 builds) along a random walk in the box (each step at most 5 %
+///    of the box's width per parameter);
 /// 3. `capped` (the same law with the iteration cap 1 and cold starts) at
 ///    pseudo-random parameters: the fallback wherever two or more
 ///    active-set changes are needed.
@@ -31,8 +32,9 @@ pub const CHECK_SAMPLES: u16 = 150;
 /// Then it serves the host's parameters for ever (the check builds do not
 /// fly): each payload of `2 + 4 P` bytes that `recv` gives (an index, the
 /// parameter's `P` f32) is solved by `law`, from a cold start unless bit
-/// 15 of the index is set (then warm from the previous request's active
-/// set), and answered with a result frame as above.
+/// 15 of the index is set (then, for a warm-starting law, warm from the
+/// previous request's active set), and answered with a result frame as
+/// above.
 #[inline(never)] // its own frame, not main's
 pub fn check<S, L, K, const P: usize>(
     law: &mut L,

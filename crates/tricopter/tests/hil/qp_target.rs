@@ -160,7 +160,9 @@ fn check_on_target(features: &[&str], scalar: &str, solver: &str, tol: f64) {
             .or_default()
             .add(s.cycles);
     }
-    let names = ["cold", "warm", "cap1"];
+    // The walk's part is labelled by how the law starts there: `warm` for
+    // `qp`, `walk-cold` for the qp16 builds (cold every period).
+    let names = ["cold", if warm_law { "warm" } else { "walk-cold" }, "cap1"];
     for (p, name) in names.iter().enumerate() {
         println!(
             "{solver} {scalar} on target, {name}: whole law {} cycles; iterations differing from the host's {}; fallbacks firmware {} host {}",
