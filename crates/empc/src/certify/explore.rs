@@ -51,6 +51,20 @@ pub(super) struct Ctx<'a> {
     pub sets_total: usize,
 }
 
+impl<'a> Ctx<'a> {
+    /// The context of a run starting now, in its cold phase.
+    pub fn new(settings: &'a CertifySettings, progress: &'a mut dyn FnMut(&Progress)) -> Self {
+        Ctx {
+            settings,
+            started: Instant::now(),
+            progress,
+            phase: "cold",
+            sets_done: 0,
+            sets_total: 0,
+        }
+    }
+}
+
 fn better(a: &Node, b: &Node, key: impl Fn(&Node) -> u64) -> bool {
     (key(a), a.poly.radius) > (key(b), b.poly.radius)
 }

@@ -32,7 +32,7 @@ use super::explore::Ctx;
 use super::flops;
 use super::geometry::{Geometry, Half, Poly, half, size};
 use super::model::{EQUALITY, Model, UPPER, sign};
-use super::report::{self, Certificate, Certification, Merged, RegionReport};
+use super::report::{self, Certificate, Certification, RegionReport};
 use super::settings::{CertifySettings, Progress};
 use super::step::{Change, Node, Outcome, Status, add_step, expand};
 use super::warm::{warm_region, warm_root};
@@ -512,15 +512,8 @@ pub(super) fn certify_merged(
     let p = par.p();
     let mut cold = Model::new(par, p, settings.qp).ok_or(CertifyError::NotPositiveDefinite)?;
     cold.merge = true;
-    let started = Instant::now();
-    let mut ctx = Ctx {
-        settings,
-        started,
-        progress,
-        phase: "cold",
-        sets_done: 0,
-        sets_total: 0,
-    };
+    let mut ctx = Ctx::new(settings, progress);
+    let started = ctx.started;
     let mut geo = Geometry::new(settings.min_radius);
     let n = par.n() as u64;
     let mut m = Merger {
@@ -644,24 +637,29 @@ fn finish(
     let worst = report(it, b.flops + pre, m.chain(b.next.clone(), false));
     let fl_path = m.chain(b.next_flops.clone(), true);
     let worst_flops_region = report(fl_path.len(), b.flops + pre, fl_path);
-    report::merged(
-        model,
-        par,
-        Merged {
-            warm_step,
-            worst_iterations: it,
-            worst_flops: b.flops + pre,
-            worst: Some(worst),
-            worst_flops_region: Some(worst_flops_region),
-            pieces: m.bounds.len(),
-            histogram: Vec::new(),
-            infeasible: m.infeasible,
-            limited: m.limited + m.capped + usize::from(b.iterations > cap),
-            states: m.pieces.len(),
-            start_sets: sets.len(),
-            lps,
-            elapsed: t0.elapsed(),
-            finals: m.finals.iter().cloned().collect(),
-        },
-    )
+    Certificate {
+        warm_step,
+        exact: false,
+        n: par.n(),
+        m: par.m(),
+        p: par.p(),
+        worst_iterations: it,
+        worst_flops: b.flops + pre,
+        worst: Some(worst),
+        worst_flops_region: Some(worst_flops_region),
+        regions: m.bounds.len(),
+        histogram: Vec::new(),
+        infeasible_regions: m.infeasible,
+        iteration_limit_regions: m.limited + m.capped + usize::from(b.iterations > cap),
+        start_sets: sets.len(),
+        any_order: false,
+        lps,
+        canonical_states: m.pieces.len(),
+        elapsed: t0.elapsed(),
+        finals: m.finals.iter().cloned().collect(),
+        leaves: Vec::new(),
+        start_regions: Vec::new(),
+        centre: model.centre.clone(),
+        half: model.half.clone(),
+    }
 }

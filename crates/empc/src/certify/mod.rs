@@ -76,16 +76,9 @@ pub fn certify(
     }
     let p = par.p();
     let cold_model = Model::new(&par, p, settings.qp).ok_or(CertifyError::NotPositiveDefinite)?;
-    let started = Instant::now();
+    let mut ctx = Ctx::new(settings, progress);
+    let started = ctx.started;
     let mut geo = Geometry::new(settings.min_radius);
-    let mut ctx = Ctx {
-        settings,
-        started,
-        progress,
-        phase: "cold",
-        sets_done: 0,
-        sets_total: 0,
-    };
     let n = par.n() as u64;
     let root = Node {
         poly: Poly::cube(p),

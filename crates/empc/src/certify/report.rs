@@ -95,11 +95,14 @@ pub struct Certificate {
     pub elapsed: Duration,
     /// Cold: the optimal active sets found (sorted); warm: the start sets.
     pub(super) finals: Vec<Vec<(usize, u8)>>,
-    leaves: Vec<Leaf>,
+    /// The kept leaf regions (empty unless kept, and for a merged one).
+    pub(super) leaves: Vec<Leaf>,
     /// Warm: the start region of each start set.
-    start_regions: Vec<Region>,
-    centre: Vec<f64>,
-    half: Vec<f64>,
+    pub(super) start_regions: Vec<Region>,
+    /// The box's centre and half-widths (the regions are normalised).
+    pub(super) centre: Vec<f64>,
+    /// See [`Self::centre`].
+    pub(super) half: Vec<f64>,
 }
 
 /// A normalised polyhedron `a x <= b` (rows of `a` concatenated).
@@ -178,59 +181,6 @@ pub(super) fn certificate(
         finals,
         leaves: tally.leaves,
         start_regions,
-        centre: model.centre.clone(),
-        half: model.half.clone(),
-    }
-}
-
-/// What a merged (over-approximating) certification found
-/// (`crate::certify::merge`).
-#[derive(Debug)]
-pub(super) struct Merged {
-    pub warm_step: Option<f64>,
-    pub worst_iterations: usize,
-    pub worst_flops: u64,
-    pub worst: Option<RegionReport>,
-    pub worst_flops_region: Option<RegionReport>,
-    /// Bounds memoised (the certificate's `regions`).
-    pub pieces: usize,
-    /// Left empty (no partition).
-    pub histogram: Vec<usize>,
-    pub infeasible: usize,
-    pub limited: usize,
-    pub states: usize,
-    pub start_sets: usize,
-    pub lps: usize,
-    pub elapsed: Duration,
-    /// Optimal active sets met (sorted), for the warm start's start sets.
-    pub finals: Vec<Vec<(usize, u8)>>,
-}
-
-/// The certificate of a merged certification: `exact` false, no regions
-/// kept.
-pub(super) fn merged(model: &Model, par: &ParametricQp, m: Merged) -> Certificate {
-    Certificate {
-        warm_step: m.warm_step,
-        exact: false,
-        n: par.n(),
-        m: par.m(),
-        p: par.p(),
-        worst_iterations: m.worst_iterations,
-        worst_flops: m.worst_flops,
-        worst: m.worst,
-        worst_flops_region: m.worst_flops_region,
-        regions: m.pieces,
-        histogram: m.histogram,
-        infeasible_regions: m.infeasible,
-        iteration_limit_regions: m.limited,
-        start_sets: m.start_sets,
-        any_order: false,
-        lps: m.lps,
-        canonical_states: m.states,
-        elapsed: m.elapsed,
-        finals: m.finals,
-        leaves: Vec::new(),
-        start_regions: Vec::new(),
         centre: model.centre.clone(),
         half: model.half.clone(),
     }
