@@ -79,7 +79,6 @@ const VAR0: Var = Var {
 pub struct Qp16SetSolver<const N: usize> {
     var: [Var; N],
     active: [u8; N],
-    side: [u8; N],
     count: usize,
     w: [i32; N],
     r: [i32; N],
@@ -98,7 +97,6 @@ impl<const N: usize> Qp16SetSolver<N> {
         Qp16SetSolver {
             var: [VAR0; N],
             active: [0; N],
-            side: [0; N],
             count: 0,
             w: [0; N],
             r: [0; N],
@@ -113,7 +111,12 @@ impl<const N: usize> Qp16SetSolver<N> {
 
     /// As [`super::Qp16Solver::active_set`].
     pub fn active_set(&self) -> impl Iterator<Item = (u8, bool)> + '_ {
-        (0..self.count.min(N)).map(|p| (self.active[p], self.side[p] & 1 == 1))
+        (0..self.count.min(N)).map(|p| {
+            (
+                self.active[p],
+                self.var[self.active[p] as usize % N].code & 1 == 1,
+            )
+        })
     }
 
     /// Forgets the active set.
@@ -218,7 +221,6 @@ impl<const N: usize> Qp16SetSolver<N> {
                                 return Err(Qp16Error::Infeasible);
                             }
                             self.active[k] = j as u8;
-                            self.side[k] = code;
                             let v = &mut self.var[j];
                             v.pos = k as u8 + 1;
                             v.code = code;
@@ -263,7 +265,7 @@ impl<const N: usize> Qp16SetSolver<N> {
     /// Keeps the stored active set in its order (absent bounds dropped).
     fn refactor(&mut self) {
         let k = self.count.min(N);
-        let (active, side) = (self.active, self.side);
+        let active = self.active;
         self.reset();
         for p in 0..k {
             let j = active[p] as usize;
@@ -271,7 +273,8 @@ impl<const N: usize> Qp16SetSolver<N> {
                 continue;
             }
             let v = &mut self.var[j];
-            let upper = side[p] & 1 == 1;
+            // The record keeps its side code across `reset`.
+            let upper = v.code & 1 == 1;
             let absent = if upper {
                 v.hi == i32::MAX
             } else {
@@ -281,9 +284,8 @@ impl<const N: usize> Qp16SetSolver<N> {
                 continue;
             }
             let c = self.count;
-            let code = (side[p] & 1) | if v.lo == v.hi { 2 } else { 0 };
+            let code = u8::from(upper) | if v.lo == v.hi { 2 } else { 0 };
             self.active[c] = j as u8;
-            self.side[c] = code;
             v.pos = c as u8 + 1;
             v.code = code;
             self.count = c + 1;
@@ -295,7 +297,6 @@ impl<const N: usize> Qp16SetSolver<N> {
         self.var[self.active[p] as usize % N].pos = 0;
         for r in p..k - 1 {
             self.active[r] = self.active[r + 1];
-            self.side[r] = self.side[r + 1];
             self.var[self.active[r] as usize % N].pos = r as u8 + 1;
         }
         self.count = k - 1;
