@@ -42,7 +42,7 @@ cleanup_package() {
   rm -rf "$pkg_target"
   for d in "$registry_src"/*/; do
     name="$(basename "$d")"
-    if ! grep -qxF "$name" <<<"$before" \
+    if ! grep -qxF -- "$name" <<<"$before" \
        && [ -z "$(find "$d" -mindepth 1 -maxdepth 1 ! -name 'kestrel-*' -print -quit)" ]; then
       rm -rf "$d"
     fi
