@@ -1,13 +1,18 @@
-//! kestrel-qp against DAQP's C core, kestrel-fgm and clarabel, per solve,
-//! on the same problems and parameters in one run (issue 24). Run it with
-//! `scripts/qp-bench.sh` (it builds the DAQP harness of `benches/daqp/`
-//! and passes it as `--daqp`); alone it times the Rust solvers only.
+//! kestrel-qp against DAQP's C core, qpOASES, TinyMPC, kestrel-fgm and
+//! clarabel, per solve, on the same problems and parameters in one run
+//! (issue 24). Run it with `scripts/qp-bench.sh` (it builds the harnesses
+//! of `benches/daqp/`, `benches/qpoases/` and `benches/tinympc/` and
+//! passes them as `--daqp`, `--qpoases`, `--tinympc`); alone it times the
+//! Rust solvers only.
 //!
 //! Problems: the tricopter thesis-sized problem (`N = 2`, `N_s = 1`, n = 4,
 //! 9 parameters) and the larger one (`N = 10`, blocks `[1, 1, 2, 6]`,
 //! n = 16), both box only, from the identified model
 //! `models/tricopter-blackbox-5.json`, and kestrel-empc's random
-//! `testing::thesis_sized(1..=3)`; each mapped to the solver's form by
+//! `testing::thesis_sized(1..=3)`, and the two problems TinyMPC can
+//! express (`N = 2` and `N = 10` without blocking, the states rotated for
+//! diagonal weights, TinyMPC's terminal weight: `qp_compare/tiny.rs`);
+//! each mapped to the solver's form by
 //! `kestrel_qp::parametric::ParametricQp` (single-variable rows become
 //! simple bounds).
 //!
@@ -17,13 +22,20 @@
 //! Every solver gets the same inputs: kestrel-qp and DAQP the linear term
 //! and bounds at each theta (evaluated before timing), kestrel-fgm and
 //! clarabel theta itself (their affine maps are inside their solves).
-//! Each solve is timed on its own (`Instant`, i.e. `clock_gettime`), the
-//! table gives the median, the 99th percentile and the maximum. Exits
-//! with 1 if DAQP's, clarabel's or the warm solution differs from
-//! kestrel-qp's cold f64 one by more than 1e-9 relative, or a solve fails.
+//! TinyMPC gets theta's state and the input bounds at theta (its problem's
+//! references are zero). Each solve is timed on its own (`Instant`, i.e.
+//! `clock_gettime`), the table gives the median, the 99th percentile and
+//! the maximum. Exits with 1 if DAQP's, qpOASES's, clarabel's or the warm
+//! solution differs from kestrel-qp's cold f64 one by more than 1e-9
+//! relative, or one of those solves fails (TinyMPC and the FGM are not
+//! exact: their deviation is reported, not checked).
 //!
 //! `cargo run --release -p kestrel-benches --example qp_compare --
-//! [--samples N] [--daqp PATH_TO_daqp_bench] [--dir DIR]`
+//! [--samples N] [--daqp PATH_TO_daqp_bench] [--qpoases PATH_TO_qpoases_bench]
+//! [--tinympc PATH_TO_tinympc_bench] [--rho TINYMPC_RHO] [--dir DIR]`
+
+#[path = "qp_compare/tiny.rs"]
+mod tiny;
 
 use kestrel_core::formats::{MpqpProblem, SsModel};
 use kestrel_fgm::{
@@ -76,12 +88,26 @@ fn relative(a: &[f64], b: &[f64]) -> f64 {
         .fold(0.0_f64, |s, (x, y)| s.max((x - y).abs() / scale))
 }
 
-fn tricopter(size: ProblemSize) -> MpqpProblem {
+/// TinyMPC's ADMM penalty (`--rho`): of 1e-2, 1e-1, 1, 10 and 100, the one
+/// with the fewest iterations for cold starts at TinyMPC's default
+/// tolerance on the N = 10 problem (1e-2 takes fewer warm, more cold).
+const TINY_RHO: f64 = 0.1;
+
+/// TinyMPC's configurations: `(label, absolute primal and dual tolerance,
+/// max_iter)`, its defaults and a tight one.
+const TINY_CONFIGS: [(&str, f64, usize); 2] = [("default", 1e-3, 1000), ("tight", 1e-8, 100_000)];
+
+/// The identified model `models/tricopter-blackbox-5.json`.
+fn identified_model() -> SsModel {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../models/tricopter-blackbox-5.json"
     );
-    let model = SsModel::read(Path::new(path)).expect("identified model");
+    SsModel::read(Path::new(path)).expect("identified model")
+}
+
+fn tricopter(size: ProblemSize) -> MpqpProblem {
+    let model = identified_model();
     let (q1, q2) = default_weights();
     tricopter_problem(&model, size, q1, q2)
         .expect("tricopter problem")
@@ -232,13 +258,15 @@ fn write_problem(path: &Path, name: &str, par: &ParametricQp, sets: &[Set<'_>]) 
     std::fs::write(path, out).expect("write the DAQP input");
 }
 
-/// Runs the DAQP harness on one problem file: `(label, Stats)` per set.
-fn run_daqp(bin: &Path, file: &Path) -> Vec<(String, Stats)> {
+/// Runs one C/C++ harness (DAQP's, qpOASES's, TinyMPC's) on its input
+/// file: `(label, Stats)` per line `<tag> <name> <label> <count> <median>
+/// <p99> <max> <mean_iter> <max_iter> <deviation> <failures>`.
+fn run_harness(bin: &Path, file: &Path, tag: &str) -> Vec<(String, Stats)> {
     let out = Command::new(bin)
         .arg(file)
         .output()
-        .expect("run daqp_bench");
-    assert!(out.status.success(), "daqp_bench failed: {out:?}");
+        .unwrap_or_else(|e| panic!("run {}: {e}", bin.display()));
+    assert!(out.status.success(), "{} failed: {out:?}", bin.display());
     let text = String::from_utf8_lossy(&out.stdout);
     if let Some(t) = text.lines().find_map(|l| l.strip_prefix("timer ")) {
         eprintln!("  DAQP harness: an empty timed interval takes {t} ns (median)");
@@ -246,7 +274,7 @@ fn run_daqp(bin: &Path, file: &Path) -> Vec<(String, Stats)> {
     text.lines()
         .filter_map(|l| {
             let f: Vec<&str> = l.split_whitespace().collect();
-            (f.len() == 11 && f[0] == "daqp").then(|| {
+            (f.len() == 11 && f[0] == tag).then(|| {
                 let num = |i: usize| f[i].parse::<f64>().unwrap_or(f64::NAN);
                 (
                     f[2].to_string(),
@@ -268,6 +296,10 @@ fn run_daqp(bin: &Path, file: &Path) -> Vec<(String, Stats)> {
 struct Args {
     samples: usize,
     daqp: Option<PathBuf>,
+    qpoases: Option<PathBuf>,
+    tinympc: Option<PathBuf>,
+    /// TinyMPC's ADMM penalty.
+    rho: f64,
     dir: PathBuf,
 }
 
@@ -275,6 +307,9 @@ fn args() -> Args {
     let mut a = Args {
         samples: 10_000,
         daqp: None,
+        qpoases: None,
+        tinympc: None,
+        rho: TINY_RHO,
         dir: std::env::temp_dir().join("kestrel-qp-bench"),
     };
     let mut it = std::env::args().skip(1);
@@ -283,6 +318,9 @@ fn args() -> Args {
         match flag.as_str() {
             "--samples" => a.samples = value.parse().expect("--samples N"),
             "--daqp" => a.daqp = Some(PathBuf::from(value)),
+            "--qpoases" => a.qpoases = Some(PathBuf::from(value)),
+            "--tinympc" => a.tinympc = Some(PathBuf::from(value)),
+            "--rho" => a.rho = value.parse().expect("--rho R"),
             "--dir" => a.dir = PathBuf::from(value),
             other => panic!("unknown flag {other}"),
         }
@@ -314,16 +352,27 @@ fn fgm_data(p: &MpqpProblem, max_error: f64) -> FgmData<f64> {
 fn main() {
     let a = args();
     std::fs::create_dir_all(&a.dir).expect("output directory");
-    let problems: Vec<(String, MpqpProblem, f64)> = [
+    let tiny = |horizon: usize| {
+        let t = tiny::tiny_problem(&identified_model(), horizon, a.rho);
+        (
+            format!("tricopter-N{horizon}-unblocked"),
+            t.mpqp.clone(),
+            1.0,
+            Some(t),
+        )
+    };
+    let problems: Vec<(String, MpqpProblem, f64, Option<tiny::TinyProblem>)> = [
         (
             "tricopter-thesis".to_string(),
             tricopter(ProblemSize::Thesis),
             1.0,
+            None,
         ),
         (
             "tricopter-larger".to_string(),
             tricopter(ProblemSize::Larger),
             1.0,
+            None,
         ),
     ]
     .into_iter()
@@ -332,8 +381,10 @@ fn main() {
             format!("empc-thesis_sized({seed})"),
             kestrel_empc::testing::thesis_sized(seed),
             1e-3,
+            None,
         )
     }))
+    .chain([tiny(2), tiny(10)])
     .collect();
     let mut table = String::new();
     // Problems where the exact solvers disagree or fail (checked below).
@@ -343,9 +394,14 @@ fn main() {
         "| problem | solver | start | median ns | p99 ns | max ns | iterations mean / max | median vs DAQP | max deviation |"
     );
     let _ = writeln!(table, "|---|---|---|---|---|---|---|---|---|");
-    for (pi, (name, p, fgm_error)) in problems.iter().enumerate() {
+    for (pi, (name, p, fgm_error, tiny)) in problems.iter().enumerate() {
         let par = ParametricQp::from_mpqp(p).expect("parametric QP");
-        let sets = parameter_sets(p, a.samples, 24 + pi as u64);
+        let mut sets = parameter_sets(p, a.samples, 24 + pi as u64);
+        if let Some(t) = tiny {
+            for set in &mut sets {
+                t.zero_references(set);
+            }
+        }
         let fill = |thetas: &[Vec<f64>]| -> (Vec<QpBuffers<f64>>, Vec<QpBuffers<f32>>) {
             thetas
                 .iter()
@@ -396,21 +452,46 @@ fn main() {
             ),
         ];
         let mut daqp: Vec<(String, Stats)> = vec![];
-        if let Some(bin) = &a.daqp {
-            let file = a.dir.join(format!("{name}.txt"));
+        let mut qpoases: Vec<(String, Stats)> = vec![];
+        let file = a.dir.join(format!("{name}.txt"));
+        if a.daqp.is_some() || a.qpoases.is_some() {
             write_problem(
                 &file,
                 name,
                 &par,
                 &[("cold", &cold64, &zc, &ic), ("warm", &warm64, &zw, &iw)],
             );
-            daqp = run_daqp(bin, &file);
-            // Both solve the same QP: DAQP's solution is kestrel-qp's.
-            for (label, st) in &daqp {
-                if st.deviation > 1e-9 || st.deviation.is_nan() || st.failures > 0 {
-                    mismatches.push(format!("{name}: DAQP {label}"));
-                }
+        }
+        if let Some(bin) = &a.daqp {
+            daqp = run_harness(bin, &file, "daqp");
+        }
+        if let Some(bin) = &a.qpoases {
+            qpoases = run_harness(bin, &file, "qpoases");
+        }
+        // All three solve the same QP: DAQP's and qpOASES's solutions are
+        // kestrel-qp's.
+        for (solver, label, st) in daqp
+            .iter()
+            .map(|(l, s)| ("DAQP", l, s))
+            .chain(qpoases.iter().map(|(l, s)| ("qpOASES", l, s)))
+        {
+            if st.deviation > 1e-9 || st.deviation.is_nan() || st.failures > 0 {
+                mismatches.push(format!("{name}: {solver} {label}"));
             }
+        }
+        let mut tinympc: Vec<(String, Stats)> = vec![];
+        if let (Some(bin), Some(t)) = (&a.tinympc, tiny) {
+            let tfile = a.dir.join(format!("{name}.tinympc.txt"));
+            t.write(
+                &tfile,
+                name,
+                &TINY_CONFIGS,
+                &[
+                    ("cold", &sets[0], &cold64, &zc),
+                    ("warm", &sets[1], &warm64, &zw),
+                ],
+            );
+            tinympc = run_harness(bin, &tfile, "tinympc");
         }
         let fgm = fgm_data(p, *fgm_error);
         rows.push(("kestrel-fgm f64", "cold", time_fgm(&fgm, &sets[0], &zc)));
@@ -446,8 +527,20 @@ fn main() {
         for (label, s) in &daqp {
             emit("DAQP 0.11.0 (C)", label, s);
         }
+        for (label, s) in &qpoases {
+            let (opts, start) = label.split_once('-').unwrap_or(("?", label));
+            emit(&format!("qpOASES 3.2.2 ({opts} options)"), start, s);
+        }
         for (solver, start, s) in &rows {
             emit(solver, start, s);
+        }
+        for (label, s) in &tinympc {
+            let (cfg, start) = label.split_once('-').unwrap_or(("?", label));
+            let tol = TINY_CONFIGS
+                .iter()
+                .find(|c| c.0 == cfg)
+                .map_or(f64::NAN, |c| c.1);
+            emit(&format!("TinyMPC 0.0.8 (tol {tol:e})"), start, s);
         }
     }
     // The clock's own cost: the median of an empty timed interval.
@@ -465,7 +558,8 @@ fn main() {
         empty[empty.len() / 2]
     );
     println!(
-        "median vs DAQP: the solver's median over DAQP's (same start; clarabel and the FGM against DAQP cold); < 1 is faster. max deviation: from kestrel-qp f64's solution (DAQP, f32, FGM, clarabel; kestrel-qp warm: from its own cold solve), relative |z - z_ref|_inf / (1 + |z_ref|_inf). Iterations: active-set changes for kestrel-qp, DAQP's own count (its loop passes), the certified count for the FGM, interior-point iterations for clarabel."
+        "median vs DAQP: the solver's median over DAQP's (same start; clarabel, the FGM, qpOASES init and TinyMPC cold against DAQP cold); < 1 is faster. max deviation: from kestrel-qp f64's solution at the same theta (kestrel-qp warm: from its own cold solve), relative |z - z_ref|_inf / (1 + |z_ref|_inf). Iterations: active-set changes for kestrel-qp, DAQP's own count (its loop passes), qpOASES's nWSR (working-set changes), ADMM iterations for TinyMPC ('failed': not converged within max_iter), the certified count for the FGM, interior-point iterations for clarabel. qpOASES cold: hotstart from the empty working set (H's factor kept); init: init() from scratch. TinyMPC ({TINY_CONFIGS:?}, rho = {}) only on the unblocked problems.",
+        a.rho
     );
     if !mismatches.is_empty() {
         eprintln!("solutions differ by more than 1e-9 relative, or solves failed: {mismatches:?}");
