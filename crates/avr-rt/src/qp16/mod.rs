@@ -59,13 +59,14 @@ mod arith;
 mod avr;
 #[cfg(feature = "std")]
 mod build;
+pub mod probe;
 mod sets;
 #[cfg(target_arch = "avr")]
 mod sets_avr;
 mod solver;
 mod tables;
 
-pub use arith::{Recip, mac_round, mul_round};
+pub use arith::{Recip, mac_round, mul_round, rows_round};
 #[cfg(feature = "std")]
 pub use build::{BoxQp, Qp16BuildError, Qp16Scaling, Qp16Settings, box_form, theta_q16};
 pub use sets::{Qp16SetSolver, Qp16SetTables};

@@ -40,15 +40,15 @@ pub struct Qp16SetTables<const N: usize, const S: usize, const E: usize> {
 /// multiplier of its bound).
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C)]
-struct Var {
-    unc: i32,
-    lo: i32,
-    hi: i32,
-    w: i32,
-    star: i32,
-    pos: u8,
-    code: u8,
-    nu: i32,
+pub(super) struct Var {
+    pub(super) unc: i32,
+    pub(super) lo: i32,
+    pub(super) hi: i32,
+    pub(super) w: i32,
+    pub(super) star: i32,
+    pub(super) pos: u8,
+    pub(super) code: u8,
+    pub(super) nu: i32,
 }
 
 #[cfg(target_arch = "avr")]
@@ -379,7 +379,7 @@ impl<const N: usize> Qp16SetSolver<N> {
 /// order; the set's bit mask and the member count. On the AVR one
 /// assembly routine (`sets_avr::members_avr`).
 #[inline(always)]
-fn members<const N: usize>(var: &[Var; N], r: &mut [i32; N]) -> (usize, usize) {
+pub(super) fn members<const N: usize>(var: &[Var; N], r: &mut [i32; N]) -> (usize, usize) {
     #[cfg(target_arch = "avr")]
     if N <= 8 {
         // SAFETY: N (1..=8) records of the checked layout; at most N
@@ -406,7 +406,7 @@ fn members<const N: usize>(var: &[Var; N], r: &mut [i32; N]) -> (usize, usize) {
 /// signed for its side, is below `limit` (equal-bound members never). On
 /// the AVR one assembly routine (`sets_avr::stars_avr`).
 #[inline(always)]
-fn stars<const N: usize>(var: &mut [Var; N], out: &[i32; N], limit: i32) -> u32 {
+pub(super) fn stars<const N: usize>(var: &mut [Var; N], out: &[i32; N], limit: i32) -> u32 {
     #[cfg(target_arch = "avr")]
     if N <= 8 {
         // SAFETY: N (1..=8) records of the checked layout; at most N
@@ -444,7 +444,12 @@ fn stars<const N: usize>(var: &mut [Var; N], out: &[i32; N], limit: i32) -> u32 
 /// code)`, `best = N` if no bound is violated beyond `tol`. On the AVR one
 /// assembly routine (`sets_avr::scan_avr`).
 #[inline(always)]
-fn scan<const N: usize>(var: &mut [Var; N], out: &[i32; N], k: usize, tol: i32) -> (usize, u8) {
+pub(super) fn scan<const N: usize>(
+    var: &mut [Var; N],
+    out: &[i32; N],
+    k: usize,
+    tol: i32,
+) -> (usize, u8) {
     #[cfg(target_arch = "avr")]
     if N <= 8 && k <= N {
         // SAFETY: N (1..=8) records of the checked layout; the N - k
