@@ -131,3 +131,43 @@ fn merged_certificate_is_an_upper_bound_of_the_exact_one() {
     let (ok, _, err) = kestrel(&["qp", "certify", p, "--merge", "0"]);
     assert!(!ok && err.contains("merge"), "{err}");
 }
+
+#[test]
+fn exact_merge_gives_the_exact_worst_case_with_fewer_regions() {
+    let dir = temp_dir();
+    let problem = thesis_problem_of(MODEL, &dir.join("thesis4.json"));
+    let p = problem.to_str().unwrap();
+    let read = |path: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    };
+    let mut docs = Vec::new();
+    for (name, extra) in [("exact.json", None), ("union.json", Some("--exact-merge"))] {
+        let out = dir.join(name);
+        let mut args = vec![
+            "qp",
+            "certify",
+            p,
+            "--box-scale",
+            "0.5",
+            "--warm-step",
+            "0.05",
+        ];
+        args.extend(extra);
+        args.extend(["--json", out.to_str().unwrap()]);
+        let (ok, stdout, err) = kestrel(&args);
+        assert!(ok, "{err}");
+        assert_eq!(stdout.contains("union merge:"), extra.is_some(), "{stdout}");
+        docs.push(read(&out));
+    }
+    for start in ["cold", "warm"] {
+        let (e, u) = (&docs[0][start], &docs[1][start]);
+        assert_eq!(u["exact"], true);
+        assert_eq!(u["worst_iterations"], e["worst_iterations"], "{start}");
+        assert!(u["worst_flops"].as_u64() >= e["worst_flops"].as_u64());
+        assert!(u["regions"].as_u64() <= e["regions"].as_u64());
+        assert!(u["union_merge"]["merges"].as_u64().is_some());
+        assert!(e.get("union_merge").is_none());
+    }
+    let (ok, _, err) = kestrel(&["qp", "certify", p, "--merge", "--exact-merge"]);
+    assert!(!ok && err.contains("cannot be used"), "{err}");
+}

@@ -540,3 +540,163 @@ fn merged_experiment() {
         }
     }
 }
+
+/// The union-merge certificate (regions at the same canonical state and
+/// count merged where their union is convex) against the exact
+/// enumeration: the same worst-case iterations, flops never below, fewer
+/// regions, and the same sampled validation as the exact certificates
+/// (no sample above the certificate, each sample takes its region's count,
+/// the worst region's point takes the worst case). The larger problem's
+/// 0.3 box is compared with the exact enumeration's 12 iterations
+/// (docs/qp-certify.md; that enumeration takes about a minute).
+#[test]
+fn union_merge_equals_the_exact_certificate() {
+    let scaled = |f: f64| {
+        let mut p = larger();
+        p.scale_parameter_box(f);
+        p
+    };
+    let cases: Vec<(String, MpqpProblem, Option<f64>, Option<usize>)> = vec![
+        (
+            "thesis_sized(1)".into(),
+            kestrel_empc::testing::thesis_sized(1),
+            None,
+            None,
+        ),
+        (
+            "thesis_sized(2)".into(),
+            kestrel_empc::testing::thesis_sized(2),
+            Some(0.05),
+            None,
+        ),
+        (
+            "thesis_sized(3)".into(),
+            kestrel_empc::testing::thesis_sized(3),
+            None,
+            None,
+        ),
+        ("larger x 0.1".into(), scaled(0.1), Some(0.05), None),
+        ("larger x 0.2".into(), scaled(0.2), None, None),
+        ("larger x 0.3".into(), scaled(0.3), None, Some(12)),
+    ];
+    let n = samples();
+    for (name, p, warm_step, known) in cases {
+        let union = certify(
+            &p,
+            &CertifySettings {
+                warm_step,
+                union_merge: true,
+                ..CertifySettings::default()
+            },
+            &mut |_| {},
+        )
+        .unwrap();
+        let exact = match known {
+            Some(_) => None,
+            None => Some(
+                certify(
+                    &p,
+                    &CertifySettings {
+                        warm_step,
+                        estimate_probes: 0,
+                        keep_regions: false,
+                        ..CertifySettings::default()
+                    },
+                    &mut |_| {},
+                )
+                .unwrap(),
+            ),
+        };
+        let mut starts = vec![("cold", &union.cold, exact.as_ref().map(|e| &e.cold), None)];
+        if let Some(w) = &union.warm {
+            let e = exact.as_ref().and_then(|e| e.warm.as_ref());
+            starts.push(("warm", w, e, warm_step));
+        }
+        for (start, u, e, step) in starts {
+            let label = format!("{name} {start} (union merge)");
+            assert!(u.exact && u.union.is_some(), "{label}");
+            match e {
+                Some(e) => {
+                    assert_eq!(u.worst_iterations, e.worst_iterations, "{label}");
+                    assert!(u.worst_flops >= e.worst_flops, "{label}");
+                    assert!(u.regions <= e.regions, "{label}");
+                    if u.union.as_ref().unwrap().flops_exact() {
+                        assert_eq!(u.worst_flops, e.worst_flops, "{label}");
+                    }
+                }
+                None => assert_eq!(Some(u.worst_iterations), known, "{label}"),
+            }
+            let (located, count) = check_start(&label, &p, u, step, n);
+            assert!(
+                located * 100 >= count * 99,
+                "{label}: {located}/{count} located"
+            );
+        }
+    }
+}
+
+/// The union-merge certificate of the larger problem on a scaled box
+/// (`KESTREL_UNION_SCALE`, default 0.2; `KESTREL_UNION_EXACT_FLOPS=1`;
+/// `KESTREL_UNION_WARM=0.05` also warm; `KESTREL_UNION_COMPARE=1` also
+/// the exact enumeration): regions and merges per iteration count.
+#[test]
+#[ignore]
+fn union_experiment() {
+    let env = |k: &str| std::env::var(k).ok();
+    let scale: f64 = env("KESTREL_UNION_SCALE")
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0.2);
+    let mut p = larger();
+    p.scale_parameter_box(scale);
+    let settings = CertifySettings {
+        union_merge: true,
+        union_exact_flops: env("KESTREL_UNION_EXACT_FLOPS").is_some(),
+        warm_step: env("KESTREL_UNION_WARM").and_then(|s| s.parse().ok()),
+        keep_regions: false,
+        time_limit: env("KESTREL_UNION_TIME")
+            .and_then(|s| s.parse().ok())
+            .map(std::time::Duration::from_secs),
+        max_regions: 20_000_000,
+        ..CertifySettings::default()
+    };
+    let mut last = 0.0;
+    let c = certify(&p, &settings, &mut |pr| {
+        let t = pr.elapsed.as_secs_f64();
+        if t > last + 30.0 {
+            last = t;
+            eprintln!(
+                "{:.0} s {}: {} regions, {} nodes, {} open, {} LPs, worst so far {}",
+                t, pr.phase, pr.regions, pr.nodes, pr.open, pr.lps, pr.worst_iterations
+            );
+        }
+    })
+    .unwrap();
+    for cert in std::iter::once(&c.cold).chain(c.warm.as_ref()) {
+        eprintln!("{cert}");
+        let u = cert.union.as_ref().unwrap();
+        for l in &u.levels {
+            eprintln!(
+                "  it {:2}: canonical {:8} groups {:7} merged {:7}",
+                l.iterations, l.canonical, l.groups, l.merged
+            );
+        }
+        eprintln!(
+            "  pairs tested {}, merges {}, flops differed {}, orders differed {}",
+            u.pairs_tested, u.merges, u.flops_differed, u.orders_differed
+        );
+    }
+    if env("KESTREL_UNION_COMPARE").is_some() {
+        let e = certify(
+            &p,
+            &CertifySettings {
+                estimate_probes: 0,
+                keep_regions: false,
+                time_limit: None,
+                union_merge: false,
+                ..settings.clone()
+            },
+            &mut |_| {},
+        );
+        let _ = e.map(|e| eprintln!("exact: {}", e.cold));
+    }
+}

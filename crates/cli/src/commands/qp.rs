@@ -83,6 +83,13 @@ pub struct CertifyArgs {
     /// `--merge=H` before the problem file.
     #[arg(long, value_name = "H", num_args = 0..=1, default_missing_value = "2", conflicts_with = "any_order")]
     pub merge: Option<usize>,
+    /// Exact certificate with regions merged: the regions reaching the
+    /// same active set after a full dual step with the same iteration count
+    /// are merged where their union is convex (same exact worst-case
+    /// iterations, fewer regions; the flops become an upper bound when
+    /// merged regions' orders differed). No up-front estimate.
+    #[arg(long, conflicts_with = "merge")]
+    pub exact_merge: bool,
 }
 
 /// Runs `kestrel qp`.
@@ -119,6 +126,7 @@ fn run_certify(a: CertifyArgs) -> anyhow::Result<()> {
         keep_regions: false,
         estimate_probes: a.estimate_probes,
         merge: a.merge,
+        union_merge: a.exact_merge,
         ..CertifySettings::default()
     };
     let bar = if progress::enabled() {

@@ -70,7 +70,7 @@ fn better(a: &Node, b: &Node, key: impl Fn(&Node) -> u64) -> bool {
 }
 
 impl Tally {
-    fn record(&mut self, node: Node, status: Status, keep: bool, collect_finals: bool) {
+    pub(super) fn record(&mut self, node: Node, status: Status, keep: bool, collect_finals: bool) {
         self.regions += 1;
         let it = node.iterations;
         if self.histogram.len() <= it {
@@ -187,7 +187,7 @@ pub(super) fn progress(ctx: &Ctx<'_>, tally: &Tally, geo: &Geometry, open: usize
     }
 }
 
-fn limit(ctx: &Ctx<'_>, tally: &Tally, open: usize, what: &'static str) -> CertifyError {
+pub(super) fn limit(ctx: &Ctx<'_>, tally: &Tally, open: usize, what: &'static str) -> CertifyError {
     CertifyError::Limit {
         what,
         phase: ctx.phase,

@@ -50,6 +50,12 @@ pub(super) fn half_tie(f: &[f64], strict: bool, scale: f64, both: bool) -> Half 
     }
 }
 
+/// Whether `f` is the zero function at `scale` (a comparison of identical
+/// functions, decided by the solver's order alone).
+pub(super) fn identical(f: &[f64], scale: f64) -> bool {
+    size(f) <= ZERO * scale.max(f64::MIN_POSITIVE)
+}
+
 /// The largest magnitude of an affine function's entries.
 pub(super) fn size(f: &[f64]) -> f64 {
     f.iter().fold(0.0_f64, |s, v| s.max(v.abs()))
@@ -150,6 +156,10 @@ pub(super) struct Geometry {
     pub pruned: usize,
     /// Regions whose ball is smaller are dropped (lower-dimensional).
     pub min_radius: f64,
+    /// Comparisons of identical functions decided by the active list's
+    /// order on a region whose members had different orders (union-merge
+    /// mode, `crate::certify::union`): the certificate is then refused.
+    pub order_ties: usize,
 }
 
 impl Geometry {
@@ -210,6 +220,81 @@ impl Geometry {
             lo,
             hi,
         })
+    }
+
+    /// The polyhedron `{a x <= b}` (unit rows, containing the cube's rows)
+    /// with its ball and bounding box; `None` without a ball of radius
+    /// `min_radius`.
+    pub fn poly_of(&mut self, a: Vec<f64>, b: Vec<f64>, start: &[f64]) -> Option<Poly> {
+        let (centre, radius) = self.chebyshev(&a, &b, start)?;
+        if radius < self.min_radius {
+            return None;
+        }
+        let d = start.len();
+        let (mut lo, mut hi) = (vec![-1.0; d], vec![1.0; d]);
+        propagate(&a, &b, &mut lo, &mut hi);
+        Some(Poly {
+            a,
+            b,
+            centre,
+            radius,
+            lo,
+            hi,
+        })
+    }
+
+    /// The most `c x` over `{a x <= b}` from the feasible `start`, or
+    /// `None` if the LP fails; stops early once the value passes `level`
+    /// (the value returned is then above `level`, not the maximum).
+    pub fn max_until(
+        &mut self,
+        c: &[f64],
+        a: &[f64],
+        b: &[f64],
+        start: &[f64],
+        level: f64,
+    ) -> Option<f64> {
+        self.lps += 1;
+        let (st, v) = self.lp.maximize_until(c, a, b, start, level);
+        (st == LpStatus::Optimal).then_some(v)
+    }
+
+    /// `poly` without its redundant rows (one LP per row; a row whose
+    /// maximum over the others is at most `b + 1e-9` goes).
+    pub fn reduce(&mut self, poly: &Poly) -> Poly {
+        let d = poly.centre.len();
+        let (mut a, mut b) = (poly.a.clone(), poly.b.clone());
+        let mut i = 0;
+        while i < b.len() {
+            let row: Vec<f64> = a[i * d..(i + 1) * d].to_vec();
+            let (mn, mx) = range(&row, &poly.lo, &poly.hi);
+            let redundant = if mx < b[i] - 1e-10 {
+                true
+            } else if mn > b[i] {
+                false
+            } else {
+                let mut ra = a.clone();
+                ra.drain(i * d..(i + 1) * d);
+                let mut rb = b.clone();
+                rb.remove(i);
+                // Bounded: the cube's rows stay unless redundant.
+                match self.max_until(&row, &ra, &rb, &poly.centre, b[i] + 1e-9) {
+                    Some(v) => v <= b[i] + 1e-9,
+                    None => false,
+                }
+            };
+            if redundant {
+                a.drain(i * d..(i + 1) * d);
+                b.remove(i);
+            } else {
+                i += 1;
+            }
+        }
+        Poly {
+            a,
+            b,
+            ..poly.clone()
+        }
     }
 
     /// The largest ball in `{a x <= b}` (unit rows), from `start`.

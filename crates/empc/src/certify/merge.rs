@@ -176,6 +176,7 @@ impl Merger<'_, '_, '_> {
             flops: 0,
             path: Vec::new(),
             start: 0,
+            mixed: false,
         })
     }
 
@@ -512,6 +513,7 @@ pub(super) fn certify_merged(
     let p = par.p();
     let mut cold = Model::new(par, p, settings.qp).ok_or(CertifyError::NotPositiveDefinite)?;
     cold.merge = true;
+    cold.canonical = true;
     let mut ctx = Ctx::new(settings, progress);
     let started = ctx.started;
     let mut geo = Geometry::new(settings.min_radius);
@@ -548,6 +550,7 @@ pub(super) fn certify_merged(
             let mut wm =
                 Model::new(par, 2 * p, settings.qp).ok_or(CertifyError::NotPositiveDefinite)?;
             wm.merge = true;
+            wm.canonical = true;
             let sets: Vec<Key> = m.finals.iter().cloned().collect();
             // A cut chain left the cold solves below it unexplored: their
             // optimal sets may be missing from the start sets.
@@ -655,6 +658,7 @@ fn finish(
         any_order: false,
         lps,
         canonical_states: m.pieces.len(),
+        union: None,
         elapsed: t0.elapsed(),
         finals: m.finals.iter().cloned().collect(),
         leaves: Vec::new(),

@@ -41,6 +41,7 @@ mod settings;
 mod step;
 #[cfg(test)]
 mod tests;
+mod union;
 mod warm;
 
 pub use error::CertifyError;
@@ -51,6 +52,7 @@ pub use model::constraint_name;
 pub use report::{Certificate, Certification, RegionReport};
 pub use settings::{CertifySettings, Progress};
 pub use step::{Change, Status};
+pub use union::{UnionLevel, UnionStats};
 
 use explore::{Ctx, Tally, run};
 use geometry::{Geometry, Poly};
@@ -75,7 +77,9 @@ pub fn certify(
         return merge::certify_merged(&par, settings, progress);
     }
     let p = par.p();
-    let cold_model = Model::new(&par, p, settings.qp).ok_or(CertifyError::NotPositiveDefinite)?;
+    let mut cold_model =
+        Model::new(&par, p, settings.qp).ok_or(CertifyError::NotPositiveDefinite)?;
+    cold_model.canonical = settings.union_merge;
     let mut ctx = Ctx::new(settings, progress);
     let started = ctx.started;
     let mut geo = Geometry::new(settings.min_radius);
@@ -91,8 +95,9 @@ pub fn certify(
         flops: flops::preamble(n),
         path: Vec::new(),
         start: 0,
+        mixed: false,
     };
-    if settings.estimate_probes > 0 {
+    if settings.estimate_probes > 0 && !settings.union_merge {
         let e = estimate::estimate(&cold_model, &mut geo, &root, settings.estimate_probes)?;
         let report = Progress {
             estimate: Some(e),
@@ -113,9 +118,31 @@ pub fn certify(
     }
     let mut cold = Tally::default();
     let lps0 = geo.lps;
-    run(&cold_model, &mut geo, root, &mut ctx, &mut cold, true)?;
+    let mut stats = UnionStats::default();
+    let explore = |model: &Model,
+                   geo: &mut Geometry,
+                   root: Node,
+                   ctx: &mut Ctx<'_>,
+                   tally: &mut Tally,
+                   finals: bool,
+                   stats: &mut UnionStats| {
+        if settings.union_merge {
+            union::run_union(model, geo, root, ctx, tally, finals, stats)
+        } else {
+            run(model, geo, root, ctx, tally, finals)
+        }
+    };
+    explore(
+        &cold_model,
+        &mut geo,
+        root,
+        &mut ctx,
+        &mut cold,
+        true,
+        &mut stats,
+    )?;
     let cold_time = started.elapsed();
-    let cold_cert = report::certificate(
+    let mut cold_cert = report::certificate(
         &cold_model,
         &par,
         cold,
@@ -124,14 +151,18 @@ pub fn certify(
         geo.lps - lps0,
         cold_time,
     );
+    if settings.union_merge {
+        cold_cert.union = Some(std::mem::take(&mut stats));
+    }
     let warm = match settings.warm_step {
         None => None,
         Some(step) => {
             let finals = cold_cert.finals.clone();
             let t0 = Instant::now();
             let lps0 = geo.lps;
-            let model =
+            let mut model =
                 Model::new(&par, 2 * p, settings.qp).ok_or(CertifyError::NotPositiveDefinite)?;
+            model.canonical = settings.union_merge;
             ctx.phase = "warm";
             ctx.sets_total = finals.len();
             let mut tally = Tally::default();
@@ -151,7 +182,9 @@ pub fn certify(
                     let root = warm_root(&model, &order, poly.clone(), orders.len(), n);
                     orders.push(order);
                     regions.push((poly.a.clone(), poly.b.clone()));
-                    run(&model, &mut geo, root, &mut ctx, &mut tally, false)?;
+                    explore(
+                        &model, &mut geo, root, &mut ctx, &mut tally, false, &mut stats,
+                    )?;
                 }
             }
             let mut cert = report::certificate(
@@ -164,6 +197,9 @@ pub fn certify(
                 t0.elapsed(),
             );
             cert.any_order = settings.warm_any_order;
+            if settings.union_merge {
+                cert.union = Some(std::mem::take(&mut stats));
+            }
             cert.start_sets = finals.len();
             Some(cert)
         }

@@ -66,6 +66,9 @@ pub(super) struct Model {
     /// could ([`Self::position`]), and a full dual step stops at its
     /// canonical state.
     pub merge: bool,
+    /// A full dual step stops at its canonical state
+    /// ([`super::step::Outcome::Canonical`]): merged and union-merge modes.
+    pub canonical: bool,
 }
 
 impl Model {
@@ -132,15 +135,17 @@ impl Model {
             equality,
             settings,
             merge: false,
+            canonical: false,
         })
     }
 
     /// The solver position the flop model charges for removing list
-    /// position `p`: `p` itself, or 0 in merged mode (the solver's order is
-    /// unknown there; removing the first position costs the most and
-    /// invalidates the whole kept forward solve).
-    pub fn position(&self, p: usize) -> usize {
-        if self.merge { 0 } else { p }
+    /// position `p`: `p` itself, or 0 in merged mode and on a region whose
+    /// list order is one of several (`mixed`, union-merge mode): the
+    /// solver's order is unknown there; removing the first position costs
+    /// the most and invalidates the whole kept forward solve.
+    pub fn position(&self, p: usize, mixed: bool) -> usize {
+        if self.merge || mixed { 0 } else { p }
     }
 
     /// The active bound of constraint `j` on side `code`.

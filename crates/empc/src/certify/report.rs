@@ -91,6 +91,9 @@ pub struct Certificate {
     /// `regions` counts the bounds memoised, `histogram` is empty and the
     /// worst region's `path` is the chain of the bound, without a point).
     pub canonical_states: usize,
+    /// Union-merge mode ([`crate::certify::CertifySettings::union_merge`]):
+    /// what the merging did (`None` otherwise).
+    pub union: Option<super::union::UnionStats>,
     /// Time taken.
     pub elapsed: Duration,
     /// Cold: the optimal active sets found (sorted); warm: the start sets.
@@ -177,6 +180,7 @@ pub(super) fn certificate(
         any_order: false,
         lps,
         canonical_states: 0,
+        union: None,
         elapsed,
         finals,
         leaves: tally.leaves,
@@ -311,6 +315,19 @@ impl Certificate {
         if !self.exact {
             doc["canonical_states"] = json!(self.canonical_states);
         }
+        if let Some(u) = &self.union {
+            doc["union_merge"] = json!({
+                "pairs_tested": u.pairs_tested,
+                "merges": u.merges,
+                "flops_exact": u.flops_exact(),
+                "levels": u.levels.iter().map(|l| json!({
+                    "iterations": l.iterations,
+                    "canonical": l.canonical,
+                    "groups": l.groups,
+                    "merged": l.merged,
+                })).collect::<Vec<_>>(),
+            });
+        }
         doc
     }
 }
@@ -335,12 +352,17 @@ impl fmt::Display for Certificate {
                 self.start_sets
             )?,
         }
+        let flops_bound = self.union.as_ref().is_some_and(|u| !u.flops_exact());
         writeln!(
             f,
             "  worst case: {} iterations, {} flops ({})",
             self.worst_iterations,
             self.worst_flops,
-            if self.exact { "exact" } else { "upper bound" }
+            match (self.exact, flops_bound) {
+                (false, _) => "upper bound",
+                (true, false) => "exact",
+                (true, true) => "iterations exact, flops an upper bound",
+            }
         )?;
         let hist: Vec<String> = self
             .histogram
@@ -375,6 +397,15 @@ impl fmt::Display for Certificate {
             self.lps,
             self.elapsed.as_secs_f64()
         )?;
+        if let Some(u) = &self.union {
+            let canonical: usize = u.levels.iter().map(|l| l.canonical).sum();
+            let merged: usize = u.levels.iter().map(|l| l.merged).sum();
+            writeln!(
+                f,
+                "  union merge: {canonical} regions at canonical states -> {merged} ({} merges of {} pairs tested)",
+                u.merges, u.pairs_tested
+            )?;
+        }
         if let Some(w) = &self.worst {
             writeln!(f, "  worst region: theta = {}", fmt_vec(&w.theta))?;
             if let Some(tp) = &w.theta_prev {

@@ -46,6 +46,18 @@ pub struct CertifySettings {
     /// tighter and slower. docs/qp-certify.md. Default `None` (the exact
     /// partition).
     pub merge: Option<usize>,
+    /// Exact certification with regions merged: explored breadth first by
+    /// iteration count, the regions reaching the same canonical solver
+    /// state (active set after a full dual step) after the same count are
+    /// merged wherever their union is convex (module `union`,
+    /// docs/qp-certify.md). Iterations stay exact; the flops become an
+    /// upper bound where merged regions' flops or list orders differed
+    /// (unless [`Self::union_exact_flops`]). No up-front estimate. Default
+    /// off.
+    pub union_merge: bool,
+    /// With [`Self::union_merge`]: merge only regions with the same list
+    /// order and flops (exact flops, fewer merges). Default off.
+    pub union_exact_flops: bool,
 }
 
 impl Default for CertifySettings {
@@ -60,6 +72,8 @@ impl Default for CertifySettings {
             estimate_probes: 64,
             keep_regions: true,
             merge: None,
+            union_merge: false,
+            union_exact_flops: false,
         }
     }
 }
@@ -88,6 +102,9 @@ impl CertifySettings {
         }
         if self.merge == Some(0) {
             return bad("merge must be at least 1 segment of history");
+        }
+        if self.merge.is_some() && self.union_merge {
+            return bad("merge and union_merge exclude each other");
         }
         if self.merge.is_some() && self.warm_any_order {
             return bad("merge does not support warm_any_order");

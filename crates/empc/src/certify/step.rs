@@ -19,7 +19,7 @@
 
 use super::error::CertifyError;
 use super::flops;
-use super::geometry::{Geometry, Half, Poly, half, half_tie, minus, size};
+use super::geometry::{Geometry, Half, Poly, half, half_tie, identical, minus, size};
 use super::model::{EQUALITY, Model, UPPER, axpy, sign};
 
 /// One active-set change of a path.
@@ -76,6 +76,12 @@ pub(super) struct Node {
     pub path: Vec<Change>,
     /// Index of the warm-start set (0 for a cold start).
     pub start: usize,
+    /// Union-merge mode (`crate::certify::union`): the region merges
+    /// pieces whose active lists had different orders (this one or an
+    /// ancestor), so the list is one member's order: a removal is charged
+    /// its most flops, and an order-decided tie is counted in
+    /// [`Geometry::order_ties`].
+    pub mixed: bool,
 }
 
 /// A piece of a split region.
@@ -178,7 +184,7 @@ pub(super) fn expand(
                 }
                 let mut child = node.clone();
                 // The earlier positions do not block, `p` and later may.
-                let at = model.position(p);
+                let at = model.position(p, node.mixed);
                 child.flops += top
                     + flops::blocking(0, (cands.len() - t) as u64)
                     + flops::dual_step(k as u64)
@@ -238,6 +244,9 @@ pub(super) fn expand(
                     .map(|(a, b)| sk * (a * w[j] - b * w[i]))
                     .collect();
                 let sc = size(&cur[i]) * w[j].abs() + size(&cur[j]) * w[i].abs();
+                if node.mixed && identical(&f, sc) {
+                    geo.order_ties += 1;
+                }
                 hs.push(half_tie(&f, j < i, sc, model.merge));
             }
             if let Some(poly) = geo.restrict(&node.poly, &hs) {
@@ -251,7 +260,7 @@ pub(super) fn expand(
                 let t: Vec<f64> = node.mu[i].iter().map(|x| -x / v[i]).collect();
                 let mu = moved(&node.mu, &t, &v, i);
                 let mut child = node.clone();
-                let at = model.position(i);
+                let at = model.position(i, node.mixed);
                 child.flops += top
                     + flops::blocking(0, cands.len() as u64)
                     + flops::dual_step(k as u64)
@@ -274,7 +283,7 @@ pub(super) fn expand(
     node.dual = true;
     node.flops += top;
     node.fwd = k;
-    if model.merge {
+    if model.canonical {
         out.push(Outcome::Canonical(node));
     } else {
         add_step(model, geo, node, out);
@@ -406,18 +415,18 @@ fn singular_step(
             .enumerate()
             .filter(|&(u, _)| u != t)
             .map(|(u, &(j, _))| {
-                half_tie(
-                    &minus(&tau[t], &tau[u]),
-                    j < i,
-                    size(&tau[t]) + size(&tau[u]),
-                    model.merge,
-                )
+                let f = minus(&tau[t], &tau[u]);
+                let sc = size(&tau[t]) + size(&tau[u]);
+                if node.mixed && identical(&f, sc) {
+                    geo.order_ties += 1;
+                }
+                half_tie(&f, j < i, sc, model.merge)
             })
             .collect();
         if let Some(poly) = geo.restrict(&node.poly, &hs) {
             let mu = moved(&node.mu, &tau[t], &step, i);
             let mut child = node.clone();
-            let at = model.position(i);
+            let at = model.position(i, node.mixed);
             child.flops += flops::singular(k as u64, free as u64, cands.len() as u64)
                 + flops::remove(k as u64, at as u64);
             child.fwd = child.fwd.min(at);

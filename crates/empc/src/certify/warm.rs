@@ -110,5 +110,6 @@ pub(super) fn warm_root(model: &Model, set: &[(usize, u8)], poly: Poly, id: usiz
         flops,
         path: Vec::new(),
         start: id,
+        mixed: false,
     }
 }
