@@ -636,9 +636,11 @@ fn union_merge_equals_the_exact_certificate() {
 }
 
 /// The union-merge certificate of the larger problem on a scaled box
-/// (`KESTREL_UNION_SCALE`, default 0.2; `KESTREL_UNION_EXACT_FLOPS=1`;
+/// (`KESTREL_UNION_SCALE`, default 0.2;
 /// `KESTREL_UNION_WARM=0.05` also warm; `KESTREL_UNION_COMPARE=1` also
-/// the exact enumeration): regions and merges per iteration count.
+/// the exact enumeration; `KESTREL_UNION_TIME` seconds, default none;
+/// `KESTREL_UNION_MAX_REGIONS`, default 2,000,000): regions and merges per
+/// iteration count.
 #[test]
 #[ignore]
 fn union_experiment() {
@@ -650,13 +652,14 @@ fn union_experiment() {
     p.scale_parameter_box(scale);
     let settings = CertifySettings {
         union_merge: true,
-        union_exact_flops: env("KESTREL_UNION_EXACT_FLOPS").is_some(),
         warm_step: env("KESTREL_UNION_WARM").and_then(|s| s.parse().ok()),
         keep_regions: false,
         time_limit: env("KESTREL_UNION_TIME")
             .and_then(|s| s.parse().ok())
             .map(std::time::Duration::from_secs),
-        max_regions: 20_000_000,
+        max_regions: env("KESTREL_UNION_MAX_REGIONS")
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(2_000_000),
         ..CertifySettings::default()
     };
     let mut last = 0.0;

@@ -52,12 +52,9 @@ pub struct CertifySettings {
     /// merged wherever their union is convex (module `union`,
     /// docs/qp-certify.md). Iterations stay exact; the flops become an
     /// upper bound where merged regions' flops or list orders differed
-    /// (unless [`Self::union_exact_flops`]). No up-front estimate. Default
-    /// off.
+    /// ([`crate::certify::UnionStats::flops_exact`]). No up-front
+    /// estimate. Default off.
     pub union_merge: bool,
-    /// With [`Self::union_merge`]: merge only regions with the same list
-    /// order and flops (exact flops, fewer merges). Default off.
-    pub union_exact_flops: bool,
 }
 
 impl Default for CertifySettings {
@@ -73,7 +70,6 @@ impl Default for CertifySettings {
             keep_regions: true,
             merge: None,
             union_merge: false,
-            union_exact_flops: false,
         }
     }
 }

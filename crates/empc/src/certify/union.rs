@@ -20,8 +20,9 @@
 //! is charged its most flops (the flops become an upper bound) and an
 //! order-decided tie (two identical functions compared) is counted in
 //! [`Geometry::order_ties`], which makes the certification fail rather
-//! than guess. With `union_exact_flops` the groups are keyed by the
-//! ordered list and the flops too: flops exact, fewer merges.
+//! than guess. (Keying the groups by the ordered list and the flops too,
+//! for exact flops, merged nothing on the larger problem: one ordered
+//! list at one count is one path, so one region.)
 
 use super::error::CertifyError;
 use super::explore::{Ctx, Tally, limit, progress};
@@ -37,8 +38,7 @@ pub struct UnionLevel {
     pub iterations: usize,
     /// Regions at a canonical state with this count (before merging).
     pub canonical: usize,
-    /// Distinct groups (active set, warm start set; with exact flops also
-    /// the list order and the flops).
+    /// Distinct groups (active set and warm start set).
     pub groups: usize,
     /// Regions left after merging.
     pub merged: usize,
@@ -68,9 +68,8 @@ impl UnionStats {
     }
 }
 
-/// A group's key: warm start set, sorted active set, and (exact flops)
-/// the ordered list and the flops.
-type GroupKey = (usize, Vec<(usize, u8)>, Vec<(usize, u8)>, u64);
+/// A group's key: warm start set and sorted active set.
+type GroupKey = (usize, Vec<(usize, u8)>);
 
 /// Quantised row (unit normal and offset) for finding shared facets.
 fn qkey(row: &[f64], b: f64, sign: f64) -> Vec<i64> {
@@ -238,7 +237,6 @@ pub(super) fn run_union(
     collect_finals: bool,
     stats: &mut UnionStats,
 ) -> Result<(), CertifyError> {
-    let exact_flops = ctx.settings.union_exact_flops;
     let mut levels: BTreeMap<usize, Vec<Node>> = BTreeMap::new();
     let mut open = 1usize;
     levels.entry(root.iterations).or_default().push(root);
@@ -282,12 +280,7 @@ pub(super) fn run_union(
                         canonical += 1;
                         let mut set = n.active.clone();
                         set.sort_unstable();
-                        let key = if exact_flops {
-                            (n.start, set, n.active.clone(), n.flops)
-                        } else {
-                            (n.start, set, Vec::new(), 0)
-                        };
-                        groups.entry(key).or_default().push(n);
+                        groups.entry((n.start, set)).or_default().push(n);
                     }
                 }
             }
@@ -325,7 +318,7 @@ pub(super) fn run_union(
         if geo.order_ties > 0 {
             return Err(CertifyError::Numerical(format!(
                 "{} comparisons of identical functions decided by the list order on merged \
-                 regions of different orders (use the exact mode, or exact flops)",
+                 regions of different orders (use the exact mode)",
                 geo.order_ties
             )));
         }
