@@ -47,7 +47,7 @@ pub struct UnionLevel {
 /// What the union merging did ([`crate::certify::CertifySettings::union_merge`]).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct UnionStats {
-    /// Per iteration count.
+    /// Per iteration count (warm: summed over the start sets).
     pub levels: Vec<UnionLevel>,
     /// Pairs whose union was tested for convexity (LPs).
     pub pairs_tested: usize,
@@ -312,8 +312,18 @@ pub(super) fn run_union(
                 }
             }
         }
-        if level.canonical > 0 {
-            stats.levels.push(level);
+        // Warm: one run per start set, the counts added up.
+        match stats.levels.iter_mut().find(|l| l.iterations == t) {
+            Some(l) => {
+                l.canonical += level.canonical;
+                l.groups += level.groups;
+                l.merged += level.merged;
+            }
+            None if level.canonical > 0 => {
+                stats.levels.push(level);
+                stats.levels.sort_by_key(|l| l.iterations);
+            }
+            None => {}
         }
         if geo.order_ties > 0 {
             return Err(CertifyError::Numerical(format!(
