@@ -106,11 +106,11 @@ fi
 "$CC" -O3 -fassociative-math -fno-signed-zeros -fno-trapping-math \
     -I "$DAQP_SRC/csrc/include" -o "$OUT/daqp_bench" \
     benches/daqp/daqp_bench.c "$DAQP_SRC"/csrc/src/*.c -lm
-if [[ ! -x "$OUT/qpoases_bench" || benches/qpoases/qpoases_bench.cpp -nt "$OUT/qpoases_bench" ]]; then
+if [[ ! -x "$OUT/qpoases_bench" || benches/qpoases/qpoases_bench.cpp -nt "$OUT/qpoases_bench" || benches/harness/bench_io.h -nt "$OUT/qpoases_bench" ]]; then
     "$CXX" -O3 -DLINUX -DSOLVER_NONE -D__NO_COPYRIGHT__ -I "$QPOASES_SRC/include" \
         -o "$OUT/qpoases_bench" benches/qpoases/qpoases_bench.cpp "$QPOASES_SRC"/src/*.cpp -lm
 fi
-if [[ ! -x "$OUT/tinympc_bench" || benches/tinympc/tinympc_bench.cpp -nt "$OUT/tinympc_bench" ]]; then
+if [[ ! -x "$OUT/tinympc_bench" || benches/tinympc/tinympc_bench.cpp -nt "$OUT/tinympc_bench" || benches/harness/bench_io.h -nt "$OUT/tinympc_bench" ]]; then
     mkdir -p "$OUT/tinympc-src"
     cp "$TINYMPC_SRC"/src/tinympc/*.cpp "$TINYMPC_SRC"/src/tinympc/*.hpp "$OUT/tinympc-src/"
     sed -i '/std::cout << "Solver converged in "/d' "$OUT/tinympc-src/admm.cpp"

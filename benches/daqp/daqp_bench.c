@@ -32,14 +32,11 @@
 #include "constants.h"
 #include "types.h"
 
+#include "../harness/bench_io.h"
+
 static double *read_vec(FILE *f, int len) {
     double *v = calloc(len > 0 ? (size_t)len : 1, sizeof(double));
-    for (int i = 0; i < len; i++) {
-        if (fscanf(f, "%lf", &v[i]) != 1) {
-            fprintf(stderr, "daqp_bench: malformed input\n");
-            exit(2);
-        }
-    }
+    bench_read_into(f, v, len, "daqp_bench");
     return v;
 }
 
@@ -54,22 +51,8 @@ static int cmp_long(const void *a, const void *b) {
     return (x > y) - (x < y);
 }
 
-static long now_ns(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (long)t.tv_sec * 1000000000L + t.tv_nsec;
-}
-
 int main(int argc, char **argv) {
-    if (argc != 2) {
-        fprintf(stderr, "usage: daqp_bench <problems.txt>\n");
-        return 2;
-    }
-    FILE *f = fopen(argv[1], "r");
-    if (!f) {
-        perror(argv[1]);
-        return 2;
-    }
+    FILE *f = bench_open_input(argc, argv, "daqp_bench", "<problems.txt>");
     char name[256];
     int n, m, sets;
     while (fscanf(f, "%255s %d %d %d", name, &n, &m, &sets) == 4) {
@@ -123,7 +106,7 @@ int main(int argc, char **argv) {
                 memset(&res, 0, sizeof res);
                 res.x = x;
                 res.lam = lam;
-                long t0 = now_ns();
+                long t0 = bench_now_ns();
                 memcpy(fv, q, n * sizeof(double));
                 for (int i = 0; i < n; i++) {
                     bl[i] = clamp_inf(lb[i]);
@@ -136,7 +119,7 @@ int main(int argc, char **argv) {
                 if (cold) daqp_deactivate_constraints(work);
                 int flag = daqp_update_ldp(DAQP_UPDATE_v | DAQP_UPDATE_d, work, &qp);
                 if (flag >= 0) daqp_solve(&res, work);
-                long t1 = now_ns();
+                long t1 = bench_now_ns();
                 ns[k] = t1 - t0;
                 if (flag < 0 || res.exitflag != DAQP_EXIT_OPTIMAL) {
                     failures++;
@@ -180,8 +163,8 @@ int main(int argc, char **argv) {
         enum { K = 100000 };
         static long e[K];
         for (int k = 0; k < K; k++) {
-            long t0 = now_ns();
-            e[k] = now_ns() - t0;
+            long t0 = bench_now_ns();
+            e[k] = bench_now_ns() - t0;
         }
         qsort(e, K, sizeof(long), cmp_long);
         printf("timer %ld\n", e[K / 2]);

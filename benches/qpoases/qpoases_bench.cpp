@@ -41,16 +41,13 @@
 #include <ctime>
 #include <vector>
 
+#include "../harness/bench_io.h"
+
 USING_NAMESPACE_QPOASES
 
 static std::vector<double> read_vec(FILE *f, int len) {
     std::vector<double> v(len > 0 ? len : 0);
-    for (int i = 0; i < len; i++) {
-        if (fscanf(f, "%lf", &v[i]) != 1) {
-            fprintf(stderr, "qpoases_bench: malformed input\n");
-            exit(2);
-        }
-    }
+    bench_read_into(f, v.data(), len, "qpoases_bench");
     return v;
 }
 
@@ -58,12 +55,6 @@ static double clamp_inf(double v) {
     if (v >= INFTY) return INFTY;
     if (v <= -INFTY) return -INFTY;
     return v;
-}
-
-static long now_ns(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (long)t.tv_sec * 1000000000L + t.tv_nsec;
 }
 
 struct Sample {
@@ -151,15 +142,7 @@ struct Solver {
 static const int_t NWSR_CAP = 10000;
 
 int main(int argc, char **argv) {
-    if (argc != 2) {
-        fprintf(stderr, "usage: qpoases_bench <problems.txt>\n");
-        return 2;
-    }
-    FILE *f = fopen(argv[1], "r");
-    if (!f) {
-        perror(argv[1]);
-        return 2;
-    }
+    FILE *f = bench_open_input(argc, argv, "qpoases_bench", "<problems.txt>");
     char name[256];
     int n, m, sets;
     while (fscanf(f, "%255s %d %d %d", name, &n, &m, &sets) == 4) {
@@ -210,10 +193,10 @@ int main(int argc, char **argv) {
                         int_t nwsr = NWSR_CAP;
                         sv.init(origin, nwsr); /* untimed: the empty working set */
                         nwsr = NWSR_CAP;
-                        long t0 = now_ns();
+                        long t0 = bench_now_ns();
                         returnValue r = sv.hotstart(smp[k], nwsr);
                         sv.solution(x.data());
-                        long t1 = now_ns();
+                        long t1 = bench_now_ns();
                         hot.add(t1 - t0, r == SUCCESSFUL_RETURN, (int)nwsr, x.data(),
                                 smp[k].z.data(), n);
                     }
@@ -222,10 +205,10 @@ int main(int argc, char **argv) {
                     for (int k = 0; k < count; k++) {
                         sv.fresh(); /* untimed: a constructed, uninitialised object */
                         int_t nwsr = NWSR_CAP;
-                        long t0 = now_ns();
+                        long t0 = bench_now_ns();
                         returnValue r = sv.init(smp[k], nwsr);
                         sv.solution(x.data());
-                        long t1 = now_ns();
+                        long t1 = bench_now_ns();
                         init.add(t1 - t0, r == SUCCESSFUL_RETURN, (int)nwsr, x.data(),
                                  smp[k].z.data(), n);
                     }
@@ -237,10 +220,10 @@ int main(int argc, char **argv) {
                     sv.init(origin, nwsr); /* the walk starts from the empty set */
                     for (int k = 0; k < count; k++) {
                         nwsr = NWSR_CAP;
-                        long t0 = now_ns();
+                        long t0 = bench_now_ns();
                         returnValue r = sv.hotstart(smp[k], nwsr);
                         sv.solution(x.data());
-                        long t1 = now_ns();
+                        long t1 = bench_now_ns();
                         warm.add(t1 - t0, r == SUCCESSFUL_RETURN, (int)nwsr, x.data(),
                                  smp[k].z.data(), n);
                         if (r != SUCCESSFUL_RETURN) {

@@ -47,21 +47,12 @@
 #include <ctime>
 #include <vector>
 
+#include "../harness/bench_io.h"
+
 static std::vector<double> read_vec(FILE *f, int len) {
     std::vector<double> v(len > 0 ? len : 0);
-    for (int i = 0; i < len; i++) {
-        if (fscanf(f, "%lf", &v[i]) != 1) {
-            fprintf(stderr, "tinympc_bench: malformed input\n");
-            exit(2);
-        }
-    }
+    bench_read_into(f, v.data(), len, "tinympc_bench");
     return v;
-}
-
-static long now_ns(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (long)t.tv_sec * 1000000000L + t.tv_nsec;
 }
 
 struct Config {
@@ -80,15 +71,7 @@ static void reset(TinyWorkspace *w) {
 }
 
 int main(int argc, char **argv) {
-    if (argc != 2) {
-        fprintf(stderr, "usage: tinympc_bench <problem.txt>\n");
-        return 2;
-    }
-    FILE *f = fopen(argv[1], "r");
-    if (!f) {
-        perror(argv[1]);
-        return 2;
-    }
+    FILE *f = bench_open_input(argc, argv, "tinympc_bench", "<problem.txt>");
     char name[256];
     int nx, nu, N;
     double rho;
@@ -144,14 +127,14 @@ int main(int argc, char **argv) {
                     const double *smp = all.data() + (size_t)k * per;
                     const double *x0 = smp, *lo = smp + nx, *hi = smp + nx + nz;
                     const double *z = smp + nx + 2 * nz;
-                    long t0 = now_ns();
+                    long t0 = bench_now_ns();
                     w->x.col(0) = Eigen::Map<const tinyVector>(x0, nx);
                     w->u_min = Eigen::Map<const tinyMatrix>(lo, nu, N - 1);
                     w->u_max = Eigen::Map<const tinyMatrix>(hi, nu, N - 1);
                     if (cold) reset(w);
                     int flag = tiny_solve(solver);
                     Eigen::Map<tinyMatrix>(u.data(), nu, N - 1) = solver->solution->u;
-                    long t1 = now_ns();
+                    long t1 = bench_now_ns();
                     ns[k] = t1 - t0;
                     if (flag != 0) unconverged++;
                     iter_sum += solver->solution->iter;
