@@ -68,6 +68,11 @@ fn bad_flags_and_limits_are_clear_errors() {
     assert!(!ok && err.contains("--box-scale"), "{err}");
     let (ok, _, err) = kestrel(&["qp", "certify", p, "--max-regions", "10"]);
     assert!(!ok && err.contains("is estimated at"), "{err}");
+    // The merged exact mode is refused up front too (its breadth-first
+    // frontier would otherwise grow until the limits stop it).
+    let args = ["qp", "certify", p, "--max-regions", "10", "--exact-merge"];
+    let (ok, _, err) = kestrel(&args);
+    assert!(!ok && err.contains("is estimated at"), "{err}");
     let args = [
         "qp",
         "certify",

@@ -83,7 +83,6 @@ pub fn certify(
     let p = par.p();
     let mut cold_model =
         Model::new(&par, p, settings.qp).ok_or(CertifyError::NotPositiveDefinite)?;
-    cold_model.canonical = settings.union_merge;
     let mut ctx = Ctx::new(settings, progress);
     let started = ctx.started;
     let mut geo = Geometry::new(settings.min_radius);
@@ -101,7 +100,11 @@ pub fn certify(
         start: 0,
         mixed: false,
     };
-    if settings.estimate_probes > 0 && !settings.union_merge {
+    // The estimate walks the exact partition (no canonical stops); in
+    // union-merge mode that partition bounds the merged one from above (the
+    // merging keeps 1/3 to 1/2 of its regions on the measured problems), so
+    // the same limits refuse a box before its frontier fills the memory.
+    if settings.estimate_probes > 0 {
         let e = estimate::estimate(&cold_model, &mut geo, &root, settings.estimate_probes)?;
         let report = Progress {
             estimate: Some(e),
@@ -120,6 +123,7 @@ pub fn certify(
             });
         }
     }
+    cold_model.canonical = settings.union_merge;
     let mut cold = Tally::default();
     let lps0 = geo.lps;
     let mut stats = UnionStats::default();

@@ -226,6 +226,21 @@ fn merge_group(geo: &mut Geometry, members: Vec<Node>, stats: &mut UnionStats) -
     nodes.into_iter().flatten().collect()
 }
 
+/// The most numbers the open regions may hold (4 GB of `f64`, the limit of
+/// the merged mode's stored pieces) before [`CertifyError::Limit`]: the
+/// breadth-first frontier keeps every region of a count in memory.
+const MAX_OPEN_NUMBERS: usize = 500_000_000;
+
+/// The numbers a region keeps: its rows, box and ball, its multipliers.
+fn numbers(n: &Node) -> usize {
+    let p = &n.poly;
+    p.a.len()
+        + p.b.len()
+        + p.centre.len()
+        + 2 * p.lo.len()
+        + n.mu.iter().map(Vec::len).sum::<usize>()
+}
+
 /// Explores every region below `root` breadth first by iteration count,
 /// merging each count's canonical regions by group.
 pub(super) fn run_union(
@@ -239,6 +254,7 @@ pub(super) fn run_union(
 ) -> Result<(), CertifyError> {
     let mut levels: BTreeMap<usize, Vec<Node>> = BTreeMap::new();
     let mut open = 1usize;
+    let mut stored = numbers(&root);
     levels.entry(root.iterations).or_default().push(root);
     let mut out = Vec::new();
     let keep = ctx.settings.keep_regions;
@@ -247,9 +263,12 @@ pub(super) fn run_union(
         let mut canonical = 0usize;
         while let Some(node) = stack.pop() {
             open -= 1;
+            stored = stored.saturating_sub(numbers(&node));
             tally.nodes += 1;
             tally.deepest = tally.deepest.max(node.iterations);
-            if tally.regions + open + canonical > ctx.settings.max_regions {
+            if tally.regions + open + canonical > ctx.settings.max_regions
+                || stored > MAX_OPEN_NUMBERS
+            {
                 return Err(limit(ctx, tally, open + canonical, "region"));
             }
             if ctx
@@ -269,15 +288,18 @@ pub(super) fn run_union(
                 match o {
                     Outcome::Node(n) if n.iterations == t => {
                         open += 1;
+                        stored += numbers(&n);
                         stack.push(n);
                     }
                     Outcome::Node(n) => {
                         open += 1;
+                        stored += numbers(&n);
                         levels.entry(n.iterations).or_default().push(n);
                     }
                     Outcome::Leaf(n, s) => tally.record(n, s, keep, collect_finals),
                     Outcome::Canonical(n) => {
                         canonical += 1;
+                        stored += numbers(&n);
                         let mut set = n.active.clone();
                         set.sort_unstable();
                         groups.entry((n.start, set)).or_default().push(n);
@@ -292,6 +314,7 @@ pub(super) fn run_union(
             merged: 0,
         };
         for (_, members) in groups {
+            stored = stored.saturating_sub(members.iter().map(numbers).sum());
             for node in merge_group(geo, members, stats) {
                 level.merged += 1;
                 out.clear();
@@ -300,6 +323,7 @@ pub(super) fn run_union(
                     match o {
                         Outcome::Node(n) => {
                             open += 1;
+                            stored += numbers(&n);
                             levels.entry(n.iterations).or_default().push(n);
                         }
                         Outcome::Leaf(n, s) => tally.record(n, s, keep, collect_finals),
