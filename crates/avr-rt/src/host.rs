@@ -1,8 +1,10 @@
 //! Host-side tools for firmware built on this crate (feature `std`): the
 //! pinned AVR nightly's `cargo build` for a crate under `avr/`, a run of an
 //! ELF in simavr (ATmega2560 at 16 MHz) with its USART0 lines, the flash
-//! and RAM sizes `avr-size` reports, and which of the tools are installed.
-//! The hardware-in-the-loop tests of the workspace use them.
+//! and RAM sizes `avr-size` reports, which of the tools are installed, and
+//! a scan of an ELF for the pinned nightly's two known miscompilations
+//! ([`miscompile_scan`], [`assert_no_miscompile`]). The
+//! hardware-in-the-loop tests of the workspace use them.
 //!
 //! ```no_run
 //! use kestrel_avr_rt::host::{avr_cargo_build, avr_size, missing_tools, simavr};
@@ -18,6 +20,11 @@
 //! println!("{} lines, ended: {}, flash {} B", run.lines.len(), run.ended, avr_size(&elf).unwrap().flash);
 //! ```
 
+mod miscompile;
+
+pub use miscompile::{
+    MiscompileBug, MiscompileHit, assert_no_miscompile, miscompile_scan, scan_disassembly,
+};
 use std::io::Read;
 use std::path::Path;
 use std::process::{Command, Stdio};

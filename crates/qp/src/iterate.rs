@@ -126,10 +126,14 @@ impl<S: QpScalar> QpSolver<'_, S> {
     fn solve_mustar(&mut self) {
         let k = self.count;
         let c = self.n + 1;
-        for i in self.fwd_valid.min(k)..k {
-            let row = &self.lf[i * c..i * c + i];
-            let v = self.rhs[i] - dot(row, &self.fwd[..i]);
-            self.fwd[i] = v;
+        let first = self.fwd_valid.min(k);
+        // The rows of L by stepping through them, not at `i * c`: the pinned
+        // AVR nightly miscompiled that multiply (docs/avr-qp.md, bug 2).
+        for (i, row) in self.lf.chunks(c).enumerate().take(k) {
+            if i >= first {
+                let v = self.rhs[i] - dot(&row[..i], &self.fwd[..i]);
+                self.fwd[i] = v;
+            }
         }
         self.fwd_valid = k;
         let (fwd, df) = (&self.fwd[..k], &self.df[..k]);
