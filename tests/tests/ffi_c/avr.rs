@@ -87,39 +87,6 @@ fn build(law: &str, scalar: &str, design: &Path) -> std::path::PathBuf {
     })
 }
 
-/// Fails on the pinned nightly's AVR miscompilations (docs/avr-qp.md,
-/// `kestrel_avr_rt::host::miscompile_scan`) in the ELF's Rust half:
-/// kestrel-ffi's exports (`kestrel_*`, unmangled) and every mangled Rust
-/// function; avr-gcc's C code is printed, not failed on.
-fn assert_rust_not_miscompiled(elf: &Path) {
-    let hits = match kestrel_avr_rt::host::miscompile_scan(elf) {
-        Ok(hits) => hits,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            println!("note: avr-objdump not installed: the miscompile scan is skipped");
-            return;
-        }
-        Err(e) => panic!("miscompile scan of {}: {e}", elf.display()),
-    };
-    let (rust, c): (Vec<_>, Vec<_>) = hits
-        .iter()
-        .partition(|h| h.function.starts_with("kestrel_") || h.in_rust(&[]));
-    if !c.is_empty() {
-        // avr-gcc addresses its frames its own way; the scan's patterns
-        // are LLVM's, so these are not failed on.
-        println!(
-            "note: {} place(s) in avr-gcc's C code match the scan's patterns, not failed on",
-            c.len()
-        );
-    }
-    let list: Vec<String> = rust.iter().map(|h| format!("  {h}")).collect();
-    assert!(
-        list.is_empty(),
-        "{}: Rust code miscompiled by the pinned nightly:\n{}",
-        elf.display(),
-        list.join("\n")
-    );
-}
-
 /// Runs the ELF in simavr (at most 30 s: a crashed program leaves simavr
 /// waiting for a debugger); its USART0 lines, and whether it ended.
 fn simulate(elf: &Path) -> (Vec<String>, bool) {
@@ -180,7 +147,9 @@ fn check_scalar<S: Scalar, L: ControlLaw<Scalar = S> + LawInfo>(
     tolerance: u16,
 ) {
     let elf = build(law_name, scalar, design);
-    assert_rust_not_miscompiled(&elf);
+    // The pinned nightly's AVR miscompilations (docs/avr-qp.md) in the
+    // ELF's Rust half: kestrel-ffi's exports and every mangled function.
+    kestrel_avr_rt::host::assert_no_miscompile(&elf, |f| f.starts_with("kestrel_"));
     let scalar = &format!("{law_name} {scalar}");
     let started = Instant::now();
     let (lines, ended) = simulate(&elf);
