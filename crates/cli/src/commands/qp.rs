@@ -87,7 +87,8 @@ pub struct CertifyArgs {
     /// same active set after a full dual step with the same iteration count
     /// are merged where their union is convex (same exact worst-case
     /// iterations, fewer regions; the flops become an upper bound when
-    /// merged regions' orders differed). No up-front estimate.
+    /// merged regions' orders differed). Refused up front, as the exact
+    /// mode, when the estimate exceeds the limits.
     #[arg(long, conflicts_with = "merge")]
     pub exact_merge: bool,
 }

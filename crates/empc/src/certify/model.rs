@@ -62,9 +62,8 @@ pub(super) struct Model {
     pub settings: QpSettings,
     /// Merged mode (`crate::certify::merge`): the active list is a
     /// canonical order, not the solver's, so a tie between identical
-    /// functions takes both outcomes, a removal costs the most any position
-    /// could ([`Self::position`]), and a full dual step stops at its
-    /// canonical state.
+    /// functions takes both outcomes and a removal costs the most any
+    /// position could ([`Self::position`]); it sets [`Self::canonical`] too.
     pub merge: bool,
     /// A full dual step stops at its canonical state
     /// ([`super::step::Outcome::Canonical`]): merged and union-merge modes.

@@ -52,8 +52,9 @@ pub struct CertifySettings {
     /// merged wherever their union is convex (module `union`,
     /// docs/qp-certify.md). Iterations stay exact; the flops become an
     /// upper bound where merged regions' flops or list orders differed
-    /// ([`crate::certify::UnionStats::flops_exact`]). No up-front
-    /// estimate. Default off.
+    /// ([`crate::certify::UnionStats::flops_exact`]). The up-front
+    /// estimate (of the exact partition, which bounds the merged one) and
+    /// its limits apply as in the exact mode. Default off.
     pub union_merge: bool,
 }
 
