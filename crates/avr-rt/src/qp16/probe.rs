@@ -12,63 +12,18 @@
 //! assert_eq!(members(&[v]), (1, 1, [i32::MAX]));
 //! ```
 
-use super::sets::{self, Var};
+use super::sets;
 
-/// One variable's record as the pass routines see it (the fields of the
-/// per-set solver's record, same meaning).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct PassVar {
-    /// The unconstrained solution `w_unc` (raw Q15.16).
-    pub unc: i32,
-    /// The lower bound.
-    pub lo: i32,
-    /// The upper bound.
-    pub hi: i32,
-    /// The point.
-    pub w: i32,
-    /// The pass's multiplier of this variable's bound (a member).
-    pub star: i32,
-    /// The entry position plus one, 0 when inactive.
-    pub pos: u8,
-    /// The member's side code: bit 0 upper, bit 1 equal bounds.
-    pub code: u8,
-    /// The current multiplier of its bound.
-    pub nu: i32,
-}
-
-fn to_var(v: &PassVar) -> Var {
-    Var {
-        unc: v.unc,
-        lo: v.lo,
-        hi: v.hi,
-        w: v.w,
-        star: v.star,
-        pos: v.pos,
-        code: v.code,
-        nu: v.nu,
-    }
-}
-
-fn to_pass(v: &Var) -> PassVar {
-    PassVar {
-        unc: v.unc,
-        lo: v.lo,
-        hi: v.hi,
-        w: v.w,
-        star: v.star,
-        pos: v.pos,
-        code: v.code,
-        nu: v.nu,
-    }
-}
+/// One variable's record as the pass routines see it: the per-set
+/// solver's own record type (same layout, same meaning).
+pub use super::sets::Var as PassVar;
 
 /// The members' residuals `unc - (code bit 0 ? hi : lo)` (saturated) in
 /// increasing variable order: `(mask, count, residuals)` (entries past the
 /// count 0). `1 <= N <= 8` runs the AVR routine on the AVR.
 pub fn members<const N: usize>(var: &[PassVar; N]) -> (usize, usize, [i32; N]) {
-    let v: [Var; N] = core::array::from_fn(|i| to_var(&var[i]));
     let mut r = [0; N];
-    let (mask, q) = sets::members(&v, &mut r);
+    let (mask, q) = sets::members(var, &mut r);
     (mask, q, r)
 }
 
@@ -76,12 +31,7 @@ pub fn members<const N: usize>(var: &[PassVar; N]) -> (usize, usize, [i32; N]) {
 /// its `star`; returns the mask of the members with `code < 2` whose
 /// multiplier, negated (saturated) for a lower bound, is below `limit`.
 pub fn stars<const N: usize>(var: &mut [PassVar; N], out: &[i32; N], limit: i32) -> u32 {
-    let mut v: [Var; N] = core::array::from_fn(|i| to_var(&var[i]));
-    let cand = sets::stars(&mut v, out, limit);
-    for (p, x) in var.iter_mut().zip(&v) {
-        *p = to_pass(x);
-    }
-    cand
+    sets::stars(var, out, limit)
 }
 
 /// The point and the most violated bound for `tol >= 0` (`out[k..]` the
@@ -94,10 +44,5 @@ pub fn scan<const N: usize>(
     k: usize,
     tol: i32,
 ) -> (usize, u8) {
-    let mut v: [Var; N] = core::array::from_fn(|i| to_var(&var[i]));
-    let r = sets::scan(&mut v, out, k, tol);
-    for (p, x) in var.iter_mut().zip(&v) {
-        *p = to_pass(x);
-    }
-    r
+    sets::scan(var, out, k, tol)
 }

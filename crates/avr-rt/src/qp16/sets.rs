@@ -33,22 +33,29 @@ pub struct Qp16SetTables<const N: usize, const S: usize, const E: usize> {
 
 /// One variable's state, one record per variable so that the AVR pass
 /// routines (`qp16::sets_avr`) walk them with one pointer and fixed
-/// offsets: `unc` 0, `lo` 4, `hi` 8, `w` 12, `star` 16 (the pass's
-/// multiplier of this variable's bound while it is a member), `pos` 20
-/// (the entry position plus one, 0 when inactive), `code` 21 (the member's
-/// side code: bit 0 upper, bit 1 equal bounds), `nu` 22 (the current
-/// multiplier of its bound).
-#[derive(Clone, Copy, Debug, Default)]
+/// offsets (checked at compile time on the AVR). Public as
+/// [`super::probe::PassVar`] for the tests that run the pass routines on
+/// records of their own.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[repr(C)]
-pub(super) struct Var {
-    pub(super) unc: i32,
-    pub(super) lo: i32,
-    pub(super) hi: i32,
-    pub(super) w: i32,
-    pub(super) star: i32,
-    pub(super) pos: u8,
-    pub(super) code: u8,
-    pub(super) nu: i32,
+pub struct Var {
+    /// The unconstrained solution `w_unc` (raw Q15.16), offset 0.
+    pub unc: i32,
+    /// The lower bound, offset 4.
+    pub lo: i32,
+    /// The upper bound, offset 8.
+    pub hi: i32,
+    /// The point, offset 12.
+    pub w: i32,
+    /// The pass's multiplier of this variable's bound while it is a
+    /// member, offset 16.
+    pub star: i32,
+    /// The entry position plus one, 0 when inactive; offset 20.
+    pub pos: u8,
+    /// The member's side code: bit 0 upper, bit 1 equal bounds; offset 21.
+    pub code: u8,
+    /// The current multiplier of its bound, offset 22.
+    pub nu: i32,
 }
 
 #[cfg(target_arch = "avr")]
