@@ -85,7 +85,7 @@ pub(super) struct Poly {
 }
 
 /// The smallest and largest value of `a x` over the box `[lo, hi]`.
-fn range(a: &[f64], lo: &[f64], hi: &[f64]) -> (f64, f64) {
+pub(super) fn range(a: &[f64], lo: &[f64], hi: &[f64]) -> (f64, f64) {
     a.iter()
         .zip(lo.iter().zip(hi))
         .fold((0.0, 0.0), |(mn, mx), (&ak, (&l, &h))| {

@@ -26,7 +26,7 @@
 
 use super::error::CertifyError;
 use super::explore::{Ctx, Tally, limit, progress};
-use super::geometry::{Geometry, Poly};
+use super::geometry::{Geometry, Poly, range};
 use super::model::Model;
 use super::step::{Node, Outcome, add_step, expand};
 use std::collections::{BTreeMap, HashMap, VecDeque};
@@ -109,11 +109,7 @@ fn rows_valid_except(
         if same_plane(row, bi, h, c, sign) {
             continue;
         }
-        let (mut mx, mut mn) = (0.0, 0.0);
-        for ((&a, &l), &u) in row.iter().zip(&q.lo).zip(&q.hi) {
-            mx += (a * l).max(a * u);
-            mn += (a * l).min(a * u);
-        }
+        let (mn, mx) = range(row, &q.lo, &q.hi);
         if mn > bi + 1e-9 {
             return false;
         }
