@@ -153,11 +153,5 @@ fn table_read(t: &FarTable, i: u32) -> Option<[u8; 4]> {
 /// Sends `PANIC file line` and stops.
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
-    tx(b"PANIC ");
-    if let Some(l) = info.location() {
-        tx(l.file().as_bytes());
-        num(l.line());
-    }
-    tx(b"\n");
-    stop()
+    bench_uart::panic_report(info)
 }

@@ -1,6 +1,7 @@
 //! Transmit-only USART0 for the cycle benches that run in simavr
-//! (`avr/locate-bench`, `avr/qp-bench`): 250,000 baud 8N1 at 16 MHz,
-//! busy-waiting, numbers in decimal, and the end of a simulation.
+//! (`avr/locate-bench`, `avr/qp-bench`, the qp16 saturation test's
+//! program): 250,000 baud 8N1 at 16 MHz, busy-waiting, numbers in decimal,
+//! a panic report, and the end of a simulation.
 //!
 //! Not for flight firmware (it blocks on the data register); the example
 //! firmware has its own interrupt-driven framed protocol.
@@ -65,4 +66,16 @@ pub fn stop() -> ! {
     // SAFETY: disables interrupts and sleeps; nothing runs afterwards.
     unsafe { core::arch::asm!("cli", "sleep") };
     loop {}
+}
+
+/// Sends `PANIC file line` and ends the simulation: the body of a bench
+/// program's `#[panic_handler]`.
+pub fn panic_report(info: &core::panic::PanicInfo) -> ! {
+    tx(b"PANIC ");
+    if let Some(l) = info.location() {
+        tx(l.file().as_bytes());
+        num(l.line());
+    }
+    tx(b"\n");
+    stop()
 }
