@@ -214,6 +214,12 @@ impl Objective {
         }
     }
 
+    /// Whether the errors of step `j + 1` count, for `j < h` (the
+    /// prediction horizon).
+    pub(super) fn kept_steps(&self, h: usize) -> Vec<bool> {
+        (0..h).map(|j| self.keep[j * self.ny]).collect()
+    }
+
     /// The weighting of the criterion at the residuals `res`.
     pub(super) fn weights_at(&self, res: &DVector<f64>) -> ResidualWeights {
         match (self.criterion, self.sim) {

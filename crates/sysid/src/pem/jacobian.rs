@@ -1,256 +1,348 @@
-//! Prediction errors with their exact Jacobian by forward sensitivity
+//! The exact Jacobian of the prediction errors by forward sensitivity
 //! recursions of the predictor, for one-step, multi-step and simulation
-//! errors.
+//! errors, handed on block by block (one sample and prediction step:
+//! `ny` rows) to a [`Rows`] sink; the search accumulates the normal
+//! equations from them ([`super::normal`]) and never stores the whole
+//! Jacobian.
+//!
+//! Every row has the compact columns of one experiment: the parameters
+//! shared by all experiments (`A, B, C, [D], [K]`, [`Layout::shared`])
+//! followed by that experiment's own initial state (`n`); the sink maps
+//! them to the full layout ([`Target`]).
 
 use super::layout::Layout;
-use super::residuals::{
-    multistep_count, output_error, predictor_state_step, stack_residuals, without_k,
-};
+use super::residuals::{output_error, predictor_state_step};
 use super::series::Series;
 use crate::model::InnovationModel;
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 
-/// Where one sample's errors go: the first of their `ny` columns of the
-/// residual vector and Jacobian, and the experiment (whose own `x0`
-/// parameters they depend on).
-#[derive(Clone, Copy)]
-struct Column {
-    col: usize,
-    experiment: usize,
+/// Receives the Jacobian rows of [`sensitivity_rows`].
+pub(super) trait Rows {
+    /// The rows of experiment `experiment` follow.
+    fn begin(&mut self, experiment: usize);
+    /// The `ny` rows (row-major, compact columns) of the errors
+    /// `residual..residual + ny` (their index among the errors of the
+    /// recursion, all experiments stacked), those of prediction step
+    /// `step + 1`. The sink may change the rows (weigh them).
+    fn block(&mut self, residual: usize, step: usize, rows: &mut [f64]);
+    /// The rows of experiment `experiment` are done.
+    fn end(&mut self, experiment: usize);
 }
 
-/// One sample's output error `e = y - C z - D u` (into `e` and the
-/// residuals) and its sensitivity `de = -(C dz) - dC z - dD u` (into the
-/// Jacobian columns; `cpsi` is scratch), for the state `z` with
-/// sensitivity `dz`.
+/// Where the compact columns of a row go in the full layout: the first
+/// `shared` stay, the experiment's own initial state starts at
+/// `x0 + experiment * n`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Target {
+    /// Number of shared parameters in the rows.
+    pub(super) shared: usize,
+    /// Full index of the first experiment's initial state.
+    pub(super) x0: usize,
+    /// States.
+    pub(super) n: usize,
+}
+
+impl Target {
+    /// The prediction errors of `lay`.
+    pub(super) fn prediction(lay: &Layout) -> Self {
+        Target {
+            shared: lay.shared(),
+            x0: lay.ox,
+            n: lay.n,
+        }
+    }
+
+    /// The simulation term of `lay` (its rows in the layout of
+    /// [`simulation_layout`]).
+    pub(super) fn simulation(lay: &Layout) -> Self {
+        Target {
+            shared: simulation_layout(lay).shared(),
+            x0: lay.osx,
+            n: lay.n,
+        }
+    }
+
+    /// Compact columns of a row.
+    pub(super) fn width(&self) -> usize {
+        self.shared + self.n
+    }
+
+    /// Full index of compact column `c` of experiment `experiment`.
+    pub(super) fn full(&self, experiment: usize, c: usize) -> usize {
+        if c < self.shared {
+            c
+        } else {
+            self.x0 + experiment * self.n + c - self.shared
+        }
+    }
+}
+
+/// The layout of the simulation term's recursion: `A, B, C, [D]` (first
+/// in both layouts, so at the same indices) and the simulation initial
+/// states, no `K`.
+pub(super) fn simulation_layout(lay: &Layout) -> Layout {
+    Layout::new(lay.n, lay.nu, lay.ny, lay.ne, lay.has_d, false)
+}
+
+/// `dst += c * src`.
+fn axpy(dst: &mut [f64], c: f64, src: &[f64]) {
+    for (d, s) in dst.iter_mut().zip(src) {
+        *d += c * s;
+    }
+}
+
+/// The rows of the errors of step `j + 1` (`rows`, `ny x pl` row-major):
+/// `de = -(C dz_j + dC z_j + dD u_j)` with the look-ahead sensitivity
+/// `dz_j = A^j Psi + sum_{i<j} A^{j-1-i} (dA z_i + dB u_i)`, so
+/// `C dz_j = M_j Psi + sum_{i<j} M_{j-1-i} (dA z_i + dB u_i)` with
+/// `M_k = C A^k` (`powers`, `ny x n` row-major each): the structured
+/// terms cost `ny n (n + nu)` per earlier step instead of a dense
+/// `n x n x pl` product per step.
 #[allow(clippy::too_many_arguments)]
-fn error_and_sensitivity(
+fn step_rows(
     lay: &Layout,
-    m: &InnovationModel,
-    (z, dz): (&[f64], &DMatrix<f64>),
-    (u, y): (&[f64], &[f64]),
-    at: Column,
-    e: &mut [f64],
-    (res, jt): (&mut DVector<f64>, &mut DMatrix<f64>),
-    cpsi: &mut DMatrix<f64>,
+    pl: usize,
+    j: usize,
+    (powers, psi): (&[f64], &[f64]),
+    z: &[f64],
+    u: &[f64],
+    rows: &mut [f64],
 ) {
     let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
-    let ps = lay.shared();
-    output_error(m, z, (u, y), e);
-    res.rows_mut(at.col, ny).copy_from_slice(e);
-    cpsi.gemm(-1.0, &m.c, dz, 0.0);
-    for o in 0..ny {
-        for b in 0..n {
-            cpsi[(o, lay.oc + o * n + b)] -= z[b];
+    for (o, row) in rows.chunks_exact_mut(pl).enumerate() {
+        row.fill(0.0);
+        let mj = &powers[(j * ny + o) * n..][..n];
+        for (k, &c) in mj.iter().enumerate() {
+            axpy(row, -c, &psi[k * pl..(k + 1) * pl]);
         }
-        if lay.has_d {
-            for b in 0..nu {
-                cpsi[(o, lay.od + o * nu + b)] -= u[b];
+        for i in 0..j {
+            let mm = &powers[((j - 1 - i) * ny + o) * n..][..n];
+            let zi = &z[i * n..(i + 1) * n];
+            let ui = &u[i * nu..(i + 1) * nu];
+            for (a, &c) in mm.iter().enumerate() {
+                axpy(&mut row[a * n..(a + 1) * n], -c, zi);
+                axpy(&mut row[lay.ob + a * nu..][..nu], -c, ui);
             }
         }
-    }
-    for o in 0..ny {
-        let mut jc = jt.column_mut(at.col + o);
-        for q in 0..ps {
-            jc[q] = cpsi[(o, q)];
-        }
-        for a in 0..n {
-            jc[lay.ox + at.experiment * n + a] = cpsi[(o, ps + a)];
+        axpy(
+            &mut row[lay.oc + o * n..][..n],
+            -1.0,
+            &z[j * n..(j + 1) * n],
+        );
+        if lay.has_d {
+            axpy(
+                &mut row[lay.od + o * nu..][..nu],
+                -1.0,
+                &u[j * nu..(j + 1) * nu],
+            );
         }
     }
 }
 
-/// One predictor step with its sensitivity:
-/// `Psi+ = Abar Psi + dA x + dB u + dK e - K (dC x + dD u)` and
-/// `x+ = A x + B u + K e` (`xn`, `psin` are scratch; the results are
-/// swapped into `x`, `psi`).
-fn advance_predictor(
+/// One predictor step of the sensitivity (`n x pl` row-major):
+/// `Psi+ = Abar Psi + dA x + dB u + dK e - K (dC x + dD u)` into `psin`.
+fn advance_sensitivity(
     lay: &Layout,
     m: &InnovationModel,
-    abar: &DMatrix<f64>,
-    (u, e): (&[f64], &[f64]),
-    (x, xn): (&mut Vec<f64>, &mut Vec<f64>),
-    (psi, psin): (&mut DMatrix<f64>, &mut DMatrix<f64>),
+    (abar, pl): (&[f64], usize),
+    (x, u, e): (&[f64], &[f64], &[f64]),
+    psi: &[f64],
+    psin: &mut [f64],
 ) {
     let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
-    psin.gemm(1.0, abar, psi, 0.0);
-    for a in 0..n {
-        for b in 0..n {
-            psin[(a, a * n + b)] += x[b];
+    for (a, dst) in psin.chunks_exact_mut(pl).enumerate() {
+        dst.fill(0.0);
+        for (k, &c) in abar[a * n..(a + 1) * n].iter().enumerate() {
+            axpy(dst, c, &psi[k * pl..(k + 1) * pl]);
         }
-        for b in 0..nu {
-            psin[(a, lay.ob + a * nu + b)] += u[b];
-        }
+        axpy(&mut dst[a * n..(a + 1) * n], 1.0, x);
+        axpy(&mut dst[lay.ob + a * nu..][..nu], 1.0, u);
         if lay.has_k {
-            for b in 0..ny {
-                psin[(a, lay.ok + a * ny + b)] += e[b];
+            axpy(&mut dst[lay.ok + a * ny..][..ny], 1.0, e);
+        }
+        for o in 0..ny {
+            let kao = m.k[(a, o)];
+            axpy(&mut dst[lay.oc + o * n..][..n], -kao, x);
+            if lay.has_d {
+                axpy(&mut dst[lay.od + o * nu..][..nu], -kao, u);
             }
         }
     }
+}
+
+/// The exact Jacobian rows of the prediction errors `d e / d theta` by
+/// forward sensitivity recursions of the predictor:
+/// `Psi+ = (A - KC) Psi + dA x + dB u + dK e - K (dC x + dD u)`,
+/// `de = -(C Psi + dC x + dD u)`, in the compact columns of every
+/// experiment ([`Target`]), handed to `sink` block by block.
+///
+/// With horizon `h = keep.len() > 1` (multi-step focus): for every `t`
+/// the errors of the `1..=h`-step-ahead predictions made from the
+/// predictor state `x(t|t-1)` (`z0 = x, z+ = A z + B u`, error
+/// `y - C z - D u`), indexed `[t][step][output]` (steps that run past the
+/// end of an experiment are left out), with the look-ahead sensitivities
+/// `dz0 = Psi`, `dz+ = A dz + dA z + dB u`, `de = -(C dz + dC z + dD u)`;
+/// only the steps `j` with `keep[j]` are handed on (the others count in
+/// the indices). `h = 1` gives the one-step errors.
+pub(super) fn sensitivity_rows(
+    lay: &Layout,
+    m: &InnovationModel,
+    x0: &[DVector<f64>],
+    data: &[Series],
+    keep: &[bool],
+    sink: &mut impl Rows,
+) {
+    let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
+    let h = keep.len();
+    let ps = lay.shared();
+    let pl = ps + n;
+    let abar: Vec<f64> = (0..n * n)
+        .map(|i| {
+            let (a, b) = (i / n, i % n);
+            m.a[(a, b)] - (0..ny).map(|o| m.k[(a, o)] * m.c[(o, b)]).sum::<f64>()
+        })
+        .collect();
+    // M_j = C A^j, j < h (row-major).
+    let mut powers = vec![0.0; h * ny * n];
     for o in 0..ny {
         for b in 0..n {
-            let c = lay.oc + o * n + b;
-            let xb = x[b];
-            for a in 0..n {
-                psin[(a, c)] -= m.k[(a, o)] * xb;
+            powers[o * n + b] = m.c[(o, b)];
+        }
+    }
+    for j in 1..h {
+        let (prev, next) = powers.split_at_mut(j * ny * n);
+        let prev = &prev[(j - 1) * ny * n..];
+        for o in 0..ny {
+            for b in 0..n {
+                next[o * n + b] = (0..n).map(|l| prev[o * n + l] * m.a[(l, b)]).sum();
             }
         }
-        if lay.has_d {
-            for b in 0..nu {
-                let c = lay.od + o * nu + b;
-                for a in 0..n {
-                    psin[(a, c)] -= m.k[(a, o)] * u[b];
+    }
+    let mut psi = vec![0.0; n * pl];
+    let mut psin = vec![0.0; n * pl];
+    let mut rows = vec![0.0; ny * pl];
+    let mut x = vec![0.0; n];
+    let mut xn = vec![0.0; n];
+    let mut e = vec![0.0; ny];
+    let mut z = vec![0.0; h * n];
+    let mut col = 0;
+    for (ei, (s, x0e)) in data.iter().zip(x0).enumerate() {
+        sink.begin(ei);
+        x.copy_from_slice(x0e.as_slice());
+        psi.fill(0.0);
+        for a in 0..n {
+            psi[a * pl + ps + a] = 1.0;
+        }
+        for t in 0..s.n {
+            let u = &s.u[t * nu..(t + 1) * nu];
+            let y = &s.y[t * ny..(t + 1) * ny];
+            output_error(m, &x, (u, y), &mut e);
+            let steps = h.min(s.n - t);
+            if let Some(last) = (0..steps).rev().find(|&j| keep[j]) {
+                // Look-ahead states z_0 = x, z_j = A z_{j-1} + B u_{t+j-1}.
+                z[..n].copy_from_slice(&x);
+                for j in 1..=last {
+                    let (done, next) = z.split_at_mut(j * n);
+                    let up = &s.u[(t + j - 1) * nu..(t + j) * nu];
+                    predictor_state_step(m, &done[(j - 1) * n..], up, &[], &mut next[..n]);
+                }
+                for j in (0..=last).filter(|&j| keep[j]) {
+                    step_rows(lay, pl, j, (&powers, &psi), &z, &s.u[t * nu..], &mut rows);
+                    sink.block(col + j * ny, j, &mut rows);
                 }
             }
+            advance_sensitivity(lay, m, (&abar, pl), (&x, u, &e), &psi, &mut psin);
+            std::mem::swap(&mut psi, &mut psin);
+            predictor_state_step(m, &x, u, &e, &mut xn);
+            std::mem::swap(&mut x, &mut xn);
+            col += ny * steps;
         }
+        sink.end(ei);
     }
-    std::mem::swap(psi, psin);
-    predictor_state_step(m, x, u, e, xn);
-    std::mem::swap(x, xn);
 }
 
-/// Prediction errors and the transposed Jacobian `d e / d theta` (`p x M`)
-/// by forward sensitivity recursions of the predictor:
-/// `Psi+ = (A - KC) Psi + dA x + dB u + dK e - K (dC x + dD u)`,
-/// `de = -(C Psi + dC x + dD u)`.
-///
-/// With horizon `h > 1` (multi-step focus): for every `t` the errors of
-/// the `1..=h`-step-ahead predictions made from the predictor state
-/// `x(t|t-1)` (`z0 = x, z+ = A z + B u`, error `y - C z - D u`), stacked
-/// `[t][step][output]` (steps that run past the end of an experiment are
-/// left out), and their exact Jacobian: the look-ahead sensitivities
-/// `dz0 = Psi`, `dz+ = A dz + dA z + dB u`, `de = -(C dz + dC z + dD u)`.
-/// `h = 1` gives the one-step errors.
+/// A sink that stores the whole transposed Jacobian (`p x M`, a column
+/// per error): the reference the tests check against finite differences.
+#[cfg(test)]
+struct Full<'a> {
+    target: Target,
+    experiment: usize,
+    jt: &'a mut nalgebra::DMatrix<f64>,
+}
+
+#[cfg(test)]
+impl Rows for Full<'_> {
+    fn begin(&mut self, experiment: usize) {
+        self.experiment = experiment;
+    }
+    fn block(&mut self, residual: usize, _step: usize, rows: &mut [f64]) {
+        let pl = self.target.width();
+        for (o, row) in rows.chunks_exact(pl).enumerate() {
+            for (c, v) in row.iter().enumerate() {
+                self.jt[(self.target.full(self.experiment, c), residual + o)] = *v;
+            }
+        }
+    }
+    fn end(&mut self, _experiment: usize) {}
+}
+
+/// The prediction errors of horizon `h` and their whole transposed
+/// Jacobian (`p x M`) in the layout `lay`.
+#[cfg(test)]
 pub(super) fn residuals_and_jacobian(
     lay: &Layout,
     m: &InnovationModel,
     x0: &[DVector<f64>],
     data: &[Series],
     h: usize,
-) -> (DVector<f64>, DMatrix<f64>) {
-    let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
-    let total: usize = data.iter().map(|s| multistep_count(s.n, h) * ny).sum();
-    let mut z = vec![0.0; n];
-    let mut zn = vec![0.0; n];
-    let mut dz = DMatrix::<f64>::zeros(n, 0);
-    let mut dzn = DMatrix::<f64>::zeros(n, 0);
-    let mut res = DVector::zeros(total);
-    let mut jt = DMatrix::<f64>::zeros(lay.p, total);
-    let ps = lay.shared();
-    let pl = ps + n; // shared + own x0
-    let abar = &m.a - &m.k * &m.c;
-    let mut psi = DMatrix::<f64>::zeros(n, pl);
-    let mut psin = DMatrix::<f64>::zeros(n, pl);
-    let mut cpsi = DMatrix::<f64>::zeros(ny, pl);
-    let mut col = 0;
-    let mut x = vec![0.0; n];
-    let mut xn = vec![0.0; n];
-    let mut e = vec![0.0; ny];
-    let mut ej = vec![0.0; ny];
-    for (ei, (s, x0e)) in data.iter().zip(x0).enumerate() {
-        x.copy_from_slice(x0e.as_slice());
-        psi.fill(0.0);
-        for a in 0..n {
-            psi[(a, ps + a)] = 1.0;
-        }
-        for t in 0..s.n {
-            let u = &s.u[t * nu..(t + 1) * nu];
-            let y = &s.y[t * ny..(t + 1) * ny];
-            let at = Column {
-                col,
-                experiment: ei,
-            };
-            error_and_sensitivity(
-                lay,
-                m,
-                (&x, &psi),
-                (u, y),
-                at,
-                &mut e,
-                (&mut res, &mut jt),
-                &mut cpsi,
-            );
-            // Look ahead: steps 2..=h from z0 = x, dz0 = Psi.
-            if h > 1 {
-                z.copy_from_slice(&x);
-                dz.clone_from(&psi);
-                dzn.clone_from(&psi);
-            }
-            for j in 1..h.min(s.n - t) {
-                let up = &s.u[(t + j - 1) * nu..(t + j) * nu];
-                dzn.gemm(1.0, &m.a, &dz, 0.0);
-                for a in 0..n {
-                    for b in 0..n {
-                        dzn[(a, a * n + b)] += z[b];
-                    }
-                    for b in 0..nu {
-                        dzn[(a, lay.ob + a * nu + b)] += up[b];
-                    }
-                }
-                std::mem::swap(&mut dz, &mut dzn);
-                predictor_state_step(m, &z, up, &[], &mut zn);
-                std::mem::swap(&mut z, &mut zn);
-                let uj = &s.u[(t + j) * nu..(t + j + 1) * nu];
-                let yj = &s.y[(t + j) * ny..(t + j + 1) * ny];
-                let at = Column {
-                    col: col + j * ny,
-                    experiment: ei,
-                };
-                error_and_sensitivity(
-                    lay,
-                    m,
-                    (&z, &dz),
-                    (uj, yj),
-                    at,
-                    &mut ej,
-                    (&mut res, &mut jt),
-                    &mut cpsi,
-                );
-            }
-            advance_predictor(
-                lay,
-                m,
-                &abar,
-                (u, &e),
-                (&mut x, &mut xn),
-                (&mut psi, &mut psin),
-            );
-            col += ny * h.min(s.n - t);
-        }
-    }
-    (res, jt)
+) -> (DVector<f64>, nalgebra::DMatrix<f64>) {
+    let r = super::residuals::multistep_residuals(m, x0, data, h);
+    let mut jt = nalgebra::DMatrix::zeros(lay.p, r.len());
+    let mut sink = Full {
+        target: Target::prediction(lay),
+        experiment: 0,
+        jt: &mut jt,
+    };
+    sensitivity_rows(lay, m, x0, data, &vec![true; h], &mut sink);
+    (r, jt)
 }
 
 /// The simulation term of [`PemSettings::simulation_weight`]: the errors
-/// `y - C x - D u` of `x+ = A x + B u` from the initial states `xs`
-/// (sample-major like [`residuals`]) and their transposed Jacobian in the
-/// layout `lay` (rows of `A, B, C, D` and of the simulation initial
-/// states; `K` and the predictor's initial states do not enter). The
-/// sensitivities are those of [`Focus::Simulation`]: the one-step
-/// recursion with `K = 0`.
+/// `y - C x - D u` of `x+ = A x + B u` from the initial states `xs` and
+/// their transposed Jacobian in the layout `lay` (rows of `A, B, C, D`
+/// and of the simulation initial states; `K` and the predictor's initial
+/// states do not enter). The sensitivities are those of
+/// [`Focus::Simulation`]: the one-step recursion with `K = 0`.
+///
+/// [`PemSettings::simulation_weight`]: super::PemSettings::simulation_weight
+/// [`Focus::Simulation`]: super::Focus::Simulation
+#[cfg(test)]
 pub(super) fn simulation_residuals_and_jacobian(
     lay: &Layout,
     m: &InnovationModel,
     xs: &[DVector<f64>],
     data: &[Series],
-) -> (DVector<f64>, DMatrix<f64>) {
-    let sl = Layout::new(lay.n, lay.nu, lay.ny, lay.ne, lay.has_d, false);
-    let (r, js) = residuals_and_jacobian(&sl, &without_k(m), xs, data, 1);
-    let mut jt = DMatrix::zeros(lay.p, r.len());
-    // A, B, C, [D] come first in both layouts (sl.ox == lay.ok).
-    jt.rows_mut(0, sl.ox).copy_from(&js.rows(0, sl.ox));
-    let nx0 = lay.n * lay.ne;
-    jt.rows_mut(lay.osx, nx0).copy_from(&js.rows(sl.ox, nx0));
+) -> (DVector<f64>, nalgebra::DMatrix<f64>) {
+    let m0 = super::residuals::without_k(m);
+    let r = super::residuals::residuals(&m0, xs, data);
+    let mut jt = nalgebra::DMatrix::zeros(lay.p, r.len());
+    let mut sink = Full {
+        target: Target::simulation(lay),
+        experiment: 0,
+        jt: &mut jt,
+    };
+    sensitivity_rows(&simulation_layout(lay), &m0, xs, data, &[true], &mut sink);
     (r, jt)
 }
 
 /// Residuals `[a; b]` and transposed Jacobians `[ja, jb]` side by side.
+#[cfg(test)]
 pub(super) fn stack(
-    (a, ja): (DVector<f64>, DMatrix<f64>),
-    (b, jb): (DVector<f64>, DMatrix<f64>),
-) -> (DVector<f64>, DMatrix<f64>) {
+    (a, ja): (DVector<f64>, nalgebra::DMatrix<f64>),
+    (b, jb): (DVector<f64>, nalgebra::DMatrix<f64>),
+) -> (DVector<f64>, nalgebra::DMatrix<f64>) {
     let (na, nb) = (a.len(), b.len());
-    let r = stack_residuals(a, &b);
+    let r = super::residuals::stack_residuals(a, &b);
     let mut j = ja.resize_horizontally(na + nb, 0.0);
     j.columns_mut(na, nb).copy_from(&jb);
     (r, j)

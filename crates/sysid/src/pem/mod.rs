@@ -3,7 +3,8 @@
 //!
 //! One file per part: the [`settings`] and the [`result`], the parameter
 //! [`layout`], the data as [`series`], the [`residuals`] of a trial step,
-//! their exact [`jacobian`], the [`criterion`] as residual weights, the
+//! their exact [`jacobian`] and the [`normal`] equations accumulated
+//! from it, the [`criterion`] as residual weights, the
 //! [`search`] (the problem handed to the one Levenberg-Marquardt loop,
 //! [`crate::lm`]) and the N4SID [`start`] wrapper.
 
@@ -11,6 +12,7 @@ mod criterion;
 mod jacobian;
 mod layout;
 mod limits;
+mod normal;
 mod residuals;
 mod result;
 mod search;

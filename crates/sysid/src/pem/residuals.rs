@@ -78,37 +78,45 @@ pub(super) fn multistep_count(len: usize, h: usize) -> usize {
     (0..len).map(|t| h.min(len - t)).sum()
 }
 
-/// Multi-step prediction errors (cost evaluation of
-/// [`residuals_and_jacobian`]).
+/// Multi-step prediction errors (the errors whose Jacobian
+/// [`sensitivity_rows`](super::jacobian::sensitivity_rows) gives, in the
+/// same `[t][step][output]` order and by the same arithmetic); `h = 1`
+/// gives [`residuals`].
 pub(super) fn multistep_residuals(
     m: &InnovationModel,
     x0: &[DVector<f64>],
     data: &[Series],
     h: usize,
 ) -> DVector<f64> {
-    let (nu, ny) = (m.nu(), m.ny());
+    let (n, nu, ny) = (m.nx(), m.nu(), m.ny());
     let total: usize = data.iter().map(|s| multistep_count(s.n, h) * ny).sum();
     let mut out = DVector::zeros(total);
     let mut row = 0;
+    let mut x = vec![0.0; n];
+    let mut xn = vec![0.0; n];
+    let mut z = vec![0.0; n];
+    let mut zn = vec![0.0; n];
+    let mut e = vec![0.0; ny];
     for (s, x0e) in data.iter().zip(x0) {
-        let mut x = x0e.clone();
+        x.copy_from_slice(x0e.as_slice());
         for t in 0..s.n {
-            let u = DVector::from_column_slice(&s.u[t * nu..(t + 1) * nu]);
-            let y = DVector::from_column_slice(&s.y[t * ny..(t + 1) * ny]);
-            let e = &y - &m.c * &x - &m.d * &u;
-            let mut z = x.clone();
-            for j in 0..h.min(s.n - t) {
-                let uj = DVector::from_column_slice(&s.u[(t + j) * nu..(t + j + 1) * nu]);
-                let yj = DVector::from_column_slice(&s.y[(t + j) * ny..(t + j + 1) * ny]);
-                if j > 0 {
-                    let up = DVector::from_column_slice(&s.u[(t + j - 1) * nu..(t + j) * nu]);
-                    z = &m.a * &z + &m.b * up;
-                }
-                let ej = yj - &m.c * &z - &m.d * uj;
-                out.rows_mut(row, ny).copy_from(&ej);
+            let u = &s.u[t * nu..(t + 1) * nu];
+            let y = &s.y[t * ny..(t + 1) * ny];
+            output_error(m, &x, (u, y), &mut e);
+            out.rows_mut(row, ny).copy_from_slice(&e);
+            row += ny;
+            z.copy_from_slice(&x);
+            for j in 1..h.min(s.n - t) {
+                let up = &s.u[(t + j - 1) * nu..(t + j) * nu];
+                predictor_state_step(m, &z, up, &[], &mut zn);
+                std::mem::swap(&mut z, &mut zn);
+                let uj = &s.u[(t + j) * nu..(t + j + 1) * nu];
+                let yj = &s.y[(t + j) * ny..(t + j + 1) * ny];
+                output_error(m, &z, (uj, yj), &mut out.as_mut_slice()[row..row + ny]);
                 row += ny;
             }
-            x = &m.a * &x + &m.b * &u + &m.k * &e;
+            predictor_state_step(m, &x, u, &e, &mut xn);
+            std::mem::swap(&mut x, &mut xn);
         }
     }
     out

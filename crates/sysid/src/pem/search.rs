@@ -1,14 +1,14 @@
 //! The Levenberg-Marquardt search of [`pem`].
 
 use super::criterion::{Objective, ResidualWeights};
-use super::jacobian::{residuals_and_jacobian, simulation_residuals_and_jacobian, stack};
 use super::layout::Layout;
 use super::limits::check_size;
+use super::normal::normal_equations;
 use super::residuals::{
     multistep_count, multistep_residuals, residuals, stack_residuals, without_k,
 };
 use super::result::PemResult;
-use super::series::series_of;
+use super::series::{Series, series_of};
 use super::settings::{Criterion, Focus, PemSettings};
 use crate::data::IoData;
 use crate::error::{Result, SysidError};
@@ -172,15 +172,6 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
     };
     let series = series_of(&sdata);
     let objective = Objective::new(settings, &series, ny);
-    let res_jac = |m: &InnovationModel, x: &[DVector<f64>], xs: &[DVector<f64>]| {
-        let mut rj = residuals_and_jacobian(&lay, m, x, &series, h);
-        if sim {
-            rj = stack(rj, simulation_residuals_and_jacobian(&lay, m, xs, &series));
-        }
-        let (mut r, mut j) = rj;
-        objective.mask(&mut r, Some(&mut j));
-        (r, j)
-    };
     let res_only = |m: &InnovationModel, x: &[DVector<f64>], xs: &[DVector<f64>]| {
         let mut r = if h > 1 {
             multistep_residuals(m, x, &series, h)
@@ -195,23 +186,26 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
     };
     let mut theta = lay.pack(&base, &x0);
     lay.pack_simulation(&mut theta, &xs0);
-    let (mut res, jt) = res_jac(&base, &x0, &xs0);
+    let mut res = res_only(&base, &x0, &xs0);
     let mf = objective.count(res.len());
     let initial_cost = res.norm_squared() / mf;
     let w = objective.weights_at(&res);
-    let mut jt = jt;
-    w.apply(&objective.groups, &mut res, Some(&mut jt));
+    w.apply(&objective.groups, &mut res, None);
+    let (hessian, gradient) =
+        normal_equations(&lay, &base, (&x0, &xs0), &series, h, &objective, &w, &res);
     let first = NormalEquations {
         cost: res.norm_squared() / mf,
-        hessian: &jt * jt.transpose(),
-        gradient: &jt * &res,
+        hessian,
+        gradient,
     };
     let mut problem = PemProblem {
         lay: &lay,
         base: &base,
         objective: &objective,
-        res_jac,
+        series: &series,
+        h,
         res_only: &res_only,
+        last_trial: None,
         w,
         mf,
         limit,
@@ -267,12 +261,18 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
 /// criterion's weights (renewed at every linearisation unless the
 /// criterion is the trace), trial points admissible when `A` and
 /// `A - KC` are stable, the search in data-driven local coordinates.
-struct PemProblem<'a, J, R> {
+struct PemProblem<'a, R> {
     lay: &'a Layout,
     base: &'a InnovationModel,
     objective: &'a Objective,
-    res_jac: J,
+    series: &'a [Series],
+    /// The prediction horizon.
+    h: usize,
+    /// The masked, unweighted residuals of a point.
     res_only: &'a R,
+    /// The last trial point and its residuals (the search linearises
+    /// there next when it accepts it).
+    last_trial: Option<(DVector<f64>, DVector<f64>)>,
     w: ResidualWeights,
     mf: f64,
     limit: f64,
@@ -286,9 +286,8 @@ struct PemProblem<'a, J, R> {
     first: Option<NormalEquations>,
 }
 
-impl<J, R> LeastSquares for PemProblem<'_, J, R>
+impl<R> LeastSquares for PemProblem<'_, R>
 where
-    J: Fn(&InnovationModel, &[DVector<f64>], &[DVector<f64>]) -> (DVector<f64>, DMatrix<f64>),
     R: Fn(&InnovationModel, &[DVector<f64>], &[DVector<f64>]) -> DVector<f64>,
 {
     type Error = Infallible;
@@ -304,16 +303,28 @@ where
         }
         let (model, x0s) = self.lay.unpack(theta, self.base);
         let xss = self.lay.simulation_x0(theta);
-        let (mut res, mut jt) = (self.res_jac)(&model, &x0s, &xss);
+        let mut res = match self.last_trial.take() {
+            Some((at, r)) if at == *theta => r,
+            _ => (self.res_only)(&model, &x0s, &xss),
+        };
         if self.reweigh {
             self.w = self.objective.weights_at(&res);
         }
-        self.w
-            .apply(&self.objective.groups, &mut res, Some(&mut jt));
+        self.w.apply(&self.objective.groups, &mut res, None);
+        let (hessian, gradient) = normal_equations(
+            self.lay,
+            &model,
+            (&x0s, &xss),
+            self.series,
+            self.h,
+            self.objective,
+            &self.w,
+            &res,
+        );
         Ok(NormalEquations {
             cost: res.norm_squared() / self.mf,
-            hessian: &jt * jt.transpose(),
-            gradient: &jt * &res,
+            hessian,
+            gradient,
         })
     }
 
@@ -327,6 +338,7 @@ where
         let (m, x0) = self.lay.unpack(theta, self.base);
         let xs = self.lay.simulation_x0(theta);
         let mut r = (self.res_only)(&m, &x0, &xs);
+        self.last_trial = Some((theta.clone(), r.clone()));
         let plain = r.norm_squared() / self.mf;
         self.w.apply(&self.objective.groups, &mut r, None);
         Some((r.norm_squared() / self.mf, plain))

@@ -1,4 +1,5 @@
 //! Tests of the prediction-error method.
 
 mod jacobian;
+mod normal;
 mod search;
