@@ -18,8 +18,13 @@ use super::series::Series;
 use crate::model::InnovationModel;
 use nalgebra::{DMatrix, DMatrixView, DVector};
 
-/// Jacobian rows per `gemm` of the accumulation.
+/// Jacobian rows per `gemm` of the accumulation (one block of rows
+/// stays in the cache: 256 x 126 columns are 250 KiB).
 const BLOCK_ROWS: usize = 256;
+
+/// Columns of the Hessian blocks of one `gemm` (40-64 measured alike on
+/// the steam generator's 126 columns; the full width took 20 % longer).
+const PANEL: usize = 64;
 
 /// The weighting of the rows, as [`ResidualWeights::apply`] weighs the
 /// residuals.
@@ -78,18 +83,28 @@ impl<'a> Accumulator<'a> {
         }
     }
 
-    /// Adds the buffered rows' `B'B` to the compact Hessian.
+    /// Adds the buffered rows' `B'B` to the lower triangle of the compact
+    /// Hessian, a block of [`PANEL`] columns at a time (the blocks above
+    /// the diagonal are left out: a third of the work for 126 columns).
     fn flush(&mut self) {
         let (pl, k) = (self.target.width(), self.filled);
         if k == 0 {
             return;
         }
         let rows = &self.buf[..k * pl];
-        // The rows as columns (pl x k) and as rows (k x pl), both views of
-        // the same buffer.
-        let bt = DMatrixView::from_slice(rows, pl, k);
-        let b = DMatrixView::from_slice_with_strides(rows, k, pl, pl, 1);
-        self.hc.gemm(1.0, &bt, &b, 1.0);
+        for i0 in (0..pl).step_by(PANEL) {
+            let wi = PANEL.min(pl - i0);
+            // Columns i0.. of the rows, transposed (wi x k).
+            let bi = DMatrixView::from_slice_with_strides(&rows[i0..], wi, k, 1, pl);
+            for j0 in (0..=i0).step_by(PANEL) {
+                let wj = PANEL.min(pl - j0);
+                // Columns j0.. of the rows (k x wj).
+                let bj = DMatrixView::from_slice_with_strides(&rows[j0..], k, wj, pl, 1);
+                self.hc
+                    .view_mut((i0, j0), (wi, wj))
+                    .gemm(1.0, &bi, &bj, 1.0);
+            }
+        }
         self.filled = 0;
     }
 }
@@ -143,7 +158,8 @@ impl Rows for Accumulator<'_> {
         let full: Vec<usize> = (0..pl).map(|c| self.target.full(experiment, c)).collect();
         for (j, &fj) in full.iter().enumerate() {
             for (i, &fi) in full.iter().enumerate() {
-                self.hessian[(fi, fj)] += self.hc[(i, j)];
+                // The lower triangle holds every entry.
+                self.hessian[(fi, fj)] += self.hc[(i.max(j), i.min(j))];
             }
             self.gradient[fj] += self.gc[j];
         }

@@ -82,17 +82,17 @@ fn dense_jacobian(
     DMatrix::from_columns(&cols)
 }
 
-/// A 3-state, 2-input, 2-output model with `D`, two experiments of
-/// 40 and 25 samples, two initial states.
-fn fixture() -> (InnovationModel, Vec<Series>, Vec<DVector<f64>>) {
-    let mut m = synthetic::random_model(3, 2, 2, 31, 0.8);
-    m.d = DMatrix::from_fn(2, 2, |i, j| 0.2 * (i + 2 * j) as f64 - 0.3);
+/// An `n`-state, `nu`-input, `ny`-output model with `D`, two
+/// experiments of 40 and 25 samples, two initial states.
+fn fixture(n: usize, nu: usize, ny: usize) -> (InnovationModel, Vec<Series>, Vec<DVector<f64>>) {
+    let mut m = synthetic::random_model(n, nu, ny, 31, 0.8);
+    m.d = DMatrix::from_fn(ny, nu, |i, j| 0.2 * (i + 2 * j) as f64 - 0.3);
     let a = synthetic::simulate(&m, 40, 0.3, 2).unwrap();
     let b = synthetic::simulate(&m, 25, 0.3, 3).unwrap();
     let series = series_of(&crate::data::IoData::merge(&[a, b]).unwrap());
     let x0 = vec![
-        DVector::from_vec(vec![0.3, -0.2, 0.1]),
-        DVector::from_vec(vec![0.0, 0.5, -0.4]),
+        DVector::from_fn(n, |i, _| 0.3 - 0.2 * i as f64),
+        DVector::from_fn(n, |i, _| (i as f64).sin()),
     ];
     (m, series, x0)
 }
@@ -104,7 +104,7 @@ fn rel(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
 
 #[test]
 fn structured_rows_equal_the_dense_recursions() {
-    let (m, series, x0) = fixture();
+    let (m, series, x0) = fixture(3, 2, 2);
     for (has_d, has_k, h) in [
         (true, true, 1),
         (true, true, 4),
@@ -122,13 +122,21 @@ fn structured_rows_equal_the_dense_recursions() {
 /// `J'J` and `J'r` accumulated block by block equal the products of the
 /// whole Jacobian, masked and weighed as the search weighs the
 /// residuals: the fit criterion with steps left out and a simulation
-/// term, and the determinant criterion's whitening.
+/// term, and the determinant criterion's whitening; 3 states (one
+/// Hessian block) and 6 states with 4 outputs (120 compact columns,
+/// two blocks).
 #[test]
 fn accumulated_normal_equations_equal_the_whole_jacobian_products() {
-    let (m, series, x0) = fixture();
+    for (n, nu, ny) in [(3, 2, 2), (6, 3, 4)] {
+        normal_equations_match(n, nu, ny);
+    }
+}
+
+fn normal_equations_match(n: usize, nu: usize, ny: usize) {
+    let (m, series, x0) = fixture(n, nu, ny);
     let xs = vec![
-        DVector::from_vec(vec![-0.1, 0.4, 0.2]),
-        DVector::from_vec(vec![0.6, -0.3, 0.0]),
+        DVector::from_fn(n, |i, _| (i as f64).cos()),
+        DVector::from_fn(n, |i, _| 0.1 * i as f64 - 0.2),
     ];
     let cases = [
         (Criterion::Fit, 4, vec![1, 4], 0.5),
@@ -144,13 +152,13 @@ fn accumulated_normal_equations_equal_the_whole_jacobian_products() {
             simulation_weight: ws,
             ..Default::default()
         };
-        let mut lay = Layout::new(3, 2, 2, 2, true, true);
+        let mut lay = Layout::new(n, nu, ny, 2, true, true);
         let sim = ws > 0.0;
         if sim {
             lay = lay.with_simulation();
         }
         let xs: &[DVector<f64>] = if sim { &xs } else { &[] };
-        let objective = Objective::new(&settings, &series, 2);
+        let objective = Objective::new(&settings, &series, ny);
         let (mut r, mut jt) = residuals_and_jacobian(&lay, &m, &x0, &series, h);
         let mut r1 = multistep_residuals(&m, &x0, &series, h);
         if sim {
@@ -165,7 +173,7 @@ fn accumulated_normal_equations_equal_the_whole_jacobian_products() {
         let w = objective.weights_at(&r);
         w.apply(&objective.groups, &mut r, Some(&mut jt));
         let (hs, g) = normal_equations(&lay, &m, (&x0, xs), &series, h, &objective, &w, &r);
-        let label = format!("{criterion:?} h {h} steps {steps:?} ws {ws}");
+        let label = format!("n {n}: {criterion:?} h {h} steps {steps:?} ws {ws}");
         let hr = rel(&hs, &(&jt * jt.transpose()));
         assert!(hr < 1e-13, "{label}: J'J {hr:e}");
         let gr = (&g - &jt * &r).amax() / (&jt * &r).amax();
