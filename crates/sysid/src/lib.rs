@@ -16,6 +16,8 @@ mod delay;
 #[cfg(feature = "std")]
 mod error;
 #[cfg(feature = "std")]
+mod feedback;
+#[cfg(feature = "std")]
 mod filter;
 #[cfg(feature = "std")]
 mod fit;
@@ -52,6 +54,8 @@ pub use data::{CsvColumns, Experiment, IoData, Offsets, SignalSelection, TimeInt
 pub use delay::{DelayEstimate, DelaySettings, estimate_delay};
 #[cfg(feature = "std")]
 pub use error::{Result, SizedMethod, SysidError};
+#[cfg(feature = "std")]
+pub use feedback::{FTest, FeedbackSettings, FeedbackTest, InputFeedback, feedback_test};
 #[cfg(feature = "std")]
 pub use filter::{Biquad, Butterworth, Periodogram, periodogram};
 #[cfg(feature = "std")]

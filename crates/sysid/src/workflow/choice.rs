@@ -3,7 +3,9 @@
 #[cfg(doc)]
 use super::spec::AutoSelect;
 use super::spec::{IdentifySpec, PemFocus, Start};
+use crate::feedback::FeedbackTest;
 use crate::n4sid::MatrixEstimate;
+use crate::pem::Criterion;
 use core::fmt;
 
 /// One structure the choice tries: the spec's fields it sets.
@@ -26,6 +28,16 @@ pub struct Candidate {
     /// `None`: stable `A`. Above 1 only with the prediction focus: the
     /// predictor stays stable, the simulation of such a model diverges.
     pub max_radius_a: Option<f64>,
+    /// N4SID block rows ([`IdentifySpec::horizon`]).
+    pub horizon: Option<usize>,
+    /// The PEM criterion ([`IdentifySpec::criterion`]).
+    pub criterion: Criterion,
+    /// The prediction steps of the criterion ([`IdentifySpec::pem_steps`]).
+    pub pem_steps: Vec<usize>,
+    /// PEM iterations of this candidate's fits, folds and final fit
+    /// (they stop earlier on the tolerances); `None`: capped by the work
+    /// estimates ([`AutoSelect::fold_work`], [`AutoSelect::final_work`]).
+    pub iterations: Option<usize>,
 }
 
 impl Candidate {
@@ -39,11 +51,17 @@ impl Candidate {
             focus: spec.focus,
             pem_horizon: spec.pem_horizon,
             max_radius_a: None,
+            horizon: spec.horizon,
+            criterion: spec.criterion,
+            pem_steps: spec.pem_steps.clone(),
+            iterations: None,
         }
     }
 
     /// `spec` with this candidate's fields (all but
-    /// [`Candidate::max_radius_a`], which the fit takes beside the spec).
+    /// [`Candidate::max_radius_a`], which the fit takes beside the spec,
+    /// and [`Candidate::iterations`], which sets
+    /// [`IdentifySpec::max_iterations`] when given).
     pub fn apply(&self, spec: &IdentifySpec) -> IdentifySpec {
         IdentifySpec {
             order: self.order,
@@ -52,6 +70,10 @@ impl Candidate {
             feedthrough: self.feedthrough,
             focus: self.focus,
             pem_horizon: self.pem_horizon,
+            horizon: self.horizon,
+            criterion: self.criterion,
+            pem_steps: self.pem_steps.clone(),
+            max_iterations: self.iterations.unwrap_or(spec.max_iterations),
             ..spec.clone()
         }
     }
@@ -66,19 +88,36 @@ impl Candidate {
             (Start::N4sid, MatrixEstimate::OutputError) => "N4SID output-error",
             (Start::N4sid, MatrixEstimate::StateRegression) => "N4SID state-regression",
         };
+        let start = match self.horizon {
+            Some(i) => format!("{start} i = {i}"),
+            None => start.to_string(),
+        };
         let start = if self.feedthrough {
             format!("{start}, D")
         } else {
-            start.to_string()
+            start
         };
+        let steps: Vec<String> = self.pem_steps.iter().map(|k| k.to_string()).collect();
         let focus = match self.focus {
             PemFocus::Prediction if self.pem_horizon == 1 => "1-step PEM".to_string(),
+            PemFocus::Prediction if !steps.is_empty() => {
+                format!("PEM steps {{{}}}", steps.join(", "))
+            }
             PemFocus::Prediction => format!("PEM 1..{}-step", self.pem_horizon),
             PemFocus::Simulation => "simulation PEM".to_string(),
             PemFocus::SimulationThenNoise => "simulation PEM then K".to_string(),
             PemFocus::MultiStepThenNoise { horizon } => {
                 format!("PEM 1..{horizon}-step then K ({}-step)", self.pem_horizon)
             }
+        };
+        let focus = match self.criterion {
+            Criterion::Trace => focus,
+            Criterion::Fit => format!("{focus}, fit criterion"),
+            Criterion::Determinant => format!("{focus}, det criterion"),
+        };
+        let focus = match self.iterations {
+            Some(n) => format!("{focus}, up to {n} iterations"),
+            None => focus,
         };
         match self.max_radius_a {
             Some(r) => format!("{order}, {start}, {focus}, |eig A| <= {r}"),
@@ -134,6 +173,13 @@ pub struct SelectionReport {
     /// The candidates left out because their estimated work exceeded
     /// what was left of the budget.
     pub skipped: Vec<Candidate>,
+    /// The [`feedback_test`](crate::feedback_test) of the estimation
+    /// data, or why it could not run (with [`AutoSelect::open_loop`]):
+    /// with no feedback found the open-loop candidates (feed-through `D`,
+    /// fit criterion over steps `{1, h}`) were added; `None`: not run.
+    pub feedback: Option<core::result::Result<FeedbackTest, String>>,
+    /// Why the open-loop candidates were or were not tried.
+    pub open_loop: String,
     /// The folds' baseline per table horizon (mean fit over the folds,
     /// %): the better of persistence and the best ARX of 2-10 lags, each
     /// fold's own.
@@ -143,6 +189,14 @@ pub struct SelectionReport {
 impl fmt::Display for SelectionReport {
     /// The candidate table and the choice.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match &self.feedback {
+            Some(Ok(t)) => write!(f, "{t}")?,
+            Some(Err(e)) => writeln!(f, "feedback test not run: {e}")?,
+            None => {}
+        }
+        if !self.open_loop.is_empty() {
+            writeln!(f, "{}", self.open_loop)?;
+        }
         writeln!(
             f,
             "structure chosen by {}-fold blocked cross-validation inside the estimation data ({:.1} s{}; chosen: {}; fixed: {}):",

@@ -102,6 +102,12 @@ pub(super) fn fit_structure(
             PemFocus::MultiStepThenNoise { horizon } => horizon,
             PemFocus::Simulation | PemFocus::SimulationThenNoise => 1,
         },
+        steps: match spec.focus {
+            PemFocus::Prediction => spec.pem_steps.clone(),
+            PemFocus::MultiStepThenNoise { .. }
+            | PemFocus::Simulation
+            | PemFocus::SimulationThenNoise => Vec::new(),
+        },
         criterion: spec.criterion,
         max_radius_a,
         ..Default::default()
@@ -112,6 +118,7 @@ pub(super) fn fit_structure(
         feedthrough: false,
         max_radius_a: None,
         horizon: spec.pem_horizon,
+        steps: spec.pem_steps.clone(),
         ..settings.clone()
     };
     let (full_model, pem_summary, pem_noise) = match spec.method {

@@ -120,10 +120,22 @@ pub fn identify_with_progress(
             Ok((mut s, r)) => {
                 // The final fit's iterations bounded by the same work
                 // estimate as the folds' (AutoSelect::final_work).
-                let per =
-                    spec_iteration_work(&s, est.n_samples(), est.nu(), est.ny(), auto.max_order);
-                s.max_iterations =
-                    capped_iterations(auto.final_work, per, auto.min_iterations, s.max_iterations);
+                // (A candidate run to convergence keeps its own count.)
+                if r.chosen.iterations.is_none() {
+                    let per = spec_iteration_work(
+                        &s,
+                        est.n_samples(),
+                        est.nu(),
+                        est.ny(),
+                        auto.max_order,
+                    );
+                    s.max_iterations = capped_iterations(
+                        auto.final_work,
+                        per,
+                        auto.min_iterations,
+                        s.max_iterations,
+                    );
+                }
                 (s, Some(Ok(r)))
             }
             // Too short a record for the folds: the spec as given.

@@ -30,7 +30,9 @@ use super::spec::{AutoSelect, IdentifySpec, Method, PemFocus, Start};
 use crate::arx::arx_baseline;
 use crate::data::{Experiment, IoData};
 use crate::error::{Result, SysidError};
+use crate::feedback::{FeedbackSettings, feedback_test};
 use crate::n4sid::MatrixEstimate;
+use crate::pem::Criterion;
 use crate::validate::{compare, persistence_fit, predict_fit};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -296,12 +298,16 @@ impl Search<'_> {
                         f.fit.ny(),
                         self.max_order,
                     );
-                    let n = capped_iterations(
-                        self.auto.fold_work,
-                        per,
-                        self.auto.min_iterations,
-                        spec.max_iterations.min(self.auto.fold_iterations),
-                    );
+                    // A candidate that runs to convergence is planned at
+                    // its whole iteration count.
+                    let n = c.iterations.unwrap_or_else(|| {
+                        capped_iterations(
+                            self.auto.fold_work,
+                            per,
+                            self.auto.min_iterations,
+                            spec.max_iterations.min(self.auto.fold_iterations),
+                        )
+                    });
                     work += per * n as f64;
                     its.push(n);
                 }
@@ -469,6 +475,11 @@ pub(super) fn choose_structure(
         auto.max_fold_samples / (auto.folds * est.experiments().len()).max(1),
     )?;
     let reference = fold_reference(&folds, &spec.horizons);
+    // Does the estimation data show feedback? (Only looked at when the
+    // open-loop candidates may be added.)
+    let feedback = auto
+        .open_loop
+        .then(|| feedback_test(est, &FeedbackSettings::default()).map_err(|e| e.to_string()));
     let search = Search {
         spec,
         auto,
@@ -587,6 +598,15 @@ pub(super) fn choose_structure(
     rest.extend(stage2(&others, &chosen));
     rest.retain(|c| !stage1.contains(c) && !stage2a.contains(c));
     scores.extend(search.run(&rest));
+    // Stage 3: on open-loop data, the candidates with a feed-through
+    // (planned last, so the others are planned as without them).
+    let open = open_loop_candidates(auto, feedback.as_ref(), &chosen, spec, est.ny(), h);
+    let open_loop = open_loop_note(auto, feedback.as_ref(), &open, free_start && free_focus);
+    let open: Vec<Candidate> = open
+        .into_iter()
+        .filter(|c| !stage1.contains(c) && !stage2a.contains(c) && !rest.contains(c))
+        .collect();
+    scores.extend(search.run(&open));
     let budget_hit = search.budget_hit.lock().map(|b| *b).unwrap_or(false);
     let Some(winner) = best(&scores).cloned() else {
         if budget_hit || scores.is_empty() {
@@ -606,6 +626,8 @@ pub(super) fn choose_structure(
                 work: (auto.work_budget, planned(&search)),
                 skipped: skipped(&search),
                 reference: mean_over_folds(&search.reference),
+                feedback,
+                open_loop,
             };
             return Ok((focus_first.apply(spec), report));
         }
@@ -637,8 +659,85 @@ pub(super) fn choose_structure(
         work: (auto.work_budget, planned(&search)),
         skipped: skipped(&search),
         reference: mean_over_folds(&search.reference),
+        feedback,
+        open_loop,
     };
     Ok((winner.candidate.apply(spec), report))
+}
+
+/// The open-loop candidates ([`AutoSelect::open_loop`]) at the order of
+/// `at`: N4SID state regression with `D` for each of
+/// [`AutoSelect::open_loop_horizons`] (a block-row count too short for the
+/// order left out), PEM with `D` and `K`, the fit criterion over steps
+/// `{1, h}`, [`AutoSelect::open_loop_iterations`]; none when the test
+/// found feedback, could not run, or the start or focus is fixed.
+fn open_loop_candidates(
+    auto: &AutoSelect,
+    feedback: Option<&std::result::Result<crate::feedback::FeedbackTest, String>>,
+    at: &Candidate,
+    spec: &IdentifySpec,
+    ny: usize,
+    h: usize,
+) -> Vec<Candidate> {
+    let open = matches!(feedback, Some(Ok(t)) if !t.feedback);
+    if !(open && auto.start && auto.focus && spec.method == Method::Pem) {
+        return Vec::new();
+    }
+    // N4SID's singular values go to order 10 (fit_structure).
+    let nmax = at.order.unwrap_or(10).max(10);
+    let mut v: Vec<Candidate> = Vec::new();
+    for &i in &auto.open_loop_horizons {
+        let horizon = i.or(spec.horizon);
+        if horizon.is_some_and(|i| i < 2 || i * ny <= nmax) {
+            continue;
+        }
+        let c = Candidate {
+            start: Start::N4sid,
+            n4sid_matrices: MatrixEstimate::StateRegression,
+            feedthrough: true,
+            focus: PemFocus::Prediction,
+            pem_horizon: h,
+            max_radius_a: None,
+            horizon,
+            criterion: Criterion::Fit,
+            pem_steps: if h > 1 { vec![1, h] } else { Vec::new() },
+            iterations: Some(auto.open_loop_iterations.max(1)),
+            ..at.clone()
+        };
+        if !v.contains(&c) {
+            v.push(c);
+        }
+    }
+    v
+}
+
+/// Why the open-loop candidates were or were not tried (the report's line).
+fn open_loop_note(
+    auto: &AutoSelect,
+    feedback: Option<&std::result::Result<crate::feedback::FeedbackTest, String>>,
+    added: &[Candidate],
+    free: bool,
+) -> String {
+    match feedback {
+        None => String::new(),
+        Some(Err(_)) => {
+            "feed-through D not tried: the feedback test could not run, so the data may be closed-loop".into()
+        }
+        Some(Ok(t)) if t.feedback => {
+            "feed-through D not tried: the inputs react to the outputs (closed loop), where D would learn the controller's reaction within the sample".into()
+        }
+        Some(Ok(_)) if !free => {
+            "no feedback found; the open-loop candidates (D, fit criterion) not tried: the start or focus is fixed".into()
+        }
+        Some(Ok(_)) if added.is_empty() => {
+            "no feedback found; no open-loop candidate fits the order and the data".into()
+        }
+        Some(Ok(_)) => format!(
+            "no feedback found (open loop): also tried {} candidate(s) with a feed-through D, N4SID state regression, PEM with D and K, fit criterion over steps {{1, h}}, up to {} iterations",
+            added.len(),
+            auto.open_loop_iterations
+        ),
+    }
 }
 
 #[cfg(test)]

@@ -230,3 +230,101 @@ fn the_vibration_prefilter_is_chosen_and_reported() {
     assert!(plain.prefilter.is_none());
     assert!(plain.model != r.model);
 }
+
+/// Open-loop data from a plant with a feed-through (coloured inputs, no
+/// feedback): the report carries the feedback test's verdict, the
+/// open-loop candidates (state regression with `D`, fit criterion over
+/// steps `{1, 5}`, run to their iteration count) are tried and reported,
+/// and the same plant with the first input reacting to the first
+/// output's previous sample (`+0.5 y1(t - 1)`, a stable loop) adds none
+/// and says why. With `open_loop: false` nothing is tested or added.
+#[test]
+fn open_loop_candidates_follow_the_feedback_test() {
+    use crate::data::IoData;
+    use crate::pem::Criterion;
+    use nalgebra::DMatrix;
+    let mut truth = synthetic::random_model(2, 2, 2, 9, 0.9);
+    truth.d = DMatrix::from_row_slice(2, 2, &[0.5, 0.0, 0.0, -0.3]);
+    let n = 1500;
+    let mut rng = synthetic::Rng::new(5);
+    let make = |closed: bool, rng: &mut synthetic::Rng| {
+        let mut u = DMatrix::zeros(n, 2);
+        let mut y = DMatrix::zeros(n, 2);
+        let mut x = nalgebra::DVector::zeros(2);
+        let mut c = 0.0;
+        for t in 0..n {
+            c = 0.8 * c + rng.normal();
+            let e = nalgebra::DVector::from_fn(2, |_, _| 0.3 * rng.normal());
+            let prev = if t > 0 { y[(t - 1, 0)] } else { 0.0 };
+            let ut = nalgebra::DVector::from_vec(vec![
+                c + if closed { 0.5 * prev } else { 0.0 },
+                rng.normal(),
+            ]);
+            let yt = &truth.c * &x + &truth.d * &ut + &e;
+            x = &truth.a * &x + &truth.b * &ut + &truth.k * &e;
+            u.row_mut(t).copy_from(&ut.transpose());
+            y.row_mut(t).copy_from(&yt.transpose());
+        }
+        IoData::new(1.0, u, y).unwrap()
+    };
+    let spec = IdentifySpec {
+        estimate: Segment::parse_list("0:999").unwrap(),
+        validate: Segment::parse_list("1000:1499").unwrap(),
+        order: Some(2),
+        auto: Some(AutoSelect {
+            open_loop_iterations: 20,
+            ..AutoSelect::default()
+        }),
+        ..Default::default()
+    };
+    let open = identify(&make(false, &mut rng), &spec).unwrap();
+    let s = open.selection.as_ref().unwrap().as_ref().unwrap();
+    let t = s.feedback.as_ref().unwrap().as_ref().unwrap();
+    assert!(!t.feedback, "{s}");
+    let tried: Vec<_> = s
+        .candidates
+        .iter()
+        .filter(|c| c.candidate.feedthrough)
+        .collect();
+    // The default block rows and i = 5 (5 x 2 outputs = 10 is too short
+    // for N4SID's largest order 10: left out).
+    assert_eq!(tried.len(), 1, "{s}");
+    let c = &tried[0].candidate;
+    assert_eq!(
+        (
+            c.criterion,
+            c.pem_steps.clone(),
+            c.pem_horizon,
+            c.iterations
+        ),
+        (Criterion::Fit, vec![1, 5], 5, Some(20))
+    );
+    assert!(tried[0].score.is_finite(), "{s}");
+    let text = s.to_string();
+    assert!(text.contains("no feedback found (open loop)"), "{text}");
+    assert!(text.contains("fit criterion"), "{text}");
+    // The feed-through is what this plant has: the open-loop candidate wins.
+    assert!(s.chosen.feedthrough, "{s}");
+    assert!(open.model.d.amax() > 0.1);
+
+    let closed = identify(&make(true, &mut rng), &spec).unwrap();
+    let s = closed.selection.as_ref().unwrap().as_ref().unwrap();
+    assert!(
+        s.feedback.as_ref().unwrap().as_ref().unwrap().feedback,
+        "{s}"
+    );
+    assert!(s.candidates.iter().all(|c| !c.candidate.feedthrough));
+    assert!(s.to_string().contains("feed-through D not tried"), "{s}");
+
+    let off = IdentifySpec {
+        auto: Some(AutoSelect {
+            open_loop: false,
+            ..AutoSelect::default()
+        }),
+        ..spec
+    };
+    let r = identify(&make(false, &mut rng), &off).unwrap();
+    let s = r.selection.unwrap().unwrap();
+    assert!(s.feedback.is_none() && s.open_loop.is_empty());
+    assert!(s.candidates.iter().all(|c| !c.candidate.feedthrough));
+}

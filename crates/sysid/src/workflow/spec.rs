@@ -150,6 +150,14 @@ pub struct IdentifySpec {
     /// `h > 1` fits the `1..=h`-step-ahead predictions together
     /// ([`PemSettings::horizon`]); 1 is the one-step criterion.
     pub pem_horizon: usize,
+    /// The prediction steps (each in `1..=pem_horizon`) whose errors enter
+    /// the criterion of the prediction-focus PEM stages whose horizon is
+    /// [`IdentifySpec::pem_horizon`] ([`PemSettings::steps`]); empty: all of
+    /// `1..=pem_horizon`. For example `pem_horizon: 5, pem_steps: vec![1,
+    /// 5]` with [`Criterion::Fit`] fits the sum of the one-step and
+    /// five-step fits. Not used by the dynamics stage of
+    /// [`PemFocus::MultiStepThenNoise`].
+    pub pem_steps: Vec<usize>,
     /// How the PEM stages weigh the errors of the outputs (and steps):
     /// [`Criterion::Trace`] (default), [`Criterion::Determinant`] or
     /// [`Criterion::Fit`] (the sum of the RMS errors, the mean fit).
@@ -196,8 +204,9 @@ pub struct AutoSelect {
     pub max_order: usize,
     /// Choose the start: N4SID with `B, D` by output-error least squares
     /// or `A, B, C, D` by the state regression, or PBSID. The feed-through
-    /// ([`IdentifySpec::feedthrough`]) is never chosen: on closed-loop
-    /// data `D` learns the controller's reaction within the sample.
+    /// ([`IdentifySpec::feedthrough`]) is tried only by the open-loop
+    /// candidates ([`AutoSelect::open_loop`]): on closed-loop data `D`
+    /// learns the controller's reaction within the sample.
     pub start: bool,
     /// Choose the PEM focus and its prediction horizon (one-step PEM,
     /// multi-step `1..=h` PEM, or multi-step then `K`, with `h` the
@@ -240,6 +249,23 @@ pub struct AutoSelect {
     /// stable, the simulation diverges) at the best order and start;
     /// `None`: not tried.
     pub radius_a: Option<f64>,
+    /// When the [`feedback_test`](crate::feedback_test) finds no feedback
+    /// in the estimation data (open loop), also try at the chosen order,
+    /// with the start and the focus free: N4SID state regression with a
+    /// feed-through `D` (block rows [`AutoSelect::open_loop_horizons`]),
+    /// then PEM with `D` and `K` estimated, [`Criterion::Fit`] over the
+    /// prediction steps `{1, h}` (`h` the largest table horizon), run to
+    /// [`AutoSelect::open_loop_iterations`] or convergence. With feedback
+    /// (or when the test cannot run) nothing is added.
+    pub open_loop: bool,
+    /// N4SID block rows of the open-loop candidates (`None`: chosen from
+    /// the order, as [`IdentifySpec::horizon`]); one candidate each, a
+    /// count too short for the order left out.
+    pub open_loop_horizons: Vec<Option<usize>>,
+    /// PEM iterations of the open-loop candidates (folds and final fit;
+    /// they stop earlier on the tolerances): their work is planned at
+    /// this count against [`AutoSelect::work_budget`].
+    pub open_loop_iterations: usize,
     /// Worker threads.
     pub threads: usize,
 }
@@ -260,6 +286,9 @@ impl Default for AutoSelect {
             min_iterations: 3,
             time_budget: 40.0,
             radius_a: Some(1.02),
+            open_loop: true,
+            open_loop_horizons: vec![None, Some(5)],
+            open_loop_iterations: 60,
             threads: std::thread::available_parallelism().map_or(2, |n| n.get().min(4)),
         }
     }
@@ -281,6 +310,7 @@ impl Default for IdentifySpec {
             n4sid_matrices: MatrixEstimate::OutputError,
             focus: PemFocus::Prediction,
             pem_horizon: 1,
+            pem_steps: Vec::new(),
             criterion: Criterion::Trace,
             feedthrough: false,
             max_iterations: 30,
