@@ -236,6 +236,13 @@ pub struct Args {
     /// operations. Default 1; given, it fixes the focus.
     #[arg(long)]
     pub pem_horizon: Option<usize>,
+    /// The prediction steps (each in 1..--pem-horizon, comma separated)
+    /// whose errors enter the criterion of the prediction-focus PEM stages,
+    /// e.g. `--pem-horizon 5 --pem-steps 1,5 --criterion fit` fits the sum
+    /// of the 1-step and 5-step fits; default: all of 1..--pem-horizon.
+    /// Given, it fixes the focus.
+    #[arg(long, value_delimiter = ',')]
+    pub pem_steps: Vec<usize>,
     /// Prediction horizon of the dynamics stage of
     /// `--focus multi-step-then-noise` (ignored by the other foci).
     /// Default 10; given, it fixes the focus.
@@ -244,8 +251,10 @@ pub struct Args {
     /// How the PEM stages weigh the errors of the outputs and steps.
     #[arg(long, value_enum, default_value_t = CriterionArg::Trace)]
     pub criterion: CriterionArg,
-    /// Estimate a feed-through matrix D (never chosen automatically: on
-    /// closed-loop logs D learns the controller's reaction).
+    /// Estimate a feed-through matrix D. Without this flag the automatic
+    /// choice tries D only when its feedback test finds the estimation
+    /// data open-loop (on closed-loop logs D learns the controller's
+    /// reaction within the sample); the report says which.
     #[arg(long)]
     pub feedthrough: bool,
     /// Largest number of PEM iterations.
@@ -324,6 +333,7 @@ impl Args {
                 && self.n4sid_matrices.is_none(),
             focus: self.focus.is_none()
                 && self.pem_horizon.is_none()
+                && self.pem_steps.is_empty()
                 && self.dynamics_horizon.is_none(),
             folds: self.folds,
             time_budget: self.time_budget,
@@ -422,6 +432,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             },
         },
         pem_horizon: args.pem_horizon.unwrap_or(1),
+        pem_steps: args.pem_steps.clone(),
         criterion: match args.criterion {
             CriterionArg::Trace => Criterion::Trace,
             CriterionArg::Determinant => Criterion::Determinant,
