@@ -260,11 +260,15 @@ pub struct AutoSelect {
     pub open_loop: bool,
     /// N4SID block rows of the open-loop candidates (`None`: chosen from
     /// the order, as [`IdentifySpec::horizon`]); one candidate each, a
-    /// count too short for the order left out.
+    /// count too short for the order left out. Default `[None, Some(5)]`:
+    /// the default and the short start that the steam generator's own
+    /// cross-validation chose (`steam_regression`).
     pub open_loop_horizons: Vec<Option<usize>>,
     /// PEM iterations of the open-loop candidates (folds and final fit;
     /// they stop earlier on the tolerances): their work is planned at
-    /// this count against [`AutoSelect::work_budget`].
+    /// this count against [`AutoSelect::work_budget`] (default 60; on the
+    /// steam generator at order 9 each candidate's folds plan 3.1e10, so
+    /// the default budget of 1e10 skips them).
     pub open_loop_iterations: usize,
     /// Worker threads.
     pub threads: usize,
