@@ -91,6 +91,33 @@ fn axpy(dst: &mut [f64], c: f64, src: &[f64]) {
     }
 }
 
+/// `dst = sum_k coef[k] psi_k` over the rows `psi_k` of `psi` (row-major,
+/// each `dst.len()` long): eight columns at a time with the sums in
+/// registers (the same sums in the same order as a row of axpys, which
+/// load and store `dst` once per `k`).
+fn combine(dst: &mut [f64], coef: &[f64], psi: &[f64]) {
+    const W: usize = 8;
+    let pl = dst.len();
+    let full = pl / W * W;
+    for c0 in (0..full).step_by(W) {
+        let mut acc = [0.0; W];
+        for (k, &c) in coef.iter().enumerate() {
+            let src = &psi[k * pl + c0..k * pl + c0 + W];
+            for (a, s) in acc.iter_mut().zip(src) {
+                *a += c * s;
+            }
+        }
+        dst[c0..c0 + W].copy_from_slice(&acc);
+    }
+    for (c, d) in dst.iter_mut().enumerate().skip(full) {
+        let mut v = 0.0;
+        for (k, &cf) in coef.iter().enumerate() {
+            v += cf * psi[k * pl + c];
+        }
+        *d = v;
+    }
+}
+
 /// The rows of the errors of step `j + 1` (`rows`, `ny x pl` row-major):
 /// `de = -(C dz_j + dC z_j + dD u_j)` with the look-ahead sensitivity
 /// `dz_j = A^j Psi + sum_{i<j} A^{j-1-i} (dA z_i + dB u_i)`, so
@@ -110,11 +137,8 @@ fn step_rows(
 ) {
     let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
     for (o, row) in rows.chunks_exact_mut(pl).enumerate() {
-        row.fill(0.0);
-        let mj = &powers[(j * ny + o) * n..][..n];
-        for (k, &c) in mj.iter().enumerate() {
-            axpy(row, -c, &psi[k * pl..(k + 1) * pl]);
-        }
+        combine(row, &powers[(j * ny + o) * n..][..n], psi);
+        row.iter_mut().for_each(|v| *v = -*v);
         for i in 0..j {
             let mm = &powers[((j - 1 - i) * ny + o) * n..][..n];
             let zi = &z[i * n..(i + 1) * n];
@@ -151,10 +175,7 @@ fn advance_sensitivity(
 ) {
     let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
     for (a, dst) in psin.chunks_exact_mut(pl).enumerate() {
-        dst.fill(0.0);
-        for (k, &c) in abar[a * n..(a + 1) * n].iter().enumerate() {
-            axpy(dst, c, &psi[k * pl..(k + 1) * pl]);
-        }
+        combine(dst, &abar[a * n..(a + 1) * n], psi);
         axpy(&mut dst[a * n..(a + 1) * n], 1.0, x);
         axpy(&mut dst[lay.ob + a * nu..][..nu], 1.0, u);
         if lay.has_k {

@@ -1,17 +1,21 @@
 //! Size limits of [`pem`](crate::pem()), checked before the first
 //! Jacobian is built.
 //!
-//! Every Levenberg-Marquardt iteration builds the dense Jacobian of all
-//! residuals: `ny` per sample and prediction step, so about
+//! Every Levenberg-Marquardt iteration forms the Jacobian row of every
+//! residual: `ny` per sample and prediction step, so about
 //! `N h ny` rows for a prediction horizon `h` (up to `N^2 ny / 2` when
 //! `h` reaches the length `N` of the data), times the parameters `p`
-//! (about `n^2` for order `n`). Forming `J'J` costs `p^2` operations per
-//! residual.
+//! (about `n^2` for order `n`). Adding them to `J'J` costs `p^2`
+//! operations per residual. The rows are accumulated into `J'J` a block
+//! at a time and never stored together, but the limits are still
+//! stated as the size of that whole Jacobian: they bound the work of an
+//! iteration (and keep refusing what they refused before).
 
 use crate::error::{Result, SizedMethod, SysidError};
 
-/// Largest memory of the Jacobian of one PEM iteration (8 bytes per
-/// entry, residuals x parameters): 1 GiB.
+/// Largest size of the Jacobian of one PEM iteration (8 bytes per
+/// entry, residuals x parameters): 1 GiB. The search no longer stores
+/// it whole (see the module docs); the limit bounds the rows formed.
 pub const MAX_PEM_JACOBIAN_BYTES: f64 = (1u64 << 30) as f64;
 
 /// Largest number of operations of one PEM iteration (the Jacobian and
