@@ -158,6 +158,8 @@ pub struct FeedbackTest {
     /// The lag count that minimises Akaike's criterion of the inputs'
     /// own autoregression (`None` with [`FeedbackSettings::lags`] given).
     pub aic_lags: Option<usize>,
+    /// [`FeedbackSettings::min_lags`] of the test.
+    pub min_lags: usize,
     /// Regression rows `M`.
     pub rows: usize,
     /// The overall level.
@@ -179,7 +181,8 @@ impl fmt::Display for FeedbackTest {
             self.level,
             match self.aic_lags {
                 Some(a) => format!(
-                    "Akaike's criterion for the inputs' own past {a}, raised to the minimum"
+                    "Akaike's choice for the inputs' own past {a}, at least {} unless the record is short",
+                    self.min_lags
                 ),
                 None => "given".to_string(),
             },
@@ -284,6 +287,7 @@ pub fn feedback_test(data: &IoData, settings: &FeedbackSettings) -> Result<Feedb
     Ok(FeedbackTest {
         lags,
         aic_lags,
+        min_lags: settings.min_lags,
         rows,
         level: settings.level,
         feedback: inputs.iter().any(|i| i.feedback),
