@@ -14,7 +14,11 @@ use super::layout::Layout;
 use super::residuals::{output_error, predictor_state_step};
 use super::series::Series;
 use crate::model::InnovationModel;
-use nalgebra::DVector;
+use nalgebra::{DMatrixView, DMatrixViewMut, DVector};
+
+/// Above this order `(A - KC) Psi` is one `gemm` (nalgebra hands
+/// products with every dimension above 5 to matrixmultiply).
+const GEMM_STATES: usize = 5;
 
 /// Receives the Jacobian rows of [`sensitivity_rows`].
 pub(super) trait Rows {
@@ -174,8 +178,17 @@ fn advance_sensitivity(
     psin: &mut [f64],
 ) {
     let (n, nu, ny) = (lay.n, lay.nu, lay.ny);
+    if n > GEMM_STATES {
+        // All rows at once through matrixmultiply's kernels (row-major
+        // views: row stride first).
+        let ab = DMatrixView::from_slice_with_strides(abar, n, n, n, 1);
+        let ps = DMatrixView::from_slice_with_strides(psi, n, pl, pl, 1);
+        DMatrixViewMut::from_slice_with_strides_mut(psin, n, pl, pl, 1).gemm(1.0, &ab, &ps, 0.0);
+    }
     for (a, dst) in psin.chunks_exact_mut(pl).enumerate() {
-        combine(dst, &abar[a * n..(a + 1) * n], psi);
+        if n <= GEMM_STATES {
+            combine(dst, &abar[a * n..(a + 1) * n], psi);
+        }
         axpy(&mut dst[a * n..(a + 1) * n], 1.0, x);
         axpy(&mut dst[lay.ob + a * nu..][..nu], 1.0, u);
         if lay.has_k {

@@ -102,20 +102,23 @@ fn rel(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
     (a - b).amax() / b.amax().max(1e-300)
 }
 
+/// 3 states (the row-by-row `(A - KC) Psi`) and 6 (one `gemm`).
 #[test]
 fn structured_rows_equal_the_dense_recursions() {
-    let (m, series, x0) = fixture(3, 2, 2);
-    for (has_d, has_k, h) in [
-        (true, true, 1),
-        (true, true, 4),
-        (false, true, 3),
-        (false, false, 1),
-    ] {
-        let lay = Layout::new(3, 2, 2, 2, has_d, has_k);
-        let (_, jt) = residuals_and_jacobian(&lay, &m, &x0, &series, h);
-        let want = dense_jacobian(&lay, &m, &x0, &series, h);
-        let r = rel(&jt, &want);
-        assert!(r < 1e-13, "d {has_d} k {has_k} h {h}: {r:e}");
+    for (n, nu, ny) in [(3, 2, 2), (6, 3, 4)] {
+        let (m, series, x0) = fixture(n, nu, ny);
+        for (has_d, has_k, h) in [
+            (true, true, 1),
+            (true, true, 4),
+            (false, true, 3),
+            (false, false, 1),
+        ] {
+            let lay = Layout::new(n, nu, ny, 2, has_d, has_k);
+            let (_, jt) = residuals_and_jacobian(&lay, &m, &x0, &series, h);
+            let want = dense_jacobian(&lay, &m, &x0, &series, h);
+            let r = rel(&jt, &want);
+            assert!(r < 1e-13, "n {n} d {has_d} k {has_k} h {h}: {r:e}");
+        }
     }
 }
 
