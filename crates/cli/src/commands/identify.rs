@@ -183,11 +183,11 @@ pub struct Args {
     /// fold fit starts after it (the candidates done are compared and the
     /// report says the stop fired). The candidates themselves are planned
     /// by --work-budget, so the choice does not depend on the machine.
-    #[arg(long, default_value_t = 40.0)]
+    #[arg(long, default_value_t = 60.0)]
     pub time_budget: f64,
     /// Work of the automatic structure choice's fold fits, in estimated
     /// PEM-iteration units (samples x free parameters x states^2 x
-    /// prediction steps; default 1e10, about 40 s on 2 cores): a larger
+    /// prediction steps; default 5e10, about 35 s on 2 busy cores): a larger
     /// budget tries more candidates, a smaller one fewer; the report lists
     /// the candidates skipped.
     #[arg(long)]

@@ -234,8 +234,15 @@ pub(super) fn spec_iteration_work(
     }
     let nx = spec.order.unwrap_or(max_order);
     let w = |h: usize| iteration_work(samples, nx, nu, ny, h, spec.feedthrough);
+    // The rows of the steps the criterion leaves out are never formed:
+    // a step set counts its steps, not its horizon.
+    let prediction_steps = if spec.pem_steps.is_empty() {
+        spec.pem_horizon
+    } else {
+        spec.pem_steps.len()
+    };
     match spec.focus {
-        PemFocus::Prediction => w(spec.pem_horizon),
+        PemFocus::Prediction => w(prediction_steps),
         PemFocus::Simulation => w(1),
         PemFocus::SimulationThenNoise => w(1) + w(1) / 2.0,
         PemFocus::MultiStepThenNoise { horizon } => w(horizon) + w(spec.pem_horizon) / 2.0,
@@ -253,7 +260,7 @@ pub(super) fn capped_iterations(work: f64, per_iteration: f64, min: usize, max: 
 }
 
 /// A fold's figures: candidate, fold, the mean fits or why it failed.
-type FoldResult = (usize, usize, std::result::Result<Vec<f64>, String>);
+type FoldResult = (usize, usize, Result<Vec<f64>>);
 
 /// Shared state of one choice.
 struct Search<'a> {
@@ -269,6 +276,9 @@ struct Search<'a> {
     planned: Mutex<f64>,
     /// Candidates left out by the work budget.
     skipped: Mutex<Vec<Candidate>>,
+    /// The first failure (in candidate and fold order), returned as it
+    /// is when no candidate is usable (a size limit keeps its kind).
+    first_error: Mutex<Option<SysidError>>,
     /// Largest order (for a suggested order's work).
     max_order: usize,
     /// The baseline per fold and table horizon ([`fold_reference`]).
@@ -344,8 +354,7 @@ impl Search<'_> {
                         };
                         let mut spec = candidates[c].apply(self.spec);
                         spec.max_iterations = iterations[c][f];
-                        let r = score_fold(&spec, candidates[c].max_radius_a, &self.folds[f])
-                            .map_err(|e| e.to_string());
+                        let r = score_fold(&spec, candidates[c].max_radius_a, &self.folds[f]);
                         let done = self.done.fetch_add(1, Ordering::SeqCst) + 1;
                         (self.progress)(&Progress {
                             done,
@@ -359,30 +368,40 @@ impl Search<'_> {
                 });
             }
         });
-        let results = results.into_inner().unwrap_or_default();
+        let mut results = results.into_inner().unwrap_or_default();
+        // In candidate and fold order, so the means (and the first
+        // failure) do not depend on which thread finished first.
+        results.sort_by_key(|r| (r.0, r.1));
+        let mut results = results.into_iter().peekable();
         candidates
             .iter()
             .enumerate()
             .filter_map(|(c, cand)| {
-                // In fold order, so the means do not depend on which
-                // thread finished first.
-                let mut mine: Vec<_> = results.iter().filter(|r| r.0 == c).collect();
-                mine.sort_by_key(|r| r.1);
+                let mut mine = Vec::new();
+                while let Some(r) = results.next_if(|r| r.0 == c) {
+                    mine.push(r.2);
+                }
                 if mine.len() < self.folds.len() {
                     return None;
                 }
-                if let Some((_, _, Err(e))) = mine.iter().find(|r| r.2.is_err()) {
-                    return Some(CandidateScore {
-                        candidate: cand.clone(),
-                        fits: Vec::new(),
-                        score: f64::NEG_INFINITY,
-                        failed: Some(e.clone()),
-                    });
+                let mut per_fold = Vec::new();
+                for r in mine {
+                    match r {
+                        Ok(fits) => per_fold.push(fits),
+                        Err(e) => {
+                            let failed = Some(e.to_string());
+                            if let Ok(mut first) = self.first_error.lock() {
+                                first.get_or_insert(e);
+                            }
+                            return Some(CandidateScore {
+                                candidate: cand.clone(),
+                                fits: Vec::new(),
+                                score: f64::NEG_INFINITY,
+                                failed,
+                            });
+                        }
+                    }
                 }
-                let per_fold: Vec<Vec<f64>> = mine
-                    .iter()
-                    .filter_map(|r| r.2.as_ref().ok().cloned())
-                    .collect();
                 Some(CandidateScore {
                     candidate: cand.clone(),
                     score: score(&per_fold, &self.reference),
@@ -491,6 +510,7 @@ pub(super) fn choose_structure(
         budget_hit: Mutex::new(false),
         planned: Mutex::new(0.0),
         skipped: Mutex::new(Vec::new()),
+        first_error: Mutex::new(None),
         max_order,
         reference,
     };
@@ -631,20 +651,12 @@ pub(super) fn choose_structure(
             };
             return Ok((focus_first.apply(spec), report));
         }
-        let why = scores
-            .iter()
-            .find_map(|s| s.failed.clone())
-            .unwrap_or_else(|| "no candidate".into());
-        if why.starts_with("too few samples") {
-            return Err(SysidError::TooFewSamples {
-                what: format!("the structure choice ({why})"),
-                needed: 0,
-                found: est.n_samples(),
-            });
-        }
-        return Err(SysidError::invalid(format!(
-            "the structure choice found no usable candidate: {why}"
-        )));
+        // Every candidate failed: the first failure as it is (a size
+        // limit or too few samples keeps its kind and its flag hint).
+        let first = search.first_error.lock().ok().and_then(|mut e| e.take());
+        return Err(first.unwrap_or_else(|| {
+            SysidError::invalid("the structure choice found no usable candidate")
+        }));
     };
     let report = SelectionReport {
         folds: auto.folds,

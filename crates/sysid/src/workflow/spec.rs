@@ -267,8 +267,8 @@ pub struct AutoSelect {
     /// PEM iterations of the open-loop candidates (folds and final fit;
     /// they stop earlier on the tolerances): their work is planned at
     /// this count against [`AutoSelect::work_budget`] (default 60; on the
-    /// steam generator at order 9 each candidate's folds plan 3.1e10, so
-    /// the default budget of 1e10 skips them).
+    /// steam generator at order 9 each candidate's folds plan 1.2e10 of
+    /// the default budget of 5e10).
     pub open_loop_iterations: usize,
     /// Worker threads.
     pub threads: usize,
@@ -284,11 +284,11 @@ impl Default for AutoSelect {
             folds: 3,
             fold_iterations: 10,
             max_fold_samples: 6000,
-            work_budget: 1.0e10,
+            work_budget: 5.0e10,
             fold_work: 8e8,
             final_work: 2e9,
             min_iterations: 3,
-            time_budget: 40.0,
+            time_budget: 60.0,
             radius_a: Some(1.02),
             open_loop: true,
             open_loop_horizons: vec![None, Some(5)],
