@@ -14,11 +14,11 @@
 # FLIGHT_DATA (default ../shared/data/flight), OUT (work directory,
 # default a fresh temporary one), RATES (default "50 500"), LOGS (default
 # all four), EXTRA (more flags for identify, e.g. "--time-budget 20").
-# Takes about 1 minute at 50 Hz and 3 at 500 Hz on 2 cores (each identify
-# is bounded by the work budget; the 40 s safety stop is named in the
-# report when it fires: on a shared machine it does, and the choice then
-# depends on the load; EXTRA="--time-budget 300" gives the work-planned
-# choice whatever the load, as in BENCHMARKS.md).
+# Takes about 15 s at 50 Hz and 1 minute at 500 Hz on 2 cores (each
+# identify is bounded by the work budget; the 60 s safety stop is named
+# in the report when it fires: on a heavily loaded machine it can, and
+# the choice then depends on the load; EXTRA="--time-budget 300" gives
+# the work-planned choice whatever the load).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if [[ -z "${KESTREL:-}" ]]; then
