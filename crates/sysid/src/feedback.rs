@@ -121,9 +121,9 @@ impl FTest {
     /// The test of `rss1` (full model, `k1` regressors) against `rss0`
     /// (restricted, `k1 - df1` regressors) on `rows` rows.
     fn new(rss0: f64, rss1: f64, df1: usize, k1: usize, rows: usize) -> Self {
+        let df1 = df1.max(1);
         let df2 = rows.saturating_sub(k1).max(1);
-        let f = ((rss0 - rss1).max(0.0) / df1.max(1) as f64)
-            / (rss1.max(f64::MIN_POSITIVE) / df2 as f64);
+        let f = ((rss0 - rss1).max(0.0) / df1 as f64) / (rss1.max(f64::MIN_POSITIVE) / df2 as f64);
         FTest {
             f,
             df1,
@@ -445,104 +445,18 @@ fn aic_lags(signals: &[DMatrix<f64>], nu: usize, max: usize) -> usize {
     best.1
 }
 
-/// `P(F(d1, d2) >= f)`: the regularised incomplete beta function
-/// `I_x(d2 / 2, d1 / 2)` at `x = d2 / (d2 + d1 f)`.
+/// `P(F(d1, d2) >= f)`, the upper tail of the F distribution
+/// ([`statrs`]'s Fisher-Snedecor survival function); `NaN` for degrees
+/// of freedom that are not positive.
 pub(crate) fn f_upper_tail(f: f64, d1: f64, d2: f64) -> f64 {
+    use statrs::distribution::{ContinuousCDF, FisherSnedecor};
     if !f.is_finite() {
         return if f > 0.0 { 0.0 } else { 1.0 };
     }
     if f <= 0.0 {
         return 1.0;
     }
-    incomplete_beta(d2 / (d2 + d1 * f), d2 / 2.0, d1 / 2.0)
-}
-
-/// The regularised incomplete beta function `I_x(a, b)` (continued
-/// fraction by the modified Lentz method).
-fn incomplete_beta(x: f64, a: f64, b: f64) -> f64 {
-    if x <= 0.0 {
-        return 0.0;
-    }
-    if x >= 1.0 {
-        return 1.0;
-    }
-    let ln_front = ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (1.0 - x).ln();
-    if x < (a + 1.0) / (a + b + 2.0) {
-        (ln_front.exp() * beta_fraction(x, a, b) / a).clamp(0.0, 1.0)
-    } else {
-        (1.0 - ln_front.exp() * beta_fraction(1.0 - x, b, a) / b).clamp(0.0, 1.0)
-    }
-}
-
-/// The continued fraction of the incomplete beta function.
-fn beta_fraction(x: f64, a: f64, b: f64) -> f64 {
-    const TINY: f64 = 1e-300;
-    let (qab, qap, qam) = (a + b, a + 1.0, a - 1.0);
-    let mut c = 1.0;
-    let mut d = 1.0 - qab * x / qap;
-    if d.abs() < TINY {
-        d = TINY;
-    }
-    d = 1.0 / d;
-    let mut h = d;
-    for m in 1..=10_000 {
-        let m = m as f64;
-        let m2 = 2.0 * m;
-        let aa = m * (b - m) * x / ((qam + m2) * (a + m2));
-        d = 1.0 + aa * d;
-        if d.abs() < TINY {
-            d = TINY;
-        }
-        c = 1.0 + aa / c;
-        if c.abs() < TINY {
-            c = TINY;
-        }
-        d = 1.0 / d;
-        h *= d * c;
-        let aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2));
-        d = 1.0 + aa * d;
-        if d.abs() < TINY {
-            d = TINY;
-        }
-        c = 1.0 + aa / c;
-        if c.abs() < TINY {
-            c = TINY;
-        }
-        d = 1.0 / d;
-        let del = d * c;
-        h *= del;
-        if (del - 1.0).abs() < 1e-15 {
-            break;
-        }
-    }
-    h
-}
-
-/// `ln Gamma(x)` for `x > 0` (Lanczos, g = 7, 9 terms; relative error
-/// about 1e-15).
-fn ln_gamma(x: f64) -> f64 {
-    const G: [f64; 9] = [
-        0.999_999_999_999_809_9,
-        676.520_368_121_885_1,
-        -1_259.139_216_722_402_8,
-        771.323_428_777_653_1,
-        -176.615_029_162_140_6,
-        12.507_343_278_686_905,
-        -0.138_571_095_265_720_12,
-        9.984_369_578_019_572e-6,
-        1.505_632_735_149_311_6e-7,
-    ];
-    if x < 0.5 {
-        let pi = core::f64::consts::PI;
-        return (pi / (pi * x).sin()).ln() - ln_gamma(1.0 - x);
-    }
-    let x = x - 1.0;
-    let mut a = G[0];
-    let t = x + 7.5;
-    for (i, g) in G.iter().enumerate().skip(1) {
-        a += g / (x + i as f64);
-    }
-    0.5 * (2.0 * core::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
+    FisherSnedecor::new(d1, d2).map_or(f64::NAN, |d| d.sf(f))
 }
 
 #[cfg(test)]
