@@ -57,23 +57,10 @@ pub(super) fn fit_weights(res: &DVector<f64>, groups: &[usize], ng: usize) -> Ve
     rms.iter().map(|r| 1.0 / r.max(floor)).collect()
 }
 
-/// Multiplies every residual (and its Jacobian column) by the square root
-/// of its group's weight.
-fn weigh_groups(
-    w: &[f64],
-    groups: &[usize],
-    res: &mut DVector<f64>,
-    jt: Option<&mut DMatrix<f64>>,
-) {
-    let sw: Vec<f64> = w.iter().map(|v| v.sqrt()).collect();
-    for (e, &g) in res.iter_mut().zip(groups) {
-        *e *= sw[g];
-    }
-    if let Some(jt) = jt {
-        for (i, &g) in groups.iter().enumerate() {
-            jt.column_mut(i).scale_mut(sw[g]);
-        }
-    }
+/// The square roots of the group weights `w` (what multiplies the
+/// residuals and the Jacobian rows).
+fn roots(w: &[f64]) -> Vec<f64> {
+    w.iter().map(|v| v.sqrt()).collect()
 }
 
 /// The weighting of the residuals in force during one iteration.
@@ -82,7 +69,8 @@ pub(super) enum ResidualWeights {
     None,
     /// `L^-1` of the residual covariance ([`Criterion::Determinant`]).
     Whiten(DMatrix<f64>),
-    /// Group weights `1 / rms` ([`Criterion::Fit`]).
+    /// The square roots of the group weights (`1 / rms` for
+    /// [`Criterion::Fit`]), one factor per group of residuals.
     Groups(Vec<f64>),
 }
 
@@ -98,35 +86,45 @@ impl ResidualWeights {
         match criterion {
             Criterion::Trace => ResidualWeights::None,
             Criterion::Determinant => ResidualWeights::Whiten(whitener(res, ny)),
-            Criterion::Fit => ResidualWeights::Groups(fit_weights(res, groups, ng)),
+            Criterion::Fit => ResidualWeights::Groups(roots(&fit_weights(res, groups, ng))),
         }
     }
-    pub(super) fn apply(
-        &self,
-        groups: &[usize],
-        res: &mut DVector<f64>,
-        jt: Option<&mut DMatrix<f64>>,
-    ) {
+    pub(super) fn apply(&self, groups: &[usize], res: &mut DVector<f64>) {
         match self {
             ResidualWeights::None => {}
-            ResidualWeights::Whiten(w) => weigh(w, res, jt),
-            ResidualWeights::Groups(w) => weigh_groups(w, groups, res, jt),
+            ResidualWeights::Whiten(w) => {
+                // `L^-1` applied to every sample's block of residuals.
+                let ny = w.nrows();
+                let e = w * DMatrix::from_column_slice(ny, res.len() / ny, res.as_slice());
+                res.copy_from_slice(e.as_slice());
+            }
+            ResidualWeights::Groups(sw) => {
+                for (e, &g) in res.iter_mut().zip(groups) {
+                    *e *= sw[g];
+                }
+            }
         }
     }
-}
 
-/// Applies `L^-1` to every sample's block of residuals (and Jacobian columns).
-fn weigh(w: &DMatrix<f64>, res: &mut DVector<f64>, jt: Option<&mut DMatrix<f64>>) {
-    let ny = w.nrows();
-    let m = res.len() / ny;
-    let mut e = DMatrix::from_column_slice(ny, m, res.as_slice());
-    e = w * e;
-    res.copy_from_slice(e.as_slice());
-    if let Some(jt) = jt {
-        for t in 0..m {
-            let blk = jt.columns(t * ny, ny).into_owned();
-            let wb = blk * w.transpose();
-            jt.columns_mut(t * ny, ny).copy_from(&wb);
+    /// The same weighting of the columns of a whole Jacobian `jt`
+    /// (`p x residuals`): the tests' reference for the accumulated normal
+    /// equations, which weigh the rows as they are formed.
+    #[cfg(test)]
+    pub(super) fn apply_to_jacobian(&self, groups: &[usize], jt: &mut DMatrix<f64>) {
+        match self {
+            ResidualWeights::None => {}
+            ResidualWeights::Whiten(w) => {
+                let ny = w.nrows();
+                for t in 0..jt.ncols() / ny {
+                    let wb = jt.columns(t * ny, ny).into_owned() * w.transpose();
+                    jt.columns_mut(t * ny, ny).copy_from(&wb);
+                }
+            }
+            ResidualWeights::Groups(sw) => {
+                for (i, &g) in groups.iter().enumerate() {
+                    jt.column_mut(i).scale_mut(sw[g]);
+                }
+            }
         }
     }
 }
@@ -195,8 +193,8 @@ impl Objective {
         }
     }
 
-    /// Zeroes the errors of the steps left out (and their Jacobian columns).
-    pub(super) fn mask(&self, res: &mut DVector<f64>, jt: Option<&mut DMatrix<f64>>) {
+    /// Zeroes the errors of the steps left out.
+    pub(super) fn mask(&self, res: &mut DVector<f64>) {
         if !self.selected {
             return;
         }
@@ -205,11 +203,19 @@ impl Objective {
                 *e = 0.0;
             }
         }
-        if let Some(jt) = jt {
-            for (i, &g) in self.groups.iter().enumerate() {
-                if !self.keep[g] {
-                    jt.column_mut(i).fill(0.0);
-                }
+    }
+
+    /// Zeroes the Jacobian columns (of `jt`, `p x residuals`) of the steps
+    /// left out: the tests' reference, as
+    /// [`ResidualWeights::apply_to_jacobian`].
+    #[cfg(test)]
+    pub(super) fn mask_jacobian(&self, jt: &mut DMatrix<f64>) {
+        if !self.selected {
+            return;
+        }
+        for (i, &g) in self.groups.iter().enumerate() {
+            if !self.keep[g] {
+                jt.column_mut(i).fill(0.0);
             }
         }
     }
@@ -223,15 +229,15 @@ impl Objective {
     /// The weighting of the criterion at the residuals `res`.
     pub(super) fn weights_at(&self, res: &DVector<f64>) -> ResidualWeights {
         match (self.criterion, self.sim) {
-            (Criterion::Trace, true) => ResidualWeights::Groups(self.group_weight.clone()),
+            (Criterion::Trace, true) => ResidualWeights::Groups(roots(&self.group_weight)),
             (Criterion::Fit, true) => {
                 let w = fit_weights(res, &self.groups, self.ng);
-                ResidualWeights::Groups(
-                    w.iter()
-                        .zip(&self.group_weight)
-                        .map(|(a, b)| a * b)
-                        .collect(),
-                )
+                let w: Vec<f64> = w
+                    .iter()
+                    .zip(&self.group_weight)
+                    .map(|(a, b)| a * b)
+                    .collect();
+                ResidualWeights::Groups(roots(&w))
             }
             (criterion, _) => ResidualWeights::at(criterion, res, self.ny, &self.groups, self.ng),
         }

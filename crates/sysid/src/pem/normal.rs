@@ -26,21 +26,12 @@ const BLOCK_ROWS: usize = 256;
 /// the steam generator's 126 columns; the full width took 20 % longer).
 const PANEL: usize = 64;
 
-/// The weighting of the rows, as [`ResidualWeights::apply`] weighs the
-/// residuals.
-enum Scale {
-    /// Plain trace.
-    None,
-    /// `L^-1` applied to every block of `ny` rows.
-    Whiten(DMatrix<f64>),
-    /// Square roots of the group weights.
-    Groups(Vec<f64>),
-}
-
-/// A [`Rows`] sink that weighs the rows and accumulates `J'J`, `J'r`.
+/// A [`Rows`] sink that weighs the rows (as [`ResidualWeights::apply`]
+/// weighs the residuals: `L^-1` on every block of `ny` rows, or the
+/// group's root weight) and accumulates `J'J`, `J'r`.
 struct Accumulator<'a> {
     target: Target,
-    scale: &'a Scale,
+    weights: &'a ResidualWeights,
     /// Group of the first output of step 1 (the simulation term's groups
     /// follow the prediction steps').
     group0: usize,
@@ -62,14 +53,14 @@ struct Accumulator<'a> {
 impl<'a> Accumulator<'a> {
     fn new(
         target: Target,
-        (scale, group0, ny): (&'a Scale, usize, usize),
+        (weights, group0, ny): (&'a ResidualWeights, usize, usize),
         res: &'a [f64],
         (hessian, gradient): (&'a mut DMatrix<f64>, &'a mut DVector<f64>),
     ) -> Self {
         let pl = target.width();
         Accumulator {
             target,
-            scale,
+            weights,
             group0,
             ny,
             res,
@@ -118,15 +109,15 @@ impl Rows for Accumulator<'_> {
 
     fn block(&mut self, residual: usize, step: usize, rows: &mut [f64]) {
         let (pl, ny) = (self.target.width(), self.ny);
-        match self.scale {
-            Scale::None => {}
-            Scale::Groups(sw) => {
+        match self.weights {
+            ResidualWeights::None => {}
+            ResidualWeights::Groups(sw) => {
                 for (o, row) in rows.chunks_exact_mut(pl).enumerate() {
                     let s = sw[self.group0 + step * ny + o];
                     row.iter_mut().for_each(|v| *v *= s);
                 }
             }
-            Scale::Whiten(w) => {
+            ResidualWeights::Whiten(w) => {
                 self.tmp.copy_from_slice(rows);
                 for (o, row) in rows.chunks_exact_mut(pl).enumerate() {
                     row.fill(0.0);
@@ -183,11 +174,6 @@ pub(super) fn normal_equations(
     w: &ResidualWeights,
     res: &DVector<f64>,
 ) -> (DMatrix<f64>, DVector<f64>) {
-    let scale = match w {
-        ResidualWeights::None => Scale::None,
-        ResidualWeights::Whiten(l) => Scale::Whiten(l.clone()),
-        ResidualWeights::Groups(g) => Scale::Groups(g.iter().map(|v| v.sqrt()).collect()),
-    };
     let ny = lay.ny;
     let mut hessian = DMatrix::zeros(lay.p, lay.p);
     let mut gradient = DVector::zeros(lay.p);
@@ -199,7 +185,7 @@ pub(super) fn normal_equations(
     let (pred, sim) = res.as_slice().split_at(res.len() - n_sim);
     let mut acc = Accumulator::new(
         Target::prediction(lay),
-        (&scale, 0, ny),
+        (w, 0, ny),
         pred,
         (&mut hessian, &mut gradient),
     );
@@ -207,7 +193,7 @@ pub(super) fn normal_equations(
     if lay.has_simulation() {
         let mut acc = Accumulator::new(
             Target::simulation(lay),
-            (&scale, h * ny, ny),
+            (w, h * ny, ny),
             sim,
             (&mut hessian, &mut gradient),
         );

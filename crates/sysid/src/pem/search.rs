@@ -181,7 +181,7 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
         if sim {
             r = stack_residuals(r, &residuals(&without_k(m), xs, &series));
         }
-        objective.mask(&mut r, None);
+        objective.mask(&mut r);
         r
     };
     let mut theta = lay.pack(&base, &x0);
@@ -190,7 +190,7 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
     let mf = objective.count(res.len());
     let initial_cost = res.norm_squared() / mf;
     let w = objective.weights_at(&res);
-    w.apply(&objective.groups, &mut res, None);
+    w.apply(&objective.groups, &mut res);
     let (hessian, gradient) =
         normal_equations(&lay, &base, (&x0, &xs0), &series, h, &objective, &w, &res);
     let first = NormalEquations {
@@ -310,7 +310,7 @@ where
         if self.reweigh {
             self.w = self.objective.weights_at(&res);
         }
-        self.w.apply(&self.objective.groups, &mut res, None);
+        self.w.apply(&self.objective.groups, &mut res);
         let (hessian, gradient) = normal_equations(
             self.lay,
             &model,
@@ -340,7 +340,7 @@ where
         let mut r = (self.res_only)(&m, &x0, &xs);
         self.last_trial = Some((theta.clone(), r.clone()));
         let plain = r.norm_squared() / self.mf;
-        self.w.apply(&self.objective.groups, &mut r, None);
+        self.w.apply(&self.objective.groups, &mut r);
         Some((r.norm_squared() / self.mf, plain))
     }
 

@@ -172,9 +172,11 @@ fn normal_equations_match(n: usize, nu: usize, ny: usize) {
             r1 = stack_residuals(r1, &residuals(&without_k(&m), xs, &series));
         }
         assert_eq!(r, r1);
-        objective.mask(&mut r, Some(&mut jt));
+        objective.mask(&mut r);
+        objective.mask_jacobian(&mut jt);
         let w = objective.weights_at(&r);
-        w.apply(&objective.groups, &mut r, Some(&mut jt));
+        w.apply(&objective.groups, &mut r);
+        w.apply_to_jacobian(&objective.groups, &mut jt);
         let (hs, g) = normal_equations(&lay, &m, (&x0, xs), &series, h, &objective, &w, &r);
         let label = format!("n {n}: {criterion:?} h {h} steps {steps:?} ws {ws}");
         let hr = rel(&hs, &(&jt * jt.transpose()));
