@@ -68,6 +68,7 @@
 //! println!("{r}");
 //! ```
 
+use crate::arx::CHUNK;
 use crate::data::IoData;
 use crate::error::{Result, SysidError};
 use core::fmt;
@@ -344,7 +345,9 @@ fn standardised(data: &IoData) -> Result<Vec<DMatrix<f64>>> {
 /// y(t-1..t-ly), (y(t)), u(t)]` (rows `t >= max(lu, ly)` of every
 /// experiment; lag-major columns) from the Cholesky factor of its Gram
 /// matrix: the residual sum of squares of target column `c` on the
-/// first `k` columns is `sum_{i = k..=c} R[i, c]^2`.
+/// first `k` columns is `sum_{i = k..=c} R[i, c]^2`. The Gram matrix is
+/// accumulated [`CHUNK`] rows at a time, as ARX's normal equations, so
+/// the memory does not grow with the data's length.
 fn r_factor_of(
     signals: &[DMatrix<f64>],
     nu: usize,
@@ -355,38 +358,41 @@ fn r_factor_of(
 ) -> DMatrix<f64> {
     let l = lu.max(ly);
     let cols = nu * lu + ny * ly + if same_sample { ny } else { 0 } + nu;
-    let rows: usize = signals.iter().map(|s| s.nrows().saturating_sub(l)).sum();
-    let mut z = DMatrix::zeros(rows, cols);
-    let mut r = 0;
+    let mut gram = DMatrix::zeros(cols, cols);
     for s in signals {
-        for t in l..s.nrows() {
-            let mut c = 0;
-            for k in 1..=lu {
+        let mut t0 = l;
+        while t0 < s.nrows() {
+            let m = CHUNK.min(s.nrows() - t0);
+            let mut z = DMatrix::zeros(m, cols);
+            for (r, t) in (t0..t0 + m).enumerate() {
+                let mut c = 0;
+                for k in 1..=lu {
+                    for j in 0..nu {
+                        z[(r, c)] = s[(t - k, j)];
+                        c += 1;
+                    }
+                }
+                for k in 1..=ly {
+                    for j in 0..ny {
+                        z[(r, c)] = s[(t - k, nu + j)];
+                        c += 1;
+                    }
+                }
+                if same_sample {
+                    for j in 0..ny {
+                        z[(r, c)] = s[(t, nu + j)];
+                        c += 1;
+                    }
+                }
                 for j in 0..nu {
-                    z[(r, c)] = s[(t - k, j)];
+                    z[(r, c)] = s[(t, j)];
                     c += 1;
                 }
             }
-            for k in 1..=ly {
-                for j in 0..ny {
-                    z[(r, c)] = s[(t - k, nu + j)];
-                    c += 1;
-                }
-            }
-            if same_sample {
-                for j in 0..ny {
-                    z[(r, c)] = s[(t, nu + j)];
-                    c += 1;
-                }
-            }
-            for j in 0..nu {
-                z[(r, c)] = s[(t, j)];
-                c += 1;
-            }
-            r += 1;
+            gram += z.tr_mul(&z);
+            t0 += m;
         }
     }
-    let gram = z.transpose() * &z;
     cholesky_upper(gram)
 }
 

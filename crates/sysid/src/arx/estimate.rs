@@ -5,9 +5,10 @@ use crate::data::IoData;
 use crate::error::{Result, SysidError};
 use nalgebra::{DMatrix, DVector};
 
-/// Rows of the regression matrix built at a time (bounds the memory to
-/// `CHUNK x parameters` values whatever the data length).
-const CHUNK: usize = 4096;
+/// Rows of a regression matrix built at a time (bounds the memory to
+/// `CHUNK x parameters` values whatever the data length; also the
+/// feedback test's).
+pub(crate) const CHUNK: usize = 4096;
 
 /// Smallest ratio of the smallest to the largest eigenvalue of the
 /// normalised normal-equation matrix: below it the regressors are taken

@@ -17,5 +17,7 @@ mod tests;
 
 pub use baseline::{ArxBaseline, ArxBaselineCandidate, ArxBaselineRow, arx_baseline};
 pub use estimate::arx;
-pub(crate) use estimate::{NormalEquations, arx_with_normal_equations, solve_normal_equations};
+pub(crate) use estimate::{
+    CHUNK, NormalEquations, arx_with_normal_equations, solve_normal_equations,
+};
 pub use model::{ArxModel, ArxSettings};
