@@ -1,27 +1,14 @@
 //! End-to-end tests of `kestrel identify`'s automatic structure choice
 //! and its baseline rows.
 
+mod common;
+
 use kestrel_core::formats::SsModel;
-use kestrel_sysid::synthetic;
 use std::process::Command;
 
 /// A log `t,a,b,p,q` from a known 3rd-order model, 50 Hz.
 fn write_log(path: &std::path::Path) {
-    let m = synthetic::random_model(3, 2, 2, 17, 0.9);
-    let d = synthetic::simulate(&m, 1200, 0.05, 4).unwrap();
-    let e = &d.experiments()[0];
-    let mut text = String::from("t,a,b,p,q\n");
-    for k in 0..1200 {
-        text.push_str(&format!(
-            "{:.2},{},{},{},{}\n",
-            k as f64 * 0.02,
-            e.u[(k, 0)],
-            e.u[(k, 1)],
-            e.y[(k, 0)],
-            e.y[(k, 1)]
-        ));
-    }
-    std::fs::write(path, text).unwrap();
+    common::write_synthetic_log(path, (3, 2, 2, 17), (1200, 4), "a,b,p,q");
 }
 
 fn kestrel(args: &[&str]) -> std::process::Output {

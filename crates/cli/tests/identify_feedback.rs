@@ -3,6 +3,8 @@
 //! DaISy steam generator of `../shared/data/daisy` is open-loop (the
 //! open-loop candidates are planned); and the `--pem-steps` flag.
 
+mod common;
+
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
@@ -100,19 +102,7 @@ fn the_steam_generator_is_open_loop() {
 fn pem_steps_flag() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("log.csv");
-    let m = kestrel_sysid::synthetic::random_model(2, 1, 1, 9, 0.9);
-    let d = kestrel_sysid::synthetic::simulate(&m, 600, 0.05, 3).unwrap();
-    let e = &d.experiments()[0];
-    let mut text = String::from("t,u,y\n");
-    for k in 0..600 {
-        text.push_str(&format!(
-            "{:.2},{},{}\n",
-            k as f64 * 0.02,
-            e.u[(k, 0)],
-            e.y[(k, 0)]
-        ));
-    }
-    std::fs::write(&csv, text).unwrap();
+    common::write_synthetic_log(&csv, (2, 1, 1, 9), (600, 3), "u,y");
     let out = dir.path().join("m.json").display().to_string();
     let c = csv.display().to_string();
     let run = |steps: &str| {

@@ -113,3 +113,28 @@ pub fn interrupt(pid: u32) {
         .success();
     assert!(ok, "kill -INT {pid} failed");
 }
+
+/// Writes `rows` samples at 50 Hz of `kestrel_sysid::synthetic::random_model(n,
+/// nu, ny, model_seed, 0.9)` simulated with noise 0.05 and seed
+/// `noise_seed` to `path`, as the CSV `t,<names>` (`names`: the inputs'
+/// then the outputs' column names, comma separated).
+pub fn write_synthetic_log(
+    path: &Path,
+    (n, nu, ny, model_seed): (usize, usize, usize, u64),
+    (rows, noise_seed): (usize, u64),
+    names: &str,
+) {
+    use kestrel_sysid::synthetic;
+    let m = synthetic::random_model(n, nu, ny, model_seed, 0.9);
+    let d = synthetic::simulate(&m, rows, 0.05, noise_seed).unwrap();
+    let e = &d.experiments()[0];
+    let mut text = format!("t,{names}\n");
+    for k in 0..rows {
+        text.push_str(&format!("{:.2}", k as f64 * 0.02));
+        for v in e.u.row(k).iter().chain(e.y.row(k).iter()) {
+            text.push_str(&format!(",{v}"));
+        }
+        text.push('\n');
+    }
+    std::fs::write(path, text).unwrap();
+}
