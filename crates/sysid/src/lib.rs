@@ -47,7 +47,10 @@ pub use arx::{
     ArxBaseline, ArxBaselineCandidate, ArxBaselineRow, ArxModel, ArxSettings, arx, arx_baseline,
 };
 #[cfg(feature = "std")]
-pub use closed_loop::{PbsidResult, PbsidSettings, pbsid, stabilise_a};
+pub use closed_loop::{
+    ArxReduction, ArxReductionSettings, PbsidResult, PbsidSettings, arx_reduction, pbsid,
+    stabilise_a,
+};
 #[cfg(feature = "std")]
 pub use data::{CsvColumns, Experiment, IoData, Offsets, SignalSelection, TimeInterval, TimeUnit};
 #[cfg(feature = "std")]
