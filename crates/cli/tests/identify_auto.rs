@@ -112,3 +112,58 @@ fn default_chooses_the_structure_and_prints_the_baselines() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("`auto`"), "{err}");
 }
+
+/// `--method arx`: PEM started from a high-order ARX reduced by balanced
+/// truncation, `--horizon` its lags; an order beyond the ARX
+/// realisation's states is refused with the reason.
+#[test]
+fn method_arx_starts_from_the_reduced_arx() {
+    let d = std::env::temp_dir().join(format!("kestrel-identify-arx-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let log = d.join("log.csv");
+    write_log(&log);
+    let l = log.display().to_string();
+    let base = [
+        "--data",
+        &l,
+        "--inputs",
+        "a,b",
+        "--outputs",
+        "p,q",
+        "--estimate",
+        "0:15.98",
+        "--validate",
+        "16:23.98",
+        "--no-auto",
+        "--method",
+        "arx",
+    ];
+    let o = kestrel(&[&base[..], &["--order", "3", "--horizon", "8"]].concat());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("ARX reduction order 3 (suggested") && err.contains("ARX lags 8"),
+        "{err}"
+    );
+    let m = SsModel::from_json_str(&String::from_utf8_lossy(&o.stdout)).unwrap();
+    assert_eq!(m.a.nrows(), 3);
+    // The data come from a 3rd-order model: the one-step validation fit
+    // is that of the best ARX of 2-10 lags (measured 83.03 and 82.95).
+    let mean_of = |row: &str| -> f64 {
+        err.lines()
+            .find(|l| l.starts_with(row))
+            .and_then(|l| l.split_whitespace().last())
+            .and_then(|v| v.parse().ok())
+            .unwrap()
+    };
+    let (model, arx) = (mean_of("model 1-step"), mean_of("best ARX 1-step"));
+    assert!(model > arx - 0.5, "{err}");
+    // 2 outputs x 1 lag: a 2-state realisation cannot give order 3.
+    let o = kestrel(&[&base[..], &["--order", "3", "--horizon", "1"]].concat());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("exceeds the 2 states of the ARX realisation"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -19,6 +19,9 @@ pub enum Method {
     Pem,
     /// Prediction-error method started from PBSID (closed-loop consistent).
     Pbsid,
+    /// Prediction-error method started from a high-order ARX reduced by
+    /// balanced truncation (closed-loop consistent).
+    Arx,
 }
 
 /// N4SID weighting.
@@ -218,7 +221,9 @@ pub struct Args {
     #[arg(long, value_enum)]
     pub weighting: Option<WeightingArg>,
     /// N4SID horizon (block rows); default chosen from the order. With
-    /// `--method pbsid`: the past horizon (VARX lags), default 20.
+    /// `--method pbsid`: the past horizon (VARX lags), default 20; with
+    /// `--method arx`: the ARX's lags, default 10 (at least the order
+    /// divided by the number of outputs).
     #[arg(long)]
     pub horizon: Option<usize>,
     /// How N4SID estimates the system matrices (default: output-error;
@@ -408,10 +413,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         method: match args.method.unwrap_or(Method::Pem) {
             Method::N4sid => workflow::Method::N4sid,
-            Method::Pem | Method::Pbsid => workflow::Method::Pem,
+            Method::Pem | Method::Pbsid | Method::Arx => workflow::Method::Pem,
         },
         start: match args.method {
             Some(Method::Pbsid) => workflow::Start::Pbsid,
+            Some(Method::Arx) => workflow::Start::Arx,
             Some(Method::N4sid | Method::Pem) | None => workflow::Start::N4sid,
         },
         weighting: match args.weighting.unwrap_or(WeightingArg::Moesp) {
@@ -613,6 +619,10 @@ fn check_horizon(args: &Args, ny: usize) -> anyhow::Result<()> {
     let Some(h) = args.horizon else {
         return Ok(());
     };
+    if args.method == Some(Method::Arx) {
+        // The ARX's lags: kestrel-sysid checks them against the order.
+        return Ok(());
+    }
     let largest = args.fixed_order().unwrap_or(0).max(N4SID_SHOWN_ORDERS);
     if h >= 2 && h * ny > largest {
         return Ok(());

@@ -2,8 +2,8 @@
 //! workflow that the structure choice repeats on every fold.
 
 use super::report::{N4sidSummary, PemSummary, ReductionSummary};
-use super::spec::{AfterReduction, IdentifySpec, Method, PemFocus, Start};
-use crate::closed_loop::{PbsidSettings, pbsid};
+use super::spec::{ARX_LAGS, AfterReduction, IdentifySpec, Method, PemFocus, Start};
+use crate::closed_loop::{ArxReductionSettings, PbsidSettings, arx_reduction, pbsid};
 use crate::data::IoData;
 use crate::error::Result;
 use crate::model::InnovationModel;
@@ -79,6 +79,25 @@ pub(super) fn fit_structure(
                 suggested_order: r.suggested_order,
                 horizon: r.past,
                 start: Start::Pbsid,
+            };
+            (r.model, s)
+        }
+        Start::Arx => {
+            let r = arx_reduction(
+                est,
+                &ArxReductionSettings {
+                    order: spec.order,
+                    max_order: n4.max_order,
+                    lags: spec.horizon.unwrap_or(ARX_LAGS),
+                    feedthrough: spec.feedthrough,
+                    ..Default::default()
+                },
+            )?;
+            let s = N4sidSummary {
+                order: r.order,
+                suggested_order: r.suggested_order,
+                horizon: r.lags,
+                start: Start::Arx,
             };
             (r.model, s)
         }

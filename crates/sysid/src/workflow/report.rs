@@ -152,12 +152,14 @@ impl fmt::Display for IdentifyReport {
             match self.n4sid.start {
                 Start::N4sid => "N4SID",
                 Start::Pbsid => "PBSID",
+                Start::Arx => "ARX reduction",
             },
             self.n4sid.order,
             self.n4sid.suggested_order,
             match self.n4sid.start {
                 Start::N4sid => "horizon",
                 Start::Pbsid => "past",
+                Start::Arx => "ARX lags",
             },
             self.n4sid.horizon
         )?;

@@ -22,6 +22,10 @@ pub enum Method {
     Pem,
 }
 
+/// The lags of the ARX that [`Start::Arx`] reduces when
+/// [`IdentifySpec::horizon`] is not given.
+pub const ARX_LAGS: usize = 10;
+
 /// The subspace method that gives the model (or the PEM start).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Start {
@@ -33,6 +37,11 @@ pub enum Start {
     /// data: a VARX with [`IdentifySpec::horizon`] past lags (default 20)
     /// then the state from its predictor Markov parameters.
     Pbsid,
+    /// A high-order ARX with [`IdentifySpec::horizon`] lags (default 10)
+    /// reduced by balanced truncation, `K` refitted
+    /// ([`arx_reduction`](crate::arx_reduction())): consistent on
+    /// closed-loop data.
+    Arx,
 }
 
 /// What the PEM step fits.
