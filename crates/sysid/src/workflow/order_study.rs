@@ -7,28 +7,34 @@
 //!
 //! ```text
 //! KESTREL_ORDER_STUDY=a.csv,b.csv [KESTREL_ORDER_STUDY_ORDERS=2,4,8] \
+//!   [KESTREL_ORDER_STUDY_HORIZON=5] [KESTREL_ORDER_STUDY_COLUMNS=sr,pb,rr,arx,ms,mr] \
 //!   cargo test --release -p kestrel-sysid order_study -- --ignored --nocapture
 //! ```
 //!
 //! Columns per order `n`: one-step PEM (innovation form, 30 iterations)
 //! from the N4SID state-regression start, from PBSID, and from the
 //! state regression with `|eig A| <= 1.02`; the best ARX's realisation
-//! reduced to `n` states by `balred` (noise channels balanced too) with
-//! `K` refitted (dynamics fixed), and the same then refined by one-step
-//! PEM (an unstable ARX realisation has its modes beyond 0.999 moved
-//! inside first). Every figure is the mean fit over the outputs on the validation
+//! reduced to `n` states ([`arx_reduction`]: `balred` with the noise
+//! channels balanced too, `K` refitted with the dynamics fixed, an
+//! unstable ARX realisation's modes beyond 0.999 moved inside first),
+//! and the same then refined by one-step PEM. With `KESTREL_ORDER_STUDY_HORIZON=h` two multi-step
+//! columns follow, the default choice's multi-step candidates: PEM over
+//! the `1..=h`-step predictions then `K` by one-step prediction, and PEM
+//! over the `1..=h`-step predictions with `|eig A| <= 1.02`, both from
+//! the state-regression start. `KESTREL_ORDER_STUDY_COLUMNS` keeps only
+//! the named columns (`sr`, `pb`, `rr`, `arx`, `ms`, `mr`; the slow
+//! ones are worth leaving out at 500 Hz). Every figure is the mean fit over the outputs on the validation
 //! half, percent (1-step / 5-step).
 
 use super::fit::fit_structure;
 use super::spec::{IdentifySpec, Method, PemFocus, Start};
 use crate::arx::{ArxSettings, arx, arx_baseline};
-use crate::closed_loop::stabilise_a;
+use crate::closed_loop::{ArxReductionSettings, arx_reduction};
 use crate::data::{CsvColumns, Experiment, IoData};
 use crate::error::Result;
 use crate::model::InnovationModel;
 use crate::n4sid::MatrixEstimate;
-use crate::pem::{Focus, PemSettings, pem};
-use crate::reduce::{BalredSettings, ReductionMethod, balred};
+use crate::pem::{PemSettings, pem};
 use crate::validate::{persistence_fit, predict_fit};
 
 fn mean(v: &[f64]) -> f64 {
@@ -73,21 +79,24 @@ fn fits(model: &InnovationModel, val: &IoData) -> String {
     }
 }
 
-fn pem_from(
+/// PEM at order `n` from `start` with the given focus and
+/// `pem_horizon`.
+fn pem_focus(
     est: &IoData,
     val: &IoData,
     n: usize,
-    start: Start,
-    m: MatrixEstimate,
+    (start, m): (Start, MatrixEstimate),
     r: Option<f64>,
+    focus: PemFocus,
+    pem_horizon: usize,
 ) -> String {
     let spec = IdentifySpec {
         order: Some(n),
         method: Method::Pem,
         start,
         n4sid_matrices: m,
-        focus: PemFocus::Prediction,
-        pem_horizon: 1,
+        focus,
+        pem_horizon,
         max_iterations: 30,
         auto: None,
         ..Default::default()
@@ -98,31 +107,15 @@ fn pem_from(
     }
 }
 
-/// The ARX realisation reduced to `n`, `K` refitted; then all refined.
-/// An unstable realisation (`balred` needs a stable `A`) has its modes
-/// beyond radius 0.999 moved inside first ([`stabilise_a`]).
-fn arx_reduced(est: &IoData, val: &IoData, full: &InnovationModel, n: usize) -> (String, String) {
-    let stable = match stabilise_a(full, 0.999) {
-        Ok(m) => m,
-        Err(e) => return (format!("failed: {e}"), String::new()),
-    };
-    let red = match balred(
-        &stable,
-        n,
-        &BalredSettings {
-            method: ReductionMethod::Truncate,
-            include_noise: true,
-        },
-    ) {
-        Ok(r) => r.model,
-        Err(e) => return (format!("failed: {e}"), String::new()),
-    };
-    let noise = PemSettings {
-        focus: Focus::Prediction,
-        fixed_dynamics: true,
+/// The ARX of `lags` lags reduced to `n` states, `K` refitted
+/// ([`arx_reduction`]); then all refined by one-step PEM.
+fn arx_reduced(est: &IoData, val: &IoData, lags: usize, n: usize) -> (String, String) {
+    let s = ArxReductionSettings {
+        order: Some(n),
+        lags,
         ..Default::default()
     };
-    let k = match pem(est, &red, &noise) {
+    let k = match arx_reduction(est, &s) {
         Ok(r) => r.model,
         Err(e) => return (format!("failed: {e}"), String::new()),
     };
@@ -145,6 +138,13 @@ fn order_study() {
         .split(',')
         .map(|s| s.trim().parse().expect("an order"))
         .collect();
+    let horizon: Option<usize> = std::env::var("KESTREL_ORDER_STUDY_HORIZON")
+        .ok()
+        .map(|s| s.trim().parse().expect("a horizon"));
+    let columns = std::env::var("KESTREL_ORDER_STUDY_COLUMNS")
+        .unwrap_or_else(|_| "sr,pb,rr,arx,ms,mr".into());
+    let wanted = |c: &str| columns.split(',').any(|x| x.trim() == c);
+    let skipped = || "(skipped)".to_string();
     for path in paths.split(',') {
         let header = std::fs::read_to_string(path).expect("the CSV");
         let names: Vec<&str> = header
@@ -177,43 +177,58 @@ fn order_study() {
             r5.lags,
             fits(&full, &val),
         );
+        let h = horizon.unwrap_or(0);
         println!(
-            "| order | PEM from N4SID state regression | PEM from PBSID | PEM, state regression, radius 1.02 | ARX({lags}) balred, K refitted | ARX({lags}) balred, PEM |"
+            "| order | PEM from N4SID state regression | PEM from PBSID | PEM, state regression, radius 1.02 | ARX({lags}) balred, K refitted | ARX({lags}) balred, PEM |{}",
+            if h > 0 {
+                format!(" PEM 1..{h} then K | PEM 1..{h}, radius 1.02 |")
+            } else {
+                String::new()
+            }
         );
-        println!("|---|---|---|---|---|---|");
+        println!(
+            "|---|---|---|---|---|---|{}",
+            if h > 0 { "---|---|" } else { "" }
+        );
+        let sr_start = (Start::N4sid, MatrixEstimate::StateRegression);
         for &n in &orders {
             let t = std::time::Instant::now();
-            let sr = pem_from(
-                &est,
-                &val,
-                n,
-                Start::N4sid,
-                MatrixEstimate::StateRegression,
-                None,
-            );
-            let pb = pem_from(
-                &est,
-                &val,
-                n,
-                Start::Pbsid,
-                MatrixEstimate::OutputError,
-                None,
-            );
-            let rr = pem_from(
-                &est,
-                &val,
-                n,
-                Start::N4sid,
-                MatrixEstimate::StateRegression,
-                Some(1.02),
-            );
-            let (ak, ap) = if n < full.nx() {
-                arx_reduced(&est, &val, &full, n)
+            let one = |c: &str, r: Option<f64>, start| {
+                if wanted(c) {
+                    pem_focus(&est, &val, n, start, r, PemFocus::Prediction, 1)
+                } else {
+                    skipped()
+                }
+            };
+            let sr = one("sr", None, sr_start);
+            let pb = one("pb", None, (Start::Pbsid, MatrixEstimate::OutputError));
+            let rr = one("rr", Some(1.02), sr_start);
+            let (ak, ap) = if !wanted("arx") {
+                (skipped(), String::new())
+            } else if n < full.nx() {
+                arx_reduced(&est, &val, lags, n)
             } else {
                 ("(order >= ARX states)".into(), String::new())
             };
+            let multi = if h == 0 {
+                String::new()
+            } else {
+                let ms = if wanted("ms") {
+                    let focus = PemFocus::MultiStepThenNoise { horizon: h };
+                    pem_focus(&est, &val, n, sr_start, None, focus, 1)
+                } else {
+                    skipped()
+                };
+                let mr = if wanted("mr") {
+                    let focus = PemFocus::Prediction;
+                    pem_focus(&est, &val, n, sr_start, Some(1.02), focus, h)
+                } else {
+                    skipped()
+                };
+                format!(" {ms} | {mr} |")
+            };
             println!(
-                "| {n} | {sr} | {pb} | {rr} | {ak} | {ap} |  ({:.0} s)",
+                "| {n} | {sr} | {pb} | {rr} | {ak} | {ap} |{multi}  ({:.0} s)",
                 t.elapsed().as_secs_f64()
             );
         }
