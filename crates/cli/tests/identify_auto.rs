@@ -11,6 +11,32 @@ fn write_log(path: &std::path::Path) {
     common::write_synthetic_log(path, (3, 2, 2, 17), (1200, 4), "a,b,p,q");
 }
 
+/// A fresh directory with the log in it: (directory, log path).
+fn temp_log(name: &str) -> (std::path::PathBuf, String) {
+    let d = std::env::temp_dir().join(format!("kestrel-identify-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let log = d.join("log.csv");
+    write_log(&log);
+    let l = log.display().to_string();
+    (d, l)
+}
+
+/// The data, signal and interval flags for the log at `l`.
+fn log_args(l: &str) -> [&str; 10] {
+    [
+        "--data",
+        l,
+        "--inputs",
+        "a,b",
+        "--outputs",
+        "p,q",
+        "--estimate",
+        "0:15.98",
+        "--validate",
+        "16:23.98",
+    ]
+}
+
 fn kestrel(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_kestrel"))
         .arg("identify")
@@ -25,25 +51,8 @@ fn kestrel(args: &[&str]) -> std::process::Output {
 /// flag fixes its dimension; `--order x` is refused.
 #[test]
 fn default_chooses_the_structure_and_prints_the_baselines() {
-    let d = std::env::temp_dir().join(format!("kestrel-identify-auto-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    let log = d.join("log.csv");
-    write_log(&log);
-    let l = log.display().to_string();
-    let base = [
-        "--data",
-        &l,
-        "--inputs",
-        "a,b",
-        "--outputs",
-        "p,q",
-        "--estimate",
-        "0:15.98",
-        "--validate",
-        "16:23.98",
-        "--max-order",
-        "5",
-    ];
+    let (d, l) = temp_log("auto");
+    let base = [&log_args(&l)[..], &["--max-order", "5"]].concat();
     let o = kestrel(&[&base[..], &["--order", "auto"]].concat());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
@@ -111,6 +120,7 @@ fn default_chooses_the_structure_and_prints_the_baselines() {
     let o = kestrel(&[&base[..], &["--order", "x"]].concat());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("`auto`"), "{err}");
+    std::fs::remove_dir_all(&d).ok();
 }
 
 /// `--method arx`: PEM started from a high-order ARX reduced by balanced
@@ -118,26 +128,8 @@ fn default_chooses_the_structure_and_prints_the_baselines() {
 /// realisation's states is refused with the reason.
 #[test]
 fn method_arx_starts_from_the_reduced_arx() {
-    let d = std::env::temp_dir().join(format!("kestrel-identify-arx-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    let log = d.join("log.csv");
-    write_log(&log);
-    let l = log.display().to_string();
-    let base = [
-        "--data",
-        &l,
-        "--inputs",
-        "a,b",
-        "--outputs",
-        "p,q",
-        "--estimate",
-        "0:15.98",
-        "--validate",
-        "16:23.98",
-        "--no-auto",
-        "--method",
-        "arx",
-    ];
+    let (d, l) = temp_log("arx");
+    let base = [&log_args(&l)[..], &["--no-auto", "--method", "arx"]].concat();
     let o = kestrel(&[&base[..], &["--order", "3", "--horizon", "8"]].concat());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");

@@ -52,55 +52,40 @@ pub(super) fn fit_structure(
         estimate_k: true,
         matrices: spec.n4sid_matrices,
     };
-    let (start_model, n4sid_summary) = match spec.start {
+    // (model, order, suggested order, horizon) of the start.
+    let (start_model, order, suggested_order, horizon) = match spec.start {
         Start::N4sid => {
             let r = n4sid(est, &n4)?;
-            let s = N4sidSummary {
-                order: r.order,
-                suggested_order: r.suggested_order,
-                horizon: r.horizon,
-                start: Start::N4sid,
-            };
-            (r.model, s)
+            (r.model, r.order, r.suggested_order, r.horizon)
         }
         Start::Pbsid => {
-            let r = pbsid(
-                est,
-                &PbsidSettings {
-                    order: spec.order,
-                    max_order: n4.max_order,
-                    past: spec.horizon.unwrap_or(PBSID_PAST),
-                    feedthrough: spec.feedthrough,
-                    ..Default::default()
-                },
-            )?;
-            let s = N4sidSummary {
-                order: r.order,
-                suggested_order: r.suggested_order,
-                horizon: r.past,
-                start: Start::Pbsid,
+            let settings = PbsidSettings {
+                order: spec.order,
+                max_order: n4.max_order,
+                past: spec.horizon.unwrap_or(PBSID_PAST),
+                feedthrough: spec.feedthrough,
+                ..Default::default()
             };
-            (r.model, s)
+            let r = pbsid(est, &settings)?;
+            (r.model, r.order, r.suggested_order, r.past)
         }
         Start::Arx => {
-            let r = arx_reduction(
-                est,
-                &ArxReductionSettings {
-                    order: spec.order,
-                    max_order: n4.max_order,
-                    lags: spec.horizon.unwrap_or(ARX_LAGS),
-                    feedthrough: spec.feedthrough,
-                    ..Default::default()
-                },
-            )?;
-            let s = N4sidSummary {
-                order: r.order,
-                suggested_order: r.suggested_order,
-                horizon: r.lags,
-                start: Start::Arx,
+            let settings = ArxReductionSettings {
+                order: spec.order,
+                max_order: n4.max_order,
+                lags: spec.horizon.unwrap_or(ARX_LAGS),
+                feedthrough: spec.feedthrough,
+                ..Default::default()
             };
-            (r.model, s)
+            let r = arx_reduction(est, &settings)?;
+            (r.model, r.order, r.suggested_order, r.lags)
         }
+    };
+    let n4sid_summary = N4sidSummary {
+        order,
+        suggested_order,
+        horizon,
+        start: spec.start,
     };
     let summary = |r: &PemResult| PemSummary {
         iterations: r.iterations,
