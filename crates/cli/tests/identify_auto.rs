@@ -123,9 +123,9 @@ fn default_chooses_the_structure_and_prints_the_baselines() {
     std::fs::remove_dir_all(&d).ok();
 }
 
-/// `--method arx`: PEM started from a high-order ARX reduced by balanced
-/// truncation, `--horizon` its lags; an order beyond the ARX
-/// realisation's states is refused with the reason.
+/// `--method arx` (`armax`): PEM started from a high-order ARX (ARMAX)
+/// reduced by balanced truncation, `--horizon` its lags; an order beyond
+/// the realisation's states is refused with the reason.
 #[test]
 fn method_arx_starts_from_the_reduced_arx() {
     let (d, l) = temp_log("arx");
@@ -134,7 +134,7 @@ fn method_arx_starts_from_the_reduced_arx() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(
-        err.contains("ARX reduction order 3 (suggested") && err.contains("ARX lags 8"),
+        err.contains("ARX reduction order 3 (suggested") && err.contains("lags 8"),
         "{err}"
     );
     let m = SsModel::from_json_str(&String::from_utf8_lossy(&o.stdout)).unwrap();
@@ -150,6 +150,27 @@ fn method_arx_starts_from_the_reduced_arx() {
     };
     let (model, arx) = (mean_of("model 1-step"), mean_of("best ARX 1-step"));
     assert!(model > arx - 0.5, "{err}");
+    // --method armax: an ARMAX of 2 lags, 2 outputs: 4 states, kept.
+    let o = kestrel(
+        &[
+            &log_args(&l)[..],
+            &[
+                "--no-auto",
+                "--method",
+                "armax",
+                "--order",
+                "4",
+                "--horizon",
+                "2",
+            ],
+        ]
+        .concat(),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success() && err.contains("ARMAX reduction order 4 (suggested"),
+        "{err}"
+    );
     // 2 outputs x 1 lag: a 2-state realisation cannot give order 3.
     let o = kestrel(&[&base[..], &["--order", "3", "--horizon", "1"]].concat());
     let err = String::from_utf8_lossy(&o.stderr);

@@ -22,6 +22,9 @@ pub enum Method {
     /// Prediction-error method started from a high-order ARX reduced by
     /// balanced truncation (closed-loop consistent).
     Arx,
+    /// Prediction-error method started from an ARMAX (Hannan-Rissanen)
+    /// reduced by balanced truncation.
+    Armax,
 }
 
 /// N4SID weighting.
@@ -222,8 +225,8 @@ pub struct Args {
     pub weighting: Option<WeightingArg>,
     /// N4SID horizon (block rows); default chosen from the order. With
     /// `--method pbsid`: the past horizon (VARX lags), default 20; with
-    /// `--method arx`: the ARX's lags, default 10 (at least the order
-    /// divided by the number of outputs).
+    /// `--method arx` or `armax`: the lags of its polynomials, default 10
+    /// (at least the order divided by the number of outputs).
     #[arg(long)]
     pub horizon: Option<usize>,
     /// How N4SID estimates the system matrices (default: output-error;
@@ -413,11 +416,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         method: match args.method.unwrap_or(Method::Pem) {
             Method::N4sid => workflow::Method::N4sid,
-            Method::Pem | Method::Pbsid | Method::Arx => workflow::Method::Pem,
+            Method::Pem | Method::Pbsid | Method::Arx | Method::Armax => workflow::Method::Pem,
         },
         start: match args.method {
             Some(Method::Pbsid) => workflow::Start::Pbsid,
             Some(Method::Arx) => workflow::Start::Arx,
+            Some(Method::Armax) => workflow::Start::Armax,
             Some(Method::N4sid | Method::Pem) | None => workflow::Start::N4sid,
         },
         weighting: match args.weighting.unwrap_or(WeightingArg::Moesp) {
@@ -619,7 +623,7 @@ fn check_horizon(args: &Args, ny: usize) -> anyhow::Result<()> {
     let Some(h) = args.horizon else {
         return Ok(());
     };
-    if args.method == Some(Method::Arx) {
+    if matches!(args.method, Some(Method::Arx | Method::Armax)) {
         // The ARX's lags: kestrel-sysid checks them against the order.
         return Ok(());
     }

@@ -1,7 +1,8 @@
-//! A high-order ARX model reduced by balanced truncation: the
+//! A high-order ARX (or ARMAX) model reduced by balanced truncation: the
 //! "high-order VARX plus reduction" closed-loop-consistent start.
 
 use super::stabilise::stabilise_a;
+use crate::armax::{ArmaxSettings, armax};
 use crate::arx::{ArxSettings, arx};
 use crate::data::IoData;
 use crate::error::{Result, SysidError};
@@ -22,6 +23,13 @@ pub struct ArxReductionSettings {
     /// Lags `l` of the ARX (`na = nb = l`): its realisation has `ny l`
     /// states, so the order must not exceed that.
     pub lags: usize,
+    /// Noise lags `nc`: 0 fits an ARX; more fits an ARMAX
+    /// ([`armax`](crate::armax()), Hannan-Rissanen with pseudo-linear
+    /// passes) with `na = nb = lags` and `nc = noise_lags <= lags`, whose
+    /// moving-average noise model lets few lags (an ARMAX of the model's
+    /// own order: `order = ny lags`, no reduction) describe coloured
+    /// noise.
+    pub noise_lags: usize,
     /// Estimate a feed-through `D` (the ARX then includes `u(t)`).
     pub feedthrough: bool,
     /// Modes of the ARX realisation outside `|z| <= max_radius` are moved
@@ -31,12 +39,14 @@ pub struct ArxReductionSettings {
 }
 
 impl Default for ArxReductionSettings {
-    /// Order suggested up to 10, 10 lags, no `D`, `A` inside 0.999.
+    /// Order suggested up to 10, an ARX of 10 lags, no `D`, `A` inside
+    /// 0.999.
     fn default() -> Self {
         ArxReductionSettings {
             order: None,
             max_order: 10,
             lags: 10,
+            noise_lags: 0,
             feedthrough: false,
             max_radius: 0.999,
         }
@@ -56,7 +66,7 @@ pub struct ArxReduction {
     pub suggested_order: usize,
     /// The order used.
     pub order: usize,
-    /// The ARX lags used.
+    /// The ARX (ARMAX) lags used.
     pub lags: usize,
     /// Spectral radius of the ARX realisation's `A` before any move onto
     /// [`ArxReductionSettings::max_radius`].
@@ -71,7 +81,8 @@ pub struct ArxReduction {
 /// 1. An ARX model with `l` lags ([`arx`](crate::arx())) is fitted by
 ///    least squares: consistent in closed loop, because the innovation is
 ///    uncorrelated with the past the regression uses, and unbiased as `l`
-///    grows (the ARX is then the model's whole one-step predictor);
+///    grows (the ARX is then the model's whole one-step predictor); with
+///    [`noise_lags`](ArxReductionSettings::noise_lags) an ARMAX instead;
 /// 2. its realisation ([`ArxModel::to_innovation_model`](crate::ArxModel::to_innovation_model),
 ///    `ny l` states) has any mode outside `max_radius` moved inside
 ///    ([`stabilise_a`]);
@@ -99,6 +110,12 @@ pub fn arx_reduction(data: &IoData, settings: &ArxReductionSettings) -> Result<A
     if s.lags == 0 {
         return Err(SysidError::invalid("the ARX needs at least one lag"));
     }
+    if s.noise_lags > s.lags {
+        return Err(SysidError::invalid(format!(
+            "noise lags {} exceed the lags {}: the realisation would not have the ny x lags states the order is checked against",
+            s.noise_lags, s.lags
+        )));
+    }
     if s.order == Some(0) || s.max_order == 0 {
         return Err(SysidError::invalid("the model order must be at least 1"));
     }
@@ -110,16 +127,25 @@ pub fn arx_reduction(data: &IoData, settings: &ArxReductionSettings) -> Result<A
             s.lags
         )));
     }
-    let arx_settings = if s.feedthrough {
-        ArxSettings {
-            na: s.lags,
-            nb: s.lags + 1,
-            nk: 0,
-        }
+    // nk = 0 with one more input lag keeps the largest lag at `lags`.
+    let (nb, nk) = if s.feedthrough {
+        (s.lags + 1, 0)
     } else {
-        ArxSettings::lags(s.lags)
+        (s.lags, 1)
     };
-    let full = arx(data, &arx_settings)?.to_innovation_model()?;
+    let full = if s.noise_lags == 0 {
+        let settings = ArxSettings { na: s.lags, nb, nk };
+        arx(data, &settings)?.to_innovation_model()?
+    } else {
+        let settings = ArmaxSettings {
+            na: s.lags,
+            nb,
+            nc: s.noise_lags,
+            nk,
+            ..Default::default()
+        };
+        armax(data, &settings)?.to_innovation_model()?
+    };
     let radius_estimated = full.radius_a();
     let stable = stabilise_a(&full, s.max_radius)?;
     let reduction = BalredSettings {

@@ -87,10 +87,13 @@ impl Candidate {
             (Start::Pbsid, _) => "PBSID",
             (Start::N4sid, MatrixEstimate::OutputError) => "N4SID output-error",
             (Start::N4sid, MatrixEstimate::StateRegression) => "N4SID state-regression",
-            (Start::Arx, _) => "ARX reduction",
+            (Start::Arx, _) => "ARX",
+            (Start::Armax, _) => "ARMAX",
         };
         let start = match (self.start, self.horizon) {
-            (Start::Arx, l) => format!("ARX({}) reduction", l.unwrap_or(super::spec::ARX_LAGS)),
+            (Start::Arx | Start::Armax, l) => {
+                format!("{start}({}) reduction", l.unwrap_or(super::spec::ARX_LAGS))
+            }
             (_, Some(i)) => format!("{start} i = {i}"),
             (_, None) => start.to_string(),
         };

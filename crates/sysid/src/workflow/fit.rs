@@ -69,11 +69,13 @@ pub(super) fn fit_structure(
             let r = pbsid(est, &settings)?;
             (r.model, r.order, r.suggested_order, r.past)
         }
-        Start::Arx => {
+        Start::Arx | Start::Armax => {
+            let lags = spec.horizon.unwrap_or(ARX_LAGS);
             let settings = ArxReductionSettings {
                 order: spec.order,
                 max_order: n4.max_order,
-                lags: spec.horizon.unwrap_or(ARX_LAGS),
+                lags,
+                noise_lags: if spec.start == Start::Armax { lags } else { 0 },
                 feedthrough: spec.feedthrough,
                 ..Default::default()
             };

@@ -153,13 +153,14 @@ impl fmt::Display for IdentifyReport {
                 Start::N4sid => "N4SID",
                 Start::Pbsid => "PBSID",
                 Start::Arx => "ARX reduction",
+                Start::Armax => "ARMAX reduction",
             },
             self.n4sid.order,
             self.n4sid.suggested_order,
             match self.n4sid.start {
                 Start::N4sid => "horizon",
                 Start::Pbsid => "past",
-                Start::Arx => "ARX lags",
+                Start::Arx | Start::Armax => "lags",
             },
             self.n4sid.horizon
         )?;

@@ -42,6 +42,12 @@ pub enum Start {
     /// ([`arx_reduction`](crate::arx_reduction())): consistent on
     /// closed-loop data.
     Arx,
+    /// An ARMAX with [`IdentifySpec::horizon`] lags (default 10) in `A`,
+    /// `B` and `C` reduced the same way
+    /// ([`ArxReductionSettings::noise_lags`](crate::ArxReductionSettings::noise_lags)):
+    /// few lags describe coloured noise, e.g. the model's own order as
+    /// `ny x lags`, where the ARX needs many.
+    Armax,
 }
 
 /// What the PEM step fits.
