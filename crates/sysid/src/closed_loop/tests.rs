@@ -55,6 +55,17 @@ fn response_error(est: &InnovationModel, truth: &InnovationModel) -> f64 {
     worst / scale
 }
 
+/// One-step prediction error variance of `m` on the first experiment of
+/// `data`, the predictor started from zero.
+fn one_step_mse(m: &InnovationModel, data: &IoData) -> f64 {
+    let e = &data.experiments()[0];
+    let r = m
+        .predict_one_step(&e.u, &e.y, &DVector::zeros(m.nx()))
+        .unwrap()
+        .residuals;
+    r.norm_squared() / r.len() as f64
+}
+
 /// Mean relative response errors over closed-loop seeds 1..=3 (`n`
 /// samples, reference 0.3, innovation 1.0) of `estimate` and of MOESP
 /// (order 4, horizon 20), with the per-seed figures printed.
@@ -278,14 +289,7 @@ fn arx_reduction_starts_pem_at_the_true_prediction_error_and_suggests_the_order(
     .unwrap();
     // One-step prediction error variance on fresh closed-loop data
     // against the true Kalman predictor's (the innovations, variance 1).
-    let mse = |m: &InnovationModel| {
-        let e = &fresh.experiments()[0];
-        let r = m
-            .predict_one_step(&e.u, &e.y, &DVector::zeros(m.nx()))
-            .unwrap()
-            .residuals;
-        r.norm_squared() / r.len() as f64
-    };
+    let mse = |m: &InnovationModel| one_step_mse(m, &fresh);
     // Measured: the truth 0.994, the ARX(30) itself 1.000, its reduction
     // to 4 states with K refitted 1.196 (1.0 from 5 states on): a start,
     // which one-step PEM refines to the truth's figure.
@@ -357,14 +361,7 @@ fn armax_of_the_models_own_order_needs_no_reduction() {
     let truth = plant();
     let data = closed_loop_data(&truth, 20_000, 1.0, 1.0, 9);
     let fresh = closed_loop_data(&truth, 20_000, 1.0, 1.0, 10);
-    let mse = |m: &InnovationModel| {
-        let e = &fresh.experiments()[0];
-        let r = m
-            .predict_one_step(&e.u, &e.y, &DVector::zeros(m.nx()))
-            .unwrap()
-            .residuals;
-        r.norm_squared() / r.len() as f64
-    };
+    let mse = |m: &InnovationModel| one_step_mse(m, &fresh);
     let fit = |noise_lags| {
         let s = ArxReductionSettings {
             order: Some(4),

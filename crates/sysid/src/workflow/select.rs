@@ -621,25 +621,27 @@ pub(super) fn choose_structure(
     rest.extend(stage2(&others, &chosen));
     rest.retain(|c| !stage1.contains(c) && !stage2a.contains(c));
     scores.extend(search.run(&rest));
-    // Stage 3: on open-loop data, the candidates with a feed-through
-    // (planned last, so the others are planned as without them).
-    let open = open_loop_candidates(auto, feedback.as_ref(), &chosen, spec, est.ny(), h);
-    let open_loop = open_loop_note(auto, feedback.as_ref(), &open, free_start && free_focus);
-    let open: Vec<Candidate> = open
+    // Stage 3, by the feedback test's verdict (planned last, so the
+    // others are planned as without them): on open-loop data the
+    // candidates with a feed-through; on closed-loop data the ARMAX
+    // candidates, only beside candidates that scored (on data too short
+    // for their folds, log16 at 50 Hz, the ARMAX's few lags would still
+    // fit, and a lone candidate wins whatever its score: -672 there).
+    let scored = best(&scores).is_some();
+    let last = loop_candidates(
+        auto,
+        feedback.as_ref(),
+        &chosen,
+        spec,
+        (est.ny(), h),
+        scored,
+    );
+    let open_loop = loop_note(auto, feedback.as_ref(), &last, free_start && free_focus);
+    let last: Vec<Candidate> = last
         .into_iter()
         .filter(|c| !stage1.contains(c) && !stage2a.contains(c) && !rest.contains(c))
         .collect();
-    scores.extend(search.run(&open));
-    // Only beside candidates that scored: on data too short for their
-    // folds (log16 at 50 Hz) the ARMAX's few lags would still fit, and a
-    // lone candidate wins whatever its score (-672 there).
-    let scored = best(&scores).is_some();
-    let closed = closed_loop_candidates(auto, feedback.as_ref(), &chosen, spec, est.ny(), h)
-        .into_iter()
-        .filter(|_| scored)
-        .filter(|c| !stage1.contains(c) && !stage2a.contains(c) && !rest.contains(c))
-        .collect::<Vec<_>>();
-    scores.extend(search.run(&closed));
+    scores.extend(search.run(&last));
     let budget_hit = search.budget_hit.lock().map(|b| *b).unwrap_or(false);
     let Some(winner) = best(&scores).cloned() else {
         if budget_hit || scores.is_empty() {
@@ -690,99 +692,90 @@ pub(super) fn choose_structure(
     Ok((winner.candidate.apply(spec), report))
 }
 
-/// The open-loop candidates ([`AutoSelect::open_loop`]) at the order of
-/// `at`: N4SID state regression with `D` for each of
-/// [`AutoSelect::open_loop_horizons`] (a block-row count too short for the
-/// order left out), PEM with `D` and `K`, the fit criterion over steps
-/// `{1, h}`, [`AutoSelect::open_loop_iterations`]; none when the test
-/// found feedback, could not run, or the start or focus is fixed.
-fn open_loop_candidates(
-    auto: &AutoSelect,
-    feedback: Option<&std::result::Result<crate::feedback::FeedbackTest, String>>,
-    at: &Candidate,
-    spec: &IdentifySpec,
-    ny: usize,
-    h: usize,
-) -> Vec<Candidate> {
-    let open = matches!(feedback, Some(Ok(t)) if !t.feedback);
-    if !(open && auto.start && auto.focus && spec.method == Method::Pem) {
-        return Vec::new();
-    }
-    // N4SID's singular values go to order 10 (fit_structure).
-    let nmax = at.order.unwrap_or(10).max(10);
-    let mut v: Vec<Candidate> = Vec::new();
-    for &i in &auto.open_loop_horizons {
-        let horizon = i.or(spec.horizon);
-        if horizon.is_some_and(|i| i < 2 || i * ny <= nmax) {
-            continue;
-        }
-        let c = Candidate {
-            start: Start::N4sid,
-            n4sid_matrices: MatrixEstimate::StateRegression,
-            feedthrough: true,
-            focus: PemFocus::Prediction,
-            pem_horizon: h,
-            max_radius_a: None,
-            horizon,
-            criterion: Criterion::Fit,
-            pem_steps: if h > 1 { vec![1, h] } else { Vec::new() },
-            iterations: Some(auto.open_loop_iterations.max(1)),
-            ..at.clone()
-        };
-        if !v.contains(&c) {
-            v.push(c);
-        }
-    }
-    v
-}
-
-/// The closed-loop candidates: with feedback found, at the chosen order
-/// and at the largest, PEM started from the ARMAX of that order
+/// The last stage's candidates at the order of `at`, by the feedback
+/// test's verdict; none when the test could not run or the start or
+/// focus is fixed.
+///
+/// Open loop ([`AutoSelect::open_loop`]): N4SID state regression with `D`
+/// for each of [`AutoSelect::open_loop_horizons`] (a block-row count too
+/// short for the order left out), PEM with `D` and `K`, the fit criterion
+/// over steps `{1, h}`, [`AutoSelect::open_loop_iterations`].
+///
+/// Closed loop (when `scored`, with `h > 1`): at the order of `at` and at
+/// the largest, PEM started from the ARMAX of that order
 /// ([`Start::Armax`], `ceil(n / ny)` lags, reduced to `n`) by the fit
 /// criterion over steps `{1, h}`: on btfl_002 at 50 Hz the one model of
 /// at most 8 states found ahead of persistence and the best ARX at 1 and
-/// 5 steps (`docs/sysid.md`). None on open-loop data or when the start
-/// or focus is fixed.
-fn closed_loop_candidates(
+/// 5 steps (`docs/sysid.md`).
+fn loop_candidates(
     auto: &AutoSelect,
     feedback: Option<&std::result::Result<crate::feedback::FeedbackTest, String>>,
     at: &Candidate,
     spec: &IdentifySpec,
-    ny: usize,
-    h: usize,
+    (ny, h): (usize, usize),
+    scored: bool,
 ) -> Vec<Candidate> {
-    let closed = matches!(feedback, Some(Ok(t)) if t.feedback);
-    if !(closed && auto.start && auto.focus && spec.method == Method::Pem && h > 1) {
+    if !(auto.start && auto.focus && spec.method == Method::Pem) {
         return Vec::new();
     }
-    let mut orders = vec![at.order];
-    if auto.order && spec.order.is_none() {
-        orders.push(Some(auto.max_order));
-    }
+    let fit_steps = Candidate {
+        focus: PemFocus::Prediction,
+        pem_horizon: h,
+        max_radius_a: None,
+        criterion: Criterion::Fit,
+        pem_steps: if h > 1 { vec![1, h] } else { Vec::new() },
+        ..at.clone()
+    };
     let mut v: Vec<Candidate> = Vec::new();
-    for order in orders.into_iter().flatten() {
-        let c = Candidate {
-            order: Some(order),
-            start: Start::Armax,
-            n4sid_matrices: MatrixEstimate::OutputError,
-            feedthrough: false,
-            focus: PemFocus::Prediction,
-            pem_horizon: h,
-            max_radius_a: None,
-            horizon: Some(order.div_ceil(ny.max(1))),
-            criterion: Criterion::Fit,
-            pem_steps: vec![1, h],
-            ..at.clone()
-        };
-        if !v.contains(&c) {
-            v.push(c);
+    match feedback {
+        Some(Ok(t)) if !t.feedback && auto.open_loop => {
+            // N4SID's singular values go to order 10 (fit_structure).
+            let nmax = at.order.unwrap_or(10).max(10);
+            for &i in &auto.open_loop_horizons {
+                let horizon = i.or(spec.horizon);
+                if horizon.is_some_and(|i| i < 2 || i * ny <= nmax) {
+                    continue;
+                }
+                v.push(Candidate {
+                    start: Start::N4sid,
+                    n4sid_matrices: MatrixEstimate::StateRegression,
+                    feedthrough: true,
+                    horizon,
+                    iterations: Some(auto.open_loop_iterations.max(1)),
+                    ..fit_steps.clone()
+                });
+            }
+        }
+        Some(Ok(t)) if t.feedback && scored && h > 1 => {
+            let mut orders = vec![at.order];
+            if auto.order && spec.order.is_none() {
+                orders.push(Some(auto.max_order));
+            }
+            for order in orders.into_iter().flatten() {
+                v.push(Candidate {
+                    order: Some(order),
+                    start: Start::Armax,
+                    n4sid_matrices: MatrixEstimate::OutputError,
+                    feedthrough: false,
+                    horizon: Some(order.div_ceil(ny.max(1))),
+                    ..fit_steps.clone()
+                });
+            }
+        }
+        _ => {}
+    }
+    let mut unique: Vec<Candidate> = Vec::new();
+    for c in v {
+        if !unique.contains(&c) {
+            unique.push(c);
         }
     }
-    v
+    unique
 }
 
-/// Why the open-loop candidates were or were not tried (the report's line).
-fn open_loop_note(
+/// What the feedback test's verdict added to the choice (the report's
+/// line).
+fn loop_note(
     auto: &AutoSelect,
     feedback: Option<&std::result::Result<crate::feedback::FeedbackTest, String>>,
     added: &[Candidate],
@@ -793,9 +786,13 @@ fn open_loop_note(
         Some(Err(_)) => {
             "feed-through D not tried: the feedback test could not run, so the data may be closed-loop".into()
         }
-        Some(Ok(t)) if t.feedback => {
-            "feed-through D not tried: the inputs react to the outputs (closed loop), where D would learn the controller's reaction within the sample".into()
-        }
+        Some(Ok(t)) if t.feedback => format!(
+            "feed-through D not tried: the inputs react to the outputs (closed loop), where D would learn the controller's reaction within the sample; {}",
+            match added.len() {
+                0 => "no ARMAX candidate (the start or focus is fixed, or no other candidate scored)".to_string(),
+                n => format!("also tried {n} candidate(s) from the ARMAX of the order, fit criterion over steps {{1, h}}"),
+            }
+        ),
         Some(Ok(_)) if !free => {
             "no feedback found; the open-loop candidates (D, fit criterion) not tried: the start or focus is fixed".into()
         }
