@@ -51,6 +51,12 @@ pub fn sysid(e: SysidError) -> anyhow::Error {
         } => anyhow::anyhow!(
             "{e}; to go on: a lower --order (leave it out for the suggested one), or more data"
         ),
+        SysidError::TooLarge {
+            method: SizedMethod::Arx,
+            ..
+        } => anyhow::anyhow!(
+            "{e}; to go on: fewer lags (--horizon is the VARX or ARX lags of --method pbsid, arx and armax)"
+        ),
         e => anyhow::Error::new(e),
     }
 }

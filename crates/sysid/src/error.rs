@@ -102,6 +102,9 @@ pub enum SizedMethod {
     /// [`pem`](crate::pem()): the Jacobian of one iteration (the prediction
     /// horizon and the parameters).
     Pem,
+    /// [`arx`](crate::arx()) and the methods built on it (PBSID's VARX,
+    /// ARMAX, the ARX reduction): the lags.
+    Arx,
 }
 
 /// Shorthand for results of this crate.

@@ -44,12 +44,13 @@ pub mod workflow;
 pub use armax::{ArmaxModel, ArmaxSettings, armax};
 #[cfg(feature = "std")]
 pub use arx::{
-    ArxBaseline, ArxBaselineCandidate, ArxBaselineRow, ArxModel, ArxSettings, arx, arx_baseline,
+    ArxBaseline, ArxBaselineCandidate, ArxBaselineRow, ArxModel, ArxSettings, MAX_ARX_OPERATIONS,
+    arx, arx_baseline,
 };
 #[cfg(feature = "std")]
 pub use closed_loop::{
-    ArxReduction, ArxReductionSettings, PbsidResult, PbsidSettings, arx_reduction, pbsid,
-    stabilise_a,
+    ArxReduction, ArxReductionSettings, MAX_REALISATION, PbsidResult, PbsidSettings, arx_reduction,
+    pbsid, stabilise_a,
 };
 #[cfg(feature = "std")]
 pub use data::{CsvColumns, Experiment, IoData, Offsets, SignalSelection, TimeInterval, TimeUnit};

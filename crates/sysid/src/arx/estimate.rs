@@ -2,7 +2,7 @@
 
 use super::model::{ArxModel, ArxSettings};
 use crate::data::IoData;
-use crate::error::{Result, SysidError};
+use crate::error::{Result, SizedMethod, SysidError};
 use nalgebra::{DMatrix, DVector};
 
 /// Rows of a regression matrix built at a time (bounds the memory to
@@ -40,6 +40,12 @@ pub(crate) fn regressor(
     }
 }
 
+/// The most operations (rows x parameters per output squared) an ARX fit
+/// may take, the budget of one PEM iteration
+/// ([`MAX_PEM_FLOPS_PER_ITERATION`](crate::MAX_PEM_FLOPS_PER_ITERATION));
+/// about a minute. 500 Hz logs with 10 lags take 1e8-1e9.
+pub const MAX_ARX_OPERATIONS: f64 = 5e10;
+
 /// MIMO ARX by linear least squares over every experiment of `data`
 /// (MATLAB's `arx`): each output's equation
 /// `y(t) = sum a_i y(t-i) + sum b_j u(t-nk-j) + e(t)` is one regression
@@ -53,6 +59,8 @@ pub(crate) fn regressor(
 /// Errors: `na = nb = 0`; a constant input or output
 /// ([`SysidError::ConstantInput`], [`SysidError::ConstantOutput`]);
 /// fewer regression rows than `p + 1` ([`SysidError::TooFewSamples`]);
+/// more than [`MAX_ARX_OPERATIONS`] (`rows p^2`, [`SysidError::TooLarge`],
+/// before the pass over the data);
 /// linearly dependent regressors, e.g. two identical inputs
 /// ([`SysidError::Numerical`]).
 ///
@@ -129,6 +137,18 @@ impl NormalEquations {
             .iter()
             .map(|e| e.len().saturating_sub(lag))
             .sum();
+        let operations = rows as f64 * (p as f64).powi(2);
+        if operations > MAX_ARX_OPERATIONS {
+            return Err(SysidError::TooLarge {
+                method: SizedMethod::Arx,
+                what: format!(
+                    "ARX with na = {}, nb = {} ({p} parameters per output)",
+                    settings.na, settings.nb
+                ),
+                cost: format!("about {operations:.0e} operations for its {rows} rows"),
+                limit: format!("at most {MAX_ARX_OPERATIONS:.0e}; use fewer lags"),
+            });
+        }
         if rows < p + 1 {
             return Err(SysidError::TooFewSamples {
                 what: format!(

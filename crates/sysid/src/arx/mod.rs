@@ -16,8 +16,8 @@ mod realise;
 mod tests;
 
 pub use baseline::{ArxBaseline, ArxBaselineCandidate, ArxBaselineRow, arx_baseline};
-pub use estimate::arx;
 pub(crate) use estimate::{
     CHUNK, NormalEquations, arx_with_normal_equations, solve_normal_equations,
 };
+pub use estimate::{MAX_ARX_OPERATIONS, arx};
 pub use model::{ArxModel, ArxSettings};

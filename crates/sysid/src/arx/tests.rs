@@ -1,6 +1,6 @@
 use super::*;
 use crate::data::IoData;
-use crate::error::SysidError;
+use crate::error::{SizedMethod, SysidError};
 use crate::linalg::lstsq;
 use crate::synthetic::{self, Rng};
 use crate::validate::{fit_percent, predict_fit};
@@ -271,4 +271,25 @@ fn baseline_reports_the_best_lag_count_per_horizon() {
     assert!(!b.skipped.is_empty() && !b.candidates.is_empty());
     assert!(arx_baseline(&short, &val, 40..=41, &[1]).is_err());
     assert!(arx_baseline(&est, &val, 2..=3, &[0]).is_err());
+}
+
+#[test]
+fn lags_beyond_the_operation_budget_are_refused_before_the_pass() {
+    let truth = synthetic::random_model(2, 2, 2, 3, 0.8);
+    let data = synthetic::simulate(&truth, 20_000, 0.05, 1).unwrap();
+    // 1000 lags: 4000 parameters per output on 19,000 rows, 3e11 operations.
+    let e = arx(&data, &ArxSettings::lags(1000)).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            SysidError::TooLarge {
+                method: SizedMethod::Arx,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("4000 parameters per output"), "{e}");
+    // 10 lags on the same data: 2e7 operations.
+    assert!(arx(&data, &ArxSettings::lags(10)).is_ok());
 }

@@ -11,6 +11,10 @@ use crate::n4sid::suggest_order;
 use crate::pem::{Focus, PemSettings, pem};
 use crate::reduce::{BalredSettings, ReductionMethod, balred};
 
+/// The largest realisation [`arx_reduction`] reduces (`ny x lags`
+/// states): its balanced truncation costs a few times `n^3`.
+pub const MAX_REALISATION: usize = 240;
+
 /// Settings of [`arx_reduction`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct ArxReductionSettings {
@@ -21,7 +25,8 @@ pub struct ArxReductionSettings {
     /// Largest order considered when suggesting one.
     pub max_order: usize,
     /// Lags `l` of the ARX (`na = nb = l`): its realisation has `ny l`
-    /// states, so the order must not exceed that.
+    /// states (at most [`MAX_REALISATION`]), so the order must not exceed
+    /// that.
     pub lags: usize,
     /// Noise lags `nc`: 0 fits an ARX; more fits an ARMAX
     /// ([`armax`](crate::armax()), Hannan-Rissanen with pseudo-linear
@@ -119,10 +124,18 @@ pub fn arx_reduction(data: &IoData, settings: &ArxReductionSettings) -> Result<A
     if s.order == Some(0) || s.max_order == 0 {
         return Err(SysidError::invalid("the model order must be at least 1"));
     }
+    let kind = if s.noise_lags == 0 { "ARX" } else { "ARMAX" };
     let nx = data.ny() * s.lags;
+    if nx > MAX_REALISATION {
+        return Err(SysidError::invalid(format!(
+            "{} lags give a {kind} realisation of {nx} states ({} outputs x lags), above the {MAX_REALISATION} that the balanced truncation handles in seconds; use fewer lags",
+            s.lags,
+            data.ny()
+        )));
+    }
     if let Some(n) = s.order.filter(|&n| n > nx) {
         return Err(SysidError::invalid(format!(
-            "order {n} exceeds the {nx} states of the ARX realisation ({} outputs x {} lags); raise the lags",
+            "order {n} exceeds the {nx} states of the {kind} realisation ({} outputs x {} lags); raise the lags",
             data.ny(),
             s.lags
         )));

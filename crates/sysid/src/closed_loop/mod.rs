@@ -13,7 +13,7 @@ mod stabilise;
 #[cfg(test)]
 mod tests;
 
-pub use arx_reduction::{ArxReduction, ArxReductionSettings, arx_reduction};
+pub use arx_reduction::{ArxReduction, ArxReductionSettings, MAX_REALISATION, arx_reduction};
 pub use pbsid::pbsid;
 pub use settings::{PbsidResult, PbsidSettings};
 pub use stabilise::stabilise_a;

@@ -331,6 +331,15 @@ fn arx_reduction_rejects_bad_settings() {
     ] {
         assert!(matches!(bad(s), SysidError::InvalidArgument(_)));
     }
+    // A realisation too large to reduce quickly is refused before any fit.
+    assert!(matches!(
+        bad(ArxReductionSettings {
+            order: Some(2),
+            lags: MAX_REALISATION + 1,
+            ..Default::default()
+        }),
+        SysidError::InvalidArgument(m) if m.contains("fewer lags")
+    ));
     // Too few samples for 150 lags (300 parameters per output).
     assert!(matches!(
         bad(ArxReductionSettings {
