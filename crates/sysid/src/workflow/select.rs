@@ -633,7 +633,7 @@ pub(super) fn choose_structure(
         feedback.as_ref(),
         &chosen,
         spec,
-        (est.ny(), h),
+        (est.ny(), h, max_order),
         scored,
     );
     let open_loop = loop_note(auto, feedback.as_ref(), &last, free_start && free_focus);
@@ -702,7 +702,7 @@ pub(super) fn choose_structure(
 /// over steps `{1, h}`, [`AutoSelect::open_loop_iterations`].
 ///
 /// Closed loop (when `scored`, with `h > 1`): at the order of `at` and at
-/// the largest, PEM started from the ARMAX of that order
+/// the largest the data allows (`max_order`), PEM started from the ARMAX of that order
 /// ([`Start::Armax`], `ceil(n / ny)` lags, reduced to `n`) by the fit
 /// criterion over steps `{1, h}`: on btfl_002 at 50 Hz the one model of
 /// at most 8 states found ahead of persistence and the best ARX at 1 and
@@ -712,7 +712,7 @@ fn loop_candidates(
     feedback: Option<&std::result::Result<crate::feedback::FeedbackTest, String>>,
     at: &Candidate,
     spec: &IdentifySpec,
-    (ny, h): (usize, usize),
+    (ny, h, max_order): (usize, usize, usize),
     scored: bool,
 ) -> Vec<Candidate> {
     if !(auto.start && auto.focus && spec.method == Method::Pem) {
@@ -749,7 +749,9 @@ fn loop_candidates(
         Some(Ok(t)) if t.feedback && scored && h > 1 => {
             let mut orders = vec![at.order];
             if auto.order && spec.order.is_none() {
-                orders.push(Some(auto.max_order));
+                // The largest order the data allows (a short record
+                // lowers `auto.max_order`, as for the other stages).
+                orders.push(Some(max_order));
             }
             for order in orders.into_iter().flatten() {
                 v.push(Candidate {
