@@ -71,6 +71,7 @@ fn default_chooses_the_structure_and_prints_the_baselines() {
         "persistence 1-step",
         "best ARX 1-step (",
         "best ARX 5-step (",
+        "mean fit against the baselines: 1-step: ",
     ] {
         assert!(err.contains(row), "{row} missing in {err}");
     }

@@ -405,6 +405,70 @@ impl ValidationReport {
         let prefix = format!("best ARX {k}-step");
         self.rows.iter().find(|r| r.label.starts_with(&prefix))
     }
+
+    /// The model against its baselines at each prediction horizon of the
+    /// table (mean fits over the outputs), in the table's order.
+    pub fn baseline_comparisons(&self) -> Vec<BaselineComparison> {
+        self.rows
+            .iter()
+            .filter_map(|r| {
+                let k: usize = r
+                    .label
+                    .strip_prefix("model ")?
+                    .strip_suffix("-step")?
+                    .parse()
+                    .ok()?;
+                let persistence = self.row(&format!("persistence {k}-step"))?.mean();
+                Some(BaselineComparison {
+                    horizon: k,
+                    model: r.mean(),
+                    persistence,
+                    best_arx: self.arx_row(k).map(FitRow::mean),
+                })
+            })
+            .collect()
+    }
+}
+
+/// The model's mean k-step fit beside the persistence and best-ARX
+/// baselines of the same horizon ([`ValidationReport::baseline_comparisons`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BaselineComparison {
+    /// Prediction steps `k`.
+    pub horizon: usize,
+    /// The model's mean k-step fit, percent.
+    pub model: f64,
+    /// Persistence's mean k-step fit (`y(t + k) = y(t)`), percent.
+    pub persistence: f64,
+    /// The best ARX's mean k-step fit, percent, when the baseline was added.
+    pub best_arx: Option<f64>,
+}
+
+impl BaselineComparison {
+    /// Whether the model's fit is above every baseline present.
+    pub fn beats_baselines(&self) -> bool {
+        self.model > self.persistence && self.best_arx.is_none_or(|a| self.model > a)
+    }
+}
+
+impl fmt::Display for BaselineComparison {
+    /// `5-step: ahead of persistence by 36.40, behind the best ARX by 0.77`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let side = |d: f64| if d > 0.0 { "ahead of" } else { "behind" };
+        let d = self.model - self.persistence;
+        write!(
+            f,
+            "{}-step: {} persistence by {:.2}",
+            self.horizon,
+            side(d),
+            d.abs()
+        )?;
+        if let Some(a) = self.best_arx {
+            let d = self.model - a;
+            write!(f, ", {} the best ARX by {:.2}", side(d), d.abs())?;
+        }
+        Ok(())
+    }
 }
 
 impl fmt::Display for ValidationReport {
@@ -420,6 +484,20 @@ impl fmt::Display for ValidationReport {
                 write!(f, "{v:>10.2}")?;
             }
             writeln!(f, "{:>10.2}", r.mean())?;
+        }
+        let against = self.baseline_comparisons();
+        if !against.is_empty() {
+            let parts: Vec<String> = against.iter().map(|c| c.to_string()).collect();
+            let verdict = if against.iter().all(BaselineComparison::beats_baselines) {
+                "the model beats every baseline"
+            } else {
+                "the model does not beat every baseline"
+            };
+            writeln!(
+                f,
+                "mean fit against the baselines: {}; {verdict}",
+                parts.join("; ")
+            )?;
         }
         let ra = &self.residuals;
         writeln!(
@@ -453,6 +531,61 @@ impl fmt::Display for ValidationReport {
 mod tests {
     use super::*;
     use crate::synthetic;
+
+    #[test]
+    fn baseline_comparisons_pair_each_horizon_with_its_baselines() {
+        let row = |label: &str, fit: [f64; 2]| FitRow {
+            label: label.into(),
+            fit: fit.to_vec(),
+        };
+        let report = ValidationReport {
+            outputs: vec!["p".into(), "q".into()],
+            rows: vec![
+                row("model simulation", [10.0, 20.0]),
+                row("persistence simulation", [0.0, 0.0]),
+                row("model 1-step", [90.0, 92.0]),
+                row("persistence 1-step", [80.0, 80.0]),
+                row("best ARX 1-step (4 lags)", [92.0, 92.0]),
+                row("model 5-step", [50.0, 60.0]),
+                row("persistence 5-step", [10.0, 20.0]),
+            ],
+            residuals: ResidualAnalysis {
+                max_lag: 1,
+                bound: 0.1,
+                inputs: Vec::new(),
+                outputs: Vec::new(),
+            },
+        };
+        let c = report.baseline_comparisons();
+        assert_eq!(
+            c,
+            vec![
+                BaselineComparison {
+                    horizon: 1,
+                    model: 91.0,
+                    persistence: 80.0,
+                    best_arx: Some(92.0),
+                },
+                BaselineComparison {
+                    horizon: 5,
+                    model: 55.0,
+                    persistence: 15.0,
+                    best_arx: None,
+                },
+            ]
+        );
+        assert!(!c[0].beats_baselines());
+        assert!(c[1].beats_baselines());
+        assert_eq!(
+            c[0].to_string(),
+            "1-step: ahead of persistence by 11.00, behind the best ARX by 1.00"
+        );
+        let text = report.to_string();
+        assert!(text.contains(
+            "mean fit against the baselines: 1-step: ahead of persistence by 11.00, behind the best ARX by 1.00; \
+             5-step: ahead of persistence by 40.00; the model does not beat every baseline"
+        ));
+    }
 
     #[test]
     fn fit_is_100_for_perfect_and_0_for_mean() {
