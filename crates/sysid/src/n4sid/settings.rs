@@ -47,7 +47,10 @@ pub struct N4sidSettings {
     pub max_order: usize,
     /// Number of block rows `i` of the future (and of the past unless
     /// [`past_horizon`](Self::past_horizon) is set); `None` chooses
-    /// `max(10, ceil((n_max + 1) / ny) + 1)`.
+    /// `max(10, ceil((n_max + 1) / ny) + 1)`, or on a record too short
+    /// for that horizon's block Hankel matrix the largest shorter one that
+    /// fits with `i ny > n_max` (the result's [`N4sidResult::horizon`]
+    /// says which).
     pub horizon: Option<usize>,
     /// Number of block rows `p` of the past when it differs from the
     /// future's; `None` takes the future horizon. A past longer than the

@@ -58,7 +58,7 @@ pub fn n4sid(data: &IoData, settings: &N4sidSettings) -> Result<N4sidResult> {
     let nmax = settings.max_order.max(n_req).max(1);
     let i = match settings.horizon {
         Some(i) => i,
-        None => 10usize.max((nmax + 1).div_ceil(ny) + 1),
+        None => default_horizon(&sdata, nmax, settings.past_horizon),
     };
     if i * ny <= nmax || i < 2 {
         return Err(SysidError::invalid(format!(
@@ -238,4 +238,27 @@ pub fn n4sid(data: &IoData, settings: &N4sidSettings) -> Result<N4sidResult> {
         order: n,
         horizon: i,
     })
+}
+
+/// The default horizon `i`: `max(10, ceil((n_max + 1) / ny) + 1)`, or
+/// on a record too short for its block Hankel matrix the largest shorter
+/// one that fits and still has `i ny > n_max` (the shortest that does
+/// not fit is reported by [`n4sid`]'s sample check).
+fn default_horizon(data: &IoData, nmax: usize, past: Option<usize>) -> usize {
+    let (nu, ny) = (data.nu(), data.ny().max(1));
+    let longest = 10usize.max((nmax + 1).div_ceil(ny) + 1);
+    let shortest = (nmax / ny + 1).max(2);
+    let fits = |i: usize| {
+        let p = past.unwrap_or(i);
+        let cols: usize = data
+            .experiments()
+            .iter()
+            .map(|e| (e.len() + 1).saturating_sub(i + p))
+            .sum();
+        cols >= (i + p) * (nu + ny)
+    };
+    (shortest..=longest)
+        .rev()
+        .find(|&i| fits(i))
+        .unwrap_or(longest)
 }

@@ -161,3 +161,29 @@ fn bad_data_are_errors() {
         .is_err()
     );
 }
+
+#[test]
+fn default_horizon_shrinks_to_a_short_record() {
+    // 80 samples, 2 inputs, 2 outputs: the usual horizon 10 needs 20 x 4
+    // Hankel rows and has 61 columns; the largest that fits is 8 (64
+    // rows, 65 columns), and 9 (72 rows, 63 columns) does not.
+    let truth = synthetic::random_model(2, 2, 2, 3, 0.8);
+    let data = synthetic::simulate(&truth, 80, 0.01, 2).unwrap();
+    let order2 = N4sidSettings {
+        order: Some(2),
+        ..Default::default()
+    };
+    let r = n4sid(&data, &order2).unwrap();
+    assert_eq!(r.horizon, 8);
+    let at = |i: usize| {
+        n4sid(
+            &data,
+            &N4sidSettings {
+                horizon: Some(i),
+                ..order2.clone()
+            },
+        )
+    };
+    assert!(matches!(at(9), Err(SysidError::TooFewSamples { .. })));
+    assert_eq!(at(8).unwrap().model, r.model);
+}
