@@ -73,11 +73,7 @@ pub fn n4sid(data: &IoData, settings: &N4sidSettings) -> Result<N4sidResult> {
         return Err(SysidError::invalid("model order must be >= 1"));
     }
     let rows = (i + p) * (nu + ny);
-    let cols: usize = sdata
-        .experiments()
-        .iter()
-        .map(|e| (e.len() + 1).saturating_sub(i + p))
-        .sum();
+    let cols = hankel_columns(&sdata, i + p);
     if cols < rows {
         let needed = rows + i + p - 1;
         return Err(SysidError::TooFewSamples {
@@ -250,15 +246,18 @@ fn default_horizon(data: &IoData, nmax: usize, past: Option<usize>) -> usize {
     let shortest = (nmax / ny + 1).max(2);
     let fits = |i: usize| {
         let p = past.unwrap_or(i);
-        let cols: usize = data
-            .experiments()
-            .iter()
-            .map(|e| (e.len() + 1).saturating_sub(i + p))
-            .sum();
-        cols >= (i + p) * (nu + ny)
+        hankel_columns(data, i + p) >= (i + p) * (nu + ny)
     };
     (shortest..=longest)
         .rev()
         .find(|&i| fits(i))
         .unwrap_or(longest)
+}
+
+/// The block Hankel matrix's columns: `len + 1 - (i + p)` per experiment.
+fn hankel_columns(data: &IoData, block_rows: usize) -> usize {
+    data.experiments()
+        .iter()
+        .map(|e| (e.len() + 1).saturating_sub(block_rows))
+        .sum()
 }
