@@ -2,7 +2,7 @@
 //! pseudo-linear regression: a baseline with a noise model and a start
 //! structure for [`pem`](crate::pem()).
 
-use crate::arx::{ArxSettings, arx, solve_normal_equations};
+use crate::arx::{ArxSettings, arx, default_lags, solve_normal_equations};
 use crate::data::IoData;
 use crate::error::{Result, SysidError};
 use crate::model::InnovationModel;
@@ -28,7 +28,10 @@ pub struct ArmaxSettings {
     pub nk: usize,
     /// Lags of the high-order ARX model whose residuals stand in for the
     /// innovations in the first regression; `0` takes
-    /// `max(10, 2 (na + nc))`.
+    /// `max(10, 2 (na + nc))`, or on a record too short for that ARX the
+    /// largest lag count from `max(na, nc) + 1` whose ARX has at least
+    /// twice as many regression rows as parameters per output.
+    /// [`ArmaxModel::settings`] holds the count used.
     pub arx_lags: usize,
     /// Pseudo-linear regression passes after the first (each recomputes
     /// the innovations with the current model and refits); the pass with
@@ -167,23 +170,6 @@ pub fn armax(data: &IoData, settings: &ArmaxSettings) -> Result<ArmaxModel> {
         return Err(SysidError::invalid("an ARMAX model needs na, nb or nc > 0"));
     }
     let (nu, ny) = (data.nu(), data.ny());
-    let hl = if s.arx_lags == 0 {
-        10.max(2 * (s.na + s.nc))
-    } else {
-        s.arx_lags
-    };
-    let high = arx(data, &ArxSettings::lags(hl))?;
-    let first = high.first_predicted(1);
-    let mut innov: Vec<DMatrix<f64>> = high
-        .predict(data, 1)?
-        .into_iter()
-        .zip(data.experiments())
-        .map(|(p, e)| {
-            let mut r = &e.y - p;
-            r.rows_mut(0, first.min(e.len())).fill(0.0);
-            r
-        })
-        .collect();
     let lag = s.max_lag();
     let np = ny * s.na + nu * s.nb + ny * s.nc;
     let rows: usize = data
@@ -198,6 +184,29 @@ pub fn armax(data: &IoData, settings: &ArmaxSettings) -> Result<ArmaxModel> {
             found: data.n_samples(),
         });
     }
+    let hl = if s.arx_lags == 0 {
+        default_lags(
+            data,
+            10.max(2 * (s.na + s.nc)),
+            s.na.max(s.nc) + 1,
+            ArxSettings::lags,
+        )
+    } else {
+        s.arx_lags
+    };
+    let s = ArmaxSettings { arx_lags: hl, ..s };
+    let high = arx(data, &ArxSettings::lags(hl))?;
+    let first = high.first_predicted(1);
+    let mut innov: Vec<DMatrix<f64>> = high
+        .predict(data, 1)?
+        .into_iter()
+        .zip(data.experiments())
+        .map(|(p, e)| {
+            let mut r = &e.y - p;
+            r.rows_mut(0, first.min(e.len())).fill(0.0);
+            r
+        })
+        .collect();
     let mut best: Option<ArmaxModel> = None;
     let mut history = Vec::new();
     for pass in 0..=s.iterations {
@@ -402,12 +411,39 @@ mod tests {
     }
 
     #[test]
+    fn a_short_record_shrinks_the_long_arx() {
+        // 28 samples: the long ARX of 10 lags (20 parameters) has only 18
+        // rows. The largest with twice as many rows as parameters is 5
+        // (23 rows, 10 parameters; 6 has 22 rows for 12).
+        let data = siso(28, 3);
+        let m = armax(&data, &ArmaxSettings::default()).unwrap();
+        assert_eq!(m.settings.arx_lags, 5);
+        let at = |l: usize| {
+            armax(
+                &data,
+                &ArmaxSettings {
+                    arx_lags: l,
+                    ..Default::default()
+                },
+            )
+        };
+        assert!(matches!(at(10), Err(SysidError::TooFewSamples { .. })));
+        assert_eq!(at(5).unwrap(), m);
+        // A long record keeps max(10, 2 (na + nc)).
+        let m = armax(&siso(500, 3), &ArmaxSettings::default()).unwrap();
+        assert_eq!(m.settings.arx_lags, 10);
+    }
+
+    #[test]
     fn bad_input_is_an_error() {
-        let data = siso(30, 1);
-        assert!(matches!(
-            armax(&data, &ArmaxSettings::default()),
-            Err(SysidError::TooFewSamples { .. })
-        ));
+        // 8 samples: 6 rows for the 6 ARMAX(2, 2, 2) parameters; the
+        // error names the ARMAX, not its long ARX step.
+        match armax(&siso(8, 1), &ArmaxSettings::default()) {
+            Err(SysidError::TooFewSamples { what, .. }) => {
+                assert!(what.contains("ARMAX"), "{what}")
+            }
+            other => panic!("{other:?}"),
+        }
         let none = ArmaxSettings {
             na: 0,
             nb: 0,

@@ -49,8 +49,8 @@ pub use arx::{
 };
 #[cfg(feature = "std")]
 pub use closed_loop::{
-    ArxReduction, ArxReductionSettings, MAX_REALISATION, PbsidResult, PbsidSettings, arx_reduction,
-    pbsid, stabilise_a,
+    ArxReduction, ArxReductionSettings, MAX_REALISATION, PBSID_PAST, PbsidResult, PbsidSettings,
+    arx_reduction, pbsid, stabilise_a,
 };
 #[cfg(feature = "std")]
 pub use data::{CsvColumns, Experiment, IoData, Offsets, SignalSelection, TimeInterval, TimeUnit};

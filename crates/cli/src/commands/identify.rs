@@ -224,7 +224,8 @@ pub struct Args {
     #[arg(long, value_enum)]
     pub weighting: Option<WeightingArg>,
     /// N4SID horizon (block rows); default chosen from the order. With
-    /// `--method pbsid`: the past horizon (VARX lags), default 20; with
+    /// `--method pbsid`: the past horizon (VARX lags), default 20 (fewer
+    /// on a record too short for a VARX of 20 lags); with
     /// `--method arx` or `armax`: the lags of its polynomials, default 10
     /// (at least the order divided by the number of outputs).
     #[arg(long)]

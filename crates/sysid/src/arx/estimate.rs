@@ -132,11 +132,7 @@ impl NormalEquations {
         let (su, sy) = data.check_excitation()?;
         let p = settings.parameters_per_output(nu, ny);
         let lag = settings.max_lag();
-        let rows: usize = data
-            .experiments()
-            .iter()
-            .map(|e| e.len().saturating_sub(lag))
-            .sum();
+        let rows = settings.regression_rows(data);
         let operations = rows as f64 * (p as f64).powi(2);
         if operations > MAX_ARX_OPERATIONS {
             return Err(SysidError::TooLarge {

@@ -20,4 +20,5 @@ pub(crate) use estimate::{
     CHUNK, NormalEquations, arx_with_normal_equations, solve_normal_equations,
 };
 pub use estimate::{MAX_ARX_OPERATIONS, arx};
+pub(crate) use model::default_lags;
 pub use model::{ArxModel, ArxSettings};

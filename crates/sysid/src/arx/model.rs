@@ -1,5 +1,6 @@
 //! What an ARX model is and what [`arx`](crate::arx()) fits.
 
+use crate::data::IoData;
 use crate::error::{Result, SysidError};
 use nalgebra::DMatrix;
 
@@ -54,6 +55,23 @@ impl ArxSettings {
         ny * self.na + nu * self.nb
     }
 
+    /// Regression rows on `data`: every experiment's samples after its
+    /// first [`max_lag`](Self::max_lag), which enter only as history.
+    pub fn regression_rows(&self, data: &IoData) -> usize {
+        let lag = self.max_lag();
+        data.experiments()
+            .iter()
+            .map(|e| e.len().saturating_sub(lag))
+            .sum()
+    }
+
+    /// Whether [`arx`](crate::arx()) has rows enough on `data` (at least
+    /// one more than the parameters per output); it may still fail on
+    /// dependent regressors.
+    pub fn has_rows_on(&self, data: &IoData) -> bool {
+        self.regression_rows(data) > self.parameters_per_output(data.nu(), data.ny())
+    }
+
     pub(crate) fn check(&self) -> Result<()> {
         if self.na == 0 && self.nb == 0 {
             return Err(SysidError::invalid(
@@ -69,6 +87,32 @@ impl ArxSettings {
         }
         Ok(())
     }
+}
+
+/// The lag count of an automatic default on `data`: `preferred` where the
+/// ARX `structure(preferred)` has rows enough to be fitted at all, else
+/// (a record too short for it) the largest `l` in `least..preferred`
+/// whose ARX has at least twice as many regression rows as parameters per
+/// output, so that its residuals still stand for the noise; `preferred`
+/// again when none has, and the fit's own error then names what the
+/// data lack.
+pub(crate) fn default_lags(
+    data: &IoData,
+    preferred: usize,
+    least: usize,
+    structure: impl Fn(usize) -> ArxSettings,
+) -> usize {
+    if structure(preferred).has_rows_on(data) {
+        return preferred;
+    }
+    let (nu, ny) = (data.nu(), data.ny());
+    (least.max(1)..preferred)
+        .rev()
+        .find(|&l| {
+            let s = structure(l);
+            s.regression_rows(data) >= 2 * s.parameters_per_output(nu, ny)
+        })
+        .unwrap_or(preferred)
 }
 
 /// A MIMO ARX model estimated by [`arx`](crate::arx()) (or built from

@@ -293,3 +293,29 @@ fn lags_beyond_the_operation_budget_are_refused_before_the_pass() {
     // 10 lags on the same data: 2e7 operations.
     assert!(arx(&data, &ArxSettings::lags(10)).is_ok());
 }
+
+#[test]
+fn default_lags_keeps_what_fits_and_shrinks_a_short_record() {
+    // 2 inputs, 2 outputs: ARX(l) has 4 l parameters per output and
+    // 200 - l rows on 200 samples, 180 - 2 l on experiments of 100 + 80.
+    let m = synthetic::random_model(2, 2, 2, 5, 0.8);
+    let one = synthetic::simulate(&m, 200, 0.1, 1).unwrap();
+    assert_eq!(ArxSettings::lags(7).regression_rows(&one), 193);
+    // 30 lags: 170 rows > 120 parameters, kept.
+    assert_eq!(default_lags(&one, 30, 1, ArxSettings::lags), 30);
+    // 40 lags: 160 rows for 160 parameters, too few; 22 is the largest
+    // with twice as many (178 >= 176; 23: 177 < 184).
+    assert!(!ArxSettings::lags(40).has_rows_on(&one));
+    assert!(ArxSettings::lags(39).has_rows_on(&one));
+    assert_eq!(default_lags(&one, 40, 1, ArxSettings::lags), 22);
+    // None in 30..40: the preferred count, whose fit then fails.
+    assert_eq!(default_lags(&one, 40, 30, ArxSettings::lags), 40);
+    let two = IoData::merge(&[
+        synthetic::simulate(&m, 100, 0.1, 2).unwrap(),
+        synthetic::simulate(&m, 80, 0.1, 3).unwrap(),
+    ])
+    .unwrap();
+    assert_eq!(ArxSettings::lags(7).regression_rows(&two), 166);
+    // 180 - 2 l >= 8 l up to l = 18.
+    assert_eq!(default_lags(&two, 40, 1, ArxSettings::lags), 18);
+}

@@ -15,5 +15,5 @@ mod tests;
 
 pub use arx_reduction::{ArxReduction, ArxReductionSettings, MAX_REALISATION, arx_reduction};
 pub use pbsid::pbsid;
-pub use settings::{PbsidResult, PbsidSettings};
+pub use settings::{PBSID_PAST, PbsidResult, PbsidSettings};
 pub use stabilise::stabilise_a;

@@ -1,8 +1,8 @@
 //! Predictor-based subspace identification (PBSID) from a VARX step.
 
-use super::settings::{PbsidResult, PbsidSettings};
+use super::settings::{PBSID_PAST, PbsidResult, PbsidSettings};
 use super::stabilise::pull_inside;
-use crate::arx::{ArxSettings, arx_with_normal_equations};
+use crate::arx::{ArxSettings, arx_with_normal_equations, default_lags};
 use crate::data::IoData;
 use crate::error::{Result, SysidError};
 use crate::linalg::{lstsq, spectral_radius};
@@ -47,24 +47,33 @@ use nalgebra::{DMatrix, DVector};
 /// use kestrel_sysid::{pbsid, synthetic, PbsidSettings};
 /// let truth = synthetic::random_model(3, 2, 2, 1, 0.9);
 /// let data = synthetic::simulate(&truth, 3000, 0.1, 7).unwrap();
-/// let r = pbsid(&data, &PbsidSettings { order: Some(3), past: 15, ..Default::default() }).unwrap();
+/// let r = pbsid(&data, &PbsidSettings { order: Some(3), past: Some(15), ..Default::default() }).unwrap();
 /// assert_eq!((r.order, r.model.nx()), (3, 3));
 /// assert!(r.model.radius_predictor() < 1.0);
 /// ```
 pub fn pbsid(data: &IoData, settings: &PbsidSettings) -> Result<PbsidResult> {
-    let p = settings.past;
-    let f = settings.future.unwrap_or(p);
     let (nu, ny) = (data.nu(), data.ny());
     let nz = nu + ny;
+    if settings.order == Some(0) {
+        return Err(SysidError::invalid("model order must be >= 1"));
+    }
+    let nmax = settings.order.unwrap_or(settings.max_order).max(1);
+    let feed = settings.feedthrough;
+    let varx_settings = |p: usize| ArxSettings {
+        na: p,
+        nb: if feed { p + 1 } else { p },
+        nk: usize::from(!feed),
+    };
+    let p = settings.past.unwrap_or_else(|| {
+        let least = settings.future.unwrap_or(0).max(nmax / ny + 1);
+        default_lags(data, PBSID_PAST, least, varx_settings)
+    });
+    let f = settings.future.unwrap_or(p);
     if p == 0 || f == 0 || f > p {
         return Err(SysidError::invalid(format!(
             "PBSID horizons past {p}, future {f}: need 1 <= future <= past"
         )));
     }
-    if settings.order == Some(0) {
-        return Err(SysidError::invalid("model order must be >= 1"));
-    }
-    let nmax = settings.order.unwrap_or(settings.max_order).max(1);
     if nmax >= f * ny {
         return Err(SysidError::invalid(format!(
             "PBSID order {nmax} needs future * outputs > order (future {f}, {ny} outputs)"
@@ -73,12 +82,7 @@ pub fn pbsid(data: &IoData, settings: &PbsidSettings) -> Result<PbsidResult> {
     check_order(nmax, nu, ny, data.n_samples())?;
     let scaling = Scaling::of(data)?;
     let sdata = data.scaled(&scaling.su, &scaling.sy);
-    let feed = settings.feedthrough;
-    let varx_settings = ArxSettings {
-        na: p,
-        nb: if feed { p + 1 } else { p },
-        nk: usize::from(!feed),
-    };
+    let varx_settings = varx_settings(p);
     let (varx, ne) = arx_with_normal_equations(&sdata, &varx_settings)?;
     // Xi_i = [b at lag i, a_i] for lags 1..=p (z = [u; y]).
     let xi: Vec<DMatrix<f64>> = (1..=p)

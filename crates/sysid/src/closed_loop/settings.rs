@@ -2,6 +2,10 @@
 
 use crate::model::InnovationModel;
 
+/// The past horizon (VARX lags) of [`pbsid`](crate::pbsid()) when
+/// [`PbsidSettings::past`] is `None` and the record is long enough.
+pub const PBSID_PAST: usize = 20;
+
 /// Settings of [`pbsid`](crate::pbsid()).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PbsidSettings {
@@ -13,8 +17,12 @@ pub struct PbsidSettings {
     /// Past horizon `p`: the order of the VARX predictor, the number of
     /// past samples the state is estimated from. It must be long enough
     /// for `(A - K C)^p` to be negligible (the predictor's memory); the
-    /// bias of the method decays with it.
-    pub past: usize,
+    /// bias of the method decays with it. `None` takes [`PBSID_PAST`],
+    /// or on a record too short for that VARX the largest past from
+    /// which `p ny` exceeds the largest order considered and whose VARX
+    /// has at least twice as many regression rows as parameters per
+    /// output ([`PbsidResult::past`] holds the one used).
+    pub past: Option<usize>,
     /// Future horizon `f` (block rows of the predictor's observability
     /// matrix, `f ny > order`); `None` takes `p`.
     pub future: Option<usize>,
@@ -30,13 +38,14 @@ pub struct PbsidSettings {
 }
 
 impl Default for PbsidSettings {
-    /// Order suggested up to 10, past and future horizon 20, no `D`,
-    /// `A` kept inside `|z| <= 0.999`.
+    /// Order suggested up to 10, past and future horizon
+    /// [`PBSID_PAST`] (fewer on a short record), no `D`, `A` kept
+    /// inside `|z| <= 0.999`.
     fn default() -> Self {
         PbsidSettings {
             order: None,
             max_order: 10,
-            past: 20,
+            past: None,
             future: None,
             feedthrough: false,
             max_radius: Some(0.999),

@@ -97,7 +97,7 @@ fn pbsid_is_consistent_in_closed_loop_where_moesp_is_biased() {
     let (ep, em) = against_moesp("PBSID", 20_000, |data, _| {
         let s = PbsidSettings {
             order: Some(4),
-            past: 40,
+            past: Some(40),
             ..Default::default()
         };
         pbsid(data, &s).unwrap().model
@@ -167,7 +167,7 @@ fn bad_settings_and_data_are_errors() {
     let bad = |s: PbsidSettings| pbsid(&data, &s).unwrap_err();
     assert!(matches!(
         bad(PbsidSettings {
-            past: 0,
+            past: Some(0),
             ..Default::default()
         }),
         SysidError::InvalidArgument(_)
@@ -189,7 +189,7 @@ fn bad_settings_and_data_are_errors() {
     // Too few samples for the VARX of past 60 (120 parameters per output).
     assert!(matches!(
         bad(PbsidSettings {
-            past: 60,
+            past: Some(60),
             order: Some(2),
             ..Default::default()
         }),
@@ -203,11 +203,53 @@ fn bad_settings_and_data_are_errors() {
             &flat,
             &PbsidSettings {
                 order: Some(1),
-                past: 5,
+                past: Some(5),
                 ..Default::default()
             }
         ),
         Err(SysidError::ConstantInput { .. })
+    ));
+}
+
+#[test]
+fn default_past_shrinks_to_a_short_record() {
+    // 100 samples, 2 inputs, 2 outputs: the VARX of the default past 20
+    // has 80 parameters per output and only 80 rows. The largest past
+    // with twice as many rows as parameters is 11 (89 rows, 44
+    // parameters; 12 has 88 rows for 48).
+    let truth = plant();
+    let data = closed_loop_data(&truth, 100, 1.0, 0.5, 31);
+    let order2 = PbsidSettings {
+        order: Some(2),
+        ..Default::default()
+    };
+    let r = pbsid(&data, &order2).unwrap();
+    assert_eq!(r.past, 11);
+    let at = |p: usize| {
+        pbsid(
+            &data,
+            &PbsidSettings {
+                past: Some(p),
+                ..order2.clone()
+            },
+        )
+    };
+    assert!(matches!(
+        at(PBSID_PAST),
+        Err(SysidError::TooFewSamples { .. })
+    ));
+    assert_eq!(at(11).unwrap().model, r.model);
+    // On a long record the default is kept.
+    let long = closed_loop_data(&truth, 2_000, 1.0, 0.5, 31);
+    assert_eq!(pbsid(&long, &order2).unwrap().past, PBSID_PAST);
+    // A given future is a lower bound on the shrunk past.
+    let future12 = PbsidSettings {
+        future: Some(12),
+        ..order2.clone()
+    };
+    assert!(matches!(
+        pbsid(&data, &future12),
+        Err(SysidError::TooFewSamples { .. })
     ));
 }
 

@@ -11,10 +11,6 @@ use crate::n4sid::{N4sidSettings, n4sid};
 use crate::pem::{Focus, PemResult, PemSettings, pem};
 use crate::reduce::{BalredSettings, ReductionMethod, balred};
 
-/// The PBSID past horizon (VARX lags) when [`IdentifySpec::horizon`] is
-/// not given.
-pub const PBSID_PAST: usize = 20;
-
 /// What [`fit_structure`] produced on one data set.
 pub(super) struct Fitted {
     /// The N4SID step.
@@ -62,7 +58,7 @@ pub(super) fn fit_structure(
             let settings = PbsidSettings {
                 order: spec.order,
                 max_order: n4.max_order,
-                past: spec.horizon.unwrap_or(PBSID_PAST),
+                past: spec.horizon,
                 feedthrough: spec.feedthrough,
                 ..Default::default()
             };

@@ -34,8 +34,10 @@ pub enum Start {
     #[default]
     N4sid,
     /// PBSID-opt ([`pbsid`](crate::pbsid)), consistent on closed-loop
-    /// data: a VARX with [`IdentifySpec::horizon`] past lags (default 20)
-    /// then the state from its predictor Markov parameters.
+    /// data: a VARX with [`IdentifySpec::horizon`] past lags (default
+    /// [`PbsidSettings::past`](crate::PbsidSettings::past)'s: 20, fewer on
+    /// a short record) then the state from its predictor Markov
+    /// parameters.
     Pbsid,
     /// A high-order ARX with [`IdentifySpec::horizon`] lags (default 10)
     /// reduced by balanced truncation, `K` refitted
