@@ -29,7 +29,7 @@ random-n3-b12-1395 1284 3 2
 random-n4-b112-8611 32 4 3
 LIST
 "$bin/kestrel" mpc --model models/tricopter-blackbox-5.json --horizon 10 --blocks 1,1,2,6 \
-    --q1 2000 --q2 0.01 --out "$out/tricopter-n10-b1126.mpqp.json" 2>/dev/null
+    --q1 2000 --q2 0.01 --out "$out/tricopter-n10-b1126.mpqp.json" --force 2>/dev/null
 
 for p in random-n2-b2-75 random-n5-b14-1075 random-n3-b12-1395 random-n4-b112-8611 tricopter-n10-b1126; do
     f="$out/$p.mpqp.json"
@@ -39,7 +39,7 @@ for p in random-n2-b2-75 random-n5-b14-1075 random-n3-b12-1395 random-n4-b112-86
     # kestrel empc solve end to end (solve + point location of the first
     # move, --locate auto), wall and CPU time.
     /usr/bin/time -f "kestrel empc solve --first-move 4: %e s wall, %U s user, %M kB" \
-        "$bin/kestrel" empc solve --problem "$f" --first-move 4 --no-regions --out "$out/$p.empc.json"
+        "$bin/kestrel" empc solve --problem "$f" --first-move 4 --no-regions --out "$out/$p.empc.json" --force
     # The candidate lists: exactness at 10^4 random parameters against the
     # region lookup, evaluation time, size, worst case (H4's example).
     case $p in

@@ -67,7 +67,7 @@ for log in $LOGS; do
         start=$(date +%s.%N)
         # shellcheck disable=SC2086
         "$KESTREL" identify --data "$csv" --inputs "$inputs" --outputs p,q,r \
-            --estimate "$est" --validate "$val" --out "$OUT/${name}_${rate}.ss.json" \
+            --estimate "$est" --validate "$val" --out "$OUT/${name}_${rate}.ss.json" --force \
             ${EXTRA:-} >"$report" 2>&1
         secs=$(awk -v s="$start" -v e="$(date +%s.%N)" 'BEGIN { printf "%.0f", e - s }')
         samples=$(awk '/^data:/ { print $2; exit }' "$report")

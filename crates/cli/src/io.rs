@@ -173,6 +173,39 @@ pub fn write_output(path: Option<&Path>, text: &str) -> anyhow::Result<()> {
     out.commit()
 }
 
+/// `--force` of every subcommand that writes files: without it, an output
+/// file that exists already is refused before the work starts.
+#[derive(clap::Args, Debug, Clone, Copy, Default)]
+pub struct Replace {
+    /// Replace output files that exist already (without it, an existing
+    /// file is refused before the work starts and nothing is written).
+    #[arg(long)]
+    pub force: bool,
+}
+
+impl Replace {
+    /// Refuses, unless `--force` was given, every path among `paths` that
+    /// names an existing regular file (or a symbolic link to one): a
+    /// command never replaces a file it was not told it may replace,
+    /// e.g. `--out` mistyped as the input data. New files, devices
+    /// (`/dev/null`), FIFOs and directories pass (each command says what
+    /// it does with a directory); call it before the work starts.
+    pub fn check(&self, paths: &[Option<&Path>]) -> anyhow::Result<()> {
+        if self.force {
+            return Ok(());
+        }
+        for path in paths.iter().flatten() {
+            if std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+                anyhow::bail!(
+                    "{} exists; give --force to replace it, or name another file (nothing was written)",
+                    path.display()
+                );
+            }
+        }
+        Ok(())
+    }
+}
+
 /// The folder `path` lies in (`.` for a bare name) and its last component,
 /// or `None` when it has no last component (`/`, `..`): where a temporary
 /// sibling of `path` goes and what it is named after.
@@ -188,6 +221,31 @@ pub fn parent_and_name(path: &Path) -> Option<(&Path, String)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn replace_refuses_existing_files_only_without_force() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("f.json");
+        let new = dir.path().join("new.json");
+        std::fs::write(&file, "mine").unwrap();
+        let keep = Replace { force: false };
+        let null = Path::new("/dev/null");
+        keep.check(&[None, Some(&new), Some(dir.path()), Some(null)])
+            .unwrap();
+        let err = keep.check(&[Some(&new), Some(&file)]).unwrap_err();
+        assert!(
+            err.to_string().contains("f.json exists; give --force"),
+            "{err}"
+        );
+        #[cfg(unix)]
+        {
+            let link = dir.path().join("link.json");
+            std::os::unix::fs::symlink(&file, &link).unwrap();
+            assert!(keep.check(&[Some(&link)]).is_err());
+        }
+        Replace { force: true }.check(&[Some(&file)]).unwrap();
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
+    }
 
     #[test]
     fn devices_are_written_in_place_not_replaced() {

@@ -35,7 +35,12 @@ fn flight_logs_are_closed_loop() {
         "crazyflie/log10",
         "crazyflie/log15",
     ] {
-        let out = dir.path().join("m.json").display().to_string();
+        let name = log.replace('/', "-");
+        let out = dir
+            .path()
+            .join(format!("{name}.json"))
+            .display()
+            .to_string();
         let o = kestrel(&[
             "--data",
             &shared(&format!("flight/{log}")),
@@ -103,9 +108,13 @@ fn pem_steps_flag() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("log.csv");
     common::write_synthetic_log(&csv, (2, 1, 1, 9), (600, 3), "u,y");
-    let out = dir.path().join("m.json").display().to_string();
     let c = csv.display().to_string();
     let run = |steps: &str| {
+        let out = dir
+            .path()
+            .join(format!("m-{steps}.json"))
+            .display()
+            .to_string();
         kestrel(&[
             "--data",
             &c,

@@ -156,6 +156,8 @@ fn progress_is_shown_on_a_terminal_and_silent_in_a_pipe() {
         "100",
         "--out",
         out.to_str().unwrap(),
+        // The second run replaces the first one's file.
+        "--force",
     ];
     // Standard error a pipe (as in CI): the summary only, no spinner.
     let (ok, _, err) = common::kestrel(&args);

@@ -169,6 +169,7 @@ fn simulate_failure_leaves_no_log() {
         csv.to_str().unwrap(),
         "--rate-model",
         "/proc/x",
+        "--force",
     ]);
     assert!(!ok);
     assert_eq!(std::fs::read_to_string(&csv).unwrap(), "old\n");
@@ -212,4 +213,104 @@ fn fgm_certify_failure_leaves_no_export() {
     let (ok, _, err) = certify(out.to_str().unwrap());
     assert!(ok, "{err}");
     assert_eq!(names(dir.path()), ["box.json", "cert.json", "e.rs"]);
+}
+
+/// An output file that exists already is refused by every command before
+/// its work starts, with the file as it was, and replaced with `--force`;
+/// the mistake it guards against: `--out` naming the input data.
+#[test]
+fn existing_outputs_are_refused_without_force() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let path = |name: &str| d.join(name).display().to_string();
+    let log = path("log.csv");
+    let (ok, _, err) = run(&[
+        "simulate",
+        "--experiment",
+        "decoupled",
+        "--seconds",
+        "20",
+        "--out",
+        &log,
+    ]);
+    assert!(ok, "{err}");
+    let data = std::fs::read_to_string(&log).unwrap();
+    let refused = |args: &[&str], file: &str| {
+        let t = Instant::now();
+        let (ok, _, err) = run(args);
+        assert!(!ok, "{args:?} succeeded");
+        assert!(
+            err.contains(&format!("{file} exists; give --force to replace it")),
+            "{args:?}: {err}"
+        );
+        assert!(
+            t.elapsed() < Duration::from_secs(5),
+            "{args:?}: {:?}",
+            t.elapsed()
+        );
+    };
+    let identify = [
+        "identify",
+        "--data",
+        &log,
+        "--inputs",
+        "pwm1,pwm2,pwm3,servo",
+        "--outputs",
+        "p,q,r",
+        "--no-auto",
+        "--order",
+        "3",
+        "--out",
+        &log,
+    ];
+    refused(&identify, &log);
+    assert_eq!(std::fs::read_to_string(&log).unwrap(), data);
+
+    let mine = path("mine.json");
+    let model = common::MODEL;
+    let commands: [&[&str]; 5] = [
+        &[
+            "simulate",
+            "--experiment",
+            "hover",
+            "--seconds",
+            "2",
+            "--out",
+            &mine,
+        ],
+        &[
+            "simulate",
+            "--experiment",
+            "hover",
+            "--seconds",
+            "2",
+            "--rate-model",
+            &mine,
+        ],
+        &[
+            "kalman", "--model", model, "--q", "1", "--r", "1", "--out", &mine,
+        ],
+        &["mpc", "--model", model, "--horizon", "2", "--out", &mine],
+        &["import", "/nonexistent.bbl", "--out", &mine],
+    ];
+    for args in commands {
+        std::fs::write(&mine, "mine\n").unwrap();
+        refused(args, &mine);
+        assert_eq!(
+            std::fs::read_to_string(&mine).unwrap(),
+            "mine\n",
+            "{args:?}"
+        );
+    }
+    // With --force the file is replaced.
+    let mut forced = commands[2].to_vec();
+    forced.push("--force");
+    let (ok, _, err) = run(&forced);
+    assert!(ok, "{err}");
+    assert!(
+        std::fs::read_to_string(&mine)
+            .unwrap()
+            .contains("kestrel.kalman.v1")
+    );
+    assert_eq!(names(d), ["log.csv", "mine.json"]);
 }

@@ -18,10 +18,13 @@ pub struct Args {
     /// Output file (default: standard output).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub replace: io::Replace,
 }
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    args.replace.check(&[args.out.as_deref()])?;
     if !(args.ts.is_finite() && args.ts > 0.0) {
         anyhow::bail!(
             "--ts: the sample time must be a positive number of seconds, got {}",

@@ -137,6 +137,8 @@ pub struct Args {
     /// Output CSV file (default: standard output).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub replace: io::Replace,
 }
 
 fn settings(args: &Args) -> anyhow::Result<MpcSettings> {
@@ -307,6 +309,7 @@ fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunRes
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    args.replace.check(&[args.out.as_deref()])?;
     let model = match &args.model {
         Some(p) => SsModel::read(p).with_context(|| format!("{}", p.display()))?,
         None => identified_model()?,

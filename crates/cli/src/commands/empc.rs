@@ -96,6 +96,8 @@ struct SolveArgs {
     /// default: standard output.
     #[arg(long)]
     out: Option<PathBuf>,
+    #[command(flatten)]
+    replace: io::Replace,
     /// Keep only the first K entries of z (the first move) in the tree and tables.
     #[arg(long, value_name = "K")]
     first_move: Option<usize>,
@@ -191,6 +193,8 @@ struct EvalArgs {
     /// move, as solved), one row per theta.
     #[arg(long)]
     out: Option<PathBuf>,
+    #[command(flatten)]
+    replace: io::Replace,
     /// Evaluate the compact layout (`compact_tables`, written by `solve
     /// --compact`) instead of the default tree.
     #[arg(long)]
@@ -220,6 +224,8 @@ struct ExportArgs {
     /// Rust source file to write (default: standard output).
     #[arg(long)]
     out: Option<PathBuf>,
+    #[command(flatten)]
+    replace: io::Replace,
     /// Export the compact layout (`compact_tables`, written by `solve
     /// --compact`): one tree per output, 6-byte nodes.
     #[arg(long)]
@@ -236,6 +242,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
+    a.replace.check(&[a.out.as_deref()])?;
     if a.max_nodes == 0 {
         bail!("--max-nodes: a search tree has at least 1 node, got 0");
     }
@@ -440,6 +447,7 @@ fn read_compact(path: &std::path::Path) -> anyhow::Result<kestrel_empc::CompactT
 }
 
 fn run_eval(a: EvalArgs) -> anyhow::Result<()> {
+    a.replace.check(&[a.out.as_deref()])?;
     let text = read_text(&a.solution)?;
     let stored = locate::stored(&text).with_context(|| a.solution.display().to_string())?;
     match stored {
@@ -508,6 +516,7 @@ fn eval_with<I: TreeIndex, T: TreeTables<f64, I>>(a: &EvalArgs, t: &T) -> anyhow
 }
 
 fn run_export(a: ExportArgs) -> anyhow::Result<()> {
+    a.replace.check(&[a.out.as_deref()])?;
     let scalar = match a.scalar {
         ScalarArg::F32 => ExportScalar::F32,
         ScalarArg::Q16 => ExportScalar::Q16,

@@ -80,6 +80,8 @@ pub struct Args {
     /// missing; required).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub replace: io::Replace,
     /// Language of the tables: `rust` (the firmware's `generated.rs`) or
     /// `c` (`kestrel_design.h` and `kestrel_design.c` for C and C++
     /// firmware with kestrel-ffi).
@@ -132,6 +134,11 @@ pub enum Precond {
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    // With --lang c, --out is a folder whose files are replaced only when
+    // this command wrote them (`c_files`).
+    if args.lang == Lang::Rust {
+        args.replace.check(&[args.out.as_deref()])?;
+    }
     if let (Lang::C, None) = (args.lang, &args.out) {
         bail!(
             "--lang c writes two files ({} and {}): give the folder for them with --out DIR",

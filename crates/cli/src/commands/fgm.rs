@@ -132,6 +132,8 @@ pub struct CertifyArgs {
     /// Output file (default: standard output).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub replace: io::Replace,
 }
 
 /// Flags of `kestrel fgm solve`.
@@ -154,6 +156,8 @@ pub struct SolveArgs {
     /// Output file (default: standard output).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub replace: io::Replace,
 }
 
 /// Runs the command.
@@ -178,6 +182,7 @@ fn load(path: &Path, pc: PreconditionerArg, momentum: Momentum) -> anyhow::Resul
 }
 
 fn certify(a: CertifyArgs) -> anyhow::Result<()> {
+    a.replace.check(&[a.out.as_deref(), a.export.as_deref()])?;
     if !(a.eps.is_finite() && a.eps > 0.0) {
         bail!("--eps must be a positive finite number, got {}", a.eps);
     }
@@ -332,6 +337,7 @@ fn read_thetas(path: &Path, p: usize) -> anyhow::Result<Vec<Vec<f64>>> {
 }
 
 fn solve(a: SolveArgs) -> anyhow::Result<()> {
+    a.replace.check(&[a.out.as_deref()])?;
     let d = load(&a.problem, a.preconditioner, Momentum::Auto)?;
     let thetas = read_thetas(&a.thetas, d.problem.p())?;
     let outside: Vec<(usize, usize)> = thetas

@@ -318,6 +318,8 @@ pub struct Args {
     /// Output model file (default: standard output, table on standard error).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub replace: io::Replace,
 }
 
 impl Args {
@@ -357,6 +359,7 @@ impl Args {
 /// Runs the command: the library's [`kestrel_sysid::workflow::identify`]
 /// with the flags as its [`IdentifySpec`].
 pub fn run(args: Args) -> anyhow::Result<()> {
+    args.replace.check(&[args.out.as_deref()])?;
     for (flag, v) in [
         ("--time-budget", Some(args.time_budget)),
         ("--work-budget", args.work_budget),

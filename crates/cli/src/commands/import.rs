@@ -68,19 +68,13 @@ pub struct Args {
     /// Output CSV file (default: standard output).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Replace --out if it is an existing file.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub replace: io::Replace,
 }
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if let Some(out) = &args.out {
-        // Devices (/dev/null) and FIFOs are written to, files only replaced when asked.
-        if out.is_file() && !args.force {
-            bail!("{} exists; give --force to replace it", out.display());
-        }
-    }
+    args.replace.check(&[args.out.as_deref()])?;
     if args.list {
         let logs = kestrel_logs::read_file(
             &args.log,

@@ -42,6 +42,8 @@ pub struct Args {
     /// Output file (default: standard output).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub replace: io::Replace,
 }
 
 /// The inputs and outputs, shown after the flags by `kestrel kalman --help`.
@@ -70,6 +72,7 @@ and the problem.";
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    args.replace.check(&[args.out.as_deref()])?;
     let model = SsModel::read(&args.model).with_context(|| format!("{}", args.model.display()))?;
     if model.ts <= 0.0 {
         bail!(

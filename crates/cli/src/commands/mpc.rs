@@ -89,6 +89,8 @@ pub struct Args {
     /// Output file (default: standard output).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub replace: io::Replace,
     /// The general MPC flags (input moves, output and state bounds, soft
     /// bounds, preview, input target, terminal set, parameters); boxed to
     /// keep the command enum small.
@@ -534,6 +536,7 @@ const TRICOPTER_INPUTS: [&str; 4] = ["pwm1", "pwm2", "pwm3", "servo"];
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    args.replace.check(&[args.out.as_deref()])?;
     let spinner = crate::progress::Spinner::new("condensing the MPC problem");
     let problem = build(&args)?;
     drop(spinner);

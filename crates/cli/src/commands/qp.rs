@@ -59,6 +59,8 @@ pub struct CertifyArgs {
     /// Write the certificate as JSON here.
     #[arg(long, value_name = "OUT")]
     pub json: Option<PathBuf>,
+    #[command(flatten)]
+    pub replace: io::Replace,
     /// Certify over the parameter box scaled by F about its centre (0 < F
     /// <= 1; e.g. 0.1 for a tenth of every parameter's range).
     #[arg(long, value_name = "F", default_value_t = 1.0)]
@@ -101,6 +103,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn run_certify(a: CertifyArgs) -> anyhow::Result<()> {
+    a.replace.check(&[a.json.as_deref()])?;
     let name = a.problem.display().to_string();
     let mut problem = MpqpProblem::read(&a.problem).with_context(|| name.clone())?;
     anyhow::ensure!(

@@ -36,10 +36,14 @@ pub struct Args {
     /// inputs), discretised at 50 Hz, as `kestrel.ss.v1` to this file.
     #[arg(long)]
     pub rate_model: Option<PathBuf>,
+    #[command(flatten)]
+    pub replace: io::Replace,
 }
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    args.replace
+        .check(&[args.out.as_deref(), args.rate_model.as_deref()])?;
     let mut settings = SimSettings::new(args.experiment, args.seconds, args.seed);
     settings.plant.dt = args.dt;
     if args.noiseless {
