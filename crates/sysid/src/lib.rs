@@ -81,7 +81,7 @@ pub use reduce::{
 };
 #[cfg(feature = "std")]
 pub use validate::{
-    BaselineComparison, Comparison, FitRow, OutputResiduals, ResidualAnalysis, ValidationReport,
-    compare, estimate_x0_predictor, estimate_x0_simulation, fit_percent, persistence_fit,
-    predict_fit, resid, validate,
+    BaselineComparison, Comparison, FitRow, Horizon, OutputResiduals, Predictor, ResidualAnalysis,
+    ValidationReport, compare, estimate_x0_predictor, estimate_x0_simulation, fit_percent,
+    persistence_fit, predict_fit, resid, validate,
 };

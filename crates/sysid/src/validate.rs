@@ -296,17 +296,67 @@ pub fn resid(model: &InnovationModel, data: &IoData, max_lag: usize) -> Result<R
     })
 }
 
-/// One row of a fit table: a predictor and its fit per output.
+/// What a row of a fit table evaluates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Predictor {
+    /// The model under validation.
+    Model,
+    /// Persistence ([`persistence_fit`]): `y(t + k) = y(t)`; in
+    /// simulation the first sample held throughout.
+    Persistence,
+    /// The best least-squares ARX of the baseline
+    /// ([`ValidationReport::add_arx_baseline`]).
+    BestArx {
+        /// Its lag count (`na = nb`), the best for this horizon.
+        lags: usize,
+    },
+}
+
+/// How far ahead a row of a fit table predicts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Horizon {
+    /// Simulation: from the inputs alone (the initial state estimated).
+    Simulation,
+    /// `k`-step-ahead prediction from the outputs up to `t - k`.
+    Steps(usize),
+}
+
+/// One row of a fit table: a predictor, its horizon and its fit per
+/// output.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FitRow {
-    /// What was evaluated, e.g. `"model simulation"`, `"model 5-step"`,
-    /// `"persistence 5-step"`.
+    /// What was evaluated.
+    pub predictor: Predictor,
+    /// How far ahead.
+    pub horizon: Horizon,
+    /// The row's label in the table, e.g. `"model simulation"`,
+    /// `"model 5-step"`, `"persistence 5-step"`,
+    /// `"best ARX 5-step (4 lags)"` ([`FitRow::new`] writes it).
     pub label: String,
     /// Fit per output, percent.
     pub fit: Vec<f64>,
 }
 
 impl FitRow {
+    /// A row with its label written from `predictor` and `horizon`.
+    pub fn new(predictor: Predictor, horizon: Horizon, fit: Vec<f64>) -> Self {
+        let ahead = match horizon {
+            Horizon::Simulation => "simulation".to_string(),
+            Horizon::Steps(k) => format!("{k}-step"),
+        };
+        let label = match predictor {
+            Predictor::Model => format!("model {ahead}"),
+            Predictor::Persistence => format!("persistence {ahead}"),
+            Predictor::BestArx { lags } => format!("best ARX {ahead} ({lags} lags)"),
+        };
+        FitRow {
+            predictor,
+            horizon,
+            label,
+            fit,
+        }
+    }
+
     /// The mean fit over outputs.
     pub fn mean(&self) -> f64 {
         self.fit.iter().sum::<f64>() / self.fit.len().max(1) as f64
@@ -330,6 +380,13 @@ impl ValidationReport {
     pub fn row(&self, label: &str) -> Option<&FitRow> {
         self.rows.iter().find(|r| r.label == label)
     }
+
+    /// The first row of `predictor` at `horizon`.
+    pub fn row_of(&self, predictor: Predictor, horizon: Horizon) -> Option<&FitRow> {
+        self.rows
+            .iter()
+            .find(|r| r.predictor == predictor && r.horizon == horizon)
+    }
 }
 
 /// Validates a model on data: simulation fit, k-step fits for every
@@ -341,24 +398,29 @@ pub fn validate(
     horizons: &[usize],
 ) -> Result<ValidationReport> {
     let mut rows = vec![
-        FitRow {
-            label: "model simulation".into(),
-            fit: compare(model, data)?.fit,
-        },
-        FitRow {
-            label: "persistence simulation".into(),
-            fit: persistence_fit(data, None),
-        },
+        FitRow::new(
+            Predictor::Model,
+            Horizon::Simulation,
+            compare(model, data)?.fit,
+        ),
+        FitRow::new(
+            Predictor::Persistence,
+            Horizon::Simulation,
+            persistence_fit(data, None),
+        ),
     ];
     for &k in horizons {
-        rows.push(FitRow {
-            label: format!("model {k}-step"),
-            fit: predict_fit(model, data, k)?,
-        });
-        rows.push(FitRow {
-            label: format!("persistence {k}-step"),
-            fit: persistence_fit(data, Some(k)),
-        });
+        let h = Horizon::Steps(k);
+        rows.push(FitRow::new(
+            Predictor::Model,
+            h,
+            predict_fit(model, data, k)?,
+        ));
+        rows.push(FitRow::new(
+            Predictor::Persistence,
+            h,
+            persistence_fit(data, Some(k)),
+        ));
     }
     Ok(ValidationReport {
         outputs: data.output_names().to_vec(),
@@ -386,13 +448,10 @@ impl ValidationReport {
             Err(e) => return Err(e),
         };
         for row in &b.rows {
-            let label = format!("best ARX {}-step ({} lags)", row.horizon, row.lags);
-            let fit_row = FitRow {
-                label,
-                fit: row.fit.clone(),
-            };
-            let after = format!("persistence {}-step", row.horizon);
-            match self.rows.iter().position(|r| r.label == after) {
+            let h = Horizon::Steps(row.horizon);
+            let fit_row = FitRow::new(Predictor::BestArx { lags: row.lags }, h, row.fit.clone());
+            let after = |r: &FitRow| r.predictor == Predictor::Persistence && r.horizon == h;
+            match self.rows.iter().position(after) {
                 Some(i) => self.rows.insert(i + 1, fit_row),
                 None => self.rows.push(fit_row),
             }
@@ -402,8 +461,9 @@ impl ValidationReport {
 
     /// The best-ARX baseline row of horizon `k`, if added.
     pub fn arx_row(&self, k: usize) -> Option<&FitRow> {
-        let prefix = format!("best ARX {k}-step");
-        self.rows.iter().find(|r| r.label.starts_with(&prefix))
+        self.rows.iter().find(|r| {
+            matches!(r.predictor, Predictor::BestArx { .. }) && r.horizon == Horizon::Steps(k)
+        })
     }
 
     /// The model against its baselines at each prediction horizon of the
@@ -412,13 +472,15 @@ impl ValidationReport {
         self.rows
             .iter()
             .filter_map(|r| {
-                let k: usize = r
-                    .label
-                    .strip_prefix("model ")?
-                    .strip_suffix("-step")?
-                    .parse()
-                    .ok()?;
-                let persistence = self.row(&format!("persistence {k}-step"))?.mean();
+                let Horizon::Steps(k) = r.horizon else {
+                    return None;
+                };
+                if r.predictor != Predictor::Model {
+                    return None;
+                }
+                let persistence = self
+                    .row_of(Predictor::Persistence, Horizon::Steps(k))?
+                    .mean();
                 Some(BaselineComparison {
                     horizon: k,
                     model: r.mean(),
@@ -534,20 +596,19 @@ mod tests {
 
     #[test]
     fn baseline_comparisons_pair_each_horizon_with_its_baselines() {
-        let row = |label: &str, fit: [f64; 2]| FitRow {
-            label: label.into(),
-            fit: fit.to_vec(),
-        };
+        use Horizon::{Simulation, Steps};
+        use Predictor::{BestArx, Model, Persistence};
+        let row = |p: Predictor, h: Horizon, fit: [f64; 2]| FitRow::new(p, h, fit.to_vec());
         let report = ValidationReport {
             outputs: vec!["p".into(), "q".into()],
             rows: vec![
-                row("model simulation", [10.0, 20.0]),
-                row("persistence simulation", [0.0, 0.0]),
-                row("model 1-step", [90.0, 92.0]),
-                row("persistence 1-step", [80.0, 80.0]),
-                row("best ARX 1-step (4 lags)", [92.0, 92.0]),
-                row("model 5-step", [50.0, 60.0]),
-                row("persistence 5-step", [10.0, 20.0]),
+                row(Model, Simulation, [10.0, 20.0]),
+                row(Persistence, Simulation, [0.0, 0.0]),
+                row(Model, Steps(1), [90.0, 92.0]),
+                row(Persistence, Steps(1), [80.0, 80.0]),
+                row(BestArx { lags: 4 }, Steps(1), [92.0, 92.0]),
+                row(Model, Steps(5), [50.0, 60.0]),
+                row(Persistence, Steps(5), [10.0, 20.0]),
             ],
             residuals: ResidualAnalysis {
                 max_lag: 1,
@@ -556,6 +617,21 @@ mod tests {
                 outputs: Vec::new(),
             },
         };
+        let labels: Vec<&str> = report.rows.iter().map(|r| r.label.as_str()).collect();
+        assert_eq!(
+            labels,
+            [
+                "model simulation",
+                "persistence simulation",
+                "model 1-step",
+                "persistence 1-step",
+                "best ARX 1-step (4 lags)",
+                "model 5-step",
+                "persistence 5-step"
+            ]
+        );
+        assert_eq!(report.arx_row(1), Some(&report.rows[4]));
+        assert_eq!(report.arx_row(5), None);
         let c = report.baseline_comparisons();
         assert_eq!(
             c,

@@ -10,7 +10,7 @@ use crate::data::{IoData, Offsets, SignalSelection};
 use crate::error::{Result, SysidError};
 use crate::filter::Butterworth;
 use crate::reduce::transmission_zeros;
-use crate::validate::{ValidationReport, validate};
+use crate::validate::{Horizon, ValidationReport, validate};
 use nalgebra::DVector;
 
 fn offset_vec(
@@ -38,7 +38,7 @@ fn clip_simulation(report: &mut ValidationReport) {
     for row in report
         .rows
         .iter_mut()
-        .filter(|r| r.label.contains("simulation"))
+        .filter(|r| r.horizon == Horizon::Simulation)
     {
         for v in row.fit.iter_mut() {
             if v.is_nan() || *v < SIMULATION_FIT_FLOOR {
