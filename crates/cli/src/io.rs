@@ -190,11 +190,26 @@ impl Replace {
     /// e.g. `--out` mistyped as the input data. New files, devices
     /// (`/dev/null`), FIFOs and directories pass (each command says what
     /// it does with a directory); call it before the work starts.
+    ///
+    /// Two of `paths` naming the same file are refused even with
+    /// `--force`: one output would silently replace the other.
     pub fn check(&self, paths: &[Option<&Path>]) -> anyhow::Result<()> {
+        let named: Vec<&Path> = paths.iter().flatten().copied().collect();
+        for (i, a) in named.iter().enumerate() {
+            for b in &named[i + 1..] {
+                if same_file(a, b) {
+                    anyhow::bail!(
+                        "{} and {} name the same file: give each output its own (nothing was written)",
+                        a.display(),
+                        b.display()
+                    );
+                }
+            }
+        }
         if self.force {
             return Ok(());
         }
-        for path in paths.iter().flatten() {
+        for path in named {
             if std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
                 anyhow::bail!(
                     "{} exists; give --force to replace it, or name another file (nothing was written)",
@@ -203,6 +218,27 @@ impl Replace {
             }
         }
         Ok(())
+    }
+}
+
+/// Whether `a` and `b` name one regular (or new) file: the same folder,
+/// links resolved, and the same name, or the same existing file. Devices
+/// (`/dev/null` twice) are not one output.
+fn same_file(a: &Path, b: &Path) -> bool {
+    let device = |p: &Path| std::fs::metadata(p).is_ok_and(|m| !m.is_file());
+    if device(a) || device(b) {
+        return false;
+    }
+    let id = |p: &Path| -> Option<PathBuf> {
+        if let Ok(c) = std::fs::canonicalize(p) {
+            return Some(c);
+        }
+        let (dir, name) = parent_and_name(p)?;
+        Some(std::fs::canonicalize(dir).ok()?.join(name))
+    };
+    match (id(a), id(b)) {
+        (Some(x), Some(y)) => x == y,
+        _ => a == b,
     }
 }
 
@@ -245,6 +281,16 @@ mod tests {
         }
         Replace { force: true }.check(&[Some(&file)]).unwrap();
         assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
+        // One file named twice, new or existing, by another spelling too:
+        // refused even with --force; /dev/null twice is fine.
+        let again = dir.path().join(".").join("new.json");
+        let force = Replace { force: true };
+        for (a, b) in [(&new, &again), (&file, &file)] {
+            let err = force.check(&[Some(a), None, Some(b)]).unwrap_err();
+            assert!(err.to_string().contains("name the same file"), "{err}");
+        }
+        force.check(&[Some(null), Some(null)]).unwrap();
+        force.check(&[Some(&new), Some(&file)]).unwrap();
     }
 
     #[test]

@@ -313,4 +313,20 @@ fn existing_outputs_are_refused_without_force() {
             .contains("kestrel.kalman.v1")
     );
     assert_eq!(names(d), ["log.csv", "mine.json"]);
+    // One file for two outputs: refused, even with --force.
+    let twice = path("twice.json");
+    let (ok, _, err) = run(&[
+        "simulate",
+        "--experiment",
+        "hover",
+        "--seconds",
+        "2",
+        "--out",
+        &twice,
+        "--rate-model",
+        &twice,
+        "--force",
+    ]);
+    assert!(!ok && err.contains("name the same file"), "{err}");
+    assert_eq!(names(d), ["log.csv", "mine.json"]);
 }
