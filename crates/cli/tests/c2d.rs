@@ -1,5 +1,7 @@
 //! End-to-end tests of `kestrel c2d` on good and malformed files.
 
+mod common;
+
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -8,8 +10,7 @@ fn kestrel() -> Command {
 }
 
 fn temp_file(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("kestrel-cli-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::temp_dir("c2d");
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
     p

@@ -31,9 +31,9 @@ const HEADER: &str = "crates/ffi/include/kestrel.h";
 /// The table made stale.
 const TABLE: &str = "avr/firmware/src/generated.rs";
 
-/// A fresh temporary directory `kestrel-<name>-<pid>`.
+/// A fresh folder `<name>` in the test process's scratch folder ([`common::temp_dir`], emptied first).
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("kestrel-{name}-{}", std::process::id()));
+    let d = common::temp_dir(name);
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d

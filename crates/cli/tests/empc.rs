@@ -1,5 +1,7 @@
 //! End-to-end tests of `kestrel empc solve|eval|export` on good and malformed files.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -8,9 +10,7 @@ fn kestrel() -> Command {
 }
 
 fn dir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("kestrel-empc-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::temp_dir("empc")
 }
 
 fn file(name: &str, text: &str) -> PathBuf {

@@ -4,13 +4,13 @@
 //! `eval` and `export` with a message saying why, and the stages show with
 //! `--progress`.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn dir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("kestrel-empc-locate-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::temp_dir("empc-locate")
 }
 
 fn stderr(o: &Output) -> String {

@@ -1,14 +1,14 @@
 //! End-to-end tests of `kestrel identify` on generated logs.
 
+mod common;
+
 use kestrel_core::formats::SsModel;
 use kestrel_sysid::synthetic;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("kestrel-identify-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::temp_dir(&format!("identify-{name}"))
 }
 
 /// A log `t,a,b,p` from a known 2nd-order model, 50 Hz, with offsets.

@@ -13,8 +13,7 @@ fn write_log(path: &std::path::Path) {
 
 /// A fresh directory with the log in it: (directory, log path).
 fn temp_log(name: &str) -> (std::path::PathBuf, String) {
-    let d = std::env::temp_dir().join(format!("kestrel-identify-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
+    let d = common::temp_dir(&format!("identify-{name}"));
     let log = d.join("log.csv");
     write_log(&log);
     let l = log.display().to_string();

@@ -1,5 +1,7 @@
 //! End-to-end tests of `kestrel kalman` on good and malformed input.
 
+mod common;
+
 use kestrel_kalman::{KalmanDesign, dlqe};
 use nalgebra::{DMatrix, dmatrix};
 use std::path::PathBuf;
@@ -10,8 +12,7 @@ fn kestrel() -> Command {
 }
 
 fn temp_file(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("kestrel-cli-kalman-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::temp_dir("kalman");
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
     p

@@ -2,6 +2,8 @@
 //! checked for internal consistency, and malformed inputs that must stop
 //! the command without leaving a report behind.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -10,7 +12,7 @@ fn kestrel() -> Command {
 }
 
 fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("kestrel-pipeline-{name}-{}", std::process::id()));
+    let d = common::temp_dir(&format!("pipeline-{name}"));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d

@@ -4,15 +4,16 @@ mod common;
 
 use common::{MODEL, kestrel, thesis_problem_of};
 
-fn temp_dir() -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("kestrel-qp-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A folder of the test's own (tests run in parallel and some write
+/// files of the same name), removed when dropped.
+fn temp_dir() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap()
 }
 
 #[test]
 fn certify_the_thesis_sized_problem_cold_and_warm() {
-    let dir = temp_dir();
+    let tmp = temp_dir();
+    let dir = tmp.path();
     let problem = thesis_problem_of(MODEL, &dir.join("thesis.json"));
     let out = dir.join("cert.json");
     let (ok, stdout, err) = kestrel(&[
@@ -59,7 +60,8 @@ fn certify_the_thesis_sized_problem_cold_and_warm() {
 
 #[test]
 fn bad_flags_and_limits_are_clear_errors() {
-    let dir = temp_dir();
+    let tmp = temp_dir();
+    let dir = tmp.path();
     let problem = thesis_problem_of(MODEL, &dir.join("thesis2.json"));
     let p = problem.to_str().unwrap();
     let (ok, _, err) = kestrel(&["qp", "certify", p, "--warm-step", "2"]);
@@ -88,7 +90,8 @@ fn bad_flags_and_limits_are_clear_errors() {
 
 #[test]
 fn merged_certificate_is_an_upper_bound_of_the_exact_one() {
-    let dir = temp_dir();
+    let tmp = temp_dir();
+    let dir = tmp.path();
     let problem = thesis_problem_of(MODEL, &dir.join("thesis3.json"));
     let p = problem.to_str().unwrap();
     let read = |path: &std::path::Path| -> serde_json::Value {
@@ -139,7 +142,8 @@ fn merged_certificate_is_an_upper_bound_of_the_exact_one() {
 
 #[test]
 fn exact_merge_gives_the_exact_worst_case_with_fewer_regions() {
-    let dir = temp_dir();
+    let tmp = temp_dir();
+    let dir = tmp.path();
     let problem = thesis_problem_of(MODEL, &dir.join("thesis4.json"));
     let p = problem.to_str().unwrap();
     let read = |path: &std::path::Path| -> serde_json::Value {

@@ -1,5 +1,7 @@
 //! End-to-end tests of `kestrel simulate`.
 
+mod common;
+
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -8,9 +10,7 @@ fn kestrel() -> Command {
 }
 
 fn temp_dir() -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("kestrel-simulate-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::temp_dir("simulate")
 }
 
 #[test]

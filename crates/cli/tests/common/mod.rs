@@ -58,9 +58,21 @@ pub fn thesis_problem_of(model: &str, out: &Path) -> PathBuf {
     out.to_path_buf()
 }
 
-/// A temporary directory `kestrel-<name>-<pid>`, created if missing.
+/// The folder `<name>` in this test process's own scratch folder
+/// (`kestrel-tests-XXXXXX` in the system's temporary folder, made once
+/// per process with an unpredictable name, so never a folder left by an
+/// earlier run whose process had the same id), created if missing: the
+/// same name gives the same folder within one process.
 pub fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("kestrel-{name}-{}", std::process::id()));
+    static ROOT: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    let root = ROOT.get_or_init(|| {
+        tempfile::Builder::new()
+            .prefix("kestrel-tests-")
+            .tempdir()
+            .unwrap()
+            .keep()
+    });
+    let d = root.join(name);
     std::fs::create_dir_all(&d).unwrap();
     d
 }
