@@ -172,11 +172,7 @@ pub fn armax(data: &IoData, settings: &ArmaxSettings) -> Result<ArmaxModel> {
     let (nu, ny) = (data.nu(), data.ny());
     let lag = s.max_lag();
     let np = ny * s.na + nu * s.nb + ny * s.nc;
-    let rows: usize = data
-        .experiments()
-        .iter()
-        .map(|e| e.len().saturating_sub(lag))
-        .sum();
+    let rows = data.rows_after(lag);
     if rows < np + 1 {
         return Err(SysidError::TooFewSamples {
             what: format!("ARMAX with {np} parameters per output and {lag} lags"),

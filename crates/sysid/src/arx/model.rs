@@ -58,11 +58,7 @@ impl ArxSettings {
     /// Regression rows on `data`: every experiment's samples after its
     /// first [`max_lag`](Self::max_lag), which enter only as history.
     pub fn regression_rows(&self, data: &IoData) -> usize {
-        let lag = self.max_lag();
-        data.experiments()
-            .iter()
-            .map(|e| e.len().saturating_sub(lag))
-            .sum()
+        data.rows_after(self.max_lag())
     }
 
     /// Whether [`arx`](crate::arx()) has rows enough on `data` (at least

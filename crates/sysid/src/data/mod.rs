@@ -334,4 +334,13 @@ impl IoData {
     pub fn n_samples(&self) -> usize {
         self.experiments.iter().map(|e| e.len()).sum()
     }
+    /// Regression rows of a model that needs `lag` past samples: every
+    /// experiment's samples after its first `lag`, which enter only as
+    /// history (experiments are never joined).
+    pub(crate) fn rows_after(&self, lag: usize) -> usize {
+        self.experiments
+            .iter()
+            .map(|e| e.len().saturating_sub(lag))
+            .sum()
+    }
 }
