@@ -253,6 +253,12 @@ pub fn dare_with(
                 "the solution is not finite",
             ));
         }
+        // A residual far from zero usually has a structural cause (a mode
+        // the input cannot move or the weight cannot see): name it if the
+        // PBH tests find one, else report the convergence failure.
+        if let Some(e) = pbh(&a_t, b, &q_t, settings.pbh_tolerance, true, true) {
+            return Err(e);
+        }
         return Err(KalmanError::NotConverged {
             iterations: iterations + refinements,
             residual: best.residual,
@@ -271,7 +277,10 @@ pub fn dare_with(
             b,
             &q_t,
             settings,
-            &format!("the closed loop A - BK has spectral radius {rho:.6} >= 1"),
+            &format!(
+                "the closed loop A - BK has spectral radius {} >= 1",
+                crate::error::Num(rho)
+            ),
         ));
     }
     let run_pbh = match settings.detectability {

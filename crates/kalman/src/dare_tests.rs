@@ -418,3 +418,30 @@ fn repeated_decoupled_modes_do_not_hang() {
         "relative difference {err:.2e} from the reference"
     );
 }
+
+#[test]
+fn names_the_mode_when_the_doubling_stops_short() {
+    // A repeated unstable eigenvalue with more states than inputs: never
+    // stabilisable. The doubling does not overflow here; it stops at a
+    // residual far above the acceptance, and the PBH test must still name
+    // the cause rather than report a convergence failure.
+    let a = DMatrix::identity(5, 5) * 1.5;
+    let b = DMatrix::from_fn(5, 4, |i, j| 1e-3 * (((3 * i + 5 * j) % 7) as f64 - 3.0));
+    let err = dare(
+        &a,
+        &b,
+        &DMatrix::identity(5, 5),
+        &DMatrix::identity(4, 4),
+        None,
+    )
+    .unwrap_err();
+    match err {
+        KalmanError::NotStabilizable { eigenvalue } => {
+            assert!(
+                (eigenvalue.re - 1.5).abs() < 1e-9 && eigenvalue.im.abs() < 1e-9,
+                "{eigenvalue}"
+            )
+        }
+        e => panic!("{e}"),
+    }
+}

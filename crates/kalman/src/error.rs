@@ -58,8 +58,8 @@ pub enum KalmanError {
     },
     /// `(A, B)` is not stabilisable: the mode `eigenvalue` (|.| >= 1) cannot be moved by the input.
     #[error(
-        "(A, B) is not stabilisable: the mode at eigenvalue {re:.6} {im:+.6}i (|.| = {abs:.6}) is not reachable from the input (PBH test)",
-        re = eigenvalue.re, im = eigenvalue.im, abs = eigenvalue.norm()
+        "(A, B) is not stabilisable: the mode at eigenvalue {} is not reachable from the input (PBH test)",
+        Mode(*eigenvalue)
     )]
     NotStabilizable {
         /// The unstable, uncontrollable eigenvalue of `A`.
@@ -67,8 +67,8 @@ pub enum KalmanError {
     },
     /// `(A, Q)` is not detectable: the mode `eigenvalue` (|.| >= 1) is not seen by the state weight.
     #[error(
-        "(A, Q) is not detectable: the mode at eigenvalue {re:.6} {im:+.6}i (|.| = {abs:.6}) is not seen by the weight Q (PBH test); for a filter: the output does not observe it",
-        re = eigenvalue.re, im = eigenvalue.im, abs = eigenvalue.norm()
+        "(A, Q) is not detectable: the mode at eigenvalue {} is not seen by the weight Q (PBH test); for a filter: the output does not observe it",
+        Mode(*eigenvalue)
     )]
     NotDetectable {
         /// The unstable, unobservable eigenvalue of `A`.
@@ -115,4 +115,63 @@ pub enum KalmanError {
     /// A run-time conversion failed (for instance a const dimension that does not match).
     #[error("run-time filter: {0}")]
     Core(#[from] kestrel_core::Error),
+}
+
+/// A number as the messages print it: six decimals, in exponent notation
+/// outside `[1e-3, 1e6)` (Rust's `{:.6}` writes every digit of 1e300).
+pub(crate) struct Num(pub(crate) f64);
+
+impl core::fmt::Display for Num {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let (x, a) = (self.0, self.0.abs());
+        match (a == 0.0 || (1e-3..1e6).contains(&a), f.sign_plus()) {
+            (true, false) => write!(f, "{x:.6}"),
+            (true, true) => write!(f, "{x:+.6}"),
+            (false, false) => write!(f, "{x:.6e}"),
+            (false, true) => write!(f, "{x:+.6e}"),
+        }
+    }
+}
+
+/// An eigenvalue as the messages print it: `re +im i (|.| = abs)`.
+struct Mode(Complex<f64>);
+
+impl core::fmt::Display for Mode {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let z = self.0;
+        write!(
+            f,
+            "{} {:+}i (|.| = {})",
+            Num(z.re),
+            Num(z.im),
+            Num(z.norm())
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn modes_print_compactly() {
+        let e = KalmanError::NotStabilizable {
+            eigenvalue: Complex::new(1.5, -0.25),
+        };
+        assert_eq!(
+            e.to_string(),
+            "(A, B) is not stabilisable: the mode at eigenvalue 1.500000 -0.250000i (|.| = 1.520691) is not reachable from the input (PBH test)"
+        );
+        let e = KalmanError::NotDetectable {
+            eigenvalue: Complex::new(1e300, 0.0),
+        };
+        let text = e.to_string();
+        assert!(
+            text.contains("eigenvalue 1.000000e300 +0.000000i (|.| = 1.000000e300)"),
+            "{text}"
+        );
+        assert!(text.len() < 200, "{text}");
+        assert_eq!(format!("{}", Num(-2.5e-7)), "-2.500000e-7");
+        assert_eq!(format!("{:+}", Num(0.0)), "+0.000000");
+    }
 }
