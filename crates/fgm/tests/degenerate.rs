@@ -88,3 +88,26 @@ fn parameters_outside_the_box_are_found() {
     assert_eq!(d.problem.outside_parameter_box(&[0.0, 0.6]), Some(1));
     assert_eq!(d.problem.outside_parameter_box(&[-2.5, 0.0]), Some(0));
 }
+
+/// A parameter box of 1e300 overflowed the preconditioner's scale and was
+/// reported as "H: non-finite value" although H was fine; it is a range
+/// error naming the box. The scale grows with the box, so 1e100 still
+/// designs.
+#[test]
+fn a_box_that_overflows_the_scaling_is_a_range_error() {
+    for (ub, overflows) in [("1e300", true), ("1e100", false)] {
+        let text = BOX.replace(
+            r#""theta_ub": [2, 0.5]"#,
+            &format!(r#""theta_ub": [{ub}, 0.5]"#),
+        );
+        let qp = BoxQp::from_mpqp(&MpqpProblem::from_json_str(&text).unwrap()).unwrap();
+        let result = FgmDesign::new(qp, FgmSettings::default());
+        match (result, overflows) {
+            (Err(e @ FgmError::Range(_)), true) => {
+                assert!(e.to_string().contains("parameter box overflow"), "{e}")
+            }
+            (Ok(d), false) => assert!(d.certify(1e-3).is_ok()),
+            (r, _) => panic!("ub {ub}: {:?}", r.map(|_| ())),
+        }
+    }
+}

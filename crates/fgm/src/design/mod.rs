@@ -436,6 +436,8 @@ impl FgmDesign {
     /// [`FgmError::NotConvex`] for a Hessian with a negative eigenvalue,
     /// [`FgmError::Solver`] if the preconditioning SDP fails,
     /// [`FgmError::InvalidSetting`] for a non-positive `scaled_range`,
+    /// [`FgmError::Range`] for a parameter box so large that the solver's
+    /// intermediate values overflow `f64`,
     /// [`FgmError::Problem`] for a problem without decision variables.
     pub fn new(problem: BoxQp, settings: FgmSettings) -> Result<Self, FgmError> {
         if !(settings.scaled_range.is_finite() && settings.scaled_range > 0.0) {
@@ -453,6 +455,9 @@ impl FgmDesign {
         // Normalise the overall scale of D (cond(DHD) is invariant) so that
         // the largest scaled intermediate reaches `scaled_range`.
         let peak = design.intermediate_bounds(design.max_beta()).peak;
+        if !peak.is_finite() {
+            return Err(overflow(&design.problem));
+        }
         if peak > 0.0 && n > 0 {
             let t = peak / settings.scaled_range;
             let d = &pc.d * t;
@@ -468,6 +473,9 @@ impl FgmDesign {
         d: DVector<f64>,
     ) -> Result<Self, FgmError> {
         let h_scaled = scale_hessian(&problem.h, &d);
+        if d.iter().chain(h_scaled.iter()).any(|v| !v.is_finite()) {
+            return Err(overflow(&problem));
+        }
         let spectrum = crate::precond::spectrum(&h_scaled)?;
         let l = spectrum.l;
         let dinv = d.map(|v| 1.0 / v);
@@ -928,4 +936,18 @@ fn quadratic_box_max(h: &DMatrix<f64>, spectrum: Spectrum, r: &DVector<f64>) -> 
     // The updates accumulate rounding (relative ~1e-13 here): a relative
     // margin of 1e-9 covers it; the eigenvalue bound caps it.
     (0.5 * best * (1.0 + 1e-9)).min(fallback).max(0.0)
+}
+
+/// The error for a parameter box whose scaling overflows `f64`: the
+/// largest intermediate value, and with it the preconditioner's scale,
+/// grows with the box.
+fn overflow(problem: &BoxQp) -> FgmError {
+    let theta = problem
+        .theta_lb
+        .iter()
+        .chain(problem.theta_ub.iter())
+        .fold(0.0_f64, |m, v| m.max(v.abs()));
+    FgmError::Range(format!(
+        "the solver's intermediate values over the parameter box overflow f64 (|theta| up to {theta:.1e}): give a smaller parameter box"
+    ))
 }
