@@ -9,7 +9,7 @@
 //! test -p kestrel-empc --test certify --release`).
 
 use kestrel_core::formats::MpqpProblem;
-use kestrel_empc::certify::{Certificate, CertifySettings, certify};
+use kestrel_empc::certify::{Certificate, CertifyError, CertifySettings, certify};
 use kestrel_qp::parametric::ParametricQp;
 use kestrel_qp::{ActiveConstraint, QpSettings, QpSolver, Start};
 use rand::{RngExt, SeedableRng};
@@ -73,28 +73,37 @@ fn check_start(
     let (lb, ub) = (par.theta_lb().to_vec(), par.theta_ub().to_vec());
     let mut located = 0;
     let mut most = 0;
-    for _ in 0..count {
+    let mut done = 0;
+    while done < count {
+        // Uniform in the parameter set (the box, cut by theta_poly if any).
         let prev: Vec<f64> = (0..par.p())
             .map(|k| lb[k] + (ub[k] - lb[k]) * rng.random::<f64>())
             .collect();
+        if !par.contains(&prev, 0.0) {
+            continue;
+        }
         let (theta, it, at) = match warm {
             None => {
                 let (it, _) = solve(&mut qp, &par, &prev, None);
                 (prev.clone(), it, cert.iterations_at(&prev, None))
             }
             Some(step) => {
-                let (_, set) = solve(&mut qp, &par, &prev, None);
                 let theta: Vec<f64> = (0..par.p())
                     .map(|k| {
                         let d = step * (ub[k] - lb[k]) * (2.0 * rng.random::<f64>() - 1.0);
                         (prev[k] + d).clamp(lb[k], ub[k])
                     })
                     .collect();
+                if !par.contains(&theta, 0.0) {
+                    continue;
+                }
+                let (_, set) = solve(&mut qp, &par, &prev, None);
                 let (it, _) = solve(&mut qp, &par, &theta, Some(&set));
                 let at = cert.iterations_at(&theta, Some(&prev));
                 (theta, it, at)
             }
         };
+        done += 1;
         most = most.max(it);
         assert!(
             it <= cert.worst_iterations,
@@ -166,6 +175,91 @@ fn random_thesis_sized_problems() {
         let p = kestrel_empc::testing::thesis_sized(seed);
         check(&format!("thesis_sized({seed})"), &p, 0.05);
     }
+}
+
+/// A parameter set cut by `theta_poly`: the certificate covers the set,
+/// not the box. Sampled in the set (cold and warm), every solve takes its
+/// region's count and never more than certified, the worst region's point
+/// lies in the set, and the worst case is at most the whole box's.
+#[test]
+fn parameter_polytope_is_certified_not_the_box() {
+    let mut p = kestrel_empc::testing::thesis_sized(1);
+    let box_cert = certify(&p, &CertifySettings::default(), &mut |_| {}).unwrap();
+    // Cut off the box's corner where the first three parameters are all
+    // large: s_0 + s_1 + s_2 <= 0.5 in the normalised box.
+    let (lb, ub) = (p.theta_lb.clone(), p.theta_ub.clone());
+    let half = |k: usize| 0.5 * (ub[k] - lb[k]);
+    let mid = |k: usize| 0.5 * (ub[k] + lb[k]);
+    let a = nalgebra::DMatrix::from_fn(1, p.p(), |_, k| if k < 3 { 1.0 / half(k) } else { 0.0 });
+    let b = nalgebra::DVector::from_element(1, 0.5 + (0..3).map(|k| mid(k) / half(k)).sum::<f64>());
+    p.theta_poly = Some((a, b));
+    let par = ParametricQp::from_mpqp(&p).unwrap();
+    check("thesis_sized(1) cut", &p, 0.05);
+    let c = certify(&p, &CertifySettings::default(), &mut |_| {}).unwrap();
+    let w = c.cold.worst.as_ref().unwrap();
+    assert!(par.contains(&w.theta, 1e-9), "{:?}", w.theta);
+    assert!(c.cold.worst_iterations <= box_cert.cold.worst_iterations);
+    assert!(
+        c.cold.regions < box_cert.cold.regions,
+        "{} regions in the cut set, {} in the box",
+        c.cold.regions,
+        box_cert.cold.regions
+    );
+    // The merged (upper-bound) mode covers the same set.
+    let merged = CertifySettings {
+        merge: Some(2),
+        ..CertifySettings::default()
+    };
+    let m = certify(&p, &merged, &mut |_| {}).unwrap();
+    assert!(m.cold.worst_iterations >= c.cold.worst_iterations && !m.cold.exact);
+    // A polytope that leaves nothing of the box is refused.
+    let far =
+        nalgebra::DVector::from_element(1, -10.0 + (0..3).map(|k| mid(k) / half(k)).sum::<f64>());
+    p.theta_poly = Some((p.theta_poly.unwrap().0, far));
+    let err = certify(&p, &CertifySettings::default(), &mut |_| {}).unwrap_err();
+    assert!(matches!(err, CertifyError::EmptyParameterSet), "{err}");
+}
+
+/// Bounds that cross on part of the parameter set (`0 <= z <= theta`
+/// with `theta` in `[-1, 1]`): the solver refuses those parameters, so
+/// the certification refuses the set and names the constraint and a
+/// parameter where they cross; cut to `theta >= 0.1` it certifies.
+#[test]
+fn crossed_bounds_are_refused() {
+    let text = r#"{"format": "kestrel.mpqp.v1", "H": [[2]], "F": [[1]],
+        "G": [[1], [-1]], "W": [0, 0], "E": [[1], [0]],
+        "theta_lb": [-1], "theta_ub": [1]}"#;
+    let mut p = MpqpProblem::from_json_str(text).unwrap();
+    let err = certify(&p, &CertifySettings::default(), &mut |_| {}).unwrap_err();
+    match &err {
+        CertifyError::CrossedBounds {
+            constraint,
+            theta,
+            lower,
+            upper,
+        } => {
+            assert_eq!(constraint, "b0");
+            assert!(theta[0] < 0.0, "{theta:?}");
+            assert!((lower - 0.0).abs() < 1e-12 && (upper - theta[0]).abs() < 1e-12);
+            assert!(lower > upper);
+        }
+        e => panic!("{e}"),
+    }
+    assert!(err.to_string().contains("constraint b0"), "{err}");
+    // The solver itself refuses such a parameter.
+    let par = ParametricQp::from_mpqp(&p).unwrap();
+    let (ns, ni) = par.workspace_len();
+    let (mut s, mut ix) = (vec![0.0; ns], vec![0; ni]);
+    let mut qp = par.solver(QpSettings::default(), &mut s, &mut ix).unwrap();
+    let mut buf = par.buffers::<f64>();
+    par.fill(&[-0.5], &mut buf).unwrap();
+    assert_eq!(
+        qp.solve(&buf.data(), Start::Cold),
+        Err(kestrel_qp::QpError::InvalidBounds)
+    );
+    // theta >= 0.1: -theta <= -0.1.
+    p.theta_poly = Some((nalgebra::dmatrix![-1.0], nalgebra::dvector![-0.1]));
+    check("0 <= z <= theta, theta >= 0.1", &p, 0.05);
 }
 
 /// Warm start in any stored order: the solver's own order (the order it

@@ -135,6 +135,8 @@ pub struct ParametricQp {
     of_row: Vec<(usize, Side)>,
     theta_lb: Vec<f64>,
     theta_ub: Vec<f64>,
+    /// The extra parameter polytope's rows, each `row(theta) <= 0`.
+    theta_rows: Vec<Affine>,
 }
 
 impl ParametricQp {
@@ -246,6 +248,16 @@ impl ParametricQp {
             of_row,
             theta_lb: problem.theta_lb.iter().copied().collect(),
             theta_ub: problem.theta_ub.iter().copied().collect(),
+            theta_rows: problem
+                .theta_poly
+                .iter()
+                .flat_map(|(a, b)| {
+                    (0..b.len()).map(move |r| Affine {
+                        c: -b[r],
+                        e: (0..p).map(|k| a[(r, k)]).collect(),
+                    })
+                })
+                .collect(),
         })
     }
 
@@ -282,6 +294,24 @@ impl ParametricQp {
     /// The parameter box's upper corner.
     pub fn theta_ub(&self) -> &[f64] {
         &self.theta_ub
+    }
+
+    /// The problem's extra parameter polytope (`theta_poly`, `A theta <=
+    /// b`) as affine functions that must be `<= 0` (`a_r' theta - b_r`);
+    /// empty when the parameter set is the box alone.
+    pub fn theta_rows(&self) -> &[Affine] {
+        &self.theta_rows
+    }
+
+    /// Whether `theta` lies in the parameter set: the box and the extra
+    /// polytope, each row within `tol` (absolute).
+    pub fn contains(&self, theta: &[f64], tol: f64) -> bool {
+        theta.len() == self.p
+            && theta
+                .iter()
+                .zip(self.theta_lb.iter().zip(&self.theta_ub))
+                .all(|(t, (l, u))| *t >= l - tol && *t <= u + tol)
+            && self.theta_rows.iter().all(|r| r.eval(theta) <= tol)
     }
 
     /// `q_i` as an affine function of `theta`.

@@ -4,7 +4,7 @@
 use crate::{io, progress};
 use anyhow::Context;
 use kestrel_core::formats::MpqpProblem;
-use kestrel_empc::certify::{Certificate, CertifySettings, QpSettings, certify};
+use kestrel_empc::certify::{Certificate, CertifySettings, Count, QpSettings, certify};
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -145,8 +145,10 @@ fn run_certify(a: CertifyArgs) -> anyhow::Result<()> {
         if let Some(e) = p.estimate {
             bar.suspend(|| {
                 eprintln!(
-                    "note: the cold-start partition is estimated at about {:.0} regions, {:.0} s ({} random walks)",
-                    e.regions, e.seconds, e.probes
+                    "note: the cold-start partition is estimated at about {} regions, {} s ({} random walks)",
+                    Count(e.regions),
+                    Count(e.seconds),
+                    e.probes
                 )
             });
         }
@@ -171,11 +173,15 @@ fn run_certify(a: CertifyArgs) -> anyhow::Result<()> {
     let c = result.with_context(|| name.clone())?;
     let (n, m, p) = (c.cold.n, c.cold.m, c.cold.p);
     let mut text = format!(
-        "{name}: n = {n} variables, m = {m} general rows (besides the bounds), p = {p} parameters{}\n{}",
+        "{name}: n = {n} variables, m = {m} general rows (besides the bounds), p = {p} parameters{}{}\n{}",
         if a.box_scale < 1.0 {
             format!(", parameter box scaled by {}", a.box_scale)
         } else {
             String::new()
+        },
+        match &problem.theta_poly {
+            Some((_, b)) => format!(", the box cut by the {} rows of theta_poly", b.len()),
+            None => String::new(),
         },
         c.cold
     );

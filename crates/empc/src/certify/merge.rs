@@ -180,11 +180,11 @@ impl Merger<'_, '_, '_> {
         })
     }
 
-    /// `D_A`: the box where the multipliers of `key` have their signs
-    /// (the solver's `star_p >= -dual_tol`).
+    /// `D_A`: the parameter set where the multipliers of `key` have their
+    /// signs (the solver's `star_p >= -dual_tol`).
     fn domain(&mut self, node: &Node) -> Option<Poly> {
         let model = self.cold;
-        let hs: Vec<Half> = node
+        let mut hs: Vec<Half> = node
             .active
             .iter()
             .zip(&node.mu)
@@ -195,6 +195,7 @@ impl Merger<'_, '_, '_> {
                 half(&f, false, size(m))
             })
             .collect();
+        hs.extend(model.param_halfs(0, model.d));
         self.geo.restrict(&Poly::cube(model.d), &hs)
     }
 

@@ -48,7 +48,7 @@ mod tests;
 mod union;
 mod warm;
 
-pub use error::CertifyError;
+pub use error::{CertifyError, Count};
 pub use estimate::Estimate;
 /// The solver settings a certificate mirrors ([`CertifySettings::qp`]).
 pub use kestrel_qp::QpSettings;
@@ -77,18 +77,22 @@ pub fn certify(
 ) -> Result<Certification, CertifyError> {
     settings.validate()?;
     let par = ParametricQp::from_mpqp(problem)?;
-    if settings.merge.is_some() {
-        return merge::certify_merged(&par, settings, progress);
-    }
     let p = par.p();
     let mut cold_model =
         Model::new(&par, p, settings.qp).ok_or(CertifyError::NotPositiveDefinite)?;
+    let mut geo = Geometry::new(settings.min_radius);
+    let set = cold_model
+        .parameter_set(&mut geo)
+        .ok_or(CertifyError::EmptyParameterSet)?;
+    check_bounds(&cold_model, &mut geo, &set)?;
+    if settings.merge.is_some() {
+        return merge::certify_merged(&par, settings, progress);
+    }
     let mut ctx = Ctx::new(settings, progress);
     let started = ctx.started;
-    let mut geo = Geometry::new(settings.min_radius);
     let n = par.n() as u64;
     let root = Node {
-        poly: Poly::cube(p),
+        poly: set,
         active: Vec::new(),
         mu: Vec::new(),
         dual: true,
@@ -216,4 +220,36 @@ pub fn certify(
         cold: cold_cert,
         warm,
     })
+}
+
+/// Refuses a parameter set in which some constraint's bounds cross
+/// (`l_j(theta) > u_j(theta)` on a piece with an interior, one LP per
+/// constraint with both bounds): the solver refuses those parameters.
+fn check_bounds(model: &Model, geo: &mut Geometry, set: &Poly) -> Result<(), CertifyError> {
+    for j in 0..model.ncons {
+        let (Some(lo), Some(hi)) = (&model.lo[j], &model.hi[j]) else {
+            continue;
+        };
+        // u - l < 0.
+        let f = geometry::minus(hi, lo);
+        let h = geometry::half(&f, true, geometry::size(lo) + geometry::size(hi));
+        if let Some(piece) = geo.restrict(set, &[h]) {
+            let theta = model.theta(&piece.centre, 0);
+            let at = |g: &[f64]| {
+                g[model.d]
+                    + g[..model.d]
+                        .iter()
+                        .zip(&piece.centre)
+                        .map(|(a, x)| a * x)
+                        .sum::<f64>()
+            };
+            return Err(CertifyError::CrossedBounds {
+                constraint: constraint_name(j, model.rows),
+                theta,
+                lower: at(lo),
+                upper: at(hi),
+            });
+        }
+    }
+    Ok(())
 }

@@ -13,6 +13,8 @@ use kestrel_qp::QpSettings;
 use kestrel_qp::parametric::{Affine, ParametricQp};
 use nalgebra::DMatrix;
 
+use super::geometry::{Geometry, Half, Poly, half, size};
+
 /// `y += a x`.
 pub(super) fn axpy(y: &mut [f64], a: f64, x: &[f64]) {
     for (u, v) in y.iter_mut().zip(x) {
@@ -58,6 +60,9 @@ pub(super) struct Model {
     pub hi: Vec<Option<Vec<f64>>>,
     /// Whether a constraint is an equality row (`l = u` as functions).
     pub equality: Vec<bool>,
+    /// The extra parameter polytope's rows (`theta_poly`), each `f(s) <= 0`
+    /// in the normalised parameter (`p + 1` entries); empty for a box.
+    pub param: Vec<Vec<f64>>,
     /// The solver settings whose rules are mirrored.
     pub settings: QpSettings,
     /// Merged mode (`crate::certify::merge`): the active list is a
@@ -119,6 +124,15 @@ impl Model {
         let equality = (0..ncons)
             .map(|j| matches!((par.lower(j), par.upper(j)), (Some(a), Some(b)) if a == b))
             .collect();
+        let param = par
+            .theta_rows()
+            .iter()
+            .map(|a| {
+                let mut f: Vec<f64> = (0..p).map(|k| a.e[k] * half[k]).collect();
+                f.push(a.c + a.e.iter().zip(&centre).map(|(e, c)| e * c).sum::<f64>());
+                f
+            })
+            .collect();
         Some(Model {
             n,
             ncons,
@@ -132,6 +146,7 @@ impl Model {
             lo,
             hi,
             equality,
+            param,
             settings,
             merge: false,
             canonical: false,
@@ -145,6 +160,32 @@ impl Model {
     /// the most and invalidates the whole kept forward solve.
     pub fn position(&self, p: usize, mixed: bool) -> usize {
         if self.merge || mixed { 0 } else { p }
+    }
+
+    /// The extra parameter polytope as half-spaces of `d` LP variables,
+    /// on the `p` of them from `offset` (0: `s`; `p`: `s_prev`).
+    pub fn param_halfs(&self, offset: usize, d: usize) -> Vec<Half> {
+        let p = self.p;
+        self.param
+            .iter()
+            .map(|f| {
+                let mut g = vec![0.0; d + 1];
+                g[offset..offset + p].copy_from_slice(&f[..p]);
+                g[d] = f[p];
+                half(&g, false, size(f))
+            })
+            .collect()
+    }
+
+    /// The parameter set in the LP variables: the cube, cut by the extra
+    /// polytope for `s` (and for `s_prev` when `d = 2 p`); `None` if it has
+    /// no ball of radius `min_radius`.
+    pub fn parameter_set(&self, geo: &mut Geometry) -> Option<Poly> {
+        let mut hs = self.param_halfs(0, self.d);
+        if self.d == 2 * self.p {
+            hs.extend(self.param_halfs(self.p, self.d));
+        }
+        geo.restrict(&Poly::cube(self.d), &hs)
     }
 
     /// The active bound of constraint `j` on side `code`.

@@ -80,6 +80,9 @@ pub(super) fn warm_region(
             hs.push(half(&lift(&f), false, size(&v) + size(lo)));
         }
     }
+    // theta and theta_prev both in the parameter set.
+    hs.extend(cold.param_halfs(0, d));
+    hs.extend(cold.param_halfs(p, d));
     geo.restrict(&Poly::cube(d), &hs)
 }
 
