@@ -607,11 +607,15 @@ fn read_data(args: &Args, cols: &CsvColumns, p: &std::path::Path) -> anyhow::Res
 
 fn check_time_unit(args: &Args, path: &std::path::Path, data: &IoData) -> anyhow::Result<()> {
     if args.time_unit.is_none() && args.ts.is_none() && data.ts() >= 1.0 {
+        // `{}` writes every digit of 2e298.
+        let ts = if data.ts() < 1e6 {
+            format!("{}", data.ts())
+        } else {
+            format!("{:e}", data.ts())
+        };
         bail!(
-            "{}: the `t` column steps by {} s, implausible for a flight log in seconds: if it is in milliseconds, add --time-unit ms; if the log really is sampled every {} s, add --time-unit s",
+            "{}: the `t` column steps by {ts} s, implausible for a flight log in seconds: if it is in milliseconds, add --time-unit ms; if the log really is sampled every {ts} s, add --time-unit s",
             path.display(),
-            data.ts(),
-            data.ts()
         );
     }
     Ok(())

@@ -55,12 +55,25 @@ impl IoData {
             .headers()
             .map_err(|e| err(format!("header: {e}")))?
             .clone();
-        let find = |name: &str| headers.iter().position(|h| h == name);
+        // A name the header holds twice is ambiguous: refused when used.
+        let find = |name: &str| -> Result<Option<usize>> {
+            let mut at = headers
+                .iter()
+                .enumerate()
+                .filter(|(_, h)| *h == name)
+                .map(|(i, _)| i + 1);
+            match (at.next(), at.next()) {
+                (Some(a), Some(b)) => Err(err(format!(
+                    "column \"{name}\" appears more than once in the header (columns {a} and {b}): rename one"
+                ))),
+                (a, _) => Ok(a.map(|i| i - 1)),
+            }
+        };
         let pick = |names: &[String]| -> Result<Vec<usize>> {
             names
                 .iter()
                 .map(|n| {
-                    find(n).ok_or_else(|| {
+                    find(n)?.ok_or_else(|| {
                         err(format!(
                             "no column \"{n}\" (columns: {})",
                             headers.iter().collect::<Vec<_>>().join(", ")
@@ -72,9 +85,24 @@ impl IoData {
         if columns.outputs.is_empty() {
             return Err(SysidError::invalid("select at least one output column"));
         }
+        let all: Vec<&String> = columns.inputs.iter().chain(&columns.outputs).collect();
+        if let Some(n) = (0..all.len())
+            .map(|k| all[k])
+            .find(|n| all.iter().filter(|m| *m == n).count() > 1)
+        {
+            let count = |list: &[String]| list.iter().filter(|c| *c == n).count();
+            let role = match (count(&columns.inputs), count(&columns.outputs)) {
+                (i, o) if i > 0 && o > 0 => "both an input and an output",
+                (i, _) if i > 1 => "an input twice",
+                _ => "an output twice",
+            };
+            return Err(SysidError::invalid(format!(
+                "column \"{n}\" is selected as {role}: each column can be one signal only"
+            )));
+        }
         let ui = pick(&columns.inputs)?;
         let yi = pick(&columns.outputs)?;
-        let ti = find(&columns.time);
+        let ti = find(&columns.time)?;
         if let Some(ts) = columns.ts.filter(|ts| !(ts.is_finite() && *ts > 0.0)) {
             return Err(SysidError::invalid(format!(
                 "the sample time must be a positive number of seconds, got {ts}"
@@ -87,7 +115,7 @@ impl IoData {
                 headers.iter().collect::<Vec<_>>().join(", ")
             )));
         }
-        let ei = find(&columns.experiment);
+        let ei = find(&columns.experiment)?;
         let mut rows: Vec<(f64, f64, Vec<f64>, Vec<f64>)> = Vec::new();
         for (r, rec) in rdr.records().enumerate() {
             let line = r + 2;

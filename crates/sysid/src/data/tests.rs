@@ -71,6 +71,29 @@ fn csv_errors_are_clear() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("non-uniform"), "{e}");
+    // A header naming a used column twice is ambiguous; an unused
+    // duplicate is harmless.
+    let dup = "t,a,a,q\n0,1,5,2\n1,2,6,3\n2,1,7,1\n";
+    let e = IoData::from_csv_reader(dup.as_bytes(), &CsvColumns::new(&["a"], &["q"]), "f")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("\"a\" appears more than once") && e.contains("columns 2 and 3"),
+        "{e}"
+    );
+    let d = IoData::from_csv_reader(dup.as_bytes(), &CsvColumns::new(&[], &["q"]), "f").unwrap();
+    assert_eq!(d.n_samples(), 3);
+    // One column as two signals.
+    for (inputs, outputs, role) in [
+        (&["q"][..], &["q"][..], "both an input and an output"),
+        (&["a", "a"][..], &["q"][..], "an input twice"),
+        (&["a"][..], &["q", "q"][..], "an output twice"),
+    ] {
+        let e = IoData::from_csv_reader(CSV.as_bytes(), &CsvColumns::new(inputs, outputs), "f")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(role), "{e}");
+    }
 }
 
 #[test]
