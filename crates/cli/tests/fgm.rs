@@ -325,7 +325,7 @@ fn solve_warns_about_parameters_outside_the_box() {
     assert_eq!(out.lines().count(), 3);
     assert!(
         err.contains("warning: 2 of 3 parameters lie outside")
-            && err.contains("outside.csv row 2, entry 1 = 3 not in [-2, 2]"),
+            && err.contains("outside.csv row 2, entry 1 = 3.0 not in [-2.0, 2.0]"),
         "{err}"
     );
     let (ok, out, err) = solve("0,0.25\n2,0.5\n", "inside.csv");

@@ -348,7 +348,7 @@ fn solve(a: SolveArgs) -> anyhow::Result<()> {
     if let Some(&(k, j)) = outside.first() {
         let qp = &d.problem;
         eprintln!(
-            "warning: {} of {} parameters lie outside the problem's parameter box, which the certificate covers (first: {} row {}, entry {} = {} not in [{}, {}]); they are solved anyway, without a certified accuracy",
+            "warning: {} of {} parameters lie outside the problem's parameter box, which the certificate covers (first: {} row {}, entry {} = {:?} not in [{:?}, {:?}]); they are solved anyway, without a certified accuracy",
             outside.len(),
             thetas.len(),
             a.thetas.display(),
