@@ -63,7 +63,8 @@ where
         for (j, t) in theta.iter_mut().enumerate() {
             let (lo, hi) = (lb[j], ub[j]);
             *t = grid(if part == 1 && i > CHECK_SAMPLES {
-                (*t + (hi - lo) * 0.05 * (2.0 * uniform() - 1.0)).clamp(lo, hi)
+                // max/min, not f32::clamp: its assertion is a panic path.
+                (*t + (hi - lo) * 0.05 * (2.0 * uniform() - 1.0)).max(lo).min(hi)
             } else {
                 lo + (hi - lo) * uniform()
             });

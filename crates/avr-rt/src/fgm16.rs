@@ -87,7 +87,7 @@ struct Box16<const N: usize> {
 fn step<const N: usize>(m: &[Row16<N>; N], y: &[i32; N], b: &Box16<N>, w: &mut [i32; N]) {
     let my = Row16::apply_all(m, y);
     for i in 0..N {
-        w[i] = my[i].saturating_add(b.c[i]).clamp(b.lo[i], b.hi[i]);
+        w[i] = crate::clamp::clamp(my[i].saturating_add(b.c[i]), b.lo[i], b.hi[i]);
     }
 }
 
@@ -282,7 +282,7 @@ impl<S: RtScalar, const N: usize, const P: usize, const T: usize, const NU: usiz
             }
         }
         for i in 0..N {
-            y[i] = y[i].clamp(b.lo[i], b.hi[i]);
+            y[i] = crate::clamp::clamp(y[i], b.lo[i], b.hi[i]);
         }
         let (z, done) = iterate(&self.m, &self.betas, &b, y, self.certified, deadline);
         self.done = done;

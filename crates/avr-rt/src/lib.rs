@@ -8,6 +8,7 @@
 mod avr_asm;
 #[cfg(target_arch = "avr")]
 pub mod bench_uart;
+mod clamp;
 pub mod control;
 pub mod crc;
 pub mod cycles;

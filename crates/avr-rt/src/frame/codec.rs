@@ -98,7 +98,8 @@ impl Frame {
     }
     /// The payload bytes.
     pub fn payload(&self) -> &[u8] {
-        &self.payload[..self.len as usize]
+        // `len <= MAX_PAYLOAD` by construction; `get` keeps the panic path out.
+        self.payload.get(..self.len as usize).unwrap_or(&[])
     }
     /// Writes the frame to `out`, returning the number of bytes written.
     pub fn encode(&self, out: &mut [u8]) -> Result<usize, FrameError> {

@@ -16,6 +16,10 @@ use kestrel_core::{Q16, Scalar};
 /// sequence from `seed`, mixing small, full-range and 24-bit boundary
 /// values, every shift, saturation); returns the number of mismatches.
 /// The firmware runs it at boot, so the AVR assembly is checked on target.
+/// Never inlined: inlined into the firmware's large `main` (which LLVM did
+/// once its panic paths were gone), its locals cost several instructions
+/// each and the boot took 1-2 ms longer.
+#[inline(never)]
 pub fn self_test(seed: u32, n: u16) -> u16 {
     let mut s = seed;
     let mut next = move || {

@@ -31,7 +31,7 @@ impl Default for PwmLimits {
 impl PwmLimits {
     /// Rounds and clamps ESC 1-3 and the servo (in that order) to their
     /// limits; `None` if any value is not finite (the caller then goes to
-    /// the failsafe).
+    /// the failsafe). Crossed limits (`min > max`) give at most `max`.
     pub fn saturate<S: RtScalar>(&self, pwm: &[S; 4]) -> Option<[u16; 4]> {
         let mut out = [0u16; 4];
         for (i, (o, v)) in out.iter_mut().zip(pwm).enumerate() {
@@ -41,7 +41,7 @@ impl PwmLimits {
             } else {
                 (self.servo_min, self.servo_max)
             };
-            *o = us.clamp(lo as i32, hi as i32) as u16;
+            *o = crate::clamp::clamp(us, lo as i32, hi as i32) as u16;
         }
         Some(out)
     }
@@ -68,14 +68,15 @@ impl Default for SafeOutput {
 
 impl SafeOutput {
     /// The four pulses, clamped to `limits` (so a misconfigured safe output
-    /// still cannot leave them).
+    /// still cannot leave them; with crossed limits, `min > max`, each
+    /// pulse is at most its `max`, and there is no panic path).
     pub fn pwm(&self, limits: &PwmLimits) -> [u16; 4] {
-        let e = self.esc.clamp(limits.esc_min, limits.esc_max);
+        let e = crate::clamp::clamp(self.esc, limits.esc_min, limits.esc_max);
         [
             e,
             e,
             e,
-            self.servo.clamp(limits.servo_min, limits.servo_max),
+            crate::clamp::clamp(self.servo, limits.servo_min, limits.servo_max),
         ]
     }
 }

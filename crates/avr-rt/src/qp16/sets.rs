@@ -223,12 +223,13 @@ impl<const N: usize> Qp16SetSolver<N> {
                                 self.copy_point();
                                 return Err(Qp16Error::IterationLimit);
                             }
-                            if k >= N {
+                            // `j < N` (the scan's); `get_mut` keeps the
+                            // panic path out.
+                            let (true, Some(v)) = (k < N, self.var.get_mut(j)) else {
                                 self.copy_point();
                                 return Err(Qp16Error::Infeasible);
-                            }
+                            };
                             self.active[k] = j as u8;
-                            let v = &mut self.var[j];
                             v.pos = k as u8 + 1;
                             v.code = code;
                             v.nu = 0;
@@ -300,7 +301,11 @@ impl<const N: usize> Qp16SetSolver<N> {
     }
 
     fn remove(&mut self, p: usize) {
-        let k = self.count;
+        let k = self.count.min(N);
+        // `p` is an active position (the blocking test's).
+        if p >= k {
+            return;
+        }
         self.var[self.active[p] as usize % N].pos = 0;
         for r in p..k - 1 {
             self.active[r] = self.active[r + 1];

@@ -246,7 +246,7 @@ impl<const N: usize> Qp16Solver<N> {
             charge(2, t0);
             match blocking {
                 None => {
-                    let k = self.count;
+                    let k = self.count.min(N);
                     self.nu[..k].copy_from_slice(&self.star[..k]);
                     let t0 = stamp();
                     self.primal(t);
@@ -278,7 +278,7 @@ impl<const N: usize> Qp16Solver<N> {
                     if iterations >= t.max_iterations {
                         return Err(Qp16Error::IterationLimit);
                     }
-                    for i in 0..self.count {
+                    for i in 0..self.count.min(N) {
                         let diff = self.star[i].saturating_sub(self.nu[i]);
                         self.nu[i] = self.nu[i].saturating_add(mul_round(alpha, diff, 30));
                     }
@@ -320,12 +320,13 @@ impl<const N: usize> Qp16Solver<N> {
 
     /// The active bound of position `p`.
     fn bound(&self, p: usize) -> i32 {
-        let j = self.active[p] as usize;
-        if self.side[p] & 1 == 1 {
-            self.hi[j]
-        } else {
-            self.lo[j]
-        }
+        // Positions and variables are below N by construction; `get` keeps
+        // the panic path out of the firmware (0 is never reached).
+        let (Some(&j), Some(&side)) = (self.active.get(p), self.side.get(p)) else {
+            return 0;
+        };
+        let bounds = if side & 1 == 1 { &self.hi } else { &self.lo };
+        bounds.get(j as usize).copied().unwrap_or(0)
     }
 
     /// `star = M^-1 (w_unc_A - b_A)` through the factor: `L y = r`
@@ -334,12 +335,12 @@ impl<const N: usize> Qp16Solver<N> {
     /// `L' star = D^-1 y`.
     #[inline(never)]
     fn solve_star<const P: usize>(&mut self, t: &Qp16Tables<N, P>) {
-        let k = self.count;
+        let k = self.count.min(N);
         let lb = t.l_bits;
         let kd = t.nu_bits.saturating_add(t.p_bits).saturating_sub(16);
         for i in self.valid.min(k)..k {
-            let j = self.active[i] as usize;
-            let r = self.unc[j].saturating_sub(self.bound(i));
+            let unc = self.unc.get(self.active[i] as usize).copied().unwrap_or(0);
+            let r = unc.saturating_sub(self.bound(i));
             let v = mac_round(&self.l[i][..i], &self.fwd[..i], lb);
             self.fwd[i] = r.saturating_sub(v);
             self.y[i] = self.rd[i].div(self.fwd[i], kd);
@@ -363,7 +364,7 @@ impl<const N: usize> Qp16Solver<N> {
     fn blocking(&self, tol: i32) -> Option<(usize, i32)> {
         let mut best: Option<(usize, i32)> = None;
         let limit = tol.saturating_neg();
-        for p in 0..self.count {
+        for p in 0..self.count.min(N) {
             let code = self.side[p];
             if code >= 2 {
                 continue;
@@ -386,7 +387,7 @@ impl<const N: usize> Qp16Solver<N> {
     /// `w = w_unc - P_{:,A} nu`; active variables exactly on their bound.
     #[inline(never)]
     fn primal<const P: usize>(&mut self, t: &Qp16Tables<N, P>) {
-        let k = self.count;
+        let k = self.count.min(N);
         let mut row = [0i32; N];
         for i in 0..N {
             if self.pos[i] != 0 {
@@ -394,7 +395,7 @@ impl<const N: usize> Qp16Solver<N> {
                 continue;
             }
             for p in 0..k {
-                row[p] = t.hinv[i][self.active[p] as usize];
+                row[p] = t.hinv[i].get(self.active[p] as usize).copied().unwrap_or(0);
             }
             let v = mac_round(
                 &row[..k],
@@ -435,9 +436,14 @@ impl<const N: usize> Qp16Solver<N> {
         code: u8,
     ) -> Result<(), Qp16Error> {
         let k = self.count;
+        // A full set or a variable out of range cannot enter (the callers
+        // never ask; the checks keep the panic path out).
+        if k >= N || j >= N {
+            return Err(Qp16Error::Infeasible);
+        }
         let mut tv = [0i32; N];
         for i in 0..k {
-            let m = t.hinv[self.active[i] as usize][j];
+            let m = t.hinv.get(self.active[i] as usize).map_or(0, |row| row[j]);
             let v = mac_round(&self.l[i][..i], &tv[..i], t.l_bits);
             tv[i] = m.saturating_sub(v);
         }
@@ -469,13 +475,20 @@ impl<const N: usize> Qp16Solver<N> {
     #[inline(never)]
     fn remove<const P: usize>(&mut self, t: &Qp16Tables<N, P>, p: usize) -> Result<(), Qp16Error> {
         let lb = t.l_bits;
-        let k = self.count;
+        let k = self.count.min(N);
+        // `p` is an active position (the blocking test's); the check keeps
+        // the panic path out.
+        if p >= k {
+            return Err(Qp16Error::Infeasible);
+        }
         let mut alpha = self.d[p];
         let mut wv = [0i32; N];
         for r in p + 1..k {
             wv[r] = self.l[r][p];
         }
-        self.pos[self.active[p] as usize] = 0;
+        if let Some(pos) = self.pos.get_mut(self.active[p] as usize) {
+            *pos = 0;
+        }
         self.valid = self.valid.min(p);
         for r in p..k - 1 {
             for col in 0..p {
@@ -489,7 +502,9 @@ impl<const N: usize> Qp16Solver<N> {
             self.nu[r] = self.nu[r + 1];
             self.active[r] = self.active[r + 1];
             self.side[r] = self.side[r + 1];
-            self.pos[self.active[r] as usize] = r as u8 + 1;
+            if let Some(pos) = self.pos.get_mut(self.active[r] as usize) {
+                *pos = r as u8 + 1;
+            }
             wv[r] = wv[r + 1];
         }
         self.count = k - 1;
