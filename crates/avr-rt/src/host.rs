@@ -3,8 +3,10 @@
 //! ELF in simavr (ATmega2560 at 16 MHz) with its USART0 lines, the flash
 //! and RAM sizes `avr-size` reports, which of the tools are installed, and
 //! a scan of an ELF for the pinned nightly's two known miscompilations
-//! ([`miscompile_scan`], [`assert_no_miscompile`]). The
-//! hardware-in-the-loop tests of the workspace use them.
+//! ([`miscompile_scan`], [`assert_no_miscompile`]) and for panic paths,
+//! calls into core's panic functions ([`panic_calls`],
+//! [`assert_no_panic_path`]). The hardware-in-the-loop tests of the
+//! workspace use them.
 //!
 //! ```no_run
 //! use kestrel_avr_rt::host::{avr_cargo_build, avr_size, missing_tools, simavr};
@@ -21,9 +23,13 @@
 //! ```
 
 mod miscompile;
+mod panics;
 
 pub use miscompile::{
     MiscompileBug, MiscompileHit, assert_no_miscompile, miscompile_scan, scan_disassembly,
+};
+pub use panics::{
+    PanicCall, assert_no_panic_path, is_panic_function, panic_calls, scan_panic_calls,
 };
 use std::io::Read;
 use std::path::Path;

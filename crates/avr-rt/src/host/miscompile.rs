@@ -109,6 +109,35 @@ impl fmt::Display for MiscompileHit {
 /// # Errors
 /// When `avr-objdump` does not run or fails on `elf`.
 pub fn miscompile_scan(elf: &Path) -> std::io::Result<Vec<MiscompileHit>> {
+    Ok(scan_disassembly(&disassemble(elf)?))
+}
+
+/// A scan's result; `None` (with a note) when `avr-objdump` is missing
+/// and `KESTREL_REQUIRE_AVR` is not set.
+///
+/// # Panics
+/// When the scan failed otherwise, or `avr-objdump` is missing while
+/// `KESTREL_REQUIRE_AVR` is set.
+pub(super) fn scanned<T>(what: &str, elf: &Path, result: std::io::Result<T>) -> Option<T> {
+    match result {
+        Ok(v) => Some(v),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            assert!(
+                std::env::var_os("KESTREL_REQUIRE_AVR").is_none(),
+                "KESTREL_REQUIRE_AVR is set but avr-objdump is not installed"
+            );
+            println!(
+                "{what} of {} skipped: avr-objdump not installed",
+                elf.display()
+            );
+            None
+        }
+        Err(e) => panic!("{what} of {}: {e}", elf.display()),
+    }
+}
+
+/// `avr-objdump -d <elf>`'s listing.
+pub(super) fn disassemble(elf: &Path) -> std::io::Result<String> {
     let out = Command::new("avr-objdump").arg("-d").arg(elf).output()?;
     if !out.status.success() {
         return Err(std::io::Error::other(format!(
@@ -117,7 +146,7 @@ pub fn miscompile_scan(elf: &Path) -> std::io::Result<Vec<MiscompileHit>> {
             String::from_utf8_lossy(&out.stderr).trim()
         )));
     }
-    Ok(scan_disassembly(&String::from_utf8_lossy(&out.stdout)))
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
 }
 
 /// Fails the calling test when the pinned nightly miscompiled Rust code
@@ -130,20 +159,8 @@ pub fn miscompile_scan(elf: &Path) -> std::io::Result<Vec<MiscompileHit>> {
 /// On a hit in Rust code, naming the function and the bug; when
 /// `avr-objdump` fails, or is missing while `KESTREL_REQUIRE_AVR` is set.
 pub fn assert_no_miscompile(elf: &Path, unmangled_rust: impl Fn(&str) -> bool) {
-    let hits = match miscompile_scan(elf) {
-        Ok(hits) => hits,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            assert!(
-                std::env::var_os("KESTREL_REQUIRE_AVR").is_none(),
-                "KESTREL_REQUIRE_AVR is set but avr-objdump is not installed"
-            );
-            println!(
-                "miscompile scan of {} skipped: avr-objdump not installed",
-                elf.display()
-            );
-            return;
-        }
-        Err(e) => panic!("miscompile scan of {}: {e}", elf.display()),
+    let Some(hits) = scanned("miscompile scan", elf, miscompile_scan(elf)) else {
+        return;
     };
     let (rust, other): (Vec<_>, Vec<_>) = hits.iter().partition(|h| h.in_rust(&unmangled_rust));
     if let Some(first) = other.first() {
@@ -213,7 +230,7 @@ fn functions(listing: &str) -> Vec<(&str, Vec<Insn<'_>>)> {
     out
 }
 
-fn label(line: &str) -> Option<&str> {
+pub(super) fn label(line: &str) -> Option<&str> {
     let (addr, rest) = line.trim().split_once(' ')?;
     u32::from_str_radix(addr, 16).ok()?;
     rest.strip_prefix('<')?.strip_suffix(">:")

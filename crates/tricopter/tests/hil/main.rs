@@ -146,6 +146,13 @@ fn build_firmware(features: &[&str], generic_float: bool) -> PathBuf {
     // The pinned nightly's two AVR miscompilations (docs/avr-qp.md); the
     // firmware's `main` is Rust.
     kestrel_avr_rt::host::assert_no_miscompile(&copy, |f| f == "main");
+    // Run-time code has no panic path (no call into core's panic
+    // functions anywhere in the image). kestrel-qp's solver (the `qp`
+    // law, f32) still indexes its factor with run-time counts: known,
+    // in docs/avr-rt.md ("Panic paths"), not yet removed.
+    if !features.iter().any(|f| *f == "qp" || f.starts_with("qp-")) {
+        kestrel_avr_rt::host::assert_no_panic_path(&copy);
+    }
     copy
 }
 
@@ -411,9 +418,11 @@ fn read_frames(avr: &mut AvrTester, dec: &mut FrameDecoder) -> Vec<Frame> {
 }
 
 /// Timer ticks come every 20 ms after reset; the boot (table copy through
-/// ELPM, CRC, self-tests) takes about 18 ms and the firmware drops the tick
-/// that came during it, so periods' windows start this many milliseconds
-/// after reset (2 ms before the second tick, room for the command frame).
+/// ELPM, CRC, self-tests) ends with the boot frame 31-32 ms after reset
+/// with the fast gradient law and 38 ms with the explicit MPC (Nov 27),
+/// and the firmware drops the ticks that came during it, so periods'
+/// windows start this many milliseconds after reset (2 ms before the
+/// second tick, room for the command frame).
 const FIRST_WINDOW_MS: u64 = 38;
 
 /// Runs the simulator in 1 ms steps until the boot report arrives (it
