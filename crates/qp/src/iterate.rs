@@ -4,7 +4,7 @@
 //! when an entering constraint is dependent, and the LDL' updates of `M =
 //! G_A H^-1 G_A'` for each (in `z` itself, see the `solver` module).
 
-use crate::solver::{QpScalar, QpSolver, check_len, dot};
+use crate::solver::{IndexSlots, QpScalar, QpSolver, Slots, check_len, dot};
 use crate::{QpData, QpError, SolveInfo, Start};
 
 impl<S: QpScalar> QpSolver<'_, S> {
@@ -37,7 +37,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
             }
         }
         // z_unc = -H^-1 q.
-        for (zu, row) in self.zunc.iter_mut().zip(self.hinv.chunks_exact(n)) {
+        for (zu, row) in self.zunc.iter_mut().zip(self.hinv.chunks_exact(n.max(1))) {
             *zu = -dot(row, data.q);
         }
         match start {
@@ -46,7 +46,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
         }
         let mut iterations = 0;
         loop {
-            if self.count > 0 && self.df[self.count - 1] == S::ZERO {
+            if self.count > 0 && self.df.at(self.count - 1) == S::ZERO {
                 if iterations >= self.settings.max_iterations {
                     return Err(QpError::IterationLimit);
                 }
@@ -55,7 +55,10 @@ impl<S: QpScalar> QpSolver<'_, S> {
                 self.solve_mustar();
                 match self.blocking_dual() {
                     None => {
-                        self.mu[..self.count].copy_from_slice(&self.mustar[..self.count]);
+                        for (mu, &ms) in self.mu.iter_mut().zip(self.mustar.iter()).take(self.count)
+                        {
+                            *mu = ms;
+                        }
                         self.primal();
                         match self.most_violated(data) {
                             None => {
@@ -80,9 +83,9 @@ impl<S: QpScalar> QpSolver<'_, S> {
                         if iterations >= self.settings.max_iterations {
                             return Err(QpError::IterationLimit);
                         }
-                        for i in 0..self.count {
-                            let d = self.mustar[i] - self.mu[i];
-                            self.mu[i] = self.mu[i].mul_add(alpha, d);
+                        for (mu, &ms) in self.mu.iter_mut().zip(self.mustar.iter()).take(self.count)
+                        {
+                            *mu = mu.mul_add(alpha, ms - *mu);
                         }
                         self.remove(p);
                     }
@@ -102,19 +105,19 @@ impl<S: QpScalar> QpSolver<'_, S> {
             if self.count > self.n {
                 break;
             }
-            let j = self.active[t];
-            let s = self.side[t];
+            let j = self.active.ix(t);
+            let s = self.side.ix(t);
             let (lo, hi) = Self::bounds(data, self.m, j);
             let bound = if s == 1 { hi } else { lo };
-            if !bound.is_finite() || self.pos[j] != 0 {
+            if !bound.is_finite() || self.pos.ix(j) != 0 {
                 continue;
             }
             // Writes position `count <= t`: entries not yet read survive.
             let code = (s & 1) + if lo == hi { 2 } else { 0 };
             self.add(j, code, bound);
-            if self.df[self.count - 1] == S::ZERO {
+            if self.count > 0 && self.df.at(self.count - 1) == S::ZERO {
                 self.count -= 1;
-                self.pos[j] = 0;
+                self.pos.set_ix(j, 0);
             }
         }
     }
@@ -129,18 +132,21 @@ impl<S: QpScalar> QpSolver<'_, S> {
         let first = self.fwd_valid.min(k);
         // The rows of L by stepping through them, not at `i * c`: the pinned
         // AVR nightly miscompiled that multiply (docs/avr-qp.md, bug 2).
-        for (i, row) in self.lf.chunks(c).enumerate().take(k) {
+        for (i, row) in self.lf.chunks(c.max(1)).enumerate().take(k) {
             if i >= first {
-                let v = self.rhs[i] - dot(&row[..i], &self.fwd[..i]);
-                self.fwd[i] = v;
+                let (done, _) = self.fwd.split_at(i.min(self.fwd.len()));
+                let v = self.rhs.at(i) - dot(row.get(..i).unwrap_or(&[]), done);
+                self.fwd.put(i, v);
             }
         }
         self.fwd_valid = k;
-        let (fwd, df) = (&self.fwd[..k], &self.df[..k]);
-        for ((ms, &f), &d) in self.mustar[..k].iter_mut().zip(fwd).zip(df) {
+        let pairs = self.fwd.iter().zip(self.df.iter());
+        for (ms, (&f, &d)) in self.mustar.iter_mut().zip(pairs).take(k) {
             *ms = f / d;
         }
-        back_substitute(self.lf, c, &mut self.mustar[..k]);
+        let k = k.min(self.mustar.len());
+        let (head, _) = self.mustar.split_at_mut(k);
+        back_substitute(self.lf, c, head);
     }
 
     /// Whether `mu + a (mustar - mu)` must stop short at `a < 1` (or 1) to
@@ -151,14 +157,14 @@ impl<S: QpScalar> QpSolver<'_, S> {
             if self.is_equality(p) {
                 continue;
             }
-            let sgn = if self.side[p] & 1 == 1 {
+            let sgn = if self.side.ix(p) & 1 == 1 {
                 S::ONE
             } else {
                 -S::ONE
             };
-            let star = sgn * self.mustar[p];
+            let star = sgn * self.mustar.at(p);
             if star < -self.dtol {
-                let cur = sgn * self.mu[p];
+                let cur = sgn * self.mu.at(p);
                 let alpha = cur / (cur - star);
                 if best.is_none_or(|(_, a)| alpha < a) {
                     best = Some((p, alpha));
@@ -171,22 +177,25 @@ impl<S: QpScalar> QpSolver<'_, S> {
     /// An equality row (`l = u`) keeps its multiplier of either sign.
     /// Side codes: bit 0 the side (1 upper), bit 1 an equality row.
     fn is_equality(&self, p: usize) -> bool {
-        self.side[p] >= 2
+        self.side.ix(p) >= 2
     }
 
     /// `z = z_unc - H^-1 G_A' mu`.
     fn primal(&mut self) {
-        self.z.copy_from_slice(self.zunc);
-        let n = self.n;
+        for (z, &zu) in self.z.iter_mut().zip(self.zunc.iter()) {
+            *z = zu;
+        }
+        let (n, m) = (self.n, self.m);
         for p in 0..self.count {
-            let mu = self.mu[p];
-            let j = self.active[p];
-            let w = if j < self.m {
-                &self.w[j * n..(j + 1) * n]
+            let mu = self.mu.at(p);
+            let j = self.active.ix(p);
+            // `wvec(j)`, borrowing the fields alone (z is written).
+            let w = if j < m {
+                self.w.get(j * n..(j + 1) * n)
             } else {
-                &self.hinv[(j - self.m) * n..(j - self.m + 1) * n]
+                self.hinv.get((j - m) * n..(j - m + 1) * n)
             };
-            for (zi, &wi) in self.z.iter_mut().zip(w) {
+            for (zi, &wi) in self.z.iter_mut().zip(w.unwrap_or(&[])) {
                 *zi -= wi * mu;
             }
         }
@@ -208,14 +217,15 @@ impl<S: QpScalar> QpSolver<'_, S> {
             }
         };
         let (n, m) = (self.n, self.m);
-        let rows = self.g.chunks_exact(n).zip(data.l.iter().zip(data.u));
-        for (j, ((gj, (&lo, &hi)), &p)) in rows.zip(self.pos[..m].iter()).enumerate() {
+        let rows = self.g.chunks_exact(n.max(1)).zip(data.l.iter().zip(data.u));
+        let (pos_rows, pos_bounds) = self.pos.split_at(m.min(self.pos.len()));
+        for (j, ((gj, (&lo, &hi)), &p)) in rows.zip(pos_rows).enumerate() {
             if p == 0 {
                 consider(j, dot(gj, self.z), lo, hi);
             }
         }
         let bounds = self.z.iter().zip(data.lb.iter().zip(data.ub));
-        for (i, ((&v, (&lo, &hi)), &p)) in bounds.zip(self.pos[m..].iter()).enumerate() {
+        for (i, ((&v, (&lo, &hi)), &p)) in bounds.zip(pos_bounds).enumerate() {
             if p == 0 {
                 consider(m + i, v, lo, hi);
             }
@@ -233,24 +243,28 @@ impl<S: QpScalar> QpSolver<'_, S> {
         let k = self.count;
         let diag = self.m_entry(j, j);
         for p in 0..k {
-            self.tmp[p] = self.m_entry(self.active[p], j);
+            let v = self.m_entry(self.active.ix(p), j);
+            self.tmp.put(p, v);
         }
         // Forward solve L t = c, then L_new = t / d, d_new = diag - t' D^-1 t.
         let mut d = diag;
         for i in 0..k {
-            let v = self.tmp[i] - dot(&self.lf[i * c..i * c + i], &self.tmp[..i]);
-            self.tmp[i] = v;
-            let l = v / self.df[i];
-            self.lf[k * c + i] = l;
+            let row = self.lf.get(i * c..i * c + i).unwrap_or(&[]);
+            let v = self.tmp.at(i) - dot(row, self.tmp.get(..i).unwrap_or(&[]));
+            self.tmp.put(i, v);
+            let l = v / self.df.at(i);
+            self.lf.put(k * c + i, l);
             d -= l * v;
         }
-        self.lf[k * c + k] = S::ONE;
-        self.df[k] = if d > self.pivtol * diag { d } else { S::ZERO };
-        self.rhs[k] = self.value(j, self.zunc) - b;
-        self.active[k] = j;
-        self.side[k] = code;
-        self.pos[j] = k + 1;
-        self.mu[k] = S::ZERO;
+        self.lf.put(k * c + k, S::ONE);
+        self.df
+            .put(k, if d > self.pivtol * diag { d } else { S::ZERO });
+        let r = self.value(j, self.zunc) - b;
+        self.rhs.put(k, r);
+        self.active.set_ix(k, j);
+        self.side.set_ix(k, code);
+        self.pos.set_ix(j, k + 1);
+        self.mu.put(k, S::ZERO);
         self.count = k + 1;
     }
 
@@ -260,44 +274,76 @@ impl<S: QpScalar> QpSolver<'_, S> {
     fn remove(&mut self, p: usize) {
         let c = self.n + 1;
         let k = self.count;
-        let mut alpha = self.df[p];
-        for r in p + 1..k {
-            self.wv[r] = self.lf[r * c + p];
+        // `p` is an active position (the callers'); the guard also keeps
+        // `k - 1` from wrapping.
+        if p >= k {
+            return;
         }
-        self.pos[self.active[p]] = 0;
+        // Row offsets by additions, no `r * c`: with this function's frame
+        // the pinned nightly miscompiled such a multiply on the AVR (bug 2
+        // of docs/avr-qp.md, found by the HIL's scan).
+        let mut row_p = 0;
+        for _ in 0..p {
+            row_p += c;
+        }
+        let mut alpha = self.df.at(p);
+        let mut at = row_p + c + p;
+        for r in p + 1..k {
+            let v = self.lf.at(at);
+            self.wv.put(r, v);
+            at += c;
+        }
+        self.pos.set_ix(self.active.ix(p), 0);
         // Shift rows and columns after p up and left by one.
+        let mut row = row_p;
         for r in p..k - 1 {
+            let next = row + c;
             for col in 0..p {
-                self.lf[r * c + col] = self.lf[(r + 1) * c + col];
+                let v = self.lf.at(next + col);
+                self.lf.put(row + col, v);
             }
             for col in p..=r {
-                self.lf[r * c + col] = self.lf[(r + 1) * c + col + 1];
+                let v = self.lf.at(next + col + 1);
+                self.lf.put(row + col, v);
             }
-            self.df[r] = self.df[r + 1];
-            self.mu[r] = self.mu[r + 1];
-            self.rhs[r] = self.rhs[r + 1];
-            self.active[r] = self.active[r + 1];
-            self.side[r] = self.side[r + 1];
-            self.pos[self.active[r]] = r + 1;
-            self.wv[r] = self.wv[r + 1];
+            let (df, mu, rhs, wv) = (
+                self.df.at(r + 1),
+                self.mu.at(r + 1),
+                self.rhs.at(r + 1),
+                self.wv.at(r + 1),
+            );
+            self.df.put(r, df);
+            self.mu.put(r, mu);
+            self.rhs.put(r, rhs);
+            self.wv.put(r, wv);
+            let (j, side) = (self.active.ix(r + 1), self.side.ix(r + 1));
+            self.active.set_ix(r, j);
+            self.side.set_ix(r, side);
+            self.pos.set_ix(j, r + 1);
+            row = next;
         }
         self.count = k - 1;
         self.fwd_valid = self.fwd_valid.min(p);
         // Rank-one update of rows/columns p.. with alpha * w w'.
+        let mut below = row_p + c;
         for i in p..k - 1 {
-            let pv = self.wv[i];
-            let dnew = self.df[i] + alpha * pv * pv;
-            if dnew == S::ZERO {
-                continue;
+            let pv = self.wv.at(i);
+            let di = self.df.at(i);
+            let dnew = di + alpha * pv * pv;
+            if dnew != S::ZERO {
+                let beta = pv * alpha / dnew;
+                alpha = di * alpha / dnew;
+                self.df.put(i, dnew);
+                let mut at = below + i;
+                for r in i + 1..k - 1 {
+                    let l = self.lf.at(at);
+                    let w = self.wv.at(r) - pv * l;
+                    self.wv.put(r, w);
+                    self.lf.put(at, l.mul_add(beta, w));
+                    at += c;
+                }
             }
-            let beta = pv * alpha / dnew;
-            alpha = self.df[i] * alpha / dnew;
-            self.df[i] = dnew;
-            for r in i + 1..k - 1 {
-                self.wv[r] -= pv * self.lf[r * c + i];
-                let l = self.lf[r * c + i];
-                self.lf[r * c + i] = l.mul_add(beta, self.wv[r]);
-            }
+            below += c;
         }
     }
 
@@ -307,13 +353,17 @@ impl<S: QpScalar> QpSolver<'_, S> {
     /// does, the dual is unbounded and the QP infeasible.
     fn singular_step(&mut self) -> Result<(), QpError> {
         let c = self.n + 1;
-        let k = self.count;
-        let last = k - 1;
+        let k = self.count.min(self.tmp.len());
+        // Called with a dependent last constraint, so `k >= 1`.
+        let Some(last) = k.checked_sub(1) else {
+            return Err(QpError::Infeasible);
+        };
         // p = L^-T e_last.
-        self.tmp[..last].fill(S::ZERO);
-        self.tmp[last] = S::ONE;
-        back_substitute(self.lf, c, &mut self.tmp[..k]);
-        let sk = if self.side[last] & 1 == 0 {
+        let (head, _) = self.tmp.split_at_mut(k);
+        head.fill(S::ZERO);
+        head.put(last, S::ONE);
+        back_substitute(self.lf, c, head);
+        let sk = if self.side.ix(last) & 1 == 0 {
             -S::ONE
         } else {
             S::ONE
@@ -323,23 +373,22 @@ impl<S: QpScalar> QpSolver<'_, S> {
             if self.is_equality(i) {
                 continue;
             }
-            let si = if self.side[i] & 1 == 1 {
+            let si = if self.side.ix(i) & 1 == 1 {
                 S::ONE
             } else {
                 -S::ONE
             };
-            let rate = si * sk * self.tmp[i];
+            let rate = si * sk * self.tmp.at(i);
             if rate < S::ZERO {
-                let tau = (si * self.mu[i]) / (-rate);
+                let tau = (si * self.mu.at(i)) / (-rate);
                 if best.is_none_or(|(_, t)| tau < t) {
                     best = Some((i, tau));
                 }
             }
         }
         let (blocking, tau) = best.ok_or(QpError::Infeasible)?;
-        for i in 0..k {
-            let step = sk * self.tmp[i];
-            self.mu[i] = self.mu[i].mul_add(tau, step);
+        for (mu, &t) in self.mu.iter_mut().zip(self.tmp.iter()).take(k) {
+            *mu = mu.mul_add(tau, sk * t);
         }
         self.remove(blocking);
         Ok(())
@@ -351,8 +400,11 @@ impl<S: QpScalar> QpSolver<'_, S> {
 #[inline]
 fn back_substitute<S: QpScalar>(lf: &[S], c: usize, x: &mut [S]) {
     for r in (1..x.len()).rev() {
-        let (head, tail) = x.split_at_mut(r);
-        let xr = tail[0];
+        // `r < x.len()`; the checked split keeps the panic path out.
+        let Some((head, tail)) = x.split_at_mut_checked(r) else {
+            continue;
+        };
+        let xr = tail.at(0);
         let row = lf.get(r * c..r * c + r).unwrap_or(&[]);
         for (xi, &l) in head.iter_mut().zip(row) {
             *xi -= l * xr;

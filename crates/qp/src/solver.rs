@@ -140,10 +140,17 @@ pub struct QpSolver<'w, S> {
     pub(crate) pivtol: S,
 }
 
-fn take<'a, T>(buf: &mut &'a mut [T], len: usize) -> &'a mut [T] {
-    let (head, tail) = core::mem::take(buf).split_at_mut(len);
+/// The first `len` entries of `buf`, which keeps the rest (`Dimension`
+/// if it is shorter: [`QpSolver::new`] checked the lengths before).
+fn take<'a, T>(buf: &mut &'a mut [T], len: usize) -> Result<&'a mut [T], QpError> {
+    let whole = core::mem::take(buf);
+    let found = whole.len();
+    let (head, tail) = whole.split_at_mut_checked(len).ok_or(QpError::Dimension {
+        expected: len,
+        found,
+    })?;
     *buf = tail;
-    head
+    Ok(head)
 }
 
 pub(crate) fn check_len(expected: usize, found: usize) -> Result<(), QpError> {
@@ -156,6 +163,53 @@ pub(crate) fn check_len(expected: usize, found: usize) -> Result<(), QpError> {
 
 pub(crate) fn dot<S: QpScalar>(a: &[S], b: &[S]) -> S {
     S::dot(a, b)
+}
+
+/// Reads and writes of the workspace by index without a panic path. Every
+/// index the solver forms is in range by its invariants (the sizes are
+/// checked once, in [`QpSolver::new`]), but the compiler cannot see it and
+/// would link a bounds-check panic into firmware; out of range, a read is
+/// zero and a write does nothing (never reached).
+pub(crate) trait Slots<S> {
+    /// Entry `i`.
+    fn at(&self, i: usize) -> S;
+    /// Sets entry `i`.
+    fn put(&mut self, i: usize, v: S);
+}
+
+impl<S: QpScalar> Slots<S> for [S] {
+    #[inline(always)]
+    fn at(&self, i: usize) -> S {
+        self.get(i).copied().unwrap_or(S::ZERO)
+    }
+    #[inline(always)]
+    fn put(&mut self, i: usize, v: S) {
+        if let Some(x) = self.get_mut(i) {
+            *x = v;
+        }
+    }
+}
+
+/// [`Slots`] for the index workspace (a separate trait: `usize` could be a
+/// `Scalar` as far as the compiler knows).
+pub(crate) trait IndexSlots {
+    /// Entry `i` (0 out of range).
+    fn ix(&self, i: usize) -> usize;
+    /// Sets entry `i`.
+    fn set_ix(&mut self, i: usize, v: usize);
+}
+
+impl IndexSlots for [usize] {
+    #[inline(always)]
+    fn ix(&self, i: usize) -> usize {
+        self.get(i).copied().unwrap_or(0)
+    }
+    #[inline(always)]
+    fn set_ix(&mut self, i: usize, v: usize) {
+        if let Some(x) = self.get_mut(i) {
+            *x = v;
+        }
+    }
 }
 
 impl<'w, S: QpScalar> QpSolver<'w, S> {
@@ -202,27 +256,29 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
         }
         let c = n + 1;
         let mut buf = scalars;
-        let hinv = take(&mut buf, n * n);
-        let gs = take(&mut buf, m * n);
-        let w = take(&mut buf, m * n);
-        let zunc = take(&mut buf, n);
-        let z = take(&mut buf, n);
-        let work = take(&mut buf, n);
-        let lf = take(&mut buf, c * c);
-        let df = take(&mut buf, c);
-        let mu = take(&mut buf, c);
-        let mustar = take(&mut buf, c);
-        let tmp = take(&mut buf, c);
-        let wv = take(&mut buf, c);
-        let rhs = take(&mut buf, c);
-        let fwd = take(&mut buf, c);
+        let hinv = take(&mut buf, n * n)?;
+        let gs = take(&mut buf, m * n)?;
+        let w = take(&mut buf, m * n)?;
+        let zunc = take(&mut buf, n)?;
+        let z = take(&mut buf, n)?;
+        let work = take(&mut buf, n)?;
+        let lf = take(&mut buf, c * c)?;
+        let df = take(&mut buf, c)?;
+        let mu = take(&mut buf, c)?;
+        let mustar = take(&mut buf, c)?;
+        let tmp = take(&mut buf, c)?;
+        let wv = take(&mut buf, c)?;
+        let rhs = take(&mut buf, c)?;
+        let fwd = take(&mut buf, c)?;
         let mut ibuf = indices;
-        let active = take(&mut ibuf, c);
-        let side = take(&mut ibuf, c);
-        let pos = take(&mut ibuf, m + n);
+        let active = take(&mut ibuf, c)?;
+        let side = take(&mut ibuf, c)?;
+        let pos = take(&mut ibuf, m + n)?;
         pos.fill(0);
         z.fill(S::ZERO);
-        gs.copy_from_slice(g);
+        for (o, &v) in gs.iter_mut().zip(g) {
+            *o = v;
+        }
         let mut s = QpSolver {
             n,
             m,
@@ -259,25 +315,25 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
     /// LDL' of `H` into `lf` (as `n x n` scratch), the pivots into `work`.
     fn factor_h(&mut self, h: &[S]) -> Result<(), QpError> {
         let n = self.n;
-        let l = &mut self.lf[..n * n];
+        let l = &mut *self.lf;
         l.fill(S::ZERO);
         for j in 0..n {
-            let mut d = h[j * n + j];
+            let mut d = h.at(j * n + j);
             for k in 0..j {
-                let ljk = l[j * n + k];
-                d -= ljk * ljk * self.work[k];
+                let ljk = l.at(j * n + k);
+                d -= ljk * ljk * self.work.at(k);
             }
             if d <= S::ZERO || !d.is_finite() {
                 return Err(QpError::NotPositiveDefinite);
             }
-            self.work[j] = d;
-            l[j * n + j] = S::ONE;
+            self.work.put(j, d);
+            l.put(j * n + j, S::ONE);
             for i in j + 1..n {
-                let mut v = h[i * n + j];
+                let mut v = h.at(i * n + j);
                 for k in 0..j {
-                    v -= l[i * n + k] * l[j * n + k] * self.work[k];
+                    v -= l.at(i * n + k) * l.at(j * n + k) * self.work.at(k);
                 }
-                l[i * n + j] = v / d;
+                l.put(i * n + j, v / d);
             }
         }
         Ok(())
@@ -292,35 +348,35 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
         for d in self.work.iter_mut() {
             *d = S::ONE / *d;
         }
-        let l = &self.lf[..n * n];
-        for c in 0..n {
-            let x = &mut self.hinv[c * n..(c + 1) * n];
+        let l = &*self.lf;
+        for (c, x) in self.hinv.chunks_exact_mut(n.max(1)).enumerate() {
             // L x = e_c (x_i = 0 above c), scaled by D^-1, then L' x = that
             // for the entries c.. only.
             x.fill(S::ZERO);
-            x[c] = S::ONE;
+            x.put(c, S::ONE);
             for i in c + 1..n {
                 let mut v = S::ZERO;
                 for k in c..i {
-                    v -= l[i * n + k] * x[k];
+                    v -= l.at(i * n + k) * x.at(k);
                 }
-                x[i] = v;
+                x.put(i, v);
             }
             for (xi, &dinv) in x.iter_mut().zip(self.work.iter()).skip(c) {
                 *xi *= dinv;
             }
             for i in (c..n).rev() {
-                let mut v = x[i];
+                let mut v = x.at(i);
                 for k in i + 1..n {
-                    v -= l[k * n + i] * x[k];
+                    v -= l.at(k * n + i) * x.at(k);
                 }
-                x[i] = v;
+                x.put(i, v);
             }
         }
         // Row c holds H^-1[c][c..]: mirror it into the entries above.
         for c in 0..n {
             for i in c + 1..n {
-                self.hinv[i * n + c] = self.hinv[c * n + i];
+                let v = self.hinv.at(c * n + i);
+                self.hinv.put(i * n + c, v);
             }
         }
     }
@@ -328,6 +384,7 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
     /// `w_j = H^-1 g_j`.
     fn transform_rows(&mut self) {
         let n = self.n;
+        let n = n.max(1);
         for (wj, gj) in self.w.chunks_exact_mut(n).zip(self.g.chunks_exact(n)) {
             for (wi, row) in wj.iter_mut().zip(self.hinv.chunks_exact(n)) {
                 *wi = dot(row, gj);
@@ -391,17 +448,18 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
 
     pub(crate) fn bounds(data: &QpData<'_, S>, m: usize, j: usize) -> (S, S) {
         if j < m {
-            (data.l[j], data.u[j])
+            (data.l.at(j), data.u.at(j))
         } else {
-            (data.lb[j - m], data.ub[j - m])
+            (data.lb.at(j - m), data.ub.at(j - m))
         }
     }
 
     /// The current active set, in the order it was built.
     pub fn active_set(&self) -> impl Iterator<Item = ActiveConstraint> + '_ {
-        self.active[..self.count]
+        self.active
             .iter()
-            .zip(self.side[..self.count].iter())
+            .zip(self.side.iter())
+            .take(self.count)
             .map(|(&index, &s)| ActiveConstraint {
                 index,
                 side: if s & 1 == 0 { Side::Lower } else { Side::Upper },
@@ -416,21 +474,21 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
         }
         self.clear();
         for (p, a) in set.iter().enumerate() {
-            if a.index >= self.m + self.n || self.pos[a.index] != 0 {
+            if a.index >= self.m + self.n || self.pos.ix(a.index) != 0 {
                 self.clear();
                 return Err(QpError::InvalidActiveSet);
             }
-            self.active[p] = a.index;
-            self.side[p] = usize::from(a.side == Side::Upper);
-            self.pos[a.index] = p + 1;
+            self.active.set_ix(p, a.index);
+            self.side.set_ix(p, usize::from(a.side == Side::Upper));
+            self.pos.set_ix(a.index, p + 1);
             self.count = p + 1;
         }
         Ok(())
     }
 
     pub(crate) fn clear(&mut self) {
-        for &j in &self.active[..self.count] {
-            self.pos[j] = 0;
+        for &j in self.active.iter().take(self.count) {
+            self.pos.set_ix(j, 0);
         }
         self.count = 0;
         self.fwd_valid = 0;
@@ -484,7 +542,9 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
     /// The solution `z` of the last successful solve into `z` (`n`).
     pub fn solution(&self, z: &mut [S]) -> Result<(), QpError> {
         check_len(self.n, z.len())?;
-        z.copy_from_slice(self.z);
+        for (o, &v) in z.iter_mut().zip(self.z.iter()) {
+            *o = v;
+        }
         Ok(())
     }
 
@@ -495,7 +555,7 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
     pub fn multipliers(&self, out: &mut [S]) -> Result<(), QpError> {
         check_len(self.m + self.n, out.len())?;
         out.fill(S::ZERO);
-        for (&j, &mu) in self.active[..self.count].iter().zip(self.mu.iter()) {
+        for (&j, &mu) in self.active.iter().zip(self.mu.iter()).take(self.count) {
             if let Some(o) = out.get_mut(j) {
                 *o = mu;
             }

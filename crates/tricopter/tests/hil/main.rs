@@ -146,13 +146,9 @@ fn build_firmware(features: &[&str], generic_float: bool) -> PathBuf {
     // The pinned nightly's two AVR miscompilations (docs/avr-qp.md); the
     // firmware's `main` is Rust.
     kestrel_avr_rt::host::assert_no_miscompile(&copy, |f| f == "main");
-    // Run-time code has no panic path (no call into core's panic
-    // functions anywhere in the image). kestrel-qp's solver (the `qp`
-    // law, f32) still indexes its factor with run-time counts: known,
-    // in docs/avr-rt.md ("Panic paths"), not yet removed.
-    if !features.iter().any(|f| *f == "qp" || f.starts_with("qp-")) {
-        kestrel_avr_rt::host::assert_no_panic_path(&copy);
-    }
+    // Run-time code has no panic path: no call into core's panic
+    // functions anywhere in the image (docs/avr-rt.md, "Panic paths").
+    kestrel_avr_rt::host::assert_no_panic_path(&copy);
     copy
 }
 
