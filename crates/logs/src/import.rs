@@ -184,8 +184,10 @@ pub fn import(logs: &[Log], settings: &ImportSettings) -> Result<Imported> {
     if out.experiments.is_empty() {
         let what = match settings.segment {
             SegmentChoice::Airborne => format!(
-                "no airborne segment found (mean motor level above {} of the command range for at least {} s); lower --threshold or import --segment all",
-                settings.airborne.threshold, settings.airborne.min_duration_s
+                "no airborne segment found (mean motor level above {} of the command range for at least {} s once {} s are trimmed from each end); lower --threshold, --min-duration or --trim, or import --segment all",
+                settings.airborne.threshold,
+                settings.airborne.min_duration_s,
+                settings.airborne.trim_s
             ),
             SegmentChoice::All => "no samples common to all the selected signals".into(),
         };

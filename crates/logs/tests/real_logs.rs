@@ -201,3 +201,21 @@ fn segments_do_not_hang_on_the_threshold() {
         }
     }
 }
+
+#[test]
+fn no_segment_left_names_every_setting_that_can_cause_it() {
+    // A trim longer than the flight leaves nothing: the error must point at
+    // --trim as well, not only at the threshold.
+    let logs = read_bytes(&flight("betaflight/btfl_002.bbl"), &ReadOptions::default()).unwrap();
+    let mut s = ImportSettings::default();
+    s.airborne.trim_s = 1e4;
+    let e = import(&logs, &s).unwrap_err().to_string();
+    assert!(
+        e.contains("no airborne segment")
+            && e.contains("10000 s are trimmed")
+            && e.contains("--trim"),
+        "{e}"
+    );
+    s.airborne.trim_s = 0.5;
+    assert!(import(&logs, &s).is_ok());
+}
