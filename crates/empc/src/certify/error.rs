@@ -29,7 +29,8 @@ pub enum CertifyError {
     CrossedBounds {
         /// The constraint (`r3`: general row 3; `b0`: the bound on `z_0`).
         constraint: String,
-        /// The box corner where the bounds cross the most.
+        /// A parameter where they cross (the centre of the largest ball
+        /// inside the crossing part of the set).
         theta: Vec<f64>,
         /// The lower bound there.
         lower: f64,

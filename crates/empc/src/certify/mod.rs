@@ -84,7 +84,7 @@ pub fn certify(
     let set = cold_model
         .parameter_set(&mut geo)
         .ok_or(CertifyError::EmptyParameterSet)?;
-    check_bounds(&cold_model, &mut geo, &set)?;
+    check_bounds(&par, &cold_model, &mut geo, &set)?;
     if settings.merge.is_some() {
         return merge::certify_merged(&par, settings, progress);
     }
@@ -225,7 +225,12 @@ pub fn certify(
 /// Refuses a parameter set in which some constraint's bounds cross
 /// (`l_j(theta) > u_j(theta)` on a piece with an interior, one LP per
 /// constraint with both bounds): the solver refuses those parameters.
-fn check_bounds(model: &Model, geo: &mut Geometry, set: &Poly) -> Result<(), CertifyError> {
+fn check_bounds(
+    par: &ParametricQp,
+    model: &Model,
+    geo: &mut Geometry,
+    set: &Poly,
+) -> Result<(), CertifyError> {
     for j in 0..model.ncons {
         let (Some(lo), Some(hi)) = (&model.lo[j], &model.hi[j]) else {
             continue;
@@ -235,19 +240,13 @@ fn check_bounds(model: &Model, geo: &mut Geometry, set: &Poly) -> Result<(), Cer
         let h = geometry::half(&f, true, geometry::size(lo) + geometry::size(hi));
         if let Some(piece) = geo.restrict(set, &[h]) {
             let theta = model.theta(&piece.centre, 0);
-            let at = |g: &[f64]| {
-                g[model.d]
-                    + g[..model.d]
-                        .iter()
-                        .zip(&piece.centre)
-                        .map(|(a, x)| a * x)
-                        .sum::<f64>()
-            };
+            let at =
+                |a: Option<&kestrel_qp::parametric::Affine>| a.map_or(f64::NAN, |a| a.eval(&theta));
             return Err(CertifyError::CrossedBounds {
                 constraint: constraint_name(j, model.rows),
+                lower: at(par.lower(j)),
+                upper: at(par.upper(j)),
                 theta,
-                lower: at(lo),
-                upper: at(hi),
             });
         }
     }

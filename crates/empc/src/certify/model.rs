@@ -86,14 +86,17 @@ impl Model {
         let half: Vec<f64> = (0..p)
             .map(|k| 0.5 * (par.theta_ub()[k] - par.theta_lb()[k]))
             .collect();
-        let to_s = |a: &Affine| -> Vec<f64> {
-            let mut f = vec![0.0; d + 1];
+        // `a` in the normalised parameter, as a function of `vars` LP
+        // variables (`s` first; the constant last).
+        let normalised = |a: &Affine, vars: usize| -> Vec<f64> {
+            let mut f = vec![0.0; vars + 1];
             for k in 0..p {
                 f[k] = a.e[k] * half[k];
             }
-            f[d] = a.c + a.e.iter().zip(&centre).map(|(e, c)| e * c).sum::<f64>();
+            f[vars] = a.c + a.e.iter().zip(&centre).map(|(e, c)| e * c).sum::<f64>();
             f
         };
+        let to_s = |a: &Affine| normalised(a, d);
         let h = DMatrix::from_row_slice(n, n, par.h());
         let hinv = h.cholesky()?.inverse();
         let g = DMatrix::from_fn(ncons, n, |j, i| par.constraint_row(j)[i]);
@@ -124,15 +127,7 @@ impl Model {
         let equality = (0..ncons)
             .map(|j| matches!((par.lower(j), par.upper(j)), (Some(a), Some(b)) if a == b))
             .collect();
-        let param = par
-            .theta_rows()
-            .iter()
-            .map(|a| {
-                let mut f: Vec<f64> = (0..p).map(|k| a.e[k] * half[k]).collect();
-                f.push(a.c + a.e.iter().zip(&centre).map(|(e, c)| e * c).sum::<f64>());
-                f
-            })
-            .collect();
+        let param = par.theta_rows().iter().map(|a| normalised(a, p)).collect();
         Some(Model {
             n,
             ncons,
