@@ -86,8 +86,9 @@ impl IoData {
             return Err(SysidError::invalid("select at least one output column"));
         }
         let all: Vec<&String> = columns.inputs.iter().chain(&columns.outputs).collect();
-        if let Some(n) = (0..all.len())
-            .map(|k| all[k])
+        if let Some(n) = all
+            .iter()
+            .copied()
             .find(|n| all.iter().filter(|m| *m == n).count() > 1)
         {
             let count = |list: &[String]| list.iter().filter(|c| *c == n).count();
