@@ -189,7 +189,9 @@ impl<S: QpScalar> QpSolver<'_, S> {
         for p in 0..self.count {
             let mu = self.mu.at(p);
             let j = self.active.ix(p);
-            // `wvec(j)`, borrowing the fields alone (z is written).
+            // `wvec(j)`, borrowing the fields alone (z is written). A shared
+            // helper for both was tried: its inlining into the firmware's
+            // `QpLaw::control` met the pinned nightly's AVR bug 2.
             let w = if j < m {
                 self.w.get(j * n..(j + 1) * n)
             } else {
