@@ -62,7 +62,7 @@ fn bench_size<M: Measurement, const N: usize>(
     )
     .expect("design");
     let pwm = d
-        .pwm_tolerance(1.0, AppliedInputs::FirstMove(4))
+        .input_tolerance(1.0, AppliedInputs::FirstMove(4))
         .expect("pwm eps");
     let cert = d.certify(pwm.eps).expect("certify");
     eprintln!(

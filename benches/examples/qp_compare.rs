@@ -343,7 +343,7 @@ fn fgm_data(p: &MpqpProblem, max_error: f64) -> FgmData<f64> {
     .expect("FGM design");
     let first = 4.min(d.n());
     let tol = d
-        .pwm_tolerance(max_error, AppliedInputs::FirstMove(first))
+        .input_tolerance(max_error, AppliedInputs::FirstMove(first))
         .expect("tolerance");
     let cert = d.certify(tol.eps).expect("certificate");
     d.data::<f64>(&cert, None).expect("FGM data")

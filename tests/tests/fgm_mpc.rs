@@ -5,7 +5,7 @@
 //! compare with clarabel at the same theta, not with stored numbers, so a
 //! re-identified model keeps them meaningful). The tolerance is the eps
 //! that keeps the applied move (the first 4 inputs) within 1 us of the
-//! optimum ([`FgmDesign::pwm_tolerance`]).
+//! optimum ([`FgmDesign::input_tolerance`]).
 //!
 //! The sample size is 300 theta per problem by default; the full report is
 //! `KESTREL_FGM_SAMPLES=100000 cargo test --release -p kestrel-tests --test
@@ -62,7 +62,7 @@ fn check(size: ProblemSize) {
     let qp = box_qp(size);
     let d = design(&qp, Preconditioner::OptimalDiagonal);
     // The eps that keeps the applied move within 1 us of the optimum.
-    let pwm = d.pwm_tolerance(1.0, AppliedInputs::FirstMove(4)).unwrap();
+    let pwm = d.input_tolerance(1.0, AppliedInputs::FirstMove(4)).unwrap();
     let eps = pwm.eps;
     assert!(eps >= pwm.eps_eigenvalue);
     let cert = d.certify(eps).unwrap();
@@ -165,7 +165,7 @@ fn preconditioning_on_the_thesis_sized_problem() {
     let jac = design(&qp, Preconditioner::Jacobi);
     let opt = design(&qp, Preconditioner::OptimalDiagonal);
     let eps = none
-        .pwm_tolerance(1.0, AppliedInputs::FirstMove(4))
+        .input_tolerance(1.0, AppliedInputs::FirstMove(4))
         .unwrap()
         .eps;
     let (i0, ij, i1) = (

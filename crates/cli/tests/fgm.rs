@@ -65,6 +65,74 @@ fn certify_prints_iterations_l_mu_and_preconditioner() {
     assert!(v2["iterations"].as_u64() <= v["iterations"].as_u64());
 }
 
+/// `--input-error E`: `input_tolerance` is the eps `E^2 / (2 max_j
+/// (H^-1)_jj)` over the applied inputs, checked against the closed form of
+/// BOX's `H = [[4, 1], [1, 2]]` (`H^-1 = [[2, -1], [-1, 4]] / 7`), beside the
+/// unchanged one-unit `pwm_1us`, each with its row in the table.
+#[test]
+fn input_error_sets_the_input_tolerance() {
+    let p = temp_file("box-input-error.json", BOX);
+    let (ok, out, err) = run(&[
+        "fgm",
+        "certify",
+        "--problem",
+        p.to_str().unwrap(),
+        "--eps",
+        "1e-6",
+        "--input-error",
+        "2",
+    ]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let close = |x: &serde_json::Value, want: f64| {
+        let x = x.as_f64().unwrap();
+        assert!((x - want).abs() <= 1e-12 * want, "{x} != {want}");
+    };
+    // All variables: the largest (H^-1)_jj is 4/7.
+    close(&v["input_tolerance"]["eps"], 4.0 / (2.0 * 4.0 / 7.0));
+    close(&v["pwm_1us"]["eps"], 1.0 / (2.0 * 4.0 / 7.0));
+    assert_eq!(v["input_tolerance"]["max_input_error"], 2.0);
+    assert_eq!(v["input_tolerance"]["worst_variable"], 1);
+    let table = v["eps_table"].as_array().unwrap();
+    assert_eq!(table.len(), 6);
+    assert_eq!(table[4]["pwm_error"], 1.0);
+    assert_eq!(table[5]["input_error"], 2.0);
+    assert_eq!(table[5]["eps"], v["input_tolerance"]["eps"]);
+    assert_eq!(table[5]["iterations"], v["input_tolerance"]["iterations"]);
+    // A looser input tolerance never needs more iterations.
+    assert!(table[5]["iterations"].as_u64() <= table[4]["iterations"].as_u64());
+    // The first variable only: (H^-1)_00 = 2/7.
+    let (ok, out, err) = run(&[
+        "fgm",
+        "certify",
+        "--problem",
+        p.to_str().unwrap(),
+        "--eps",
+        "1e-6",
+        "--input-error",
+        "2",
+        "--applied-inputs",
+        "1",
+    ]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    close(&v["input_tolerance"]["eps"], 4.0 / (2.0 * 2.0 / 7.0));
+    for bad in ["0", "-1", "nan", "inf"] {
+        fails_with(
+            &[
+                "certify",
+                "--problem",
+                p.to_str().unwrap(),
+                "--eps",
+                "1e-6",
+                "--input-error",
+                bad,
+            ],
+            "--input-error",
+        );
+    }
+}
+
 #[test]
 fn help_says_what_goes_in_and_comes_out() {
     let (ok, out, err) = run(&["fgm", "certify", "--help"]);
@@ -74,6 +142,8 @@ fn help_says_what_goes_in_and_comes_out() {
         "iterations",
         "eps_table",
         "pwm_1us",
+        "input_tolerance",
+        "--input-error",
         "--applied-inputs",
     ] {
         assert!(

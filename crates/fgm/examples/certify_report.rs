@@ -71,7 +71,7 @@ fn report(name: &str, prob: &MpqpProblem, samples: usize) {
     let mu_h = d.preconditioning.before.mu;
     // 1 us on every input (these problems have no designated first move).
     let eps_pwm = d
-        .pwm_tolerance(1.0, kestrel_fgm::AppliedInputs::All)
+        .input_tolerance(1.0, kestrel_fgm::AppliedInputs::All)
         .expect("pwm tolerance")
         .eps;
     print!("eps table:");

@@ -26,9 +26,9 @@ pub mod reference;
 
 #[cfg(feature = "std")]
 pub use design::{
-    AppliedInputs, Certificate, FgmData, FgmDesign, FgmSettings, MAX_ITERATION_BOUND, Momentum,
-    MomentumScheme, PwmTolerance, RecommendedStart, RoundingBound, WarmCertificate,
-    WarmStartAssumption,
+    AppliedInputs, Certificate, FgmData, FgmDesign, FgmSettings, InputTolerance,
+    MAX_ITERATION_BOUND, Momentum, MomentumScheme, RecommendedStart, RoundingBound,
+    WarmCertificate, WarmStartAssumption,
 };
 #[cfg(feature = "std")]
 pub use error::FgmError;
@@ -41,7 +41,7 @@ pub use precond::{Preconditioner, Preconditioning, Spectrum};
 #[cfg(feature = "std")]
 pub use problem::{Bounds, BoxQp};
 
-/// The PWM tolerance helper: the `eps` on `J - J*` that keeps every input
+/// The input tolerance in its eigenvalue form: the `eps` on `J - J*` that keeps every input
 /// within `max_error` of the optimum, `eps = mu_H / 2 * max_error^2`
 /// (strong convexity: `|z - z*|_inf <= |z - z*|_2 <= sqrt(2 (J - J*) / mu_H)`).
 #[cfg(feature = "std")]

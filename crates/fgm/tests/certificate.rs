@@ -259,12 +259,12 @@ fn cold_delta_is_the_vertex_maximum_of_the_quadratic_bound() {
     assert!(cert.delta <= 0.25 * cert.delta_richter * (1.0 + 1e-12));
 }
 
-/// The PWM tolerance: the closed form for a diagonal `H` (`eps = e^2
+/// The input tolerance: the closed form for a diagonal `H` (`eps = e^2
 /// min_j h_jj / 2`), tight (a point with `J - J* = eps` has an input error
 /// of exactly `e`), never below the eigenvalue form, and refused for a
 /// singular `H` or a bad selection.
 #[test]
-fn pwm_tolerance_is_the_closed_form_and_tight() {
+fn input_tolerance_is_the_closed_form_and_tight() {
     use kestrel_core::formats::MpqpProblem;
     use kestrel_fgm::AppliedInputs;
     let diag = MpqpProblem::from_json_str(
@@ -275,16 +275,16 @@ fn pwm_tolerance_is_the_closed_form_and_tight() {
     )
     .unwrap();
     let d = FgmDesign::new(BoxQp::from_mpqp(&diag).unwrap(), FgmSettings::default()).unwrap();
-    let first = d.pwm_tolerance(2.0, AppliedInputs::FirstMove(1)).unwrap();
+    let first = d.input_tolerance(2.0, AppliedInputs::FirstMove(1)).unwrap();
     assert!((first.eps - 4.0 * 4.0 / 2.0).abs() < 1e-9, "{}", first.eps);
-    let all = d.pwm_tolerance(2.0, AppliedInputs::All).unwrap();
+    let all = d.input_tolerance(2.0, AppliedInputs::All).unwrap();
     assert_eq!(all.worst_variable, 1);
     assert!((all.eps - 4.0 * 0.5 / 2.0).abs() < 1e-9);
     assert!((all.eps_eigenvalue - all.eps).abs() < 1e-9);
     // Tight on a coupled H: z = z* + t H^-1 e_j with J - J* = eps moves z_j by e.
     let prob = mpc_problem(4, 3, 2, 2);
     let d = FgmDesign::new(BoxQp::from_mpqp(&prob).unwrap(), FgmSettings::default()).unwrap();
-    let tol = d.pwm_tolerance(1.0, AppliedInputs::FirstMove(2)).unwrap();
+    let tol = d.input_tolerance(1.0, AppliedInputs::FirstMove(2)).unwrap();
     assert!(tol.eps >= tol.eps_eigenvalue);
     let h = &d.problem.h;
     let hinv = h.clone().try_inverse().unwrap();
@@ -309,10 +309,10 @@ fn pwm_tolerance_is_the_closed_form_and_tight() {
             assert!((0..2).all(|i| (z[i] - best.z[i]).abs() <= 1.0 + 1e-6));
         }
     }
-    assert!(d.pwm_tolerance(0.0, AppliedInputs::All).is_err());
-    assert!(d.pwm_tolerance(1.0, AppliedInputs::FirstMove(0)).is_err());
+    assert!(d.input_tolerance(0.0, AppliedInputs::All).is_err());
+    assert!(d.input_tolerance(1.0, AppliedInputs::FirstMove(0)).is_err());
     assert!(
-        d.pwm_tolerance(1.0, AppliedInputs::FirstMove(d.n() + 1))
+        d.input_tolerance(1.0, AppliedInputs::FirstMove(d.n() + 1))
             .is_err()
     );
     let mut singular = diag.clone();
@@ -322,5 +322,5 @@ fn pwm_tolerance_is_the_closed_form_and_tight() {
         ..FgmSettings::default()
     };
     let d = FgmDesign::new(BoxQp::from_mpqp(&singular).unwrap(), none).unwrap();
-    assert!(d.pwm_tolerance(1.0, AppliedInputs::All).is_err());
+    assert!(d.input_tolerance(1.0, AppliedInputs::All).is_err());
 }

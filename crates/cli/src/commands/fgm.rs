@@ -33,9 +33,11 @@ pub enum FgmCommand {
     /// for a cold start at the box centre), `L`, `mu`, `condition` of the
     /// scaled Hessian, `preconditioner` with `before`/`after` spectra,
     /// `delta` (and Richter's `delta_richter`), `eps_table` (eps 1e5, 1e4,
-    /// 1e3, 1e2 and the PWM eps, each with its certified iterations),
-    /// `pwm_1us` (the eps that keeps the applied inputs within 1 us of the
-    /// optimum, computed from diag(H^-1), and its iterations), `rounding`
+    /// 1e3, 1e2 and the input-error eps, each with its certified
+    /// iterations), `input_tolerance` (the eps that keeps the applied inputs
+    /// within `--input-error` of the optimum, computed from diag(H^-1), and
+    /// its iterations), `pwm_1us` (the same for an error of 1 problem unit,
+    /// 1 us for the tricopter's pulse widths), `rounding`
     /// (f32 and Q16 error bounds) and, with `--theta-step`, `warm` (the
     /// warm-start certificate). `linear_bound` (null if mu = 0) and
     /// `sublinear_bound` are null when beyond 2^53 iterations (with a
@@ -120,9 +122,15 @@ pub struct CertifyArgs {
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     pub theta_step: Option<Vec<f64>>,
     /// How many leading variables are the applied inputs (the first move)
-    /// for the PWM tolerance (`pwm_1us`); default: all variables.
+    /// for the input tolerance (`input_tolerance`, `pwm_1us`); default: all
+    /// variables.
     #[arg(long)]
     pub applied_inputs: Option<usize>,
+    /// The largest error of an applied input the `input_tolerance` eps
+    /// allows, in the problem's units (positive; 1 is 1 us for the
+    /// tricopter's pulse widths).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub input_error: f64,
     /// Write the firmware tables as a Rust `static` to this file.
     #[arg(long)]
     pub export: Option<PathBuf>,
@@ -202,6 +210,12 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
             j + 1
         );
     }
+    if !(a.input_error.is_finite() && a.input_error > 0.0) {
+        bail!(
+            "--input-error {}: the largest error of an applied input must be a positive number (in the problem's units)",
+            a.input_error
+        );
+    }
     let d = load(&a.problem, a.preconditioner, momentum)?;
     if let Some(k) = a.applied_inputs.filter(|&k| k == 0 || k > d.n()) {
         bail!(
@@ -221,16 +235,31 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
         .iter()
         .map(|c| json!({"eps": c.eps, "iterations": c.iterations}))
         .collect();
-    let pwm = match d.pwm_tolerance(1.0, applied) {
-        Ok(t) => {
-            let c = d.certify(t.eps)?;
-            table.push(json!({"eps": t.eps, "iterations": c.iterations, "pwm_error": 1.0}));
-            json!({"max_input_error": 1.0, "eps": t.eps, "iterations": c.iterations,
-                   "applied_inputs": a.applied_inputs.unwrap_or(d.n()),
-                   "worst_variable": t.worst_variable, "h_inv_diag": t.h_inv_diag,
-                   "eps_eigenvalue": t.eps_eigenvalue})
-        }
-        Err(e) => json!({"max_input_error": 1.0, "eps": null, "note": e.to_string()}),
+    // The eps for an input error of one unit (`pwm_1us`, kept as it was)
+    // and for `--input-error` (`input_tolerance`), each in the table.
+    let mut tolerance = |error: f64| -> anyhow::Result<Value> {
+        Ok(match d.input_tolerance(error, applied) {
+            Ok(t) => {
+                let c = d.certify(t.eps)?;
+                let mut row =
+                    json!({"eps": t.eps, "iterations": c.iterations, "input_error": error});
+                if error == 1.0 {
+                    row["pwm_error"] = json!(1.0);
+                }
+                table.push(row);
+                json!({"max_input_error": error, "eps": t.eps, "iterations": c.iterations,
+                       "applied_inputs": a.applied_inputs.unwrap_or(d.n()),
+                       "worst_variable": t.worst_variable, "h_inv_diag": t.h_inv_diag,
+                       "eps_eigenvalue": t.eps_eigenvalue})
+            }
+            Err(e) => json!({"max_input_error": error, "eps": null, "note": e.to_string()}),
+        })
+    };
+    let pwm = tolerance(1.0)?;
+    let input = if a.input_error == 1.0 {
+        pwm.clone()
+    } else {
+        tolerance(a.input_error)?
     };
     let rounding = |b: Option<kestrel_fgm::RoundingBound>| match b {
         Some(b) => json!({"cost_bound": b.cost_bound, "distance_bound": b.distance_bound,
@@ -260,6 +289,7 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
         // normalised so the scaled iterates use the range of fixed point).
         "after": {"L": cert.l, "mu": cert.mu, "condition": cert.condition},
         "eps_table": table,
+        "input_tolerance": input,
         "pwm_1us": pwm,
         "rounding": {
             "f32": rounding(d.rounding_bound::<f32>(&cert)),

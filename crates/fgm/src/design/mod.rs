@@ -127,15 +127,15 @@ pub enum AppliedInputs {
     /// Every decision variable (all blocked moves).
     All,
     /// The first `nu` variables: the move applied to the aircraft (the
-    /// first block of an MPC problem; 4 for the tricopter).
+    /// first block of an MPC problem).
     FirstMove(usize),
 }
 
 /// The tolerance on `J - J*` that keeps the selected inputs within
-/// `max_error` of the optimum (see [`FgmDesign::pwm_tolerance`]).
+/// `max_error` of the optimum (see [`FgmDesign::input_tolerance`]).
 #[derive(Clone, Debug, PartialEq)]
-pub struct PwmTolerance {
-    /// The allowed input error (problem units, e.g. us of PWM).
+pub struct InputTolerance {
+    /// The allowed input error (in the problem's units).
     pub max_error: f64,
     /// `eps = max_error^2 / (2 max_j (H^-1)_jj)` over the selected `j`.
     pub eps: f64,
@@ -571,7 +571,8 @@ impl FgmDesign {
     }
 
     /// The tolerance on `J - J*` that keeps the selected inputs within
-    /// `max_error` of the optimum (e.g. 1 us of PWM), computed from `H`.
+    /// `max_error` of the optimum (in the problem's units, e.g. one
+    /// microsecond of a pulse width), computed from `H`.
     ///
     /// For a feasible `z` and the optimum `z*` over the box,
     /// `J(z) - J* >= grad J(z*)'(z - z*) + 1/2 (z - z*)'H(z - z*)` and the
@@ -586,11 +587,11 @@ impl FgmDesign {
     /// [`FgmError::InvalidSetting`] for a non-positive or non-finite
     /// `max_error`, an empty or too large selection, or a singular `H`
     /// (then no `eps` bounds the input error).
-    pub fn pwm_tolerance(
+    pub fn input_tolerance(
         &self,
         max_error: f64,
         applied: AppliedInputs,
-    ) -> Result<PwmTolerance, FgmError> {
+    ) -> Result<InputTolerance, FgmError> {
         if !(max_error.is_finite() && max_error > 0.0) {
             return Err(FgmError::InvalidSetting(format!(
                 "the input error must be positive and finite, got {max_error}"
@@ -621,7 +622,7 @@ impl FgmDesign {
         let (worst_variable, h_inv_diag) = (0..count)
             .map(|j| (j, inv[(j, j)]))
             .fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
-        Ok(PwmTolerance {
+        Ok(InputTolerance {
             max_error,
             eps: max_error * max_error / (2.0 * h_inv_diag),
             worst_variable,
