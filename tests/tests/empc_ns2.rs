@@ -26,7 +26,7 @@ fn ns2_problem() -> MpqpProblem {
     let model = blackbox_model();
     let (q1, q2) = default_weights();
     let settings = MpcSettings {
-        blocking: Some(Blocking::thesis(2, 2).unwrap()),
+        blocking: Some(Blocking::control_horizon(2, 2).unwrap()),
         ..ProblemSize::Thesis.settings(q1, q2)
     };
     let trim = tricopter_trim(&model).unwrap();

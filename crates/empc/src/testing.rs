@@ -2,7 +2,8 @@
 //!
 //! These are deliberately simple (a stable random system, output tracking
 //! with a constant reference, box-bounded inputs, optional move blocking
-//! and a throttle that shifts some input bounds, as in the thesis's (6.7)).
+//! and a parameter that shifts some input bounds, as the thesis's throttle
+//! does in its (6.7)).
 //! The condensing is kestrel-mpc's ([`MpcProblem::build`], then
 //! [`MpcProblem::to_mpqp`]); this module only chooses the data and applies
 //! two rewrites of the resulting `kestrel.mpqp.v1` problem:
@@ -41,11 +42,12 @@ pub struct MpcSpec {
     pub u_lo: Vec<f64>,
     /// Input upper bounds (`nu`).
     pub u_hi: Vec<f64>,
-    /// Inputs whose bounds are shifted by the throttle parameter (as in (6.7));
-    /// empty: no throttle parameter.
-    pub throttle_inputs: Vec<usize>,
-    /// Range of the throttle parameter.
-    pub throttle_range: (f64, f64),
+    /// Inputs whose bounds move by -1 per unit of the shift parameter (the
+    /// last entry of `theta`, as the thesis's throttle in (6.7)); empty: no
+    /// shift parameter.
+    pub shifted_inputs: Vec<usize>,
+    /// Range of the shift parameter.
+    pub shift_range: (f64, f64),
     /// Symmetric bound of every state parameter.
     pub x_bound: f64,
     /// Symmetric bound of every reference parameter.
@@ -70,8 +72,8 @@ pub fn random_system(nx: usize, nu: usize, ny: usize, rho: f64, seed: u64) -> Mp
         free_moves: 2,
         u_lo: vec![-1.0; nu],
         u_hi: vec![1.0; nu],
-        throttle_inputs: Vec::new(),
-        throttle_range: (0.0, 0.0),
+        shifted_inputs: Vec::new(),
+        shift_range: (0.0, 0.0),
         x_bound: 2.0,
         ref_bound: 1.0,
     }
@@ -79,7 +81,7 @@ pub fn random_system(nx: usize, nu: usize, ny: usize, rho: f64, seed: u64) -> Mp
 
 impl MpcSpec {
     /// Condenses into `kestrel.mpqp.v1` with kestrel-mpc: `theta = [x; r;
-    /// throttle]`, `z` = the `Ns` free moves, the cost
+    /// shift]`, `z` = the `Ns` free moves, the cost
     /// `sum_{j=1..N} q/2 |y_j - r|^2 + sum_{k=0..N-1} r/2 |u_k|^2`
     /// ([`Terminal::StageWeight`]), the bounds written once per step (see
     /// the module documentation).
@@ -106,10 +108,10 @@ impl MpcSpec {
             DVector::from_column_slice(&self.u_hi),
         );
         let mut parameters = Vec::new();
-        if !self.throttle_inputs.is_empty() {
-            // (6.7): the bounds of a throttle input move by -1 per unit throttle.
+        if !self.shifted_inputs.is_empty() {
+            // (6.7): the bounds of a shifted input move by -1 per unit shift.
             let coupling = DMatrix::from_fn(nu, 1, |i, _| {
-                if self.throttle_inputs.contains(&i) {
+                if self.shifted_inputs.contains(&i) {
                     -1.0
                 } else {
                     0.0
@@ -117,16 +119,16 @@ impl MpcSpec {
             });
             bounds = bounds.shifted(coupling);
             parameters.push(Parameter::new(
-                "throttle",
-                self.throttle_range.0,
-                self.throttle_range.1,
+                "shift",
+                self.shift_range.0,
+                self.shift_range.1,
             ));
         }
         let horizon = self.horizon.max(1);
         let settings = MpcSettings {
             horizon,
             blocking: Some(
-                Blocking::thesis(horizon, self.free_moves.clamp(1, horizon))
+                Blocking::control_horizon(horizon, self.free_moves.clamp(1, horizon))
                     .expect("1 <= Ns <= N by the clamp"),
             ),
             q1: Weight::Scalar(self.q),
@@ -186,15 +188,15 @@ fn fix_parameters_at_zero(mpqp: &mut MpqpProblem, start: usize, len: usize) {
 }
 
 /// A thesis-sized problem: 5 states, 4 inputs, 3 tracked outputs, a
-/// throttle shifting the bounds of inputs 0..3, `N = 2`, `Ns = 1`:
-/// 9 parameters, 4 variables (scaled units: inputs in [-1, 1] around the
-/// throttle, throttle in [-0.3, 0.3]).
+/// shift parameter moving the bounds of inputs 0..3 (as the thesis's
+/// throttle), `N = 2`, `Ns = 1`: 9 parameters, 4 variables (scaled units:
+/// inputs in [-1, 1] around the shift, the shift in [-0.3, 0.3]).
 pub fn thesis_sized(seed: u64) -> MpqpProblem {
     let mut s = random_system(5, 4, 3, 0.95, seed);
     s.horizon = 2;
     s.free_moves = 1;
-    s.throttle_inputs = vec![0, 1, 2];
-    s.throttle_range = (-0.3, 0.3);
+    s.shifted_inputs = vec![0, 1, 2];
+    s.shift_range = (-0.3, 0.3);
     s.x_bound = 1.0;
     s.ref_bound = 1.0;
     s.condense()
@@ -211,8 +213,8 @@ pub fn scaled_thesis(seed: u64, horizon: usize, free_moves: usize) -> MpqpProble
     let mut s = random_system(5, 4, 3, 0.95, seed);
     s.horizon = horizon;
     s.free_moves = free_moves;
-    s.throttle_inputs = vec![0, 1, 2];
-    s.throttle_range = (-0.3, 0.3);
+    s.shifted_inputs = vec![0, 1, 2];
+    s.shift_range = (-0.3, 0.3);
     s.condense()
 }
 
@@ -238,8 +240,8 @@ mod tests {
         let mut s = random_system(2, 2, 1, 0.9, 7);
         s.horizon = 6;
         s.free_moves = 3;
-        s.throttle_inputs = vec![1];
-        s.throttle_range = (-0.2, 0.2);
+        s.shifted_inputs = vec![1];
+        s.shift_range = (-0.2, 0.2);
         let p = s.condense();
         assert_eq!((p.n(), p.m(), p.p()), (6, 2 * 6 * 2, 2 + 1 + 1));
         p.validate().unwrap();
@@ -254,7 +256,7 @@ mod tests {
                 }
             }
         }
-        // Upper rows select +z, lower rows -z; the throttle moves input 1 only.
+        // Upper rows select +z, lower rows -z; the shift moves input 1 only.
         assert_eq!(p.g[(half - 1, 5)], 1.0);
         assert_eq!(p.g[(2 * half - 1, 5)], -1.0);
         assert_eq!(

@@ -116,7 +116,7 @@ pub enum Terminal {
 ///
 /// ```
 /// use kestrel_mpc::Blocking;
-/// assert_eq!(Blocking::thesis(10, 3).unwrap().lengths(), &[1, 1, 8]);
+/// assert_eq!(Blocking::control_horizon(10, 3).unwrap().lengths(), &[1, 1, 8]);
 /// assert_eq!(Blocking::none(3).lengths(), &[1, 1, 1]);
 /// assert!(Blocking::new(vec![1, 0]).is_err());
 /// ```
@@ -141,9 +141,13 @@ impl Blocking {
     pub fn none(horizon: usize) -> Self {
         Blocking(vec![1; horizon])
     }
-    /// The thesis's `N_s` (6.24): free moves at steps `0..N_s-1`, then
-    /// constant to the end of the horizon `N`.
-    pub fn thesis(horizon: usize, ns: usize) -> Result<Self, MpcError> {
+    /// A control horizon of `ns` moves (MATLAB's `ControlHorizon`, the
+    /// thesis's `N_s` (6.24)): free moves at steps `0..ns-1`, the last one
+    /// held to the end of the horizon.
+    ///
+    /// # Errors
+    /// [`MpcError::InvalidSetting`] unless `1 <= ns <= horizon`.
+    pub fn control_horizon(horizon: usize, ns: usize) -> Result<Self, MpcError> {
         if ns == 0 || ns > horizon {
             return Err(MpcError::setting(
                 "Ns",

@@ -17,7 +17,7 @@ use std::fmt::Write as _;
 pub fn ns2_problem(model: &SsModel) -> Result<MpqpProblem, DesignError> {
     let (q1, q2) = default_weights();
     let settings = MpcSettings {
-        blocking: Some(Blocking::thesis(2, 2)?),
+        blocking: Some(Blocking::control_horizon(2, 2)?),
         ..ProblemSize::Thesis.settings(q1, q2)
     };
     let trim = tricopter_trim(model)?;
