@@ -230,6 +230,27 @@ fn malformed_design_files_are_refused_with_a_reason() {
     assert!(!ok && err.contains("zero iterations"), "{err}");
 }
 
+/// A model whose inputs are not the tricopter's (a quadrotor's four
+/// motors) is exported as asked, with a note saying how the example
+/// firmware drives them; the tricopter's own model gets no note.
+#[test]
+fn other_input_names_are_noted() {
+    let (ok, _, err) = kestrel(&["export", "--model", &fixture()]);
+    assert!(ok, "{err}");
+    assert!(!err.contains("note:"), "{err}");
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(fixture()).unwrap()).unwrap();
+    v["inputs"] = serde_json::json!(["m1", "m2", "m3", "m4"]);
+    let m = write("quad_names.json", &v.to_string());
+    let (ok, out, err) = kestrel(&["export", "--model", &m]);
+    assert!(ok, "{err}");
+    assert!(out.contains("pub const NX: usize"));
+    assert!(
+        err.contains("note:") && err.contains("m1, m2, m3, m4") && err.contains("tail servo"),
+        "{err}"
+    );
+}
+
 #[test]
 fn help_says_what_goes_in_and_out() {
     let (ok, out, _) = kestrel(&["export", "--help"]);

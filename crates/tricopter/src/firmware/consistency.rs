@@ -224,7 +224,13 @@ pub fn check_problem(
     let nx = estimator.nx();
     let p = problem.problem.p();
     if p != nx + NR {
-        let hint = if p > NR {
+        let fingerprint_matches = problem
+            .model_fingerprint
+            .as_ref()
+            .is_some_and(|f| *f == MpqpProblem::model_fingerprint(estimator));
+        let hint = if p + 1 == nx + NR && fingerprint_matches {
+            "; it was built on this model without the throttle, the example firmware's last parameter (theta = [x; p_ref, q_ref, r_ref; throttle])".to_string()
+        } else if p > NR {
             format!(
                 "; the problem is for {} states{}",
                 p - NR,

@@ -111,3 +111,61 @@ fn new_refuses_a_filter_of_another_model_of_the_same_size() {
     assert_eq!((first, second), (DesignPart::Kalman, DesignPart::Model));
     assert!(detail.contains("A[0][0]"), "{detail}");
 }
+
+/// A problem built on the model without the throttle parameter (a plain
+/// input box, as `kestrel mpc` builds without `--tricopter`) is named as
+/// such, not as a problem for one state fewer.
+#[test]
+fn a_problem_without_the_throttle_is_named() {
+    let m = model();
+    let kalman = crate::closed_loop::kalman_design(&m).unwrap();
+    let (q1, q2) = default_weights();
+    let mut problem = crate::tricopter_problem(&m, ProblemSize::Thesis, q1, q2)
+        .unwrap()
+        .to_mpqp();
+    // Drop the throttle, the last parameter.
+    let p = problem.p();
+    problem.f_theta = problem.f_theta.remove_row(p - 1);
+    problem.e = problem.e.remove_column(p - 1);
+    problem.theta_lb = problem.theta_lb.remove_row(p - 1);
+    problem.theta_ub = problem.theta_ub.remove_row(p - 1);
+    problem.validate().unwrap();
+    let file = ProblemFile {
+        problem,
+        model_fingerprint: Some(MpqpProblem::model_fingerprint(&m)),
+    };
+    let settings = DesignSettings::default();
+    let e = FirmwareDesign::from_parts(&m, Some(kalman.clone()), Some(file.clone()), &settings)
+        .unwrap_err();
+    let (first, second, detail) = mismatch(e);
+    assert_eq!((first, second), (DesignPart::Problem, DesignPart::Kalman));
+    assert!(detail.contains("without the throttle"), "{detail}");
+    // Without the fingerprint it could as well be a problem for one state
+    // fewer: the sizes are all that is said.
+    let old = ProblemFile {
+        model_fingerprint: None,
+        ..file
+    };
+    let e = FirmwareDesign::from_parts(&m, Some(kalman), Some(old), &settings).unwrap_err();
+    let detail = mismatch(e).2;
+    assert!(
+        !detail.contains("without the throttle") && detail.contains("for 4 states"),
+        "{detail}"
+    );
+}
+
+/// A trim beyond Q15.16 (a model whose inputs are not in microseconds)
+/// is refused naming the table entry.
+#[test]
+fn a_trim_beyond_fixed_point_names_the_mixer_entry() {
+    let mut m = model();
+    m.u0 = m.u0.map(|u0| u0.add_scalar(40_000.0));
+    let e = FirmwareDesign::from_model(&m, &DesignSettings::default())
+        .and_then(|d| crate::firmware::generate_tables(&d))
+        .unwrap_err();
+    let text = e.to_string();
+    assert!(
+        text.contains("MIX_OFFSET[") && text.contains("does not fit Q15.16"),
+        "{text}"
+    );
+}

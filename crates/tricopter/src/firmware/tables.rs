@@ -26,6 +26,18 @@ pub(super) fn layout(n: usize, p: usize, t: usize) -> Vec<(&'static str, usize)>
     ]
 }
 
+/// The name of entry `index` of the flat table, `PART[k]`, from [`layout`].
+pub(super) fn part_at(parts: &[(&'static str, usize)], index: usize) -> String {
+    let mut start = 0;
+    for &(name, len) in parts {
+        if index < start + len {
+            return format!("{name}[{}]", index - start);
+        }
+        start += len;
+    }
+    format!("entry {index}")
+}
+
 /// The flat table in the order of [`layout`].
 pub(super) fn flat<S: Scalar>(d: &FirmwareDesign, data: &FgmData<S>) -> Vec<S> {
     let mut v: Vec<S> = data.view().parts().concat();
@@ -65,12 +77,22 @@ pub fn generate_tables(d: &FirmwareDesign) -> Result<String, DesignError> {
     let f = flat(d, &d.data_f32);
     let q = flat(d, &d.data_q16);
     let exact = flat(d, &d.data_f64);
-    if let Some(bad) = exact.iter().find(|v| !v.is_finite() || v.abs() >= 32768.0) {
+    let parts = layout(n, p, t);
+    if let Some(i) = exact
+        .iter()
+        .position(|v| !v.is_finite() || v.abs() >= 32768.0)
+    {
         return Err(DesignError::Unsupported(format!(
-            "table value {bad} does not fit Q15.16"
+            "table value {} at {} does not fit Q15.16 (|v| < 32768; the firmware runs the tables in fixed point too): {}",
+            exact[i],
+            part_at(&parts, i),
+            if part_at(&parts, i).starts_with("MIX_OFFSET") {
+                "the mixer trim is the model's u0, which the example firmware takes in microseconds of pulse width"
+            } else {
+                "rescale the model's inputs or outputs, or soften the weights, so that the solver's data stay below 32768"
+            }
         )));
     }
-    let parts = layout(n, p, t);
     let total: usize = parts.iter().map(|(_, l)| l).sum();
     if total != f.len() {
         return Err(dim("table layout", total, f.len()));
