@@ -175,20 +175,26 @@ pub fn dare_with(
         .ok_or(KalmanError::NotPositiveDefinite { name: "R" })?;
 
     // Remove the cross term.
-    let (a_t, q_t) = match s {
+    // `q_t` is tested up to the size of what formed it: with perfectly
+    // correlated noise (an innovations model, `Q = S = R`) it is zero up to
+    // the rounding of `S R^-1 S'`, which must not read as indefinite.
+    let (a_t, q_t, scale) = match s {
         Some(s) => {
             let rinv_st = r_chol.solve(&s.transpose()); // m x n
             let a_t = a - b * &rinv_st;
-            let mut q_t = &q - s * &rinv_st;
+            let removed = s * &rinv_st;
+            let mut q_t = &q - &removed;
             symmetrize(&mut q_t);
-            (a_t, q_t)
+            let scale = q.norm() + removed.norm();
+            (a_t, q_t, scale)
         }
-        None => (a.clone(), q.clone()),
+        None => (a.clone(), q.clone(), q.norm()),
     };
     check_psd(
         if s.is_some() { "[Q S; S' R]" } else { "Q" },
         &q_t,
         settings.symmetry_tolerance,
+        scale,
     )?;
     let rinv_bt = r_chol.solve(&b.transpose());
     let mut g = b * rinv_bt;
@@ -597,11 +603,17 @@ pub(crate) fn symmetrized(
     Ok(s)
 }
 
-/// Positive semidefiniteness up to `tol ||M||`, by a Cholesky attempt of
+/// Positive semidefiniteness up to `tol max(||M||, scale)` (`scale`: the
+/// size of the matrices `M` was computed from), by a Cholesky attempt of
 /// the shifted matrix (cheap); the eigenvalue is computed only for the message.
-pub(crate) fn check_psd(name: &'static str, m: &DMatrix<f64>, tol: f64) -> Result<(), KalmanError> {
+pub(crate) fn check_psd(
+    name: &'static str,
+    m: &DMatrix<f64>,
+    tol: f64,
+    scale: f64,
+) -> Result<(), KalmanError> {
     let n = m.nrows();
-    let norm = m.norm();
+    let norm = m.norm().max(scale);
     if n == 0 || norm == 0.0 {
         return Ok(());
     }

@@ -1,6 +1,6 @@
 //! Tests of `dare`, `dlqr` and `dlqe` against an independent solver.
 
-use crate::testutil::{Kind, random_problem, reference_dare};
+use crate::testutil::{Kind, Rng, random_problem, reference_dare};
 use crate::{DareSettings, KalmanError, dare, dare_with, dlqe, dlqr};
 use nalgebra::{DMatrix, dmatrix};
 use proptest::prelude::*;
@@ -251,6 +251,33 @@ fn rejects_bad_input() {
         dare(&a, &b, &q, &r, Some(&dmatrix![2.0; 0.0])),
         Err(KalmanError::NotPositiveSemidefinite { .. })
     ));
+}
+
+/// `[Q S; S' R]` of rank `m` (perfectly correlated noise, `Q = S R^-1 S'`,
+/// as in an innovations model) is semidefinite: `Q - S R^-1 S'` is zero up
+/// to rounding, at every scale, and is accepted; a little more `S` is not.
+#[test]
+fn perfectly_correlated_noise_is_semidefinite() {
+    let a = dmatrix![0.9, 0.2; -0.1, 0.7];
+    let b = dmatrix![0.3; 0.7];
+    let mut rng = Rng::new(5);
+    for scale in [1e-12, 1e-6, 1.0, 1e6] {
+        for _ in 0..20 {
+            let s = rng.matrix(2, 1) * scale;
+            let r = dmatrix![0.37] * scale;
+            let mut q = &s * r.clone().try_inverse().unwrap() * s.transpose();
+            q = (&q + q.transpose()) * 0.5;
+            let ok = dare(&a, &b, &q, &r, Some(&s));
+            assert!(
+                !matches!(ok, Err(KalmanError::NotPositiveSemidefinite { .. })),
+                "scale {scale}: {ok:?}"
+            );
+            assert!(matches!(
+                dare(&a, &b, &q, &r, Some(&(s * 1.001))),
+                Err(KalmanError::NotPositiveSemidefinite { .. })
+            ));
+        }
+    }
 }
 
 #[test]

@@ -38,6 +38,40 @@ impl NoiseModel {
             bias: None,
         }
     }
+
+    /// The noise model of an identified model in innovations form,
+    /// `x+ = A x + B u + K e`, `y = C x + D u + e`, `Cov(e) = re` (what
+    /// kestrel-sysid's PEM estimates): the innovation `e` is both the
+    /// process noise, entering through `G = K`, and the measurement noise,
+    /// so `Q = R = N = re`.
+    ///
+    /// The stationary filter of this model has the error covariance `P = 0`
+    /// and the predictor gain `L = K` whenever `A - K C` is stable (the
+    /// model's own one-step predictor), for any positive definite `re`; its
+    /// measurement-update gain is `M = 0` and the gain reaches the state
+    /// through the cross term. If `A - K C` is not stable, the Riccati
+    /// equation's stabilising solution gives another gain.
+    ///
+    /// ```
+    /// use kestrel_core::formats::SsModel;
+    /// use kestrel_kalman::{KalmanDesign, NoiseModel};
+    /// use nalgebra::{DMatrix, dmatrix};
+    /// let model = SsModel::from_json_str(r#"{"format": "kestrel.ss.v1", "ts": 0.02,
+    ///     "A": [[0.9, 0.1], [0, 0.8]], "B": [[0], [1]], "C": [[1, 0]], "D": [[0]]}"#).unwrap();
+    /// let k = dmatrix![0.5; 0.2];
+    /// let noise = NoiseModel::innovations(&k, &DMatrix::identity(1, 1));
+    /// let design = KalmanDesign::new(&model, &noise).unwrap();
+    /// assert!((&design.filter.l - &k).norm() < 1e-12);
+    /// ```
+    pub fn innovations(k: &DMatrix<f64>, re: &DMatrix<f64>) -> Self {
+        NoiseModel {
+            g: Some(k.clone()),
+            q: re.clone(),
+            r: re.clone(),
+            cross: Some(re.clone()),
+            bias: None,
+        }
+    }
 }
 
 /// A designed stationary Kalman filter: the model, the noise model and the

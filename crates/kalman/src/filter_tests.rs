@@ -342,6 +342,58 @@ fn operating_point_and_bias_are_removed() {
     );
 }
 
+/// An identified model in innovations form (`x+ = A x + B du + K e`,
+/// `y = C x + y0 + e`): the filter of [`NoiseModel::innovations`] is the
+/// model's own predictor, `L = K`, `P = 0`, `M = 0`, for any innovation
+/// covariance; run on data simulated from that model from its true initial
+/// state, the run-time filter's prediction is the true state and its
+/// innovations are the simulated `e`.
+#[test]
+fn innovations_form_gives_the_models_own_predictor() {
+    let model = model_5_4_3(21);
+    let mut rng = Rng::new(22);
+    // A gain with A - K C stable.
+    let mut k = rng.matrix(5, 3);
+    let rho =
+        |k: &DMatrix<f64>| kestrel_core::eig::spectral_radius(&(&model.a - k * &model.c)).unwrap();
+    while rho(&k) >= 0.99 {
+        k *= 0.7;
+    }
+    assert!(k.amax() > 1e-3);
+    let re = rng.spd(3, 10.0) * 1e-4;
+    let d = KalmanDesign::new(&model, &NoiseModel::innovations(&k, &re)).unwrap();
+    assert!(
+        (&d.filter.l - &k).amax() < 1e-9 * k.amax(),
+        "{}",
+        &d.filter.l - &k
+    );
+    assert!(d.filter.m.amax() < 1e-9 * k.amax(), "{}", d.filter.m);
+    assert!(d.filter.p.amax() < 1e-12, "{}", d.filter.p);
+    // The gain does not depend on the innovation covariance.
+    let other =
+        KalmanDesign::new(&model, &NoiseModel::innovations(&k, &(re.clone() * 1e4))).unwrap();
+    assert!((&other.filter.l - &k).amax() < 1e-9 * k.amax());
+
+    let mut f = StationaryFilter::new(d.gains::<f64, 5, 4, 3>().unwrap(), [0.0; 5]);
+    let chol = re.cholesky().unwrap().l();
+    let (u0, y0) = (model.u0.clone().unwrap(), model.y0.clone().unwrap());
+    let mut x = DVector::<f64>::zeros(5);
+    for step in 0..300 {
+        let du = dvector![(0.1 * step as f64).sin(), 0.3, -0.2, rng.normal()];
+        let e = &chol * DVector::from_fn(3, |_, _| rng.normal());
+        let y = &model.c * &x + &y0 + &e;
+        let u = &du + &u0;
+        // Before the update the filter holds its prediction: the true state.
+        let gap = (DVector::from_column_slice(f.state()) - &x).amax();
+        assert!(gap < 1e-9, "step {step}: state error {gap:e}");
+        let innovation = &y - &y0 - &model.c * DVector::from_column_slice(f.state());
+        assert!((&innovation - &e).amax() < 1e-9);
+        f.update(&[y[0], y[1], y[2]]).unwrap();
+        f.predict(&[u[0], u[1], u[2], u[3]]).unwrap();
+        x = &model.a * &x + &model.b * du + &k * e;
+    }
+}
+
 #[test]
 fn cross_covariance_uses_the_predictor_gain() {
     // Correlated noise: the time update adds (L - A M) e; the filter then
