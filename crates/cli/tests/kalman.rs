@@ -227,6 +227,47 @@ fn rejects_bad_input() {
     assert!(stderr(&out).contains("not detectable"), "{}", stderr(&out));
 }
 
+/// `--innovations`: the identified model's own gain `K` becomes the
+/// filter's predictor gain (`A - K C` stable: eigenvalues of modulus
+/// sqrt(0.54) here), with `M = 0` and `P = 0`, for any `--r`; an unstable
+/// predictor, a model without `K` and `--q` beside it are refused.
+#[test]
+fn innovations_use_the_models_gain() {
+    let with_k = |k: &str| MODEL.replace("\"D\": [[0]],", &format!("\"D\": [[0]], \"K\": {k},"));
+    let model = temp_file("m_innov.json", &with_k("[[0.5], [2.0]]"));
+    for r in [None, Some("0.01")] {
+        let mut args = vec!["--innovations"];
+        args.extend(r.map(|r| ["--r", r]).into_iter().flatten());
+        let o = run(&args, &model);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let d = KalmanDesign::from_json_str(&String::from_utf8_lossy(&o.stdout)).unwrap();
+        assert!(
+            (&d.filter.l - dmatrix![0.5; 2.0]).amax() < 1e-12,
+            "{}",
+            d.filter.l
+        );
+        assert!(d.filter.m.amax() < 1e-12 && d.filter.p.amax() < 1e-12);
+    }
+    let o = run(&["--innovations", "--out", "/dev/null"], &model);
+    assert!(stderr(&o).contains("own predictor"), "{}", stderr(&o));
+    // A - K C = [1.5, 0.02; 0.5, 1] is unstable.
+    let bad = temp_file("m_innov_bad.json", &with_k("[[-0.5], [-0.5]]"));
+    let o = run(&["--innovations"], &bad);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(
+        err.contains("A - K C is not stable") && err.contains("1.5193"),
+        "{err}"
+    );
+    let plain = temp_file("m_innov_none.json", MODEL);
+    let o = run(&["--innovations"], &plain);
+    assert!(!o.status.success() && stderr(&o).contains("no innovation gain K"));
+    let o = run(&["--innovations", "--q", "1"], &model);
+    assert!(!o.status.success() && stderr(&o).contains("cannot be used with"));
+    let o = run(&["--r", "1"], &model);
+    assert!(!o.status.success() && stderr(&o).contains("--q"));
+}
+
 #[test]
 fn help_says_what_goes_in_and_comes_out() {
     let out = kestrel().args(["kalman", "--help"]).output().unwrap();
@@ -240,6 +281,7 @@ fn help_says_what_goes_in_and_comes_out() {
         "predictor gain",
         "one-step prediction",
         "multiply_adds",
+        "--innovations",
     ] {
         assert!(help.contains(needle), "--help lacks {needle:?}:\n{help}");
     }

@@ -49,8 +49,12 @@ impl NoiseModel {
     /// and the predictor gain `L = K` whenever `A - K C` is stable (the
     /// model's own one-step predictor), for any positive definite `re`; its
     /// measurement-update gain is `M = 0` and the gain reaches the state
-    /// through the cross term. If `A - K C` is not stable, the Riccati
-    /// equation's stabilising solution gives another gain.
+    /// through the cross term. If `A - K C` is not stable (a noise model
+    /// that is not minimum phase), the noise `K e` with `e` also the
+    /// measurement noise reaches none of its unstable modes and the design
+    /// fails ([`KalmanError::NotStabilizable`] naming the mode of `A - K C`,
+    /// or [`KalmanError::NoStabilizingSolution`] for a mode on the unit
+    /// circle).
     ///
     /// ```
     /// use kestrel_core::formats::SsModel;

@@ -58,7 +58,7 @@ pub enum KalmanError {
     },
     /// `(A, B)` is not stabilisable: the mode `eigenvalue` (|.| >= 1) cannot be moved by the input.
     #[error(
-        "(A, B) is not stabilisable: the mode at eigenvalue {} is not reachable from the input (PBH test)",
+        "(A, B) is not stabilisable: the mode at eigenvalue {} is not reachable from the input (PBH test); for a filter: the process noise does not reach it",
         Mode(*eigenvalue)
     )]
     NotStabilizable {
@@ -160,7 +160,7 @@ mod tests {
         };
         assert_eq!(
             e.to_string(),
-            "(A, B) is not stabilisable: the mode at eigenvalue 1.500000 -0.250000i (|.| = 1.520691) is not reachable from the input (PBH test)"
+            "(A, B) is not stabilisable: the mode at eigenvalue 1.500000 -0.250000i (|.| = 1.520691) is not reachable from the input (PBH test); for a filter: the process noise does not reach it"
         );
         let e = KalmanError::NotDetectable {
             eigenvalue: Complex::new(1e300, 0.0),

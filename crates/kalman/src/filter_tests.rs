@@ -394,6 +394,34 @@ fn innovations_form_gives_the_models_own_predictor() {
     }
 }
 
+/// An innovations model whose predictor `A - K C` is unstable (eigenvalues
+/// about 1.519 and 0.981 here) has no filter with the noise it states: the
+/// design names the unstable mode of `A - K C`.
+#[test]
+fn innovations_form_with_an_unstable_predictor_is_refused() {
+    let model = SsModel::new(
+        0.02,
+        dmatrix![1.0, 0.02; 0.0, 1.0],
+        dmatrix![0.0002; 0.02],
+        dmatrix![1.0, 0.0],
+        dmatrix![0.0],
+    )
+    .unwrap();
+    let k = dmatrix![-0.5; -0.5];
+    let e = KalmanDesign::new(&model, &NoiseModel::innovations(&k, &dmatrix![1.0])).unwrap_err();
+    // A - K C = [1.5, 0.02; 0.5, 1]: 1.25 + sqrt(0.0725).
+    let unstable = 1.25 + 0.0725f64.sqrt();
+    match e {
+        crate::KalmanError::NotStabilizable { eigenvalue } => {
+            assert!(
+                (eigenvalue.re - unstable).abs() < 1e-9 && eigenvalue.im == 0.0,
+                "{eigenvalue}"
+            )
+        }
+        other => panic!("{other}"),
+    }
+}
+
 #[test]
 fn cross_covariance_uses_the_predictor_gain() {
     // Correlated noise: the time update adds (L - A M) e; the filter then

@@ -22,12 +22,22 @@ pub struct Args {
     pub model: PathBuf,
     /// Process noise covariance: a number `q` (meaning `q I`) or a JSON
     /// matrix file (an array of rows, or an object with key "Q").
-    #[arg(long, allow_hyphen_values = true)]
-    pub q: String,
+    #[arg(
+        long,
+        allow_hyphen_values = true,
+        required_unless_present = "innovations"
+    )]
+    pub q: Option<String>,
     /// Measurement noise covariance: a number `r` (meaning `r I`) or a JSON
-    /// matrix file (an array of rows, or an object with key "R").
-    #[arg(long, allow_hyphen_values = true)]
-    pub r: String,
+    /// matrix file (an array of rows, or an object with key "R"). With
+    /// `--innovations`: the innovation covariance (default the identity;
+    /// it does not change the gain).
+    #[arg(
+        long,
+        allow_hyphen_values = true,
+        required_unless_present = "innovations"
+    )]
+    pub r: Option<String>,
     /// How the process noise enters the state (`nx x nw` JSON matrix file,
     /// an array of rows or an object with key "G"); default the identity.
     #[arg(long)]
@@ -35,6 +45,13 @@ pub struct Args {
     /// Cross-covariance `E[w v']` (`nw x ny` JSON matrix file, key "N").
     #[arg(long)]
     pub cross: Option<PathBuf>,
+    /// The noise model of the model's own innovation gain `K` (an
+    /// identified model, `kestrel identify`): `x+ = A x + B u + K e`,
+    /// `y = C x + D u + e`, so `G = K` and `Q = R = N = Cov(e)` (`--r`).
+    /// The filter is then the model's one-step predictor (`L = K`, `P = 0`,
+    /// `M = 0`) when `A - K C` is stable.
+    #[arg(long, conflicts_with_all = ["q", "g", "cross"])]
+    pub innovations: bool,
     /// Known constant sensor bias, one number per output, comma separated
     /// (e.g. the gyro bias of thesis (7.5)); removed from every measurement.
     #[arg(long, allow_hyphen_values = true, value_delimiter = ',')]
@@ -53,6 +70,8 @@ Inputs:
              x+ = A x + B (u - u0) + G w,  y = C x + D (u - u0) + y0 + bias + v
   --q, --r   Cov(w) and Cov(v): a number v (meaning v I) or a JSON matrix file
   --g        how w enters the state (default: the identity); --cross: E[w v']
+  --innovations  instead of --q, --g, --cross: the model's innovation gain K
+             (kestrel identify writes it), e entering as w = v; --r is Cov(e)
   --bias     the constant sensor bias (e.g. the gyro bias from a ground segment)
 
 Output (--out, or standard output): a kestrel.kalman.v1 file with the model,
@@ -89,14 +108,35 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .transpose()
         .context("--g")?;
     let nw = g.as_ref().map_or(nx, |g| g.ncols());
-    let q = covariance(&args.q, "Q", nw).context("--q")?;
-    let r = covariance(&args.r, "R", ny).context("--r")?;
-    let cross = args
-        .cross
-        .as_deref()
-        .map(|p| read_matrix(p, "N", Some(nw), Some(ny)))
-        .transpose()
-        .context("--cross")?;
+    let r = match &args.r {
+        Some(r) => covariance(r, "R", ny).context("--r")?,
+        None => DMatrix::identity(ny, ny),
+    };
+    let innovation_gain = match (args.innovations, &model.k) {
+        (false, _) => None,
+        (true, Some(k)) => Some(k.clone()),
+        (true, None) => bail!(
+            "--innovations: {} has no innovation gain K (kestrel identify writes one); give --q and --r instead",
+            args.model.display()
+        ),
+    };
+    let (g, q, cross) = match &innovation_gain {
+        Some(k) => {
+            let n = NoiseModel::innovations(k, &r);
+            (n.g, n.q, n.cross)
+        }
+        None => {
+            let q = args.q.as_deref().unwrap_or("0");
+            let q = covariance(q, "Q", nw).context("--q")?;
+            let cross = args
+                .cross
+                .as_deref()
+                .map(|p| read_matrix(p, "N", Some(nw), Some(ny)))
+                .transpose()
+                .context("--cross")?;
+            (g, q, cross)
+        }
+    };
     let bias = match args.bias {
         Some(b) => {
             if b.len() != ny {
@@ -119,8 +159,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         cross,
         bias,
     };
-    let design = KalmanDesign::new(&model, &noise)
-        .with_context(|| format!("designing the filter for {}", args.model.display()))?;
+    let design = KalmanDesign::new(&model, &noise).with_context(|| {
+        let mut what = format!("designing the filter for {}", args.model.display());
+        if let Some(k) = &innovation_gain
+            && let Ok(rho) = kestrel_core::eig::spectral_radius(&(&model.a - k * &model.c))
+            && rho >= 1.0
+        {
+            what += &format!(
+                " from its innovation gain: the model's predictor A - K C is not stable (spectral radius {rho:.4}), so K is no Kalman gain of its noise model; identify with a stable predictor or give --q and --r"
+            );
+        }
+        what
+    })?;
     if args.out.is_some() {
         let rho = design
             .filter
@@ -134,7 +184,29 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             design.multiply_adds()
         );
     }
+    if let Some(k) = &innovation_gain {
+        innovations_note(k, &design);
+    }
     io::write_output(args.out.as_deref(), &design.to_json_string())
+}
+
+/// Says whether the filter designed from the model's innovation gain is
+/// that gain (it is whenever the design succeeds, `A - K C` being stable;
+/// a difference would be a numerical failure, said as such).
+fn innovations_note(k: &DMatrix<f64>, design: &KalmanDesign) {
+    let diff = (&design.filter.l - k).amax();
+    let scale = k.amax().max(f64::MIN_POSITIVE);
+    if diff <= 1e-6 * scale {
+        eprintln!(
+            "kalman: the filter is the model's own predictor (L = K to {:.1e} relative)",
+            diff / scale
+        );
+    } else {
+        eprintln!(
+            "warning: the filter's predictor gain differs from the model's K by {:.3e} relative (largest entry); the Riccati solution is not the model's predictor",
+            diff / scale
+        );
+    }
 }
 
 /// A covariance given as a number (times the identity) or a matrix file.
