@@ -368,6 +368,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             bail!("{flag} must be a positive number, got {v}");
         }
     }
+    if args.max_order == 0 {
+        bail!("--max-order must be at least 1 (the largest order the automatic choice tries)");
+    }
     let mut cols = CsvColumns::new(&[], &[]);
     cols.inputs = args.inputs.clone();
     cols.outputs = args.outputs.clone();

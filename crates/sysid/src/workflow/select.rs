@@ -463,7 +463,20 @@ pub(super) fn choose_structure(
             auto.folds
         )));
     }
+    if auto.max_order == 0 {
+        return Err(SysidError::invalid(
+            "the structure choice's largest order (max_order) must be at least 1",
+        ));
+    }
     let free_order = auto.order && spec.order.is_none();
+    // A model to be reduced to `r` states is fitted with at least `r`.
+    let min_order = spec.reduce.unwrap_or(1).max(1);
+    if free_order && min_order > auto.max_order {
+        return Err(SysidError::invalid(format!(
+            "the model is to be reduced to {min_order} states, more than the largest order the structure choice tries (max_order {}): raise it or reduce to fewer states",
+            auto.max_order
+        )));
+    }
     let free_focus = auto.focus && spec.method == Method::Pem;
     let free_start = auto.start;
     let h = spec.horizons.iter().copied().max().unwrap_or(1).max(1);
@@ -495,7 +508,7 @@ pub(super) fn choose_structure(
     // record lowers the largest order tried.
     let longest = est.experiments().iter().map(|e| e.len()).max().unwrap_or(0);
     let fits_in = (longest / auto.folds.max(1) / 20).max(1);
-    let max_order = auto.max_order.max(1).min(fits_in);
+    let max_order = auto.max_order.min(fits_in).max(min_order);
     let min_block = (20 * max_order).max(MIN_FOLD_BLOCK);
     let folds = folds(
         est,
@@ -531,8 +544,8 @@ pub(super) fn choose_structure(
         ..focus_first.clone()
     };
     let mut stage1: Vec<Candidate> = if free_order {
-        (1..=max_order)
-            .filter(|&o| o == 1 || o % 2 == 0 || o == max_order)
+        (min_order..=max_order)
+            .filter(|&o| o == min_order || o % 2 == 0 || o == max_order)
             .map(of_order)
             .collect()
     } else {
@@ -542,7 +555,7 @@ pub(super) fn choose_structure(
     if free_order && let Some(Some(o)) = best(&scores).map(|b| b.candidate.order) {
         let near: Vec<Candidate> = [o.saturating_sub(1), o + 1]
             .into_iter()
-            .filter(|&n| n >= 1 && n <= max_order)
+            .filter(|&n| n >= min_order && n <= max_order)
             .map(of_order)
             .filter(|c| !stage1.contains(c))
             .collect();

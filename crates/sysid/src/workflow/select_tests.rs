@@ -51,6 +51,42 @@ fn choice_recovers_the_order_from_the_estimation_data_only() {
     }
 }
 
+/// With a reduction to `r` states every candidate is fitted with at least
+/// `r` (a smaller order cannot be reduced to `r`) and the chosen model has
+/// `r` states; a reduction beyond the largest order, and a largest order
+/// of 0, are refused before any fit.
+#[test]
+fn a_reduction_bounds_the_orders_tried() {
+    let truth = synthetic::random_model(3, 2, 2, 17, 0.9);
+    let d = synthetic::simulate(&truth, 1800, 0.05, 4).unwrap();
+    let mut s = spec("1200:1799");
+    s.reduce = Some(2);
+    let r = identify(&d, &s).unwrap();
+    let sel = r.selection.as_ref().unwrap().as_ref().unwrap();
+    assert!(
+        sel.candidates
+            .iter()
+            .all(|c| c.candidate.order.is_some_and(|o| o >= 2)),
+        "{sel}"
+    );
+    assert!(sel.candidates.iter().all(|c| c.score.is_finite()), "{sel}");
+    assert!(sel.candidates.iter().any(|c| c.candidate.order == Some(2)));
+    assert_eq!(r.model.nx(), 2);
+    s.reduce = Some(6);
+    let e = identify(&d, &s).unwrap_err();
+    assert!(
+        matches!(&e, SysidError::InvalidArgument(m) if m.contains("reduced to 6 states")),
+        "{e}"
+    );
+    s.reduce = None;
+    s.auto.as_mut().unwrap().max_order = 0;
+    let e = identify(&d, &s).unwrap_err();
+    assert!(
+        matches!(&e, SysidError::InvalidArgument(m) if m.contains("max_order")),
+        "{e}"
+    );
+}
+
 /// A dimension the spec fixes stays fixed: every candidate has the
 /// given order, and the report says so.
 #[test]

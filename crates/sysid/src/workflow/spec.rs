@@ -215,9 +215,11 @@ pub struct IdentifySpec {
 #[derive(Clone, Debug, PartialEq)]
 pub struct AutoSelect {
     /// Choose the order in `1..=max_order` (only when
-    /// [`IdentifySpec::order`] is `None`).
+    /// [`IdentifySpec::order`] is `None`; with [`IdentifySpec::reduce`] `r`,
+    /// in `r..=max_order`: every candidate is reduced to `r` states and
+    /// compared so).
     pub order: bool,
-    /// Largest order tried.
+    /// Largest order tried (at least 1, and at least the reduced order).
     pub max_order: usize,
     /// Choose the start: N4SID with `B, D` by output-error least squares
     /// or `A, B, C, D` by the state regression, or PBSID. The feed-through
