@@ -363,6 +363,7 @@ fn bad_settings_name_the_flag() {
     for (extra, want) in cases {
         plant.refuses(10, &extra, &want);
     }
+    plant.refuses(0, &[], &["--horizon 0", "at least one step"]);
     let (ok, _, err) = kestrel(&[
         "mpc",
         "--model",

@@ -232,6 +232,9 @@ pub fn soft_penalty(weight: Option<f64>, linear: Option<f64>) -> anyhow::Result<
 
 /// Checks `--preview P` against the horizon: `1 <= P <= N`.
 pub fn preview(p: usize, horizon: usize) -> anyhow::Result<usize> {
+    if horizon == 0 {
+        bail!("--horizon 0: the prediction horizon must be at least one step");
+    }
     if p == 0 || p > horizon {
         bail!(
             "--preview {p}: the reference steps in theta must be between 1 (a constant reference) and the horizon (--horizon {horizon})"
