@@ -63,13 +63,17 @@ pub enum SysidError {
         /// What went wrong.
         reason: String,
     },
-    /// A model is unstable where stability is required.
-    #[error("{what} is unstable (spectral radius {radius:.6})")]
+    /// A model is unstable where stability is required: its spectral
+    /// radius is at least `limit` (1, or `1 - stability_margin` where a
+    /// margin is asked for).
+    #[error("{what} is unstable (spectral radius {radius:.6}, at or above the limit {limit})")]
     Unstable {
         /// Which matrix.
         what: String,
         /// Its spectral radius.
         radius: f64,
+        /// The largest spectral radius allowed.
+        limit: f64,
     },
     /// A size (model order, horizon) would need more memory or time than
     /// a documented limit allows ([`MAX_ORDER`](crate::MAX_ORDER),

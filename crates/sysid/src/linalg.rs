@@ -77,6 +77,7 @@ pub fn dlyap(a: &DMatrix<f64>, q: &DMatrix<f64>) -> Result<DMatrix<f64>> {
         return Err(SysidError::Unstable {
             what: "A (discrete Lyapunov equation)".into(),
             radius: rho,
+            limit: 1.0,
         });
     }
     let mut x = q.clone();

@@ -150,6 +150,7 @@ pub fn pem(data: &IoData, start: &InnovationModel, settings: &PemSettings) -> Re
         return Err(SysidError::Unstable {
             what: "A of the start model".into(),
             radius: base.radius_a(),
+            limit: limit_a,
         });
     }
     if has_k && base.radius_predictor() > limit {

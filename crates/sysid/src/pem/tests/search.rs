@@ -411,6 +411,18 @@ fn too_few_samples_and_unstable_start_are_errors() {
         pem(&data, &bad, &PemSettings::default()),
         Err(SysidError::Unstable { .. })
     ));
+    // Stable, but within the default stability margin (1e-4) of 1: the
+    // message says which limit the radius is above.
+    let mut marginal = m.clone();
+    let rho = kestrel_core::eig::spectral_radius(&m.a).unwrap();
+    marginal.a *= 0.99995 / rho;
+    let e = pem(&data, &marginal, &PemSettings::default()).unwrap_err();
+    assert!(
+        matches!(e, SysidError::Unstable { radius, limit, .. }
+            if radius < 1.0 && radius > limit && limit == 1.0 - 1e-4),
+        "{e}"
+    );
+    assert!(e.to_string().contains("limit 0.9999"), "{e}");
 }
 
 /// A slightly unstable integrator (an eigenvalue of `A` at 1.002, stable
