@@ -66,7 +66,7 @@ pub enum SysidError {
     /// A model is unstable where stability is required: its spectral
     /// radius is at least `limit` (1, or `1 - stability_margin` where a
     /// margin is asked for).
-    #[error("{what} is unstable (spectral radius {radius:.6}, at or above the limit {limit})")]
+    #[error("{what} is unstable (spectral radius {radius:.6}, limit {limit})")]
     Unstable {
         /// Which matrix.
         what: String,
