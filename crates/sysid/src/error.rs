@@ -64,8 +64,8 @@ pub enum SysidError {
         reason: String,
     },
     /// A model is unstable where stability is required: its spectral
-    /// radius is at least `limit` (1, or `1 - stability_margin` where a
-    /// margin is asked for).
+    /// radius is beyond `limit` (at least 1 for a Lyapunov equation, above
+    /// `1 - stability_margin` for PEM's start model).
     #[error("{what} is unstable (spectral radius {radius:.6}, limit {limit})")]
     Unstable {
         /// Which matrix.
