@@ -62,11 +62,22 @@ pub(crate) fn airborne(
             "airborne segments are found from the motor commands: select at least one input".into(),
         ));
     };
-    if !(s.threshold.is_finite() && s.min_duration_s >= 0.0 && s.bridge_s >= 0.0 && s.trim_s >= 0.0)
-    {
+    if !s.threshold.is_finite() {
         return Err(LogError::Invalid(format!(
-            "airborne detection settings out of range: {s:?}"
+            "airborne detection: the threshold (a fraction of the motor command range) must be a finite number, found {}",
+            s.threshold
         )));
+    }
+    for (name, v) in [
+        ("minimum duration", s.min_duration_s),
+        ("bridged gap", s.bridge_s),
+        ("trim", s.trim_s),
+    ] {
+        if v.is_nan() || v < 0.0 {
+            return Err(LogError::Invalid(format!(
+                "airborne detection: the {name} must be a number of seconds >= 0, found {v}"
+            )));
+        }
     }
     let a = base.topic.t.partition_point(|&x| x < span.start);
     let b = base.topic.t.partition_point(|&x| x <= span.end);

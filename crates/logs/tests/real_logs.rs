@@ -219,3 +219,25 @@ fn no_segment_left_names_every_setting_that_can_cause_it() {
     s.airborne.trim_s = 0.5;
     assert!(import(&logs, &s).is_ok());
 }
+
+/// Airborne settings out of range are refused naming the setting and the
+/// value (not as a dump of the settings struct).
+#[test]
+fn bad_airborne_settings_name_the_setting() {
+    let logs = read_bytes(&flight("betaflight/btfl_002.bbl"), &ReadOptions::default()).unwrap();
+    for name in ["threshold", "minimum duration", "bridged gap", "trim"] {
+        let mut s = ImportSettings::default();
+        let a = &mut s.airborne;
+        match name {
+            "threshold" => a.threshold = f64::NAN,
+            "minimum duration" => a.min_duration_s = -1.0,
+            "bridged gap" => a.bridge_s = f64::NAN,
+            _ => a.trim_s = -0.5,
+        }
+        let e = import(&logs, &s).unwrap_err().to_string();
+        assert!(
+            e.contains(name) && !e.contains("AirborneSettings"),
+            "{name}: {e}"
+        );
+    }
+}
