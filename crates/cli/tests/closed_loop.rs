@@ -166,6 +166,42 @@ fn model_file_offset_free_and_bad_input() {
     assert!(!ok && err.contains("--iterations"), "{err}");
     let (ok, _, err) = kestrel(&["closed-loop", "--controller", "pid", "--offset-free"]);
     assert!(!ok && err.contains("offset-free"), "{err}");
+    // MPC design flags are not silently ignored by the PI controller.
+    for flag in [
+        ["--horizon", "3"],
+        ["--blocks", "1,1"],
+        ["--q1", "5"],
+        ["--q2", "1"],
+    ] {
+        let (ok, _, err) = kestrel(&["closed-loop", "--controller", "pid", flag[0], flag[1]]);
+        assert!(
+            !ok && err.contains(flag[0]) && err.contains("not to pid"),
+            "{err}"
+        );
+    }
+    // A model whose inputs are not the tricopter's flies with a note.
+    let mut named: serde_json::Value =
+        serde_json::from_str(kestrel_tricopter::IDENTIFIED_MODEL_JSON).unwrap();
+    named["inputs"] = serde_json::json!(["m1", "m2", "m3", "m4"]);
+    let quad = d.join("quad.json");
+    std::fs::write(&quad, named.to_string()).unwrap();
+    let out = d.join("quad.csv");
+    let (ok, _, err) = kestrel(&[
+        "closed-loop",
+        "--controller",
+        "qp",
+        "--model",
+        &quad.display().to_string(),
+        "--out",
+        &out.display().to_string(),
+    ]);
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("note:") && err.contains("m1, m2, m3, m4") && err.contains("closed loop"),
+        "{err}"
+    );
+    let (ok, _, err) = kestrel(&["closed-loop", "--controller", "qp", "--model", &m]);
+    assert!(ok && !err.contains("note:"), "{err}");
 }
 
 #[test]

@@ -224,8 +224,16 @@ fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunRes
         }
     }
     if args.controller == Controller::Pid {
-        if args.offset_free {
-            bail!("--offset-free applies to the MPC controllers, not to pid");
+        for (flag, given) in [
+            ("--offset-free", args.offset_free),
+            ("--horizon", args.horizon.is_some()),
+            ("--blocks", args.blocks.is_some()),
+            ("--q1", args.q1.is_some()),
+            ("--q2", args.q2.is_some()),
+        ] {
+            if given {
+                bail!("{flag} applies to the MPC controllers, not to pid");
+            }
         }
         return Ok(fly_pi(model, run)?);
     }
@@ -311,7 +319,11 @@ fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunRes
 pub fn run(args: Args) -> anyhow::Result<()> {
     args.replace.check(&[args.out.as_deref()])?;
     let model = match &args.model {
-        Some(p) => SsModel::read(p).with_context(|| format!("{}", p.display()))?,
+        Some(p) => {
+            let m = SsModel::read(p).with_context(|| format!("{}", p.display()))?;
+            super::tricopter_names::note_if_not_the_tricopter(&m, p, "the closed loop");
+            m
+        }
         None => identified_model()?,
     };
     // A feed-through D acts one sample later in the loop (kestrel_tricopter::delay_feedthrough).

@@ -159,7 +159,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             model.ts
         );
     }
-    warn_if_not_the_tricopter(&model, &args.model);
+    super::tricopter_names::note_if_not_the_tricopter(&model, &args.model, "the example firmware");
     let settings = DesignSettings {
         max_input_error_us: args.max_input_error,
         preconditioner: match args.preconditioner {
@@ -245,33 +245,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         design.loop_iterations()
     );
     Ok(())
-}
-
-/// The example firmware drives its four inputs as motors 1-3 and the tail
-/// servo and reads p, q, r: a model whose inputs or outputs are named
-/// otherwise (a quadrotor's four motors, say) is exported as asked, with a
-/// note saying how the firmware will use it.
-fn warn_if_not_the_tricopter(model: &SsModel, path: &std::path::Path) {
-    const INPUTS: [&str; 4] = ["pwm1", "pwm2", "pwm3", "servo"];
-    const OUTPUTS: [&str; 3] = ["p", "q", "r"];
-    let differs = |names: &Option<Vec<String>>, want: &[&str]| {
-        names
-            .as_ref()
-            .filter(|n| n.iter().map(String::as_str).ne(want.iter().copied()))
-            .map(|n| n.join(", "))
-    };
-    if let Some(names) = differs(&model.inputs, &INPUTS) {
-        eprintln!(
-            "note: {}: the model's inputs are {names}, not the tricopter's pwm1, pwm2, pwm3, servo; the example firmware drives its inputs as motors 1-3 (us) and the tail servo (us around 1500), in that order",
-            path.display()
-        );
-    }
-    if let Some(names) = differs(&model.outputs, &OUTPUTS) {
-        eprintln!(
-            "note: {}: the model's outputs are {names}; the example firmware feeds it the gyro's p, q, r (rad/s), in that order",
-            path.display()
-        );
-    }
 }
 
 /// A mismatch between two design files, named by their paths (or as the

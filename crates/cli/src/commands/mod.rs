@@ -13,3 +13,4 @@ pub mod mpc;
 pub mod pipeline;
 pub mod qp;
 pub mod simulate;
+pub mod tricopter_names;

@@ -431,10 +431,7 @@ fn input_bounds(
     model: &SsModel,
     inputs: Entries<'_>,
 ) -> anyhow::Result<(Bounds, Vec<Parameter>)> {
-    let named_tricopter = model
-        .inputs
-        .as_ref()
-        .is_some_and(|v| v.iter().map(String::as_str).eq(TRICOPTER_INPUTS));
+    let named_tricopter = super::tricopter_names::has_tricopter_inputs(model);
     let tricopter = args.tricopter || (named_tricopter && args.u_min.is_none());
     if !tricopter {
         for (flag, given) in [
@@ -529,10 +526,6 @@ fn tricopter_bounds(args: &Args, model: &SsModel) -> anyhow::Result<(Bounds, Vec
     };
     Ok((trim.bounds(), vec![throttle]))
 }
-
-/// The input names of the tricopter's models (`kestrel identify`, `kestrel
-/// simulate --rate-model`, models/tricopter-blackbox-5.json).
-const TRICOPTER_INPUTS: [&str; 4] = ["pwm1", "pwm2", "pwm3", "servo"];
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
