@@ -126,7 +126,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             (n.g, n.q, n.cross)
         }
         None => {
-            let q = args.q.as_deref().unwrap_or("0");
+            let Some(q) = args.q.as_deref() else {
+                bail!("--q is needed (the process noise covariance), or --innovations");
+            };
             let q = covariance(q, "Q", nw).context("--q")?;
             let cross = args
                 .cross
