@@ -14,14 +14,21 @@ fn temp_file(name: &str, text: &str) -> PathBuf {
 /// Runs `kestrel fgm certify --problem <problem> --eps <eps>`, expects it
 /// to succeed, and returns its JSON.
 fn certify(problem: &Path, eps: &str) -> serde_json::Value {
-    let (ok, out, err) = run(&[
+    certify_with(problem, eps, &[])
+}
+
+/// [`certify`] with more flags.
+fn certify_with(problem: &Path, eps: &str, extra: &[&str]) -> serde_json::Value {
+    let mut args = vec![
         "fgm",
         "certify",
         "--problem",
         problem.to_str().unwrap(),
         "--eps",
         eps,
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    let (ok, out, err) = run(&args);
     assert!(ok, "{err}");
     serde_json::from_str(&out).unwrap()
 }
@@ -72,18 +79,7 @@ fn certify_prints_iterations_l_mu_and_preconditioner() {
 #[test]
 fn input_error_sets_the_input_tolerance() {
     let p = temp_file("box-input-error.json", BOX);
-    let (ok, out, err) = run(&[
-        "fgm",
-        "certify",
-        "--problem",
-        p.to_str().unwrap(),
-        "--eps",
-        "1e-6",
-        "--input-error",
-        "2",
-    ]);
-    assert!(ok, "{err}");
-    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let v = certify_with(&p, "1e-6", &["--input-error", "2"]);
     let close = |x: &serde_json::Value, want: f64| {
         let x = x.as_f64().unwrap();
         assert!((x - want).abs() <= 1e-12 * want, "{x} != {want}");
@@ -102,20 +98,7 @@ fn input_error_sets_the_input_tolerance() {
     // A looser input tolerance never needs more iterations.
     assert!(table[5]["iterations"].as_u64() <= table[4]["iterations"].as_u64());
     // The first variable only: (H^-1)_00 = 2/7.
-    let (ok, out, err) = run(&[
-        "fgm",
-        "certify",
-        "--problem",
-        p.to_str().unwrap(),
-        "--eps",
-        "1e-6",
-        "--input-error",
-        "2",
-        "--applied-inputs",
-        "1",
-    ]);
-    assert!(ok, "{err}");
-    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let v = certify_with(&p, "1e-6", &["--input-error", "2", "--applied-inputs", "1"]);
     close(&v["input_tolerance"]["eps"], 4.0 / (2.0 * 2.0 / 7.0));
     for bad in ["0", "-1", "nan", "inf"] {
         fails_with(
