@@ -353,6 +353,13 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
             st.worst_case.comparisons,
             st.build_seconds
         );
+        if st.nodes == 0 && st.max_leaf_regions > lsettings.leaf_regions {
+            eprintln!(
+                "warning: no facet split the {} regions (every candidate left more than {:.0} % of them on a side): the lists are one leaf, and an evaluation tests the regions in turn; a smaller parameter box (kestrel mpc --x-max, --r-max) or fewer move blocks give fewer regions",
+                st.max_leaf_regions,
+                100.0 * lsettings.shrink
+            );
+        }
         locate::stage(show, 3, stages, "writing the solution");
         let text = locate::solution_lists_json(&sol, &lists, !a.no_regions);
         return io::write_output(a.out.as_deref(), &text);
