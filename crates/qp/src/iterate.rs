@@ -4,7 +4,7 @@
 //! when an entering constraint is dependent, and the LDL' updates of `M =
 //! G_A H^-1 G_A'` for each (in `z` itself, see the `solver` module).
 
-use crate::solver::{IndexSlots, QpScalar, QpSolver, Slots, check_len, dot};
+use crate::solver::{QpScalar, QpSolver, Slots, check_len, dot};
 use crate::{QpData, QpError, SolveInfo, Start};
 
 impl<S: QpScalar> QpSolver<'_, S> {
@@ -105,11 +105,11 @@ impl<S: QpScalar> QpSolver<'_, S> {
             if self.count > self.n {
                 break;
             }
-            let j = self.active.ix(t);
-            let s = self.side.ix(t);
+            let j = self.active.at(t);
+            let s = self.side.at(t);
             let (lo, hi) = Self::bounds(data, self.m, j);
             let bound = if s == 1 { hi } else { lo };
-            if !bound.is_finite() || self.pos.ix(j) != 0 {
+            if !bound.is_finite() || self.pos.at(j) != 0 {
                 continue;
             }
             // Writes position `count <= t`: entries not yet read survive.
@@ -117,7 +117,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
             self.add(j, code, bound);
             if self.count > 0 && self.df.at(self.count - 1) == S::ZERO {
                 self.count -= 1;
-                self.pos.set_ix(j, 0);
+                self.pos.put(j, 0);
             }
         }
     }
@@ -157,7 +157,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
             if self.is_equality(p) {
                 continue;
             }
-            let sgn = if self.side.ix(p) & 1 == 1 {
+            let sgn = if self.side.at(p) & 1 == 1 {
                 S::ONE
             } else {
                 -S::ONE
@@ -177,7 +177,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
     /// An equality row (`l = u`) keeps its multiplier of either sign.
     /// Side codes: bit 0 the side (1 upper), bit 1 an equality row.
     fn is_equality(&self, p: usize) -> bool {
-        self.side.ix(p) >= 2
+        self.side.at(p) >= 2
     }
 
     /// `z = z_unc - H^-1 G_A' mu`.
@@ -188,7 +188,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
         let (n, m) = (self.n, self.m);
         for p in 0..self.count {
             let mu = self.mu.at(p);
-            let j = self.active.ix(p);
+            let j = self.active.at(p);
             // `wvec(j)`, borrowing the fields alone (z is written). A shared
             // helper for both was tried: its inlining into the firmware's
             // `QpLaw::control` met the pinned nightly's AVR bug 2.
@@ -245,7 +245,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
         let k = self.count;
         let diag = self.m_entry(j, j);
         for p in 0..k {
-            let v = self.m_entry(self.active.ix(p), j);
+            let v = self.m_entry(self.active.at(p), j);
             self.tmp.put(p, v);
         }
         // Forward solve L t = c, then L_new = t / d, d_new = diag - t' D^-1 t.
@@ -263,9 +263,9 @@ impl<S: QpScalar> QpSolver<'_, S> {
             .put(k, if d > self.pivtol * diag { d } else { S::ZERO });
         let r = self.value(j, self.zunc) - b;
         self.rhs.put(k, r);
-        self.active.set_ix(k, j);
-        self.side.set_ix(k, code);
-        self.pos.set_ix(j, k + 1);
+        self.active.put(k, j);
+        self.side.put(k, code);
+        self.pos.put(j, k + 1);
         self.mu.put(k, S::ZERO);
         self.count = k + 1;
     }
@@ -295,7 +295,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
             self.wv.put(r, v);
             at += c;
         }
-        self.pos.set_ix(self.active.ix(p), 0);
+        self.pos.put(self.active.at(p), 0);
         // Shift rows and columns after p up and left by one.
         let mut row = row_p;
         for r in p..k - 1 {
@@ -318,10 +318,10 @@ impl<S: QpScalar> QpSolver<'_, S> {
             self.mu.put(r, mu);
             self.rhs.put(r, rhs);
             self.wv.put(r, wv);
-            let (j, side) = (self.active.ix(r + 1), self.side.ix(r + 1));
-            self.active.set_ix(r, j);
-            self.side.set_ix(r, side);
-            self.pos.set_ix(j, r + 1);
+            let (j, side) = (self.active.at(r + 1), self.side.at(r + 1));
+            self.active.put(r, j);
+            self.side.put(r, side);
+            self.pos.put(j, r + 1);
             row = next;
         }
         self.count = k - 1;
@@ -365,7 +365,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
         head.fill(S::ZERO);
         head.put(last, S::ONE);
         back_substitute(self.lf, c, head);
-        let sk = if self.side.ix(last) & 1 == 0 {
+        let sk = if self.side.at(last) & 1 == 0 {
             -S::ONE
         } else {
             S::ONE
@@ -375,7 +375,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
             if self.is_equality(i) {
                 continue;
             }
-            let si = if self.side.ix(i) & 1 == 1 {
+            let si = if self.side.at(i) & 1 == 1 {
                 S::ONE
             } else {
                 -S::ONE

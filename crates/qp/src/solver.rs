@@ -169,43 +169,22 @@ pub(crate) fn dot<S: QpScalar>(a: &[S], b: &[S]) -> S {
 /// index the solver forms is in range by its invariants (the sizes are
 /// checked once, in [`QpSolver::new`]), but the compiler cannot see it and
 /// would link a bounds-check panic into firmware; out of range, a read is
-/// zero and a write does nothing (never reached).
-pub(crate) trait Slots<S> {
+/// the default (zero) and a write does nothing (never reached). For the
+/// number and the index workspaces alike.
+pub(crate) trait Slots<T> {
     /// Entry `i`.
-    fn at(&self, i: usize) -> S;
+    fn at(&self, i: usize) -> T;
     /// Sets entry `i`.
-    fn put(&mut self, i: usize, v: S);
+    fn put(&mut self, i: usize, v: T);
 }
 
-impl<S: QpScalar> Slots<S> for [S] {
+impl<T: Copy + Default> Slots<T> for [T] {
     #[inline(always)]
-    fn at(&self, i: usize) -> S {
-        self.get(i).copied().unwrap_or(S::ZERO)
+    fn at(&self, i: usize) -> T {
+        self.get(i).copied().unwrap_or_default()
     }
     #[inline(always)]
-    fn put(&mut self, i: usize, v: S) {
-        if let Some(x) = self.get_mut(i) {
-            *x = v;
-        }
-    }
-}
-
-/// [`Slots`] for the index workspace (a separate trait: `usize` could be a
-/// `Scalar` as far as the compiler knows).
-pub(crate) trait IndexSlots {
-    /// Entry `i` (0 out of range).
-    fn ix(&self, i: usize) -> usize;
-    /// Sets entry `i`.
-    fn set_ix(&mut self, i: usize, v: usize);
-}
-
-impl IndexSlots for [usize] {
-    #[inline(always)]
-    fn ix(&self, i: usize) -> usize {
-        self.get(i).copied().unwrap_or(0)
-    }
-    #[inline(always)]
-    fn set_ix(&mut self, i: usize, v: usize) {
+    fn put(&mut self, i: usize, v: T) {
         if let Some(x) = self.get_mut(i) {
             *x = v;
         }
@@ -474,13 +453,13 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
         }
         self.clear();
         for (p, a) in set.iter().enumerate() {
-            if a.index >= self.m + self.n || self.pos.ix(a.index) != 0 {
+            if a.index >= self.m + self.n || self.pos.at(a.index) != 0 {
                 self.clear();
                 return Err(QpError::InvalidActiveSet);
             }
-            self.active.set_ix(p, a.index);
-            self.side.set_ix(p, usize::from(a.side == Side::Upper));
-            self.pos.set_ix(a.index, p + 1);
+            self.active.put(p, a.index);
+            self.side.put(p, usize::from(a.side == Side::Upper));
+            self.pos.put(a.index, p + 1);
             self.count = p + 1;
         }
         Ok(())
@@ -488,7 +467,7 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
 
     pub(crate) fn clear(&mut self) {
         for &j in self.active.iter().take(self.count) {
-            self.pos.set_ix(j, 0);
+            self.pos.put(j, 0);
         }
         self.count = 0;
         self.fwd_valid = 0;
