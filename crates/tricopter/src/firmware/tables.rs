@@ -26,16 +26,17 @@ pub(super) fn layout(n: usize, p: usize, t: usize) -> Vec<(&'static str, usize)>
     ]
 }
 
-/// The name of entry `index` of the flat table, `PART[k]`, from [`layout`].
-pub(super) fn part_at(parts: &[(&'static str, usize)], index: usize) -> String {
+/// The part of the flat table ([`layout`]) that holds entry `index`, and
+/// the entry's position in it.
+fn part_at(parts: &[(&'static str, usize)], index: usize) -> Option<(&'static str, usize)> {
     let mut start = 0;
     for &(name, len) in parts {
         if index < start + len {
-            return format!("{name}[{}]", index - start);
+            return Some((name, index - start));
         }
         start += len;
     }
-    format!("entry {index}")
+    None
 }
 
 /// The flat table in the order of [`layout`].
@@ -82,11 +83,12 @@ pub fn generate_tables(d: &FirmwareDesign) -> Result<String, DesignError> {
         .iter()
         .position(|v| !v.is_finite() || v.abs() >= 32768.0)
     {
+        let part = part_at(&parts, i);
         return Err(DesignError::Unsupported(format!(
             "table value {} at {} does not fit Q15.16 (|v| < 32768; the firmware runs the tables in fixed point too): {}",
             exact[i],
-            part_at(&parts, i),
-            if part_at(&parts, i).starts_with("MIX_OFFSET") {
+            part.map_or(format!("entry {i}"), |(name, k)| format!("{name}[{k}]")),
+            if part.is_some_and(|(name, _)| name == "MIX_OFFSET") {
                 "the mixer trim is the model's u0, which the example firmware takes in microseconds of pulse width"
             } else {
                 "rescale the model's inputs or outputs, or soften the weights, so that the solver's data stay below 32768"
