@@ -102,7 +102,15 @@ impl WithFilter for OverFlight<'_> {
             filt.predict(&f.pwm[k])
                 .ctx(|| format!("Kalman time update at t = {}", f.t[k]))?;
         }
-        Ok((out, nis / n.max(1) as f64))
+        if n == 0 {
+            return Err(PipelineError::Data(format!(
+                "flight no. {} ({}): no airborne samples (its `airborne` column is 0 throughout); \
+                 the filter's mean NIS is taken over the airborne part of a flight",
+                f.experiment.number(),
+                f.experiment.name()
+            )));
+        }
+        Ok((out, nis / n as f64))
     }
 }
 
@@ -111,7 +119,8 @@ impl WithFilter for OverFlight<'_> {
 /// airborne samples.
 ///
 /// # Errors
-/// A singular innovation covariance; the filter's errors.
+/// A singular innovation covariance; a flight with no airborne sample; the
+/// filter's errors.
 pub fn filter_flight(
     design: &kestrel_kalman::KalmanDesign,
     flight: &Flight,
@@ -213,7 +222,7 @@ pub fn run(cfg: &Config, ex: &Experiments, s: &SensorStats, pr: &Problems) -> Re
                 (idx.iter()
                     .map(|&k| (g(k)[j] - truth[k][j]).powi(2))
                     .sum::<f64>()
-                    / idx.len().max(1) as f64)
+                    / idx.len() as f64)
                     .sqrt()
             })
         };
@@ -233,4 +242,48 @@ pub fn run(cfg: &Config, ex: &Experiments, s: &SensorStats, pr: &Problems) -> Re
         estimate,
         rms,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::config::Experiments as ExperimentsConfig;
+    use kestrel_core::formats::SsModel;
+    use kestrel_kalman::{KalmanDesign, NoiseModel};
+    use kestrel_tricopter_model::Experiment;
+    use nalgebra::DMatrix;
+
+    /// A flight whose `airborne` column is 0 throughout has no sample to
+    /// take the mean NIS over: an error naming the flight, not a NIS of 0
+    /// (which the noise grid would then have chosen from silently).
+    #[test]
+    fn a_flight_never_airborne_is_refused_by_name() {
+        let cfg = ExperimentsConfig {
+            seconds: 6.0,
+            seed: 1,
+            dt: 0.001,
+        };
+        let mut flight = Flight::simulate(Experiment::Hover, &cfg).unwrap();
+        // One decoupled state per output, driven by the four pulses.
+        let model = SsModel::new(
+            0.02,
+            DMatrix::identity(3, 3) * 0.9,
+            DMatrix::from_element(3, 4, 1e-4),
+            DMatrix::identity(3, 3),
+            DMatrix::zeros(3, 4),
+        )
+        .unwrap();
+        let design = KalmanDesign::new(&model, &NoiseModel::isotropic(3, 3, 1e-4, 1e-4)).unwrap();
+        let airborne = flight.airborne.iter().filter(|a| **a).count();
+        assert!(airborne > 10, "{airborne} airborne samples");
+        let (estimate, nis) = filter_flight(&design, &flight).unwrap();
+        assert_eq!(estimate.len(), flight.t.len());
+        assert!(nis.is_finite() && nis > 0.0, "NIS {nis}");
+        flight.airborne.fill(false);
+        let err = filter_flight(&design, &flight).unwrap_err().to_string();
+        assert!(
+            err.contains("flight no. 1 (hover)") && err.contains("no airborne samples"),
+            "{err}"
+        );
+    }
 }
