@@ -183,6 +183,7 @@ fn several_files_with_per_flight_segments() {
         "{err}"
     );
     assert!(err.contains("PEM noise model (K, dynamics fixed)"), "{err}");
+    assert!(!err.contains("reaches beyond"), "{err}");
     let m = SsModel::from_json_str(&String::from_utf8_lossy(&o.stdout)).unwrap();
     assert_eq!((m.nx(), m.nu(), m.ny()), (2, 2, 1));
     let o = kestrel(&[
@@ -201,6 +202,35 @@ fn several_files_with_per_flight_segments() {
 
 /// `--focus multi-step-then-noise --dynamics-horizon 3` runs both stages
 /// and writes a model; a zero dynamics horizon is a clear error.
+/// An interval reaching beyond the samples is said on standard error with
+/// the part it takes (a mistyped end would otherwise pass unseen); the
+/// model is the one of the interval cut to the samples.
+#[test]
+fn intervals_beyond_the_samples_are_noted() {
+    let d = dir("beyond");
+    let log = d.join("log.csv");
+    write_log(&log, 1500, |_, _| {});
+    let cut = identify_order_one(&log, &["--estimate", "0:19.98", "--validate", "20:29.98"]);
+    let o = identify_order_one(&log, &["--estimate", "0:19.98", "--validate", "20:299.8"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains(
+            "note: --validate 20:299.8 reaches beyond the data's samples (0.000..29.980); it takes 20.000..29.980"
+        ),
+        "{err}"
+    );
+    assert_eq!(printed_model(&o), printed_model(&cut));
+    assert!(!String::from_utf8_lossy(&cut.stderr).contains("reaches beyond"));
+    // Per experiment, and at the start.
+    let o = identify_order_one(&log, &["--estimate", "1@-5:19.98"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("note: --estimate 1@-5:19.98 reaches beyond experiment 1's samples (0.000..29.980); it takes 0.000..19.980"),
+        "{err}"
+    );
+    assert!(o.status.success(), "{err}");
+}
+
 #[test]
 fn multi_step_then_noise_focus() {
     let d = dir("multistep");

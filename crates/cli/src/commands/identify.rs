@@ -410,9 +410,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     check_horizon(&args, data.ny())?;
     check_lowpass(&args, &data)?;
+    let estimate = parse(&args.estimate, "estimate")?;
+    let validate = parse(&args.validate, "validate")?;
+    note_beyond_samples(&data, &estimate, "estimate");
+    note_beyond_samples(&data, &validate, "validate");
     let spec = IdentifySpec {
-        estimate: parse(&args.estimate, "estimate")?,
-        validate: parse(&args.validate, "validate")?,
+        estimate,
+        validate,
         order: args.fixed_order(),
         reduce: args.reduce,
         match_dc: args.match_dc,
@@ -514,6 +518,29 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         eprint!("{report}{resampled}");
     }
     Ok(())
+}
+
+/// Says on standard error which intervals reach beyond the data's samples:
+/// selection takes only their part with samples, so a mistyped end (say
+/// `72:930` for `72:93`) would otherwise pass unseen.
+fn note_beyond_samples(data: &IoData, segments: &[Segment], what: &str) {
+    for s in segments {
+        if let Some(span) = s.beyond_samples(data) {
+            let (which, whose) = match s.experiment {
+                Some(i) => (format!("{}@", i + 1), format!("experiment {}'s", i + 1)),
+                None => (String::new(), "the data's".to_string()),
+            };
+            eprintln!(
+                "note: --{what} {which}{}:{} reaches beyond {whose} samples ({:.3}..{:.3}); it takes {:.3}..{:.3}",
+                s.interval.start,
+                s.interval.end,
+                span.first,
+                span.last,
+                s.interval.start.max(span.first),
+                s.interval.end.min(span.last)
+            );
+        }
+    }
 }
 
 /// Progress of the identification: a spinner with the structure choice's

@@ -27,7 +27,7 @@ pub use prefilter::{Prefilter, PrefilterChoice, choose_prefilter};
 pub use rate::{rate_factor, resample_model};
 pub use report::{IdentifyReport, N4sidSummary, PemSummary, ReductionSummary};
 pub use run::{SIMULATION_FIT_FLOOR, identify, identify_with_progress};
-pub use segment::{Segment, select_segments};
+pub use segment::{SampleSpan, Segment, select_segments};
 pub use select::{MIN_FOLD_BLOCK, Progress};
 pub use spec::{
     AfterReduction, AutoSelect, IdentifySpec, InputMap, Lowpass, Method, PemFocus, Start,

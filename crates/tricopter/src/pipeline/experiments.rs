@@ -3,6 +3,7 @@
 
 use super::config::{Config, Experiments as ExperimentsConfig, Interval};
 use super::error::{Context, PipelineError, Result};
+use kestrel_sysid::workflow::Segment;
 use kestrel_sysid::{Experiment as SysidExperiment, IoData, TimeInterval};
 use kestrel_tricopter_model::{Experiment, SimSettings};
 use nalgebra::DMatrix;
@@ -135,7 +136,8 @@ impl Flight {
 /// (MATLAB's `merge`); `key` names the configuration list in errors.
 ///
 /// # Errors
-/// A missing flight, an interval outside its flight.
+/// A missing flight, an interval reaching beyond its flight's samples
+/// (by more than half a sample period).
 pub fn select(
     flights: &[Flight],
     intervals: &[Interval],
@@ -150,6 +152,13 @@ pub fn select(
             .ok_or_else(|| PipelineError::Data(format!("{key}[{i}]: no flight {}", iv.flight)))?;
         let data = f.io_data(virtual_inputs)?;
         let ti = TimeInterval::new(iv.from, iv.to).ctx(|| format!("{key}[{i}]"))?;
+        if let Some(span) = Segment::all(ti).beyond_samples(&data) {
+            return Err(PipelineError::Data(format!(
+                "{key}[{i}]: flight {} {}..{} s reaches beyond the flight's samples ({}..{} s); \
+                 shorten the interval or give a longer flight",
+                iv.flight, iv.from, iv.to, span.first, span.last
+            )));
+        }
         parts.push(
             data.select(&[ti])
                 .ctx(|| format!("{key}[{i}]: flight {} {}..{} s", iv.flight, iv.from, iv.to))?,
@@ -225,5 +234,40 @@ pub fn run(cfg: &Config, given: Option<Vec<Flight>>) -> Result<Experiments> {
                 simulated: false,
             })
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An interval reaching beyond its flight's samples is refused with the
+    /// key and the samples' span (selection alone would cut it silently);
+    /// within half a sample period of the last sample it is taken.
+    #[test]
+    fn an_interval_beyond_the_flight_is_refused() {
+        let cfg = ExperimentsConfig {
+            seconds: 6.0,
+            seed: 1,
+            dt: 0.001,
+        };
+        let flights = vec![Flight::simulate(Experiment::Decoupled, &cfg).unwrap()];
+        let last = *flights[0].t.last().unwrap();
+        assert!((last - 5.98).abs() < 1e-9, "{last}");
+        let iv = |to| Interval {
+            flight: 2,
+            from: 1.0,
+            to,
+        };
+        let data = select(&flights, &[iv(5.99)], false, "est").unwrap();
+        assert_eq!(data.experiments()[0].t.last(), Some(&last));
+        let err = select(&flights, &[iv(3.0), iv(8.0)], false, "est")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("est[1]: flight 2 1..8 s reaches beyond"),
+            "{err}"
+        );
+        assert!(err.contains("(0..5.98 s)"), "{err}");
     }
 }
