@@ -150,3 +150,19 @@ fn a_missing_input_is_an_error_naming_it() {
     assert_eq!(snapshot(&root).len(), 1, "wrote something");
     std::fs::remove_dir_all(&root).unwrap();
 }
+
+/// `--root` must name a workspace root: a folder that only holds the
+/// design model (no `[workspace]`, no `avr/firmware`) is refused before
+/// anything is generated into it.
+#[test]
+fn a_root_that_is_no_workspace_is_refused() {
+    let root = temp_dir("codegen-no-workspace");
+    copy_folder(&repo().join("models"), &root.join("models"));
+    let before = snapshot(&root);
+    let root_arg = root.display().to_string();
+    let (ok, _, err) = codegen(&std::env::temp_dir(), &["--root", &root_arg]);
+    assert!(!ok);
+    assert!(err.contains("not a workspace root"), "{err}");
+    assert_eq!(snapshot(&root), before, "wrote something");
+    std::fs::remove_dir_all(&root).unwrap();
+}

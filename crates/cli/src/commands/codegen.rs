@@ -2,7 +2,9 @@
 
 use crate::io;
 use anyhow::{Context, bail};
-use kestrel_tricopter::codegen::{GeneratedFile, Status, find_workspace_root, generated_files};
+use kestrel_tricopter::codegen::{
+    GeneratedFile, Status, find_workspace_root, generated_files, is_workspace_root,
+};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -21,9 +23,9 @@ pub struct Args {
     /// Compare only: fail, listing every stale or missing file; write nothing.
     #[arg(long)]
     pub check: bool,
-    /// Workspace root (default: the first folder at or above the current
-    /// one with a `Cargo.toml` holding `[workspace]` and an `avr/firmware`
-    /// folder).
+    /// Workspace root: a folder with a `Cargo.toml` holding `[workspace]`
+    /// and an `avr/firmware` folder (default: the first such folder at or
+    /// above the current one).
     #[arg(long)]
     pub root: Option<PathBuf>,
 }
@@ -31,7 +33,11 @@ pub struct Args {
 /// Runs `kestrel codegen`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let root = match args.root {
-        Some(root) => root,
+        Some(root) if is_workspace_root(&root) => root,
+        Some(root) => bail!(
+            "--root {}: not a workspace root (a Cargo.toml with [workspace] and an avr/firmware folder); nothing written",
+            root.display()
+        ),
         None => {
             let cwd = std::env::current_dir().context("reading the current directory")?;
             find_workspace_root(&cwd).with_context(|| {

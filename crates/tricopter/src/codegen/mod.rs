@@ -54,7 +54,9 @@ pub fn find_workspace_root(start: &Path) -> Option<PathBuf> {
         .map(Path::to_path_buf)
 }
 
-fn is_workspace_root(dir: &Path) -> bool {
+/// Whether `dir` is a workspace root: a `Cargo.toml` with a `[workspace]`
+/// table and an `avr/firmware` folder.
+pub fn is_workspace_root(dir: &Path) -> bool {
     dir.join("avr/firmware").is_dir()
         && std::fs::read_to_string(dir.join("Cargo.toml"))
             .is_ok_and(|t| t.lines().any(|l| l.trim() == "[workspace]"))
