@@ -1,10 +1,12 @@
-//! `kestrel qp certify`: the complexity certificate of kestrel-qp's dual
-//! active-set solver.
+//! `kestrel qp`: kestrel-qp's dual active-set solver at given parameters
+//! (`solve`) and its complexity certificate (`certify`).
 
 use crate::{io, progress};
 use anyhow::Context;
-use kestrel_core::formats::MpqpProblem;
+use kestrel_core::formats::{MpqpProblem, parameter_rows};
 use kestrel_empc::certify::{Certificate, CertifySettings, Count, QpSettings, certify};
+use kestrel_qp::parametric::ParametricQp;
+use kestrel_qp::{QpError, QpScalar, Start};
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -36,6 +38,50 @@ pub enum QpCommand {
     /// with `worst_iterations`, `worst_flops`, `regions`, `histogram`,
     /// `worst_region` {`theta`, `theta_prev`, `path`, `A`, `b`, ...}).
     Certify(CertifyArgs),
+    /// Solve the QP exactly at each theta of a CSV file with the dual
+    /// active-set solver.
+    ///
+    /// Input: the problem (`--problem`, `kestrel.mpqp.v1`, mapped as for
+    /// `certify`) and a CSV file of parameters (`--thetas`: one theta per
+    /// row, p numbers, no header). Every row is a cold start, or with
+    /// `--warm` a warm start from the previous row's final active set (the
+    /// rows as the periods of a flight, as the firmware solves them). In
+    /// f64, or in f32 with `--f32` (and `QpSettings::for_f32`).
+    ///
+    /// Output (CSV, to stdout or `--out`): one row per theta, the n entries
+    /// of z, no header; `--with-iterations` appends the row's active-set
+    /// changes (the count `certify` bounds). A summary on standard error.
+    /// A theta where the constraints are infeasible, or where the
+    /// iteration cap is reached, stops the command naming its line, and
+    /// nothing is written. Parameters outside the problem's parameter set
+    /// are solved with a warning: the certificate does not cover them.
+    Solve(SolveArgs),
+}
+
+/// Flags of `kestrel qp solve`.
+#[derive(clap::Args, Debug)]
+pub struct SolveArgs {
+    /// Problem file (`kestrel.mpqp.v1`).
+    #[arg(long)]
+    pub problem: PathBuf,
+    /// CSV file, one theta per row (p numbers), no header.
+    #[arg(long)]
+    pub thetas: PathBuf,
+    /// Warm-start each row from the previous row's final active set (the
+    /// first row starts cold).
+    #[arg(long)]
+    pub warm: bool,
+    /// Solve in f32 with the f32 tolerances (`QpSettings::for_f32`).
+    #[arg(long)]
+    pub f32: bool,
+    /// Append each row's active-set changes (iterations) as a last column.
+    #[arg(long)]
+    pub with_iterations: bool,
+    /// Output file (default: standard output).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub replace: io::Replace,
 }
 
 /// Flags of `kestrel qp certify`.
@@ -99,7 +145,122 @@ pub struct CertifyArgs {
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.command {
         QpCommand::Certify(a) => run_certify(a),
+        QpCommand::Solve(a) => run_solve(a),
     }
+}
+
+/// One row's solution and iteration count.
+struct Solved {
+    z: Vec<f64>,
+    iterations: usize,
+}
+
+/// Solves the rows in turn in `S` (cold, or warm from the previous row);
+/// the first failure names its line.
+fn solve_rows<S: QpScalar>(
+    qp: &ParametricQp,
+    thetas: &[Vec<f64>],
+    warm: bool,
+    settings: QpSettings,
+    file: &str,
+) -> anyhow::Result<Vec<Solved>> {
+    let (ns, ni) = qp.workspace_len();
+    let (mut scalars, mut indices) = (vec![S::ZERO; ns], vec![0usize; ni]);
+    let mut solver = qp
+        .solver::<S>(settings, &mut scalars, &mut indices)
+        .map_err(|e| anyhow::anyhow!("setting up the solver: {e}"))?;
+    let mut buf = qp.buffers::<S>();
+    let mut z = vec![S::ZERO; qp.n()];
+    let mut out = Vec::with_capacity(thetas.len());
+    for (k, theta) in thetas.iter().enumerate() {
+        let line = || format!("{file}: line {}", k + 1);
+        qp.fill(theta, &mut buf).with_context(line)?;
+        let start = if warm && k > 0 {
+            Start::Warm
+        } else {
+            Start::Cold
+        };
+        let info = solver.solve(&buf.data(), start).map_err(|e| {
+            let hint = match e {
+                QpError::Infeasible => ": no z meets the constraints at this theta",
+                QpError::IterationLimit => ": more active-set changes than the solver's cap",
+                _ => "",
+            };
+            anyhow::anyhow!("{}: {e}{hint}", line())
+        })?;
+        solver
+            .solution(&mut z)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", line()))?;
+        out.push(Solved {
+            z: z.iter().map(|v| v.to_f64()).collect(),
+            iterations: info.iterations,
+        });
+    }
+    Ok(out)
+}
+
+fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
+    a.replace.check(&[a.out.as_deref()])?;
+    let name = a.problem.display().to_string();
+    let problem = MpqpProblem::read(&a.problem).with_context(|| name.clone())?;
+    let qp = ParametricQp::from_mpqp(&problem).with_context(|| name.clone())?;
+    let file = a.thetas.display().to_string();
+    let text = std::fs::read_to_string(&a.thetas).with_context(|| file.clone())?;
+    let thetas = parameter_rows(&text, qp.p()).with_context(|| file.clone())?;
+    let outside: Vec<usize> = (0..thetas.len())
+        .filter(|&k| !qp.contains(&thetas[k], 0.0))
+        .collect();
+    if let Some(&k) = outside.first() {
+        eprintln!(
+            "warning: {} of {} parameters lie outside the problem's parameter set, which `kestrel qp certify` covers (first: {file} line {}); they are solved anyway, without a certified iteration count",
+            outside.len(),
+            thetas.len(),
+            k + 1
+        );
+    }
+    let solved = if a.f32 {
+        solve_rows::<f32>(&qp, &thetas, a.warm, QpSettings::for_f32(), &file)?
+    } else {
+        solve_rows::<f64>(&qp, &thetas, a.warm, QpSettings::default(), &file)?
+    };
+    let mut out = String::new();
+    for s in &solved {
+        let mut cells: Vec<String> =
+            s.z.iter()
+                .map(|&v| {
+                    if a.f32 {
+                        format!("{:?}", v as f32)
+                    } else {
+                        format!("{v:?}")
+                    }
+                })
+                .collect();
+        if a.with_iterations {
+            cells.push(s.iterations.to_string());
+        }
+        out.push_str(&cells.join(","));
+        out.push('\n');
+    }
+    if let Some((k, worst)) = solved
+        .iter()
+        .enumerate()
+        .max_by_key(|(k, s)| (s.iterations, std::cmp::Reverse(*k)))
+    {
+        eprintln!(
+            "{} parameters solved ({}, {}): at most {} active-set changes (line {}), {:.2} on average",
+            solved.len(),
+            if a.warm {
+                "warm from the previous row"
+            } else {
+                "cold"
+            },
+            if a.f32 { "f32" } else { "f64" },
+            worst.iterations,
+            k + 1,
+            solved.iter().map(|s| s.iterations as f64).sum::<f64>() / solved.len() as f64
+        );
+    }
+    io::write_output(a.out.as_deref(), &out)
 }
 
 fn run_certify(a: CertifyArgs) -> anyhow::Result<()> {
