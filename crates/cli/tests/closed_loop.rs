@@ -86,6 +86,51 @@ fn explicit_law_equals_the_qp_law_on_the_same_run() {
     }
 }
 
+/// The exact online solver flies the QP law: the pulses and the cost of
+/// the clarabel run, cold and warm, on the larger problem (general
+/// saturation over 16 variables); `--start shifted` is fgm's alone.
+#[test]
+fn active_set_law_equals_the_qp_law_cold_and_warm() {
+    let d = dir("active-set");
+    let qp = fly(&d, "qp", &["--controller", "qp", "--size", "larger"]);
+    for start in ["cold", "warm"] {
+        let name = format!("as-{start}");
+        let args = [
+            "--controller",
+            "active-set",
+            "--size",
+            "larger",
+            "--start",
+            start,
+        ];
+        let ours = fly(&d, &name, &args);
+        // Equal to the trace's printed digits (pulses to 1e-4 us, J to 7
+        // significant digits): at most one unit in the last place.
+        let dp = max_pwm_diff(&qp, &ours);
+        assert!(dp <= 1.5e-4, "{start}: max pulse difference {dp} us");
+        for i in 0..qp.len() {
+            let (a, b) = (num(&qp, i, 19), num(&ours, i, 19));
+            assert!(
+                (a - b).abs() <= 1.5e-6 * a.abs().max(1.0),
+                "{start} row {i}: J {a} vs {b}"
+            );
+        }
+    }
+    // The bounds are active in the run: the servo reaches 1500 - 300 us.
+    assert!((0..qp.len()).any(|i| num(&qp, i, 17) <= 1200.0 + 1e-9));
+    let (ok, _, err) = kestrel(&[
+        "closed-loop",
+        "--controller",
+        "active-set",
+        "--start",
+        "shifted",
+    ]);
+    assert!(
+        !ok && err.contains("--start shifted applies to --controller fgm only"),
+        "{err}"
+    );
+}
+
 #[test]
 fn fast_gradient_approaches_the_qp_law_with_iterations() {
     let d = dir("fgm");

@@ -3,12 +3,16 @@
 
 mod error;
 mod iterate;
+#[cfg(feature = "mpc")]
+mod mpc_law;
 #[cfg(feature = "std")]
 pub mod parametric;
 mod settings;
 mod solver;
 
 pub use error::QpError;
+#[cfg(feature = "mpc")]
+pub use mpc_law::{ActiveSetMpc, ActiveSetSolver};
 pub use settings::QpSettings;
 pub use solver::{
     ActiveConstraint, QpData, QpScalar, QpSolver, Side, SolveInfo, Start, index_len, scalar_len,

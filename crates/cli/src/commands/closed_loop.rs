@@ -25,6 +25,8 @@ pub enum Controller {
     Empc,
     /// Fast-gradient MPC (kestrel-fgm) with a fixed iteration count (`--iterations`).
     Fgm,
+    /// MPC with the exact dual active-set solver (kestrel-qp) at every step, cold or (`--start warm`) from the previous step's active set.
+    ActiveSet,
     /// The baseline PI rate controller (ArduCopter ACRO-like) on the raw gyro.
     Pid,
 }
@@ -47,14 +49,14 @@ pub enum Size {
     Larger,
 }
 
-/// Where each fast-gradient solve starts.
+/// Where each fast-gradient or active-set solve starts.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Start {
-    /// From the centre of the input box (the certified start).
+    /// From the centre of the input box (the certified start; fgm), from the empty active set (active-set).
     Cold,
-    /// From the previous step's solution.
+    /// From the previous step's solution (fgm) or final active set (active-set).
     Warm,
-    /// From the previous solution shifted by one move.
+    /// From the previous solution shifted by one move (fgm only).
     Shifted,
 }
 
@@ -82,6 +84,7 @@ an error, no trace written.
 Examples:
   kestrel closed-loop --controller qp --out qp.csv
   kestrel closed-loop --controller fgm --iterations 5 --start warm --noise --out fgm5.csv
+  kestrel closed-loop --controller active-set --start warm --size larger --out as.csv
   kestrel closed-loop --controller empc --model my-model.json --size thesis --out empc.csv";
 
 /// Flies the scenario of thesis 7.7.1 with the chosen controller and
@@ -117,8 +120,8 @@ pub struct Args {
     /// 12; at most 1,000,000, and 1e12 operations over the flight).
     #[arg(long)]
     pub iterations: Option<usize>,
-    /// Where each fast-gradient solve starts (`--controller fgm` only;
-    /// default `cold`).
+    /// Where each solve starts (`--controller fgm` and `active-set` only;
+    /// default `cold`; `shifted` for fgm only).
     #[arg(long, value_enum)]
     pub start: Option<Start>,
     /// Offset-free MPC: constant torque disturbances on the rate states,
@@ -205,19 +208,25 @@ fn controller_name(c: Controller) -> &'static str {
         Controller::Qp => "qp",
         Controller::Empc => "empc",
         Controller::Fgm => "fgm",
+        Controller::ActiveSet => "active-set",
         Controller::Pid => "pid",
     }
 }
 
 fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunResult> {
     if args.controller != Controller::Fgm {
-        for (flag, given) in [
-            ("--iterations", args.iterations.is_some()),
-            ("--start", args.start.is_some()),
+        let start_applies = args.controller == Controller::ActiveSet;
+        for (flag, given, users) in [
+            ("--iterations", args.iterations.is_some(), "fgm"),
+            (
+                "--start",
+                args.start.is_some() && !start_applies,
+                "fgm and active-set",
+            ),
         ] {
             if given {
                 bail!(
-                    "{flag} applies to --controller fgm only; --controller {} does not use it",
+                    "{flag} applies to --controller {users} only; --controller {} does not use it",
                     controller_name(args.controller)
                 );
             }
@@ -310,6 +319,24 @@ fn fly(args: &Args, model: &SsModel, run: &RunSettings) -> anyhow::Result<RunRes
             };
             let solver = kestrel_fgm::FastGradientSolver::for_problem(design.problem(), &opts)?;
             Ok(fly_law(model, &design, solver, run)?.0)
+        }
+        Controller::ActiveSet => {
+            let start = match args.start {
+                Some(Start::Warm) => kestrel_qp::Start::Warm,
+                Some(Start::Cold) | None => kestrel_qp::Start::Cold,
+                Some(Start::Shifted) => bail!(
+                    "--start shifted applies to --controller fgm only; the active-set solver starts cold or warm"
+                ),
+            };
+            let solver =
+                kestrel_qp::ActiveSetSolver::new(&mpqp, kestrel_qp::QpSettings::default(), start)?;
+            let (result, solver) = fly_law(model, &design, solver, run)?;
+            eprintln!(
+                "active-set: {} solves, at most {} active-set changes per step",
+                solver.solves(),
+                solver.worst_iterations()
+            );
+            Ok(result)
         }
         Controller::Pid => unreachable!("handled above"),
     }
