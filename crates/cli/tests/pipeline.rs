@@ -129,6 +129,14 @@ fn quick_pipeline_report_is_complete_and_consistent() {
         assert!((a - b).abs() <= 2e-3, "{u}: QP {a}, explicit {b}");
     }
     assert!((num(&ex[col(&h, "J(U, theta)")]) - jstar).abs() <= 1e-5 * (1.0 + jstar.abs()));
+    // The exact active-set solver too, with its iteration count.
+    let active = find("active set (kestrel-qp)");
+    for u in ["U1 [us]", "U2 [us]", "U3 [us]", "U4 [us]"] {
+        let (a, b) = (num(&qp[col(&h, u)]), num(&active[col(&h, u)]));
+        assert!((a - b).abs() <= 2e-3, "{u}: QP {a}, active set {b}");
+    }
+    assert!((num(&active[col(&h, "J(U, theta)")]) - jstar).abs() <= 1e-5 * (1.0 + jstar.abs()));
+    assert!(active[col(&h, "iterations")].parse::<usize>().is_ok());
     // ... and at the random parameters of the check table.
     let (h2, rows2) = read_table(&out.join("tables/explicit_check.csv"));
     let dz = num(&rows2[0][col(&h2, "max |z_explicit - z_QP| [us]")]);

@@ -309,7 +309,7 @@ impl PipelineResult {
                                 j: r.cost,
                             })
                         }
-                        Solver::Qp | Solver::Explicit => None,
+                        Solver::Qp | Solver::Explicit | Solver::ActiveSet { .. } => None,
                     })
                     .collect(),
             },

@@ -1,6 +1,6 @@
-//! Stage 8: Table 7.2 (section 7.7.2): the reference QP, the explicit law
-//! and the fast gradient method at one parameter of the thesis-sized
-//! problem, with host times.
+//! Stage 8: Table 7.2 (section 7.7.2): the reference QP, the explicit law,
+//! the dual active-set solver and the fast gradient method at one
+//! parameter of the thesis-sized problem, with host times.
 
 use super::config::Config;
 use super::error::{Context, PipelineError, Result};
@@ -8,8 +8,11 @@ use super::explicit::Explicit;
 use super::fast_gradient::FastGradient;
 use super::problems::Problems;
 use super::sample::qp_cost;
+use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::ExplicitSolver;
 use kestrel_mpc::{ParametricQpSolver, QpSettings, ReferenceSolver};
+use kestrel_qp::Start;
+use kestrel_qp::parametric::ParametricQp;
 use nalgebra::DVector;
 use std::time::Instant;
 
@@ -23,6 +26,11 @@ pub enum Solver {
     Qp,
     /// The explicit law.
     Explicit,
+    /// kestrel-qp's dual active-set solver from a cold start (exact).
+    ActiveSet {
+        /// Active-set changes of the solve.
+        iterations: usize,
+    },
     /// The fast gradient method with a fixed iteration count.
     FgmFixed(usize),
     /// The fast gradient method with the count certified for `eps`
@@ -63,7 +71,8 @@ pub struct Table72 {
     pub nu: usize,
     /// The optimum `J*`.
     pub j_star: f64,
-    /// The QP row, the explicit row, the fast gradient rows.
+    /// The QP row, the explicit row, the active-set row, the fast
+    /// gradient rows.
     pub rows: Vec<Row>,
 }
 
@@ -81,6 +90,32 @@ fn timed<T>(mut f: impl FnMut() -> Result<T>) -> Result<(T, f64)> {
         v = f()?;
     }
     Ok((v, t0.elapsed().as_secs_f64() / REPETITIONS as f64))
+}
+
+/// The active-set solver's solution at `theta` from a cold start, its
+/// iterations and its mean host time per solve (the solver set up once,
+/// as on a target).
+fn active_set(mpqp: &MpqpProblem, theta: &DVector<f64>) -> Result<(Vec<f64>, usize, f64)> {
+    let ctx = || "the active-set solver".to_string();
+    let par = ParametricQp::from_mpqp(mpqp)
+        .map_err(|e| PipelineError::Data(format!("{}: {e}", ctx())))?;
+    let solver_err = |e: kestrel_qp::QpError| PipelineError::Data(format!("{}: {e}", ctx()));
+    let (ns, ni) = par.workspace_len();
+    let (mut scalars, mut indices) = (vec![0.0; ns], vec![0; ni]);
+    let mut qp = par
+        .solver::<f64>(
+            kestrel_qp::QpSettings::default(),
+            &mut scalars,
+            &mut indices,
+        )
+        .map_err(solver_err)?;
+    let mut buf = par.buffers::<f64>();
+    par.fill(theta.as_slice(), &mut buf)
+        .map_err(|e| PipelineError::Data(format!("{}: {e}", ctx())))?;
+    let (info, secs) = timed(|| qp.solve(&buf.data(), Start::Cold).map_err(solver_err))?;
+    let mut z = vec![0.0; par.n()];
+    qp.solution(&mut z).map_err(solver_err)?;
+    Ok((z, info.iterations, secs))
 }
 
 /// Stage 8.
@@ -128,6 +163,8 @@ pub fn run(cfg: &Config, pr: &Problems, ex: &Explicit, fg: &FastGradient) -> Res
             .ctx(|| "the explicit law".into())
     })?;
     rows.push(row(Solver::Explicit, z, t_ex));
+    let (za, iterations, t_as) = active_set(mpqp, &theta)?;
+    rows.push(row(Solver::ActiveSet { iterations }, za, t_as));
     let f = &fg.thesis;
     let d = &f.design;
     let mut runs: Vec<Solver> = cfg
@@ -155,7 +192,7 @@ pub fn run(cfg: &Config, pr: &Problems, ex: &Explicit, fg: &FastGradient) -> Res
     for solver in runs {
         let k = match solver {
             Solver::FgmFixed(k) | Solver::FgmCertified { iterations: k, .. } => k,
-            Solver::Qp | Solver::Explicit => continue,
+            Solver::Qp | Solver::Explicit | Solver::ActiveSet { .. } => continue,
         };
         let (zf, secs) = timed(|| {
             d.solve(cpwm, theta.as_slice(), None, k)
