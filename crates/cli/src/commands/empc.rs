@@ -362,7 +362,7 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
         }
         locate::stage(show, 3, stages, "writing the solution");
         let text = locate::solution_lists_json(&sol, &lists, !a.no_regions);
-        return io::write_output(a.out.as_deref(), &text);
+        return write_solution(&a, &text, sol.regions.len());
     }
     let layout_limit = match a.layout {
         LayoutArg::U16 => kestrel_empc::tree::MAX_NODES,
@@ -419,7 +419,7 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
         }
         AnyTables::Wide(_) => {
             let text = export::solution_json(&sol, &any, !a.no_regions);
-            return io::write_output(a.out.as_deref(), &text);
+            return write_solution(&a, &text, sol.regions.len());
         }
     };
     let text = if a.compact {
@@ -438,7 +438,22 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
     } else {
         export::solution_json(&sol, &ctl, !a.no_regions)
     };
-    io::write_output(a.out.as_deref(), &text)
+    write_solution(&a, &text, sol.regions.len())
+}
+
+/// Solution files from this size on get a note on their size.
+const LARGE_SOLUTION_BYTES: usize = 100 << 20;
+
+/// Writes a solution with its evaluation tables; a large file with its
+/// region list gets a note saying so and how to leave the list out.
+fn write_solution(a: &SolveArgs, text: &str, regions: usize) -> anyhow::Result<()> {
+    if text.len() >= LARGE_SOLUTION_BYTES && !a.no_regions {
+        eprintln!(
+            "note: the solution file is {}, most of it the {regions} regions' rows (region_list); `eval` and `export` need only the tables, and --no-regions leaves the list out",
+            kestrel_mpc::human_bytes(text.len() as f64)
+        );
+    }
+    io::write_output(a.out.as_deref(), text)
 }
 
 fn read_text(path: &std::path::Path) -> anyhow::Result<String> {
