@@ -185,6 +185,61 @@ fn design_files_give_the_same_tables_as_the_defaults() {
     }
 }
 
+/// `--qp-out` writes the `qp` build's tables with the firmware tables:
+/// for the repository's model they are the committed files `kestrel
+/// codegen` generates, byte for byte; the pair is written together or not
+/// at all.
+#[test]
+fn qp_tables_are_written_beside_the_firmware_tables() {
+    let d = dir().join("qp-out");
+    std::fs::create_dir_all(&d).unwrap();
+    let (out, qp) = (d.join("generated.rs"), d.join("generated_qp.rs"));
+    let (o, q) = (out.display().to_string(), qp.display().to_string());
+    let args = ["export", "--model", &fixture(), "--out", &o, "--qp-out", &q];
+    let (ok, _, err) = kestrel(&args);
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("the qp build's tables") && err.contains("4 variables"),
+        "{err}"
+    );
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../avr/firmware/src");
+    let committed = |name: &str| std::fs::read_to_string(repo.join(name)).unwrap();
+    assert_eq!(
+        std::fs::read_to_string(&qp).unwrap(),
+        committed("generated_qp.rs")
+    );
+    assert_eq!(
+        std::fs::read_to_string(&out).unwrap(),
+        committed("generated.rs")
+    );
+    // The QP file exists now: without --force nothing is written, not even
+    // the firmware tables to a new name.
+    let fresh = d.join("other.rs");
+    let f = fresh.display().to_string();
+    let (ok, _, err) = kestrel(&["export", "--model", &fixture(), "--out", &f, "--qp-out", &q]);
+    assert!(!ok && err.contains("--force"), "{err}");
+    assert!(!fresh.exists());
+    // Rust only.
+    let c = d.join("c").display().to_string();
+    let args = [
+        "export",
+        "--model",
+        &fixture(),
+        "--lang",
+        "c",
+        "--out",
+        &c,
+        "--qp-out",
+        &f,
+    ];
+    let (ok, _, err) = kestrel(&args);
+    assert!(
+        !ok && err.contains("--qp-out") && err.contains("--lang rust"),
+        "{err}"
+    );
+    assert!(!fresh.exists() && !d.join("c").exists());
+}
+
 #[test]
 fn malformed_design_files_are_refused_with_a_reason() {
     // A model with the wrong inputs.

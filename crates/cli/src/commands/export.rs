@@ -10,7 +10,7 @@ use kestrel_kalman::KalmanDesign;
 use kestrel_tricopter::ProblemSize;
 use kestrel_tricopter::firmware::{
     DesignError, DesignPart, DesignSettings, FirmwareDesign, IterationBudget, ProblemCheck,
-    ProblemFile, Realization, c_tables, generate_tables,
+    ProblemFile, QpTables, Realization, c_tables, generate_qp_tables, generate_tables,
 };
 use std::path::PathBuf;
 
@@ -44,6 +44,8 @@ use std::path::PathBuf;
 /// AVR, and kestrel-ffi's `KestrelDesign` for them), with `--empc` also
 /// the explicit law's table (`kestrel_empc.h`, `kestrel_empc.c`); files
 /// there that `kestrel export --lang c` did not write are never replaced.
+/// With `--qp-out FILE` (Rust), also the problem as the box QP tables of
+/// the firmware's `qp` build (`generated_qp.rs`), written together.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Design model (`kestrel.ss.v1`, discrete, 4 inputs, 3 outputs).
@@ -92,6 +94,12 @@ pub struct Args {
     /// tree) as `kestrel_empc.h` and `kestrel_empc.c`.
     #[arg(long)]
     pub empc: bool,
+    /// With `--lang rust`: also write the same MPC problem as the box QP
+    /// tables of the firmware's `qp` build (kestrel-qp's exact dual
+    /// active-set solver; `avr/firmware/src/generated_qp.rs`) to this
+    /// file, written together with `--out`.
+    #[arg(long, value_name = "FILE")]
+    pub qp_out: Option<PathBuf>,
 }
 
 /// `--lang`.
@@ -137,7 +145,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // With --lang c, --out is a folder whose files are replaced only when
     // this command wrote them (`c_files`).
     if args.lang == Lang::Rust {
-        args.replace.check(&[args.out.as_deref()])?;
+        args.replace
+            .check(&[args.out.as_deref(), args.qp_out.as_deref()])?;
+    }
+    if args.qp_out.is_some() && args.lang != Lang::Rust {
+        bail!(
+            "--qp-out writes the Rust firmware's QP tables: it goes with --lang rust (the C tables carry the fast gradient's data)"
+        );
     }
     if let (Lang::C, None) = (args.lang, &args.out) {
         bail!(
@@ -231,7 +245,34 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         (Lang::C, None) | (Lang::Rust, _) => {
             let source = generate_tables(&design)?;
-            io::write_output(args.out.as_deref(), &source)?;
+            let mut outputs = io::Outputs::new();
+            outputs.add(args.out.as_deref(), &source)?;
+            if let Some(path) = &args.qp_out {
+                outputs.add(Some(path), generate_qp_tables(&design)?)?;
+            }
+            outputs.commit()?;
+            if let Some(path) = &args.qp_out {
+                let t = QpTables::of(&design);
+                let values = t.h.len()
+                    + t.hinv.len()
+                    + t.f.len()
+                    + t.f0.len()
+                    + t.lo.len()
+                    + t.lo0.len()
+                    + t.hi.len()
+                    + t.hi0.len()
+                    + t.theta_lb.len()
+                    + t.theta_ub.len();
+                // f32 values and workspace; usize is 2 bytes on the AVR.
+                let ram = 4 * (values + kestrel_qp::scalar_len(t.n, 0))
+                    + 2 * kestrel_qp::index_len(t.n, 0);
+                eprintln!(
+                    "export: wrote the qp build's tables to {} ({} variables, {} parameters; {values} f32 values, with the solver's workspace about {ram} bytes of the ATmega2560's 8 kB RAM)",
+                    path.display(),
+                    t.n,
+                    t.p
+                );
+            }
         }
     }
     eprintln!(
