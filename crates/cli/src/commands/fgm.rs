@@ -1,8 +1,9 @@
 //! `kestrel fgm certify|solve`: the certified fast gradient method.
 
+use super::problem_thetas::ProblemThetas;
 use crate::io;
 use anyhow::{Context, bail};
-use kestrel_core::formats::{MpqpProblem, parameter_rows};
+use kestrel_core::formats::MpqpProblem;
 use kestrel_fgm::{
     AppliedInputs, BoxQp, ExportScalar, FgmDesign, FgmSettings, Momentum, Preconditioner, Start,
     WarmStartAssumption,
@@ -147,12 +148,8 @@ pub struct CertifyArgs {
 /// Flags of `kestrel fgm solve`.
 #[derive(clap::Args, Debug)]
 pub struct SolveArgs {
-    /// Problem file (`kestrel.mpqp.v1`).
-    #[arg(long)]
-    pub problem: PathBuf,
-    /// CSV file, one theta per row (p numbers), no header.
-    #[arg(long)]
-    pub thetas: PathBuf,
+    #[command(flatten)]
+    pub input: ProblemThetas,
     /// Fast-gradient iterations after the initial projected gradient step
     /// (at most 1,000,000, and 1e12 operations over all parameters; `certify`
     /// gives the count for a tolerance).
@@ -361,15 +358,10 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
     outputs.commit()
 }
 
-fn read_thetas(path: &Path, p: usize) -> anyhow::Result<Vec<Vec<f64>>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-    parameter_rows(&text, p).with_context(|| format!("{}", path.display()))
-}
-
 fn solve(a: SolveArgs) -> anyhow::Result<()> {
     a.replace.check(&[a.out.as_deref()])?;
-    let d = load(&a.problem, a.preconditioner, Momentum::Auto)?;
-    let thetas = read_thetas(&a.thetas, d.problem.p())?;
+    let d = load(&a.input.problem, a.preconditioner, Momentum::Auto)?;
+    let thetas = a.input.read_thetas(d.problem.p())?;
     let outside: Vec<(usize, usize)> = thetas
         .iter()
         .enumerate()
@@ -381,7 +373,7 @@ fn solve(a: SolveArgs) -> anyhow::Result<()> {
             "warning: {} of {} parameters lie outside the problem's parameter box, which the certificate covers (first: {} row {}, entry {} = {:?} not in [{:?}, {:?}]); they are solved anyway, without a certified accuracy",
             outside.len(),
             thetas.len(),
-            a.thetas.display(),
+            a.input.thetas.display(),
             k + 1,
             j + 1,
             thetas[k][j],
@@ -398,7 +390,7 @@ fn solve(a: SolveArgs) -> anyhow::Result<()> {
     for (k, th) in thetas.iter().enumerate() {
         let z = data
             .solve(th, Start::Cold, a.iterations)
-            .with_context(|| format!("{}: line {}", a.thetas.display(), k + 1))?;
+            .with_context(|| format!("{}: line {}", a.input.thetas.display(), k + 1))?;
         let cells: Vec<String> = z.iter().map(|v| format!("{v:?}")).collect();
         out.push_str(&cells.join(","));
         out.push('\n');

@@ -11,6 +11,7 @@ pub mod import;
 pub mod kalman;
 pub mod mpc;
 pub mod pipeline;
+pub mod problem_thetas;
 pub mod qp;
 pub mod simulate;
 pub mod tricopter_names;

@@ -1,9 +1,10 @@
 //! `kestrel qp`: kestrel-qp's dual active-set solver at given parameters
 //! (`solve`) and its complexity certificate (`certify`).
 
+use super::problem_thetas::ProblemThetas;
 use crate::{io, progress};
 use anyhow::Context;
-use kestrel_core::formats::{MpqpProblem, parameter_rows};
+use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::certify::{Certificate, CertifySettings, Count, QpSettings, certify};
 use kestrel_qp::parametric::ParametricQp;
 use kestrel_qp::{QpError, QpScalar, Start};
@@ -61,12 +62,8 @@ pub enum QpCommand {
 /// Flags of `kestrel qp solve`.
 #[derive(clap::Args, Debug)]
 pub struct SolveArgs {
-    /// Problem file (`kestrel.mpqp.v1`).
-    #[arg(long)]
-    pub problem: PathBuf,
-    /// CSV file, one theta per row (p numbers), no header.
-    #[arg(long)]
-    pub thetas: PathBuf,
+    #[command(flatten)]
+    pub input: ProblemThetas,
     /// Warm-start each row from the previous row's final active set (the
     /// first row starts cold).
     #[arg(long)]
@@ -201,12 +198,11 @@ fn solve_rows<S: QpScalar>(
 
 fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
     a.replace.check(&[a.out.as_deref()])?;
-    let name = a.problem.display().to_string();
-    let problem = MpqpProblem::read(&a.problem).with_context(|| name.clone())?;
+    let name = a.input.problem.display().to_string();
+    let problem = MpqpProblem::read(&a.input.problem).with_context(|| name.clone())?;
     let qp = ParametricQp::from_mpqp(&problem).with_context(|| name.clone())?;
-    let file = a.thetas.display().to_string();
-    let text = std::fs::read_to_string(&a.thetas).with_context(|| file.clone())?;
-    let thetas = parameter_rows(&text, qp.p()).with_context(|| file.clone())?;
+    let file = a.input.thetas.display().to_string();
+    let thetas = a.input.read_thetas(qp.p())?;
     let outside: Vec<usize> = (0..thetas.len())
         .filter(|&k| !qp.contains(&thetas[k], 0.0))
         .collect();
