@@ -76,6 +76,27 @@ fn ground_to_stdout_and_rate_model_file() {
     assert!(json.contains("kestrel.ss.v1") && json.contains("\"ts\": 0.02"));
 }
 
+/// A flight too short to take off says so; one long enough, and the ground
+/// experiment (which never flies), do not.
+#[test]
+fn a_flight_that_never_takes_off_is_noted() {
+    let run = |experiment: &str, seconds: &str| {
+        let out = kestrel()
+            .args(["simulate", "--experiment", experiment, "--seconds", seconds])
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        let text = String::from_utf8(out.stdout).unwrap();
+        let airborne = text.lines().skip(1).filter(|l| l.ends_with(",1")).count();
+        let noted = String::from_utf8_lossy(&out.stderr).contains("never left the ground");
+        (airborne, noted)
+    };
+    assert_eq!(run("hover", "5"), (0, true));
+    let (airborne, noted) = run("hover", "8");
+    assert!(airborne > 0 && !noted, "{airborne}");
+    assert_eq!(run("ground", "5"), (0, false));
+}
+
 #[test]
 fn bad_arguments_are_clear_errors() {
     let out = kestrel()

@@ -73,5 +73,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     outputs.add(args.out.as_deref(), text)?;
     outputs.commit()?;
     eprintln!("{}: {}", args.experiment.name(), log.trim);
+    if args.experiment != Experiment::Ground && !log.rows.iter().any(|r| r.airborne) {
+        eprintln!(
+            "note: the aircraft never left the ground in these {} s (take-off at 2 s, landing in the last 3.5 s): the log has no airborne sample; fly 6 s or more",
+            args.seconds
+        );
+    }
     Ok(())
 }
