@@ -195,7 +195,19 @@ fn qp_tables_are_written_beside_the_firmware_tables() {
     std::fs::create_dir_all(&d).unwrap();
     let (out, qp) = (d.join("generated.rs"), d.join("generated_qp.rs"));
     let (o, q) = (out.display().to_string(), qp.display().to_string());
-    let args = ["export", "--model", &fixture(), "--out", &o, "--qp-out", &q];
+    let qp16 = d.join("generated_qp16.rs");
+    let q16 = qp16.display().to_string();
+    let args = [
+        "export",
+        "--model",
+        &fixture(),
+        "--out",
+        &o,
+        "--qp-out",
+        &q,
+        "--qp16-out",
+        &q16,
+    ];
     let (ok, _, err) = kestrel(&args);
     assert!(ok, "{err}");
     assert!(
@@ -204,14 +216,17 @@ fn qp_tables_are_written_beside_the_firmware_tables() {
     );
     let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../avr/firmware/src");
     let committed = |name: &str| std::fs::read_to_string(repo.join(name)).unwrap();
-    assert_eq!(
-        std::fs::read_to_string(&qp).unwrap(),
-        committed("generated_qp.rs")
-    );
-    assert_eq!(
-        std::fs::read_to_string(&out).unwrap(),
-        committed("generated.rs")
-    );
+    for (file, name) in [
+        (&qp, "generated_qp.rs"),
+        (&qp16, "generated_qp16.rs"),
+        (&out, "generated.rs"),
+    ] {
+        assert_eq!(
+            std::fs::read_to_string(file).unwrap(),
+            committed(name),
+            "{name}"
+        );
+    }
     // The QP file exists now: without --force nothing is written, not even
     // the firmware tables to a new name.
     let fresh = d.join("other.rs");
@@ -219,6 +234,29 @@ fn qp_tables_are_written_beside_the_firmware_tables() {
     let (ok, _, err) = kestrel(&["export", "--model", &fixture(), "--out", &f, "--qp-out", &q]);
     assert!(!ok && err.contains("--force"), "{err}");
     assert!(!fresh.exists());
+    // The fixed-point build is sized for the thesis's problem: the larger
+    // one is refused, nothing written.
+    let args = [
+        "export",
+        "--model",
+        &fixture(),
+        "--size",
+        "larger",
+        "--out",
+        &f,
+        "--qp16-out",
+        &q16,
+    ];
+    let (ok, _, err) = kestrel(&[&args[..], &["--force"]].concat());
+    assert!(
+        !ok && err.contains("--qp16-out") && err.contains("(16, 9)"),
+        "{err}"
+    );
+    assert!(!fresh.exists());
+    assert_eq!(
+        std::fs::read_to_string(&qp16).unwrap(),
+        committed("generated_qp16.rs")
+    );
     // Rust only.
     let c = d.join("c").display().to_string();
     let args = [

@@ -10,7 +10,8 @@ use kestrel_kalman::KalmanDesign;
 use kestrel_tricopter::ProblemSize;
 use kestrel_tricopter::firmware::{
     DesignError, DesignPart, DesignSettings, FirmwareDesign, IterationBudget, ProblemCheck,
-    ProblemFile, QpTables, Realization, c_tables, generate_qp_tables, generate_tables,
+    ProblemFile, QpTables, Realization, c_tables, generate_qp_tables, generate_qp16_tables,
+    generate_tables,
 };
 use std::path::PathBuf;
 
@@ -45,7 +46,9 @@ use std::path::PathBuf;
 /// the explicit law's table (`kestrel_empc.h`, `kestrel_empc.c`); files
 /// there that `kestrel export --lang c` did not write are never replaced.
 /// With `--qp-out FILE` (Rust), also the problem as the box QP tables of
-/// the firmware's `qp` build (`generated_qp.rs`), written together.
+/// the firmware's `qp` build (`generated_qp.rs`), with `--qp16-out FILE`
+/// as the fixed-point tables of its `qp16` build (`generated_qp16.rs`),
+/// all written together.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Design model (`kestrel.ss.v1`, discrete, 4 inputs, 3 outputs).
@@ -100,6 +103,12 @@ pub struct Args {
     /// file, written together with `--out`.
     #[arg(long, value_name = "FILE")]
     pub qp_out: Option<PathBuf>,
+    /// With `--lang rust`: also write the same problem as the fixed-point
+    /// tables of the firmware's `qp16` build (kestrel-avr-rt's Q15.16
+    /// active-set solver; `avr/firmware/src/generated_qp16.rs`) to this
+    /// file, written together with `--out`.
+    #[arg(long, value_name = "FILE")]
+    pub qp16_out: Option<PathBuf>,
 }
 
 /// `--lang`.
@@ -145,13 +154,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // With --lang c, --out is a folder whose files are replaced only when
     // this command wrote them (`c_files`).
     if args.lang == Lang::Rust {
-        args.replace
-            .check(&[args.out.as_deref(), args.qp_out.as_deref()])?;
+        args.replace.check(&[
+            args.out.as_deref(),
+            args.qp_out.as_deref(),
+            args.qp16_out.as_deref(),
+        ])?;
     }
-    if args.qp_out.is_some() && args.lang != Lang::Rust {
-        bail!(
-            "--qp-out writes the Rust firmware's QP tables: it goes with --lang rust (the C tables carry the fast gradient's data)"
-        );
+    for (flag, given) in [
+        ("--qp-out", args.qp_out.is_some()),
+        ("--qp16-out", args.qp16_out.is_some()),
+    ] {
+        if given && args.lang != Lang::Rust {
+            bail!(
+                "{flag} writes the Rust firmware's QP tables: it goes with --lang rust (the C tables carry the fast gradient's data)"
+            );
+        }
     }
     if let (Lang::C, None) = (args.lang, &args.out) {
         bail!(
@@ -250,7 +267,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             if let Some(path) = &args.qp_out {
                 outputs.add(Some(path), generate_qp_tables(&design)?)?;
             }
+            if let Some(path) = &args.qp16_out {
+                let tables = generate_qp16_tables(&design).context(
+                    "--qp16-out: the qp16 build's fixed-point solver is sized for the thesis's problem",
+                )?;
+                outputs.add(Some(path), tables)?;
+            }
             outputs.commit()?;
+            if let Some(path) = &args.qp16_out {
+                eprintln!(
+                    "export: wrote the qp16 build's fixed-point tables to {}",
+                    path.display()
+                );
+            }
             if let Some(path) = &args.qp_out {
                 let t = QpTables::of(&design);
                 let values = t.h.len()
