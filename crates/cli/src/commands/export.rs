@@ -282,16 +282,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
             if let Some(path) = &args.qp_out {
                 let t = QpTables::of(&design);
-                let values = t.h.len()
-                    + t.hinv.len()
-                    + t.f.len()
-                    + t.f0.len()
-                    + t.lo.len()
-                    + t.lo0.len()
-                    + t.hi.len()
-                    + t.hi0.len()
-                    + t.theta_lb.len()
-                    + t.theta_ub.len();
+                let values = t.values().count();
                 // f32 values and workspace; usize is 2 bytes on the AVR.
                 let ram = 4 * (values + kestrel_qp::scalar_len(t.n, 0))
                     + 2 * kestrel_qp::index_len(t.n, 0);

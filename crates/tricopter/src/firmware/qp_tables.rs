@@ -93,6 +93,22 @@ impl QpTables {
         )
     }
 
+    /// Every value of the tables, in the order of the fields (the `static`
+    /// arrays of the generated file).
+    pub fn values(&self) -> impl Iterator<Item = &f64> {
+        self.h
+            .iter()
+            .chain(&self.hinv)
+            .chain(&self.f)
+            .chain(&self.f0)
+            .chain(&self.lo)
+            .chain(&self.lo0)
+            .chain(&self.hi)
+            .chain(&self.hi0)
+            .chain(&self.theta_lb)
+            .chain(&self.theta_ub)
+    }
+
     /// Non-zero entries of the three parameter maps (the multiply-adds of
     /// one period's set-up; the firmware skips the zeros).
     pub fn setup_terms(&self) -> usize {
@@ -107,7 +123,8 @@ impl QpTables {
 
 /// The Rust source of the `qp` builds' tables
 /// (`avr/firmware/src/generated_qp.rs`): [`QpTables`] of the design in
-/// f32, as `static` arrays (the firmware keeps them in RAM: 136 values).
+/// f32, as `static` arrays (the firmware keeps them in RAM; [`QpTables::values`]
+/// lists them, 170 for the thesis-sized problem).
 ///
 /// # Errors
 /// [`DesignError::Unsupported`] for a non-finite value or one beyond f32's
@@ -115,19 +132,8 @@ impl QpTables {
 pub fn generate_qp_tables(d: &FirmwareDesign) -> Result<String, DesignError> {
     let t = QpTables::of(d);
     let (n, p) = (t.n, t.p);
-    let all =
-        t.h.iter()
-            .chain(&t.hinv)
-            .chain(&t.f)
-            .chain(&t.f0)
-            .chain(&t.lo)
-            .chain(&t.lo0)
-            .chain(&t.hi)
-            .chain(&t.hi0)
-            .chain(&t.theta_lb)
-            .chain(&t.theta_ub);
-    if let Some(bad) = all
-        .clone()
+    if let Some(bad) = t
+        .values()
         .find(|v| !v.is_finite() || v.abs() > f32::MAX as f64)
     {
         return Err(DesignError::Unsupported(format!(
