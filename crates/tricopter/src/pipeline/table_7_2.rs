@@ -97,24 +97,18 @@ fn timed<T>(mut f: impl FnMut() -> Result<T>) -> Result<(T, f64)> {
 /// as on a target).
 fn active_set(mpqp: &MpqpProblem, theta: &DVector<f64>) -> Result<(Vec<f64>, usize, f64)> {
     let ctx = || "the active-set solver".to_string();
-    let par = ParametricQp::from_mpqp(mpqp)
-        .map_err(|e| PipelineError::Data(format!("{}: {e}", ctx())))?;
-    let solver_err = |e: kestrel_qp::QpError| PipelineError::Data(format!("{}: {e}", ctx()));
+    let par = ParametricQp::from_mpqp(mpqp).ctx(ctx)?;
     let (ns, ni) = par.workspace_len();
     let (mut scalars, mut indices) = (vec![0.0; ns], vec![0; ni]);
+    let settings = kestrel_qp::QpSettings::default();
     let mut qp = par
-        .solver::<f64>(
-            kestrel_qp::QpSettings::default(),
-            &mut scalars,
-            &mut indices,
-        )
-        .map_err(solver_err)?;
+        .solver::<f64>(settings, &mut scalars, &mut indices)
+        .ctx(ctx)?;
     let mut buf = par.buffers::<f64>();
-    par.fill(theta.as_slice(), &mut buf)
-        .map_err(|e| PipelineError::Data(format!("{}: {e}", ctx())))?;
-    let (info, secs) = timed(|| qp.solve(&buf.data(), Start::Cold).map_err(solver_err))?;
+    par.fill(theta.as_slice(), &mut buf).ctx(ctx)?;
+    let (info, secs) = timed(|| qp.solve(&buf.data(), Start::Cold).ctx(ctx))?;
     let mut z = vec![0.0; par.n()];
-    qp.solution(&mut z).map_err(solver_err)?;
+    qp.solution(&mut z).ctx(ctx)?;
     Ok((z, info.iterations, secs))
 }
 
