@@ -52,10 +52,9 @@ pub struct ActiveSetSolver {
     scalars: Vec<f64>,
     indices: Vec<usize>,
     buffers: QpBuffers<f64>,
-    /// The final active set of the last successful solve.
+    /// The final active set of the last successful solve (empty before
+    /// the first and after a failure: a warm start from it is cold).
     previous: Vec<ActiveConstraint>,
-    /// Whether `previous` holds a solve's set (else the next start is cold).
-    has_previous: bool,
     last_iterations: usize,
     worst_iterations: usize,
     solves: usize,
@@ -90,7 +89,6 @@ impl ActiveSetSolver {
             scalars: vec![0.0; ns],
             indices: vec![0; ni],
             previous: Vec::new(),
-            has_previous: false,
             last_iterations: 0,
             worst_iterations: 0,
             solves: 0,
@@ -135,7 +133,6 @@ impl ActiveSetSolver {
 
     /// Forgets the kept active set: the next solve starts cold.
     pub fn reset(&mut self) {
-        self.has_previous = false;
         self.previous.clear();
     }
 
@@ -153,14 +150,12 @@ impl ActiveSetSolver {
         let mut solver =
             self.qp
                 .solver::<f64>(self.settings, &mut self.scalars, &mut self.indices)?;
-        let start = match self.start {
-            Start::Warm if self.has_previous => {
-                solver.set_active_set(&self.previous)?;
-                Start::Warm
-            }
-            Start::Warm | Start::Cold => Start::Cold,
-        };
-        let info = solver.solve(&self.buffers.data(), start)?;
+        // The set-up left the active set empty; a warm start adds the kept
+        // one (from an empty set it is the cold start).
+        if self.start == Start::Warm {
+            solver.set_active_set(&self.previous)?;
+        }
+        let info = solver.solve(&self.buffers.data(), self.start)?;
         solver.solution(z)?;
         self.previous.clear();
         self.previous.extend(solver.active_set());
@@ -183,7 +178,6 @@ impl ParametricQpSolver for ActiveSetSolver {
         }
         match self.solve_at(theta, z) {
             Ok(iterations) => {
-                self.has_previous = true;
                 self.last_iterations = iterations;
                 self.worst_iterations = self.worst_iterations.max(iterations);
                 self.solves += 1;
