@@ -2,8 +2,8 @@
 //! `tests/generated/box2_lists_f32.rs` (the lists of `generated/box2.json`,
 //! `leaf_regions` 1) is what `ListTables::rust_source` writes today, it
 //! compiles (it is included here), and its `static` tables evaluate like
-//! the in-memory ones. `KESTREL_BLESS=1 cargo test -p kestrel-empc --test
-//! locate_source` rewrites the file.
+//! the in-memory ones. `kestrel codegen` writes the file (and `kestrel
+//! codegen --check` compares it in CI).
 
 use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::export::ExportScalar;
@@ -28,17 +28,10 @@ fn list_source_is_current_and_evaluates_like_the_tables() {
     assert!(c.stats.nodes > 0, "{:?}", c.stats);
     let narrow = c.tables.narrow().unwrap();
     let text = narrow.rust_source(ExportScalar::F32).unwrap();
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/generated/box2_lists_f32.rs"
-    );
-    if std::env::var_os("KESTREL_BLESS").is_some() {
-        std::fs::write(path, &text).unwrap();
-    }
     assert_eq!(
         text,
         include_str!("generated/box2_lists_f32.rs"),
-        "stale: run with KESTREL_BLESS=1"
+        "the golden file is stale: run `kestrel codegen`"
     );
     assert!(narrow.rust_source(ExportScalar::Q16).is_ok());
     let mine = narrow.cast::<f32>();

@@ -12,7 +12,8 @@ use crate::{ProblemSize, default_weights, tricopter_problem};
 use kestrel_core::Q16;
 use kestrel_core::formats::{MpqpProblem, SsModel};
 use kestrel_empc::export::{ExportScalar, rust_source};
-use kestrel_empc::{Settings, TreeSettings, build_compact, build_controller, solve};
+use kestrel_empc::locate::{LocateSettings, build_lists};
+use kestrel_empc::{EmpcError, Settings, TreeSettings, build_compact, build_controller, solve};
 use kestrel_fgm::{BoxQp, FgmDesign, FgmSettings, Momentum, Preconditioner, export_rust};
 use std::path::Path;
 
@@ -43,7 +44,9 @@ pub const FGM_EPS: f64 = 1e-6;
 /// kestrel-empc's golden tables of [`EMPC_BOX2`]: the exact solution's
 /// search tree in the narrow (`f32`, `q16`), wide (`f32`, `f64`) and
 /// compact (`f32`, `f64`, `q16`) layouts, as `cargo test -p kestrel-empc
-/// --test export --test wide` includes and compares them.
+/// --test export --test wide` includes and compares them, and its
+/// candidate lists (`leaf_regions` 1, narrow, `f32`) that `cargo test -p
+/// kestrel-empc --test locate_source` includes and compares.
 ///
 /// # Errors
 /// [`CodegenError::Io`] or [`CodegenError::Format`] for the problem
@@ -55,6 +58,24 @@ pub fn empc_files(root: &Path) -> Result<Vec<GeneratedFile>, CodegenError> {
     let ctl = build_controller(&prob, &sol, &TreeSettings::default())?;
     let compact = build_compact(&prob, &sol, &TreeSettings::default())?;
     let wide = ctl.tables.widen();
+    let lists = build_lists(
+        &prob,
+        &sol,
+        &LocateSettings {
+            leaf_regions: 1,
+            ..LocateSettings::default()
+        },
+        &mut |_| {},
+    )?;
+    let lists = lists
+        .tables
+        .narrow()
+        .ok_or_else(|| {
+            EmpcError::InvalidArgument(format!(
+                "{EMPC_BOX2}'s candidate lists do not fit the narrow (u16) tables"
+            ))
+        })?
+        .rust_source(ExportScalar::F32)?;
     let file = |path, contents| GeneratedFile {
         path,
         contents,
@@ -89,6 +110,7 @@ pub fn empc_files(root: &Path) -> Result<Vec<GeneratedFile>, CodegenError> {
             "crates/empc/tests/generated/box2_compact_q16.rs",
             rust_source(&compact.tables, ExportScalar::Q16)?,
         ),
+        file("crates/empc/tests/generated/box2_lists_f32.rs", lists),
     ])
 }
 
