@@ -300,6 +300,9 @@ fn certify_exports_firmware_tables() {
     );
     let start = if warm < cold { "warm" } else { "cold" };
     assert_eq!(v["warm"]["recommended_start"], start);
+    // The export is named with the flag's spelling.
+    assert_eq!(v["export"]["scalar"], "q16");
+    assert_eq!(v["export"]["path"], rs.to_str().unwrap());
     let text = std::fs::read_to_string(&rs).unwrap();
     assert!(text.contains("pub static FGM: kestrel_fgm::FgmTables<kestrel_core::Q16, 2, 2,"));
     assert!(text.contains("Q16::from_bits("));

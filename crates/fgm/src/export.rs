@@ -1,41 +1,9 @@
 //! Export of solver tables as Rust `static` items for the firmware.
 
-use crate::FgmData;
+use crate::{FgmData, FgmError};
 use kestrel_core::Scalar;
+pub use kestrel_core::formats::ExportScalar;
 use std::fmt::Write;
-
-/// The scalar type of exported tables.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum ExportScalar {
-    /// `f32` literals.
-    F32,
-    /// `f64` literals.
-    F64,
-    /// `kestrel_core::Q16` as raw bits (`Fixed::from_bits`).
-    Q16,
-}
-
-impl ExportScalar {
-    fn type_name(self) -> &'static str {
-        match self {
-            ExportScalar::F32 => "f32",
-            ExportScalar::F64 => "f64",
-            ExportScalar::Q16 => "kestrel_core::Q16",
-        }
-    }
-    fn literal(self, v: f64) -> String {
-        match self {
-            ExportScalar::F32 => format!("{:?}_f32", v as f32),
-            ExportScalar::F64 => format!("{v:?}_f64"),
-            ExportScalar::Q16 => {
-                format!(
-                    "kestrel_core::Q16::from_bits({})",
-                    kestrel_core::Q16::from_f64(v).to_bits()
-                )
-            }
-        }
-    }
-}
 
 /// Writes `data` (from `FgmDesign::data::<S>`, whose box margin is the one
 /// for `S`) as Rust source:
@@ -43,7 +11,16 @@ impl ExportScalar {
 ///
 /// `S` should be the scalar named by `scalar`; the values then round-trip
 /// exactly, so the static equals `FgmDesign::tables::<S, N, P, T>` bit for bit.
-pub fn export_rust<S: Scalar>(name: &str, data: &FgmData<S>, scalar: ExportScalar) -> String {
+///
+/// # Errors
+/// [`FgmError::Range`] for a value `scalar` cannot hold (an infinity, or
+/// an `f64` table written as `f32` or `Q16` beyond their range), naming it,
+/// rather than writing a saturated entry or a source that does not compile.
+pub fn export_rust<S: Scalar>(
+    name: &str,
+    data: &FgmData<S>,
+    scalar: ExportScalar,
+) -> Result<String, FgmError> {
     let (n, p, t) = (data.n, data.p, data.betas.len());
     let f = |v: &[S]| v.iter().map(|x| x.to_f64()).collect::<Vec<f64>>();
     let data = FgmData {
@@ -63,21 +40,28 @@ pub fn export_rust<S: Scalar>(name: &str, data: &FgmData<S>, scalar: ExportScala
         warm_iterations: data.warm_iterations,
         shift: data.shift,
     };
-    let lit = |v: f64| scalar.literal(v);
-    let vec = |v: &[f64]| {
-        let items: Vec<String> = v.iter().map(|x| lit(*x)).collect();
-        format!("[{}]", items.join(", "))
+    let lit = |v: f64| {
+        scalar.literal(v).map_err(|e| {
+            FgmError::Range(format!(
+                "the table value {v} cannot be written as {}: {e}",
+                scalar.rust_type()
+            ))
+        })
     };
-    let mat = |v: &[f64], cols: usize| {
+    let vec = |v: &[f64]| -> Result<String, FgmError> {
+        let items = v.iter().map(|x| lit(*x)).collect::<Result<Vec<_>, _>>()?;
+        Ok(format!("[{}]", items.join(", ")))
+    };
+    let mat = |v: &[f64], cols: usize| -> Result<String, FgmError> {
         let rows: Vec<String> = if cols == 0 {
             (0..n).map(|_| "[]".to_string()).collect()
         } else {
-            v.chunks(cols).map(vec).collect()
+            v.chunks(cols).map(vec).collect::<Result<_, _>>()?
         };
-        format!(
+        Ok(format!(
             "kestrel_core::Matrix::from_rows([\n        {},\n    ])",
             rows.join(",\n        ")
-        )
+        ))
     };
     let mut s = String::new();
     let _ = writeln!(
@@ -88,21 +72,21 @@ pub fn export_rust<S: Scalar>(name: &str, data: &FgmData<S>, scalar: ExportScala
     let _ = writeln!(
         s,
         "pub static {name}: kestrel_fgm::FgmTables<{}, {n}, {p}, {t}> = kestrel_fgm::FgmTables {{",
-        scalar.type_name()
+        scalar.rust_type()
     );
-    let _ = writeln!(s, "    m: {},", mat(&data.m, n));
-    let _ = writeln!(s, "    k_theta: {},", mat(&data.k_theta, p));
-    let _ = writeln!(s, "    k0: {},", vec(&data.k0));
-    let _ = writeln!(s, "    lo_theta: {},", mat(&data.lo_theta, p));
-    let _ = writeln!(s, "    lo0: {},", vec(&data.lo0));
-    let _ = writeln!(s, "    hi_theta: {},", mat(&data.hi_theta, p));
-    let _ = writeln!(s, "    hi0: {},", vec(&data.hi0));
-    let _ = writeln!(s, "    d: {},", vec(&data.d));
-    let _ = writeln!(s, "    d_inv: {},", vec(&data.d_inv));
-    let _ = writeln!(s, "    betas: {},", vec(&data.betas));
+    let _ = writeln!(s, "    m: {},", mat(&data.m, n)?);
+    let _ = writeln!(s, "    k_theta: {},", mat(&data.k_theta, p)?);
+    let _ = writeln!(s, "    k0: {},", vec(&data.k0)?);
+    let _ = writeln!(s, "    lo_theta: {},", mat(&data.lo_theta, p)?);
+    let _ = writeln!(s, "    lo0: {},", vec(&data.lo0)?);
+    let _ = writeln!(s, "    hi_theta: {},", mat(&data.hi_theta, p)?);
+    let _ = writeln!(s, "    hi0: {},", vec(&data.hi0)?);
+    let _ = writeln!(s, "    d: {},", vec(&data.d)?);
+    let _ = writeln!(s, "    d_inv: {},", vec(&data.d_inv)?);
+    let _ = writeln!(s, "    betas: {},", vec(&data.betas)?);
     let _ = writeln!(s, "    iterations: {},", data.iterations);
     let _ = writeln!(s, "    warm_iterations: {},", data.warm_iterations);
     let _ = writeln!(s, "    shift: {},", data.shift);
     let _ = writeln!(s, "}};");
-    s
+    Ok(s)
 }

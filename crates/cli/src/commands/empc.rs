@@ -2,6 +2,7 @@
 
 mod locate;
 
+use super::scalar_arg::ScalarArg;
 use crate::io;
 use anyhow::{Context, bail};
 use kestrel_core::formats::{MpqpProblem, parameter_rows};
@@ -199,17 +200,6 @@ struct EvalArgs {
     /// --compact`) instead of the default tree.
     #[arg(long)]
     compact: bool,
-}
-
-/// Number type of the exported tables.
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-enum ScalarArg {
-    /// 32-bit float.
-    F32,
-    /// Q15.16 saturating fixed point (`kestrel_core::Q16`).
-    Q16,
-    /// 64-bit float.
-    F64,
 }
 
 /// `kestrel empc export`.
@@ -539,11 +529,7 @@ fn eval_with<I: TreeIndex, T: TreeTables<f64, I>>(a: &EvalArgs, t: &T) -> anyhow
 
 fn run_export(a: ExportArgs) -> anyhow::Result<()> {
     a.replace.check(&[a.out.as_deref()])?;
-    let scalar = match a.scalar {
-        ScalarArg::F32 => ExportScalar::F32,
-        ScalarArg::Q16 => ExportScalar::Q16,
-        ScalarArg::F64 => ExportScalar::F64,
-    };
+    let scalar = ExportScalar::from(a.scalar);
     let text = read_text(&a.solution)?;
     if let Stored::Lists(lists) =
         locate::stored(&text).with_context(|| a.solution.display().to_string())?

@@ -1,12 +1,13 @@
 //! `kestrel fgm certify|solve`: the certified fast gradient method.
 
 use super::problem_thetas::ProblemThetas;
+use super::scalar_arg::ScalarArg;
 use crate::io;
 use anyhow::{Context, bail};
 use kestrel_core::formats::MpqpProblem;
 use kestrel_fgm::{
     AppliedInputs, BoxQp, ExportScalar, FgmDesign, FgmSettings, Momentum, Preconditioner, Start,
-    WarmStartAssumption,
+    WarmStartAssumption, export_rust,
 };
 use nalgebra::DVector;
 use serde_json::{Value, json};
@@ -90,17 +91,6 @@ pub enum MomentumArg {
     Constant,
     /// Precomputed beta table.
     Table,
-}
-
-/// Scalar of exported firmware tables.
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-pub enum ScalarArg {
-    /// f32.
-    F32,
-    /// f64.
-    F64,
-    /// Q15.16 fixed point.
-    Q16,
 }
 
 /// Flags of `kestrel fgm certify`.
@@ -323,35 +313,18 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
                 crate::guards::MAX_FGM_ITERATIONS
             );
         }
-        let (scalar, text) = match a.scalar {
-            ScalarArg::F32 => (
-                ExportScalar::F32,
-                kestrel_fgm::export_rust(
-                    "FGM",
-                    &d.data::<f32>(&cert, warm_iterations)?,
-                    ExportScalar::F32,
-                ),
-            ),
-            ScalarArg::F64 => (
-                ExportScalar::F64,
-                kestrel_fgm::export_rust(
-                    "FGM",
-                    &d.data::<f64>(&cert, warm_iterations)?,
-                    ExportScalar::F64,
-                ),
-            ),
-            ScalarArg::Q16 => (
-                ExportScalar::Q16,
-                kestrel_fgm::export_rust(
-                    "FGM",
-                    &d.data::<kestrel_core::Q16>(&cert, warm_iterations)?,
-                    ExportScalar::Q16,
-                ),
-            ),
+        let scalar = ExportScalar::from(a.scalar);
+        let text = match a.scalar {
+            ScalarArg::F32 => export_rust("FGM", &d.data::<f32>(&cert, warm_iterations)?, scalar)?,
+            ScalarArg::F64 => export_rust("FGM", &d.data::<f64>(&cert, warm_iterations)?, scalar)?,
+            ScalarArg::Q16 => export_rust(
+                "FGM",
+                &d.data::<kestrel_core::Q16>(&cert, warm_iterations)?,
+                scalar,
+            )?,
         };
         outputs.add(Some(path), text)?;
-        out["export"] =
-            json!({"path": path.display().to_string(), "scalar": format!("{scalar:?}")});
+        out["export"] = json!({"path": path.display().to_string(), "scalar": a.scalar.name()});
     }
     let text = serde_json::to_string_pretty(&out)? + "\n";
     outputs.add(a.out.as_deref(), text)?;

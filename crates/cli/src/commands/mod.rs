@@ -13,5 +13,6 @@ pub mod mpc;
 pub mod pipeline;
 pub mod problem_thetas;
 pub mod qp;
+pub mod scalar_arg;
 pub mod simulate;
 pub mod tricopter_names;

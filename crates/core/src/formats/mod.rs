@@ -1,6 +1,8 @@
 //! The JSON interchange formats of `shared/FORMATS.md` (feature `std`),
-//! and the two small text inputs of the `kestrel` command: matrix files
-//! ([`matrix_from_text`]) and parameter rows ([`parameter_rows`]).
+//! the two small text inputs of the `kestrel` command: matrix files
+//! ([`matrix_from_text`]) and parameter rows ([`parameter_rows`]), and the
+//! number type and spelling of tables exported as Rust source
+//! ([`ExportScalar`]).
 //!
 //! Readers reject an unknown `format`, a missing key, a wrong dimension or a
 //! non-finite number with a [`FormatError`] that names the key and the
@@ -11,12 +13,14 @@
 #[allow(unused_imports)]
 use std::{borrow::ToOwned, format, string::String, string::ToString, vec, vec::Vec};
 
+mod export_scalar;
 pub mod json;
 mod matrix_file;
 mod mpqp;
 mod params;
 mod ss;
 
+pub use export_scalar::ExportScalar;
 pub use matrix_file::matrix_from_text;
 pub use mpqp::MpqpProblem;
 pub use params::parameter_rows;

@@ -70,5 +70,6 @@ mod write;
 pub use format::TableFormat;
 pub use read::table_formats;
 pub use scalar::ExportScalar;
+pub(crate) use scalar::literal;
 pub use tables::{ExportTables, check_tables, read_tables, rust_source};
 pub use write::{FORMAT, SolutionTables, solution_json};

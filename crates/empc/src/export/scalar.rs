@@ -1,61 +1,40 @@
-//! The number type of exported tables ([`ExportScalar`]).
+//! The number type of exported tables: kestrel-core's [`ExportScalar`],
+//! with its refusals as [`EmpcError`]s that name the value.
 
 use crate::error::EmpcError;
-use kestrel_core::{Q16, Scalar};
+pub use kestrel_core::formats::ExportScalar;
 
-/// The number type of exported tables.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ExportScalar {
-    /// `f32` tables.
-    F32,
-    /// `kestrel_core::Q16` (Q15.16 saturating fixed point) tables.
-    Q16,
-    /// `f64` tables (host use, or a reference build of the firmware).
-    F64,
+/// `scalar.literal(v)`, a value the type cannot hold refused with the value
+/// and the type named.
+pub(crate) fn literal(scalar: ExportScalar, v: f64) -> Result<String, EmpcError> {
+    scalar.literal(v).map_err(|e| {
+        EmpcError::InvalidArgument(format!(
+            "the table value {v} cannot be written as {}: {e}; scale the problem or use f32",
+            scalar.rust_type()
+        ))
+    })
 }
 
-impl ExportScalar {
-    /// Bytes per number.
-    pub fn bytes(self) -> usize {
-        match self {
-            ExportScalar::F32 | ExportScalar::Q16 => 4,
-            ExportScalar::F64 => 8,
-        }
-    }
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-    /// The Rust type of the numbers.
-    pub fn rust_type(self) -> &'static str {
-        match self {
-            ExportScalar::F32 => "f32",
-            ExportScalar::Q16 => "kestrel_core::Q16",
-            ExportScalar::F64 => "f64",
-        }
-    }
-
-    /// One number as a Rust expression of [`ExportScalar::rust_type`];
-    /// an error for a value `Q16` cannot hold.
-    pub fn literal(self, v: f64) -> Result<String, EmpcError> {
-        let float = |s: String| {
-            if s.contains('.') || s.contains('e') || s.contains("inf") || s.contains("NaN") {
-                s
-            } else {
-                format!("{s}.0")
-            }
-        };
-        match self {
-            ExportScalar::F32 => Ok(float(format!("{:?}", v as f32))),
-            ExportScalar::F64 => Ok(float(format!("{v:?}"))),
-            ExportScalar::Q16 => {
-                if v.abs() >= 32767.0 {
-                    return Err(EmpcError::InvalidArgument(format!(
-                        "the value {v} does not fit Q16 (|x| < 32767); scale the problem or use f32"
-                    )));
-                }
-                Ok(format!(
-                    "kestrel_core::Q16::from_bits({})",
-                    Q16::from_f64(v).to_bits()
-                ))
-            }
-        }
+    #[test]
+    fn refusals_name_the_value_and_the_type() {
+        assert_eq!(
+            literal(ExportScalar::Q16, 1.5).unwrap(),
+            "kestrel_core::Q16::from_bits(98304)"
+        );
+        let e = literal(ExportScalar::Q16, 40_000.0)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("40000") && e.contains("kestrel_core::Q16"),
+            "{e}"
+        );
+        let e = literal(ExportScalar::F32, f64::INFINITY)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("inf") && e.contains("f32"), "{e}");
     }
 }

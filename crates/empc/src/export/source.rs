@@ -6,7 +6,7 @@ use crate::eval::TreeIndex;
 use crate::export::check::{check_compact_tables, check_tables};
 use crate::export::format::TableFormat;
 use crate::export::index::ExportIndex;
-use crate::export::scalar::ExportScalar;
+use crate::export::scalar::{ExportScalar, literal};
 use crate::tree::{CompactTables, OwnedTables};
 use std::fmt::Write as _;
 
@@ -22,7 +22,7 @@ fn write_numbers(
         if i % 8 == 0 {
             body.push_str("\n    ");
         }
-        body.push_str(&scalar.literal(*x)?);
+        body.push_str(&literal(scalar, *x)?);
         body.push_str(", ");
     }
     let _ = writeln!(

@@ -4,7 +4,7 @@
 //! as `kestrel empc export` writes the tree's.
 
 use crate::error::EmpcError;
-use crate::export::ExportScalar;
+use crate::export::{ExportScalar, literal};
 use crate::locate::tables::ListTables;
 use std::fmt::Write;
 
@@ -119,7 +119,7 @@ impl ListTables<f64, u16> {
             for chunk in v.chunks(8) {
                 let items = chunk
                     .iter()
-                    .map(|&x| scalar.literal(x))
+                    .map(|&x| literal(scalar, x))
                     .collect::<Result<Vec<_>, _>>()?;
                 let _ = writeln!(out, "    {},", items.join(", "));
             }

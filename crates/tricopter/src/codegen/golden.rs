@@ -134,7 +134,7 @@ pub fn fgm_file(root: &Path) -> Result<GeneratedFile, CodegenError> {
     let data = design.data::<Q16>(&cert, None)?;
     Ok(GeneratedFile {
         path: FGM_Q16,
-        contents: export_rust("FGM", &data, kestrel_fgm::ExportScalar::Q16),
+        contents: export_rust("FGM", &data, kestrel_fgm::ExportScalar::Q16)?,
         generator: "kestrel_fgm::export_rust of the certified design of crates/fgm/tests/data/fgm_problem.json",
     })
 }

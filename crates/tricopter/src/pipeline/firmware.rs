@@ -73,13 +73,15 @@ pub fn run(
             &d.data::<f32>(cert, None)
                 .ctx(|| "the fast gradient data in f32".into())?,
             kestrel_fgm::ExportScalar::F32,
-        ),
+        )
+        .ctx(|| "the fast gradient tables as Rust".into())?,
         FirmwareScalar::Q16 => kestrel_fgm::export_rust(
             "FGM",
             &d.data::<kestrel_core::Q16>(cert, None)
                 .ctx(|| "the fast gradient data in Q16".into())?,
             kestrel_fgm::ExportScalar::Q16,
-        ),
+        )
+        .ctx(|| "the fast gradient tables as Rust".into())?,
     };
     let kalman = kf.design.kalman.clone();
     let design = FirmwareDesign::new(
