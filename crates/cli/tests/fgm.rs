@@ -376,12 +376,14 @@ fn solve_warns_about_parameters_outside_the_box() {
             "50",
         ])
     };
-    let (ok, out, err) = solve("0,0.25\n3,0.25\n1,-0.5\n", "outside.csv");
+    // The first outside row is named by its line in the file (blank lines
+    // counted), not its row index.
+    let (ok, out, err) = solve("0,0.25\n\n3,0.25\n1,-0.5\n", "outside.csv");
     assert!(ok, "{err}");
     assert_eq!(out.lines().count(), 3);
     assert!(
         err.contains("warning: 2 of 3 parameters lie outside")
-            && err.contains("outside.csv row 2, entry 1 = 3.0 not in [-2.0, 2.0]"),
+            && err.contains("outside.csv line 3, entry 1 = 3.0 not in [-2.0, 2.0]"),
         "{err}"
     );
     let (ok, out, err) = solve("0,0.25\n2,0.5\n", "inside.csv");

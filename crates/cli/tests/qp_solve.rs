@@ -250,11 +250,12 @@ fn bad_parameters_are_named_and_nothing_is_written() {
     .unwrap();
     let input = dir.join("thetas.csv");
     let out = dir.join("z.csv");
-    std::fs::write(&input, "0.5\n-10\n").unwrap();
+    // Lines are the file's (the blank one counted), not row indices.
+    std::fs::write(&input, "0.5\n\n-10\n").unwrap();
     let (ok, err) = solve(&problem, &input, &out, &[]);
     assert!(!ok, "{err}");
     assert!(
-        err.contains("thetas.csv: line 2: the constraints are infeasible"),
+        err.contains("thetas.csv: line 3: the constraints are infeasible"),
         "{err}"
     );
     assert!(!out.exists(), "a half-written output");
@@ -263,11 +264,11 @@ fn bad_parameters_are_named_and_nothing_is_written() {
     assert!(!ok && err.contains("line 2"), "{err}");
     assert!(!out.exists());
     // Outside the box but feasible: solved, with a warning.
-    std::fs::write(&input, "0.5\n-1.5\n").unwrap();
+    std::fs::write(&input, "\n0.5\n-1.5\n").unwrap();
     let (ok, err) = solve(&problem, &input, &out, &[]);
     assert!(ok, "{err}");
     assert!(
-        err.contains("warning: 1 of 2 parameters lie outside") && err.contains("line 2"),
+        err.contains("warning: 1 of 2 parameters lie outside") && err.contains("line 3"),
         "{err}"
     );
     // The free optimum (-t, -t) = (1.5, 1.5) projected onto z0 + z1 <= -1.5.

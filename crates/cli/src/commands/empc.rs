@@ -5,7 +5,7 @@ mod locate;
 use super::scalar_arg::ScalarArg;
 use crate::io;
 use anyhow::{Context, bail};
-use kestrel_core::formats::{MpqpProblem, parameter_rows};
+use kestrel_core::formats::{MpqpProblem, numbered_parameter_rows};
 use kestrel_empc::eval::{TreeIndex, TreeTables};
 use kestrel_empc::export::{self, ExportScalar, SolutionTables};
 use kestrel_empc::locate::{LocateMethod, LocateSettings, build_lists, estimate};
@@ -482,21 +482,35 @@ fn run_eval(a: EvalArgs) -> anyhow::Result<()> {
 /// `eval` of candidate lists (the same CSV as the tree's).
 fn eval_lists(a: &EvalArgs, t: &kestrel_empc::locate::ListTables<f64>) -> anyhow::Result<()> {
     let slices = t.tables();
-    let p = slices.n_params;
-    let thetas = parameter_rows(&read_text(&a.thetas)?, p)
+    eval_rows(a, slices.n_params, slices.n_outputs, |theta, scratch, z| {
+        evaluate_lists(&slices, theta, scratch, z).map(|e| e.outside)
+    })
+}
+
+/// Evaluates every row of `--thetas` (`p` numbers each) with `eval`
+/// (the outputs into its last argument; whether the row lies outside the
+/// explored set), writes one CSV row of outputs per row; an error names
+/// the row's line.
+fn eval_rows<E: std::fmt::Display>(
+    a: &EvalArgs,
+    p: usize,
+    n_outputs: usize,
+    mut eval: impl FnMut(&[f64], &mut [f64], &mut [f64]) -> Result<bool, E>,
+) -> anyhow::Result<()> {
+    let thetas = numbered_parameter_rows(&read_text(&a.thetas)?, p)
         .with_context(|| a.thetas.display().to_string())?;
     let mut out = String::new();
     let mut scratch = vec![0.0; p];
-    let mut z = vec![0.0; slices.n_outputs];
+    let mut z = vec![0.0; n_outputs];
     let mut outside = 0usize;
-    for (row, theta) in thetas.iter().enumerate() {
-        let e = evaluate_lists(&slices, theta, &mut scratch, &mut z)
-            .map_err(|e| anyhow::anyhow!("{}: row {}: {e}", a.thetas.display(), row + 1))?;
-        outside += usize::from(e.outside);
+    for (theta, line) in thetas.rows.iter().zip(&thetas.lines) {
+        let e = eval(theta, &mut scratch, &mut z)
+            .map_err(|e| anyhow::anyhow!("{}: line {line}: {e}", a.thetas.display()))?;
+        outside += usize::from(e);
         let row: Vec<String> = z.iter().map(|v| format!("{v:?}")).collect();
         let _ = writeln!(out, "{}", row.join(","));
     }
-    warn_outside(outside, thetas.len());
+    warn_outside(outside, thetas.rows.len());
     io::write_output(a.out.as_deref(), &out)
 }
 
@@ -509,22 +523,9 @@ fn warn_outside(outside: usize, total: usize) {
 }
 
 fn eval_with<I: TreeIndex, T: TreeTables<f64, I>>(a: &EvalArgs, t: &T) -> anyhow::Result<()> {
-    let p = t.n_params();
-    let thetas = parameter_rows(&read_text(&a.thetas)?, p)
-        .with_context(|| a.thetas.display().to_string())?;
-    let mut out = String::new();
-    let mut scratch = vec![0.0; p];
-    let mut z = vec![0.0; t.n_outputs()];
-    let mut outside = 0usize;
-    for (row, theta) in thetas.iter().enumerate() {
-        let e = evaluate_with(t, theta, &mut scratch, &mut z)
-            .map_err(|e| anyhow::anyhow!("{}: row {}: {e}", a.thetas.display(), row + 1))?;
-        outside += usize::from(e.outside);
-        let row: Vec<String> = z.iter().map(|v| format!("{v:?}")).collect();
-        let _ = writeln!(out, "{}", row.join(","));
-    }
-    warn_outside(outside, thetas.len());
-    io::write_output(a.out.as_deref(), &out)
+    eval_rows(a, t.n_params(), t.n_outputs(), |theta, scratch, z| {
+        evaluate_with(t, theta, scratch, z).map(|e| e.outside)
+    })
 }
 
 fn run_export(a: ExportArgs) -> anyhow::Result<()> {

@@ -334,7 +334,8 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
 fn solve(a: SolveArgs) -> anyhow::Result<()> {
     a.replace.check(&[a.out.as_deref()])?;
     let d = load(&a.input.problem, a.preconditioner, Momentum::Auto)?;
-    let thetas = a.input.read_thetas(d.problem.p())?;
+    let numbered = a.input.read_thetas(d.problem.p())?;
+    let (thetas, lines) = (&numbered.rows, &numbered.lines);
     let outside: Vec<(usize, usize)> = thetas
         .iter()
         .enumerate()
@@ -343,11 +344,11 @@ fn solve(a: SolveArgs) -> anyhow::Result<()> {
     if let Some(&(k, j)) = outside.first() {
         let qp = &d.problem;
         eprintln!(
-            "warning: {} of {} parameters lie outside the problem's parameter box, which the certificate covers (first: {} row {}, entry {} = {:?} not in [{:?}, {:?}]); they are solved anyway, without a certified accuracy",
+            "warning: {} of {} parameters lie outside the problem's parameter box, which the certificate covers (first: {} line {}, entry {} = {:?} not in [{:?}, {:?}]); they are solved anyway, without a certified accuracy",
             outside.len(),
             thetas.len(),
             a.input.thetas.display(),
-            k + 1,
+            lines[k],
             j + 1,
             thetas[k][j],
             qp.theta_lb[j],
@@ -363,7 +364,7 @@ fn solve(a: SolveArgs) -> anyhow::Result<()> {
     for (k, th) in thetas.iter().enumerate() {
         let z = data
             .solve(th, Start::Cold, a.iterations)
-            .with_context(|| format!("{}: line {}", a.input.thetas.display(), k + 1))?;
+            .with_context(|| format!("{}: line {}", a.input.thetas.display(), lines[k]))?;
         let cells: Vec<String> = z.iter().map(|v| format!("{v:?}")).collect();
         out.push_str(&cells.join(","));
         out.push('\n');

@@ -2,7 +2,7 @@
 //! parameters (`kestrel fgm solve`, `kestrel qp solve`).
 
 use anyhow::Context;
-use kestrel_core::formats::parameter_rows;
+use kestrel_core::formats::{NumberedRows, numbered_parameter_rows};
 use std::path::PathBuf;
 
 /// `--problem` and `--thetas`.
@@ -17,11 +17,12 @@ pub struct ProblemThetas {
 }
 
 impl ProblemThetas {
-    /// The parameter rows of `--thetas`, each `p` numbers; errors name the
-    /// file and the line.
-    pub fn read_thetas(&self, p: usize) -> anyhow::Result<Vec<Vec<f64>>> {
+    /// The parameter rows of `--thetas`, each `p` numbers, with their
+    /// lines in the file (so messages name a row's line, blank lines
+    /// counted); errors name the file and the line.
+    pub fn read_thetas(&self, p: usize) -> anyhow::Result<NumberedRows> {
         let name = || self.thetas.display().to_string();
         let text = std::fs::read_to_string(&self.thetas).with_context(name)?;
-        parameter_rows(&text, p).with_context(name)
+        numbered_parameter_rows(&text, p).with_context(name)
     }
 }

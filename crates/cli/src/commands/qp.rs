@@ -4,7 +4,7 @@
 use super::problem_thetas::ProblemThetas;
 use crate::{io, progress};
 use anyhow::Context;
-use kestrel_core::formats::MpqpProblem;
+use kestrel_core::formats::{MpqpProblem, NumberedRows};
 use kestrel_empc::certify::{Certificate, CertifySettings, Count, QpSettings, certify};
 use kestrel_qp::parametric::ParametricQp;
 use kestrel_qp::{QpError, QpScalar, Start};
@@ -156,7 +156,7 @@ struct Solved {
 /// the first failure names its line.
 fn solve_rows<S: QpScalar>(
     qp: &ParametricQp,
-    thetas: &[Vec<f64>],
+    thetas: &NumberedRows,
     warm: bool,
     settings: QpSettings,
     file: &str,
@@ -168,9 +168,9 @@ fn solve_rows<S: QpScalar>(
         .map_err(|e| anyhow::anyhow!("setting up the solver: {e}"))?;
     let mut buf = qp.buffers::<S>();
     let mut z = vec![S::ZERO; qp.n()];
-    let mut out = Vec::with_capacity(thetas.len());
-    for (k, theta) in thetas.iter().enumerate() {
-        let line = || format!("{file}: line {}", k + 1);
+    let mut out = Vec::with_capacity(thetas.rows.len());
+    for (k, (theta, &number)) in thetas.rows.iter().zip(&thetas.lines).enumerate() {
+        let line = || format!("{file}: line {number}");
         qp.fill(theta, &mut buf).with_context(line)?;
         let start = if warm && k > 0 {
             Start::Warm
@@ -203,15 +203,15 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
     let qp = ParametricQp::from_mpqp(&problem).with_context(|| name.clone())?;
     let file = a.input.thetas.display().to_string();
     let thetas = a.input.read_thetas(qp.p())?;
-    let outside: Vec<usize> = (0..thetas.len())
-        .filter(|&k| !qp.contains(&thetas[k], 0.0))
+    let outside: Vec<usize> = (0..thetas.rows.len())
+        .filter(|&k| !qp.contains(&thetas.rows[k], 0.0))
         .collect();
     if let Some(&k) = outside.first() {
         eprintln!(
             "warning: {} of {} parameters lie outside the problem's parameter set, which `kestrel qp certify` covers (first: {file} line {}); they are solved anyway, without a certified iteration count",
             outside.len(),
-            thetas.len(),
-            k + 1
+            thetas.rows.len(),
+            thetas.lines[k]
         );
     }
     let solved = if a.f32 {
@@ -252,7 +252,7 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
             },
             if a.f32 { "f32" } else { "f64" },
             worst.iterations,
-            k + 1,
+            thetas.lines[k],
             solved.iter().map(|s| s.iterations as f64).sum::<f64>() / solved.len() as f64
         );
     }

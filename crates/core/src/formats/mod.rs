@@ -23,7 +23,7 @@ mod ss;
 pub use export_scalar::ExportScalar;
 pub use matrix_file::matrix_from_text;
 pub use mpqp::MpqpProblem;
-pub use params::parameter_rows;
+pub use params::{NumberedRows, numbered_parameter_rows, parameter_rows};
 pub use ss::SsModel;
 
 /// What went wrong reading an interchange file.

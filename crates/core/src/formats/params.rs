@@ -32,8 +32,32 @@ use super::FormatError;
 /// assert_eq!(err, "line 3: row 2 has 1 values, expected 2 numbers (one per parameter)");
 /// ```
 pub fn parameter_rows(text: &str, p: usize) -> Result<Vec<Vec<f64>>, FormatError> {
+    numbered_parameter_rows(text, p).map(|r| r.rows)
+}
+
+/// Parameter rows with the line each was read from, so that a command can
+/// name a row's line in the file when the file has blank lines.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NumberedRows {
+    /// The rows, `p` numbers each (as [`parameter_rows`] returns them).
+    pub rows: Vec<Vec<f64>>,
+    /// `lines[k]`: the line of `rows[k]`, counted from 1 with the blank ones.
+    pub lines: Vec<usize>,
+}
+
+/// [`parameter_rows`] with each row's line ([`NumberedRows`]); the same
+/// rules and errors.
+///
+/// ```
+/// use kestrel_core::formats::numbered_parameter_rows;
+/// let r = numbered_parameter_rows("\n0.5, -1\n\n2,3\n", 2).unwrap();
+/// assert_eq!(r.rows, [[0.5, -1.0], [2.0, 3.0]]);
+/// assert_eq!(r.lines, [2, 4]);
+/// ```
+pub fn numbered_parameter_rows(text: &str, p: usize) -> Result<NumberedRows, FormatError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut rows = Vec::new();
+    let mut numbers = Vec::new();
     let lines = text
         .split('\n')
         .flat_map(|l| l.strip_suffix('\r').unwrap_or(l).split('\r'));
@@ -64,8 +88,12 @@ pub fn parameter_rows(text: &str, p: usize) -> Result<Vec<Vec<f64>>, FormatError
             });
         }
         rows.push(row);
+        numbers.push(k + 1);
     }
-    Ok(rows)
+    Ok(NumberedRows {
+        rows,
+        lines: numbers,
+    })
 }
 
 /// A trimmed field, possibly quoted, as a finite number.
@@ -95,6 +123,12 @@ mod tests {
         );
         // Old Mac line ends.
         assert_eq!(parameter_rows("1\r2\r", 1).unwrap(), [[1.0], [2.0]]);
+        // Each row's line counts the blank ones (and each line end style).
+        assert_eq!(numbered_parameter_rows(text, 2).unwrap().lines, [1, 3, 5]);
+        assert_eq!(
+            numbered_parameter_rows("\r1\r\r2", 1).unwrap().lines,
+            [2, 4]
+        );
     }
 
     #[test]
