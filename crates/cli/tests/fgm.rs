@@ -390,3 +390,39 @@ fn solve_warns_about_parameters_outside_the_box() {
     assert!(ok && out.lines().count() == 2, "{err}");
     assert!(!err.contains("warning"), "{err}");
 }
+
+/// An eps below the rounding of the cost (delta x 2^-52) is certified (the
+/// count holds in exact arithmetic) with a note that no floating-point
+/// solve reaches it; just above that floor, no note.
+#[test]
+fn an_eps_below_f64_rounding_is_noted() {
+    let p = temp_file("box-tiny-eps.json", BOX);
+    let args = |eps: &str| {
+        vec![
+            "fgm".to_string(),
+            "certify".into(),
+            "--problem".into(),
+            p.to_str().unwrap().into(),
+            "--eps".into(),
+            eps.into(),
+        ]
+    };
+    let run_eps = |eps: &str| {
+        let a = args(eps);
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        run(&a)
+    };
+    let (ok, out, err) = run_eps("1e-300");
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let delta = v["delta"].as_f64().unwrap();
+    assert!(
+        err.contains("note: --eps 1e-300 is below f64's rounding")
+            && err.contains(&format!("{} iterations", v["iterations"])),
+        "{err}"
+    );
+    let (ok, _, err) = run_eps(&format!("{:e}", 2.0 * delta * f64::EPSILON));
+    assert!(ok && !err.contains("note"), "{err}");
+    let (ok, _, err) = run_eps("1e-6");
+    assert!(ok && !err.contains("note"), "{err}");
+}
