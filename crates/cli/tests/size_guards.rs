@@ -158,3 +158,72 @@ fn fgm_refuses_a_billion_iterations() {
     assert!(err.contains("at most 1000000"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A parameter file whose rows, results and output text would take more
+/// than 2 GB is refused before it is parsed (and one larger than that
+/// before it is read), by every command that reads one, naming the file
+/// and how to go on.
+#[test]
+fn parameter_files_beyond_the_memory_budget_are_refused() {
+    let dir = temp_dir("guards-thetas");
+    // min 1/2 |z|^2 + t (z0 + z1), |z| <= 1: one parameter, two variables.
+    let problem = dir.join("p.json");
+    std::fs::write(
+        &problem,
+        r#"{"format": "kestrel.mpqp.v1", "H": [[1, 0], [0, 1]], "F": [[1, 1]],
+        "G": [[1, 0], [-1, 0], [0, 1], [0, -1]], "W": [1, 1, 1, 1],
+        "E": [[0], [0], [0], [0]], "theta_lb": [-1], "theta_ub": [1]}"#,
+    )
+    .unwrap();
+    // Twelve million one-number rows (24 MB of text): about 2.1 GB with fgm
+    // solve's two results per row, 2.5 GB with qp solve's three.
+    let many = dir.join("many.csv");
+    std::fs::write(&many, "1\n".repeat(12_000_000)).unwrap();
+    // A file of 3 GB (sparse: no disk taken), refused from its size.
+    let huge = dir.join("huge.csv");
+    std::fs::File::create(&huge)
+        .unwrap()
+        .set_len(3_000_000_000)
+        .unwrap();
+    for (file, what) in [
+        (&many, "12000000 rows of 1 parameters"),
+        (&huge, "3000000000 bytes of text"),
+    ] {
+        for cmd in [
+            &["qp", "solve"][..],
+            &["fgm", "solve", "--iterations", "10"],
+        ] {
+            let mut args = cmd.to_vec();
+            args.extend_from_slice(&[
+                "--problem",
+                problem.to_str().unwrap(),
+                "--thetas",
+                file.to_str().unwrap(),
+            ]);
+            let err = refused(30, &args);
+            assert!(
+                err.contains(what)
+                    && err.contains("at most 2.0 GB")
+                    && err.contains("split the file"),
+                "{args:?}: {err}"
+            );
+        }
+    }
+    // A hundred thousand rows pass.
+    std::fs::write(&many, "0.5\n".repeat(100_000)).unwrap();
+    let Some((ok, out, err)) = kestrel_within(
+        60,
+        &[
+            "qp",
+            "solve",
+            "--problem",
+            problem.to_str().unwrap(),
+            "--thetas",
+            many.to_str().unwrap(),
+        ],
+    ) else {
+        panic!("qp solve of 100,000 rows still ran after 60 s");
+    };
+    assert!(ok && out.lines().count() == 100_000, "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -2,10 +2,11 @@
 
 mod locate;
 
+use super::problem_thetas::read_parameter_rows;
 use super::scalar_arg::ScalarArg;
 use crate::io;
 use anyhow::{Context, bail};
-use kestrel_core::formats::{MpqpProblem, numbered_parameter_rows};
+use kestrel_core::formats::MpqpProblem;
 use kestrel_empc::eval::{TreeIndex, TreeTables};
 use kestrel_empc::export::{self, ExportScalar, SolutionTables};
 use kestrel_empc::locate::{LocateMethod, LocateSettings, build_lists, estimate};
@@ -497,8 +498,7 @@ fn eval_rows<E: std::fmt::Display>(
     n_outputs: usize,
     mut eval: impl FnMut(&[f64], &mut [f64], &mut [f64]) -> Result<bool, E>,
 ) -> anyhow::Result<()> {
-    let thetas = numbered_parameter_rows(&read_text(&a.thetas)?, p)
-        .with_context(|| a.thetas.display().to_string())?;
+    let thetas = read_parameter_rows(&a.thetas, p, n_outputs)?;
     let mut out = String::new();
     let mut scratch = vec![0.0; p];
     let mut z = vec![0.0; n_outputs];

@@ -347,7 +347,7 @@ fn certify(a: CertifyArgs) -> anyhow::Result<()> {
 fn solve(a: SolveArgs) -> anyhow::Result<()> {
     a.replace.check(&[a.out.as_deref()])?;
     let d = load(&a.input.problem, a.preconditioner, Momentum::Auto)?;
-    let numbered = a.input.read_thetas(d.problem.p())?;
+    let numbered = a.input.read_thetas(d.problem.p(), d.problem.n())?;
     let (thetas, lines) = (&numbered.rows, &numbered.lines);
     let outside: Vec<(usize, usize)> = thetas
         .iter()

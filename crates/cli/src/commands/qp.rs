@@ -202,7 +202,7 @@ fn run_solve(a: SolveArgs) -> anyhow::Result<()> {
     let problem = MpqpProblem::read(&a.input.problem).with_context(|| name.clone())?;
     let qp = ParametricQp::from_mpqp(&problem).with_context(|| name.clone())?;
     let file = a.input.thetas.display().to_string();
-    let thetas = a.input.read_thetas(qp.p())?;
+    let thetas = a.input.read_thetas(qp.p(), qp.n() + 1)?;
     let outside: Vec<usize> = (0..thetas.rows.len())
         .filter(|&k| !qp.contains(&thetas.rows[k], 0.0))
         .collect();
