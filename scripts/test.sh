@@ -20,6 +20,8 @@ echo "== cargo fmt --all --check"
 cargo fmt --all --check
 echo "== cargo clippy --workspace --all-targets -- -D warnings"
 cargo clippy --workspace --all-targets -- -D warnings
+echo "== cargo doc --workspace --no-deps (broken intra-doc links are errors)"
+RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --quiet
 echo "== kestrel codegen --check (generated tables and golden files up to date)"
 cargo run --quiet -p kestrel-tools -- codegen --check
 echo "== cargo test --workspace (unit, integration and doc tests)"

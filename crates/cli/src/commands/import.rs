@@ -33,7 +33,7 @@ pub struct Args {
     pub rate: f64,
     /// Input signals, comma-separated `name=source` or field names
     /// (default per format: Betaflight motor0..3 = motor[0..3], Crazyflie
-    /// m1..m4 = motor.m1..4, PX4 motorK = actuator_motors.control[K]).
+    /// m1..m4 = motor.m1..4, PX4 motorK = `actuator_motors.control[K]`).
     #[arg(long)]
     pub inputs: Option<String>,
     /// Output signals (default p,q,r: Betaflight gyroADC[0..2], Crazyflie

@@ -182,7 +182,7 @@ pub struct GeneralArgs {
     pub params: Vec<String>,
     /// How the input bounds move with the --param parameters: a JSON
     /// matrix file, nu x (number of --param): both bounds of input i move
-    /// by shift[i][j] per unit of parameter j.
+    /// by `shift[i][j]` per unit of parameter j.
     #[arg(long, value_name = "FILE", requires = "params", requires = "u_min")]
     pub u_shift: Option<PathBuf>,
 }

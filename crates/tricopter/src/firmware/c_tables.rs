@@ -1,6 +1,6 @@
 //! The firmware tables as C: `kestrel_design.h` and `kestrel_design.c`
 //! (`kestrel export --lang c`), the same numbers as the Rust source of
-//! [`generate_tables`](crate::firmware::generate_tables).
+//! [`generate_tables`].
 //!
 //! The tables are `const` objects of fixed-width types (`float` and
 //! `int32_t` value tables, `int16_t` coefficient rows), placed in flash
@@ -190,11 +190,11 @@ fn c_i32(x: i32) -> String {
 }
 
 /// The design's tables in C form: the numbers of
-/// [`generate_tables`](crate::firmware::generate_tables), which also
+/// [`generate_tables`], which also
 /// decides what is refused.
 ///
 /// # Errors
-/// As [`generate_tables`](crate::firmware::generate_tables), and
+/// As [`generate_tables`], and
 /// [`DesignError::Unsupported`] for more than 65535 iterations per period.
 pub fn c_design(d: &FirmwareDesign) -> Result<CDesign, DesignError> {
     // The Rust source's checks and description, unchanged.
