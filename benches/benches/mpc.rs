@@ -6,9 +6,16 @@
 //! Table 7.2 (rates [0.2, 0.3, 0.4] rad/s, reference 0, hover throttle;
 //! no bound active) and the release of 7.7.1 (rates [2, 2, 2] rad/s; the
 //! servo bound active).
+//!
+//! Beside it, the exact online solver at the same parameters: kestrel-qp's
+//! `ActiveSetSolver` as kestrel-mpc's law calls it (`solve_into`: fill the
+//! data, solve, copy `z`; owned workspaces kept between calls) and a
+//! `QpSolver` kept on workspaces of the caller's (`fill`, `solve`,
+//! `solution`), both cold, so their ratio is the owned solver's overhead.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use kestrel_mpc::{QpSettings, ReferenceSolver};
+use kestrel_mpc::{ParametricQpSolver, QpSettings, ReferenceSolver};
+use kestrel_qp::{ActiveSetSolver, Start, parametric::ParametricQp};
 use kestrel_tricopter::{
     ProblemSize, default_weights, identified_model, tricopter_problem, tricopter_trim,
 };
@@ -25,8 +32,18 @@ fn solves(c: &mut Criterion) {
     ] {
         let (q1, q2) = default_weights();
         let problem = tricopter_problem(&model, size, q1, q2).expect("problem");
-        let mut solver =
-            ReferenceSolver::new(&problem.to_mpqp(), QpSettings::default()).expect("solver");
+        let mpqp = problem.to_mpqp();
+        let mut solver = ReferenceSolver::new(&mpqp, QpSettings::default()).expect("solver");
+        let settings = kestrel_qp::QpSettings::default();
+        let mut owned = ActiveSetSolver::new(&mpqp, settings, Start::Cold).expect("owned solver");
+        let qp = ParametricQp::from_mpqp(&mpqp).expect("parametric QP");
+        let (ns, ni) = qp.workspace_len();
+        let (mut scalars, mut indices) = (vec![0.0; ns], vec![0; ni]);
+        let mut kept = qp
+            .solver::<f64>(settings, &mut scalars, &mut indices)
+            .expect("kept solver");
+        let mut buf = qp.buffers::<f64>();
+        let mut z = vec![0.0; qp.n()];
         for (label, rates) in [
             ("table 7.2 state", [0.2, 0.3, 0.4]),
             ("released at [2,2,2]", [2.0, 2.0, 2.0]),
@@ -44,6 +61,27 @@ fn solves(c: &mut Criterion) {
             c.bench_function(&format!("clarabel QP solve, {name}, {label}"), |b| {
                 b.iter(|| solver.solve(black_box(&theta)).expect("solves"))
             });
+            c.bench_function(
+                &format!("kestrel-qp ActiveSetSolver cold, {name}, {label}"),
+                |b| {
+                    b.iter(|| {
+                        owned
+                            .solve_into(black_box(theta.as_slice()), &mut z)
+                            .expect("solves")
+                    })
+                },
+            );
+            c.bench_function(
+                &format!("kestrel-qp kept QpSolver cold, {name}, {label}"),
+                |b| {
+                    b.iter(|| {
+                        qp.fill(black_box(theta.as_slice()), &mut buf)
+                            .expect("fill");
+                        kept.solve(&buf.data(), Start::Cold).expect("solves");
+                        kept.solution(&mut z).expect("solution")
+                    })
+                },
+            );
         }
     }
 }

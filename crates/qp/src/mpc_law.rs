@@ -3,7 +3,8 @@
 //! fly the exact online solver like the clarabel reference.
 
 use crate::parametric::{ParametricError, ParametricQp, QpBuffers};
-use crate::{ActiveConstraint, QpSettings, Start};
+use crate::solver::Parked;
+use crate::{QpSettings, QpSolver, Start};
 use kestrel_core::Error;
 use kestrel_core::formats::MpqpProblem;
 use kestrel_mpc::{MpcError, MpcLaw, MpcProblem, ParametricQpSolver};
@@ -17,11 +18,10 @@ pub type ActiveSetMpc = MpcLaw<ActiveSetSolver>;
 /// call's final active set, as a controller does from one period to the
 /// next. A failed solve makes the next one start cold.
 ///
-/// Each call sets the solver up afresh on the owned workspaces (the
-/// factorisation of `H`, `O(n^3 + m n^2)`, the same numbers every time)
-/// and then starts from the kept active set, so the iterations are those
-/// of a solver kept across periods; on a target, keep one
-/// [`crate::QpSolver`] on static workspaces instead.
+/// The solver is set up once (the factorisation of `H`, `O(n^3 + m n^2)`)
+/// on the owned workspaces and kept there between calls, as a
+/// [`crate::QpSolver`] on static workspaces is kept on a target: a call
+/// fills the period's data and solves, nothing more.
 ///
 /// ```
 /// use kestrel_core::{ControlLaw, Matrix, StateSpace};
@@ -47,14 +47,16 @@ pub type ActiveSetMpc = MpcLaw<ActiveSetSolver>;
 #[derive(Debug, Clone)]
 pub struct ActiveSetSolver {
     qp: ParametricQp,
-    settings: QpSettings,
     start: Start,
     scalars: Vec<f64>,
     indices: Vec<usize>,
     buffers: QpBuffers<f64>,
-    /// The final active set of the last successful solve (empty before
-    /// the first and after a failure: a warm start from it is cold).
-    previous: Vec<ActiveConstraint>,
+    /// The set-up solver, its workspaces being `scalars` and `indices`.
+    parked: Parked,
+    /// The next solve starts cold (after a failure or [`Self::reset`]);
+    /// before the first solve the active set is empty, and a warm start
+    /// from it is the cold start.
+    cold_next: bool,
     last_iterations: usize,
     worst_iterations: usize,
     solves: usize,
@@ -81,21 +83,23 @@ impl ActiveSetSolver {
         let qp =
             ParametricQp::from_mpqp(problem).map_err(|e: ParametricError| err(e.to_string()))?;
         let (ns, ni) = qp.workspace_len();
-        let mut s = ActiveSetSolver {
+        let (mut scalars, mut indices) = (vec![0.0; ns], vec![0; ni]);
+        let parked = qp
+            .solver::<f64>(settings, &mut scalars, &mut indices)
+            .map_err(|e| err(e.to_string()))?
+            .park();
+        Ok(ActiveSetSolver {
             buffers: qp.buffers(),
             qp,
-            settings,
             start,
-            scalars: vec![0.0; ns],
-            indices: vec![0; ni],
-            previous: Vec::new(),
+            scalars,
+            indices,
+            parked,
+            cold_next: false,
             last_iterations: 0,
             worst_iterations: 0,
             solves: 0,
-        };
-        s.qp.solver::<f64>(settings, &mut s.scalars, &mut s.indices)
-            .map_err(|e| err(e.to_string()))?;
-        Ok(s)
+        })
     }
 
     /// The MPC law of `problem` solved by this solver.
@@ -133,7 +137,7 @@ impl ActiveSetSolver {
 
     /// Forgets the kept active set: the next solve starts cold.
     pub fn reset(&mut self) {
-        self.previous.clear();
+        self.cold_next = true;
     }
 
     fn solve_at(&mut self, theta: &[f64], z: &mut [f64]) -> Result<usize, Error> {
@@ -147,18 +151,18 @@ impl ActiveSetSolver {
                     Error::InvalidArgument("malformed mpQP problem")
                 }
             })?;
-        let mut solver =
-            self.qp
-                .solver::<f64>(self.settings, &mut self.scalars, &mut self.indices)?;
-        // The set-up left the active set empty; a warm start adds the kept
-        // one (from an empty set it is the cold start).
-        if self.start == Start::Warm {
-            solver.set_active_set(&self.previous)?;
-        }
-        let info = solver.solve(&self.buffers.data(), self.start)?;
-        solver.solution(z)?;
-        self.previous.clear();
-        self.previous.extend(solver.active_set());
+        let mut solver = QpSolver::resume(self.parked, &mut self.scalars, &mut self.indices)?;
+        let start = if self.cold_next {
+            Start::Cold
+        } else {
+            self.start
+        };
+        let info = solver
+            .solve(&self.buffers.data(), start)
+            .and_then(|info| solver.solution(z).map(|()| info));
+        self.parked = solver.park();
+        let info = info?;
+        self.cold_next = false;
         Ok(info.iterations)
     }
 }
@@ -306,5 +310,75 @@ mod tests {
         let mut nan = good.clone();
         nan[0] = f64::NAN;
         assert_eq!(s.solve_into(nan.as_slice(), &mut z), Err(Error::NonFinite));
+    }
+
+    /// The owned solver is one `QpSolver` set up once and kept: over a
+    /// closed-loop-like sequence of parameters with an infeasible one (the
+    /// next solve then starts cold) and a reset, every `z` and iteration
+    /// count equals, bit for bit, that of a solver kept on workspaces of
+    /// its own and started as the docs say.
+    #[test]
+    fn the_owned_solver_is_a_kept_solver() {
+        let p = MpcProblem::build(
+            &double_integrator(),
+            &MpcSettings {
+                horizon: 8,
+                terminal: Terminal::Lq,
+                du_bounds: Some(Bounds::new(dvector![-0.4], dvector![0.4])),
+                input_bounds: Some(Bounds::new(dvector![-1.0], dvector![1.0])),
+                output_bounds: Some(Bounds::new(dvector![-2.0], dvector![1.1])),
+                ..MpcSettings::default()
+            },
+        )
+        .unwrap();
+        let mpqp = p.to_mpqp();
+        let qp = ParametricQp::from_mpqp(&mpqp).unwrap();
+        let (ns, ni) = qp.workspace_len();
+        let (mut scalars, mut indices) = (vec![0.0; ns], vec![0; ni]);
+        let mut kept = qp
+            .solver::<f64>(QpSettings::default(), &mut scalars, &mut indices)
+            .unwrap();
+        let mut buf = qp.buffers::<f64>();
+        let mut owned = ActiveSetSolver::new(&mpqp, QpSettings::default(), Start::Warm).unwrap();
+        let (mut z, mut z_kept) = (vec![0.0; p.n()], vec![0.0; p.n()]);
+        let (mut cold_next, mut failures, mut changes) = (false, 0, 0);
+        for k in 0..60 {
+            let t = k as f64 * 0.21;
+            let x = if k == 17 {
+                [5.0, 3.0] // no input keeps y <= 1.1
+            } else {
+                [0.8 * t.sin(), 0.5 * (1.7 * t).cos()]
+            };
+            let theta = p
+                .theta_with_previous(&x, &[0.6 * (0.9 * t).sin()], &[0.9 * (0.4 * t).cos()])
+                .unwrap();
+            qp.fill(theta.as_slice(), &mut buf).unwrap();
+            let start = if cold_next { Start::Cold } else { Start::Warm };
+            let want = kept.solve(&buf.data(), start);
+            let got = owned.solve_into(theta.as_slice(), &mut z);
+            match want {
+                Ok(info) => {
+                    got.unwrap();
+                    kept.solution(&mut z_kept).unwrap();
+                    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&z), bits(&z_kept), "{k}");
+                    assert_eq!(owned.last_iterations(), info.iterations, "{k}");
+                    changes += info.iterations;
+                    cold_next = false;
+                }
+                Err(e) => {
+                    assert_eq!(got, Err(Error::from(e)), "{k}");
+                    failures += 1;
+                    cold_next = true;
+                }
+            }
+            if k == 40 {
+                owned.reset();
+                cold_next = true;
+            }
+        }
+        assert_eq!(failures, 1);
+        assert_eq!(owned.solves(), 59);
+        assert!(changes > 59, "{changes}");
     }
 }

@@ -140,6 +140,78 @@ pub struct QpSolver<'w, S> {
     pub(crate) pivtol: S,
 }
 
+/// What [`QpSolver::park`] keeps of a solver besides its workspaces.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Parked {
+    n: usize,
+    m: usize,
+    settings: QpSettings,
+    count: usize,
+    fwd_valid: usize,
+}
+
+/// The solver's slices carved from the workspaces `$scalars` and
+/// `$indices` (a short one is a [`QpError::Dimension`], returned from the
+/// enclosing function), then `$prepare` with the active-position,
+/// primal-point and constraint-row slices bound to the three names, then
+/// the solver with no constraint active; the other contents untouched. A
+/// macro rather than a function so that [`QpSolver::new`] compiles to the
+/// code it did before [`QpSolver::resume`] shared it (the AVR firmware's
+/// checks for the pinned nightly's miscompilations, docs/avr-qp.md).
+macro_rules! carve {
+    ($n:ident, $m:ident, $settings:ident, $scalars:expr, $indices:expr,
+     |$pos:ident, $z:ident, $g:ident| $prepare:block) => {{
+        let c = $n + 1;
+        let mut buf = $scalars;
+        let hinv = take(&mut buf, $n * $n)?;
+        let $g = take(&mut buf, $m * $n)?;
+        let w = take(&mut buf, $m * $n)?;
+        let zunc = take(&mut buf, $n)?;
+        let $z = take(&mut buf, $n)?;
+        let work = take(&mut buf, $n)?;
+        let lf = take(&mut buf, c * c)?;
+        let df = take(&mut buf, c)?;
+        let mu = take(&mut buf, c)?;
+        let mustar = take(&mut buf, c)?;
+        let tmp = take(&mut buf, c)?;
+        let wv = take(&mut buf, c)?;
+        let rhs = take(&mut buf, c)?;
+        let fwd = take(&mut buf, c)?;
+        let mut ibuf = $indices;
+        let active = take(&mut ibuf, c)?;
+        let side = take(&mut ibuf, c)?;
+        let $pos = take(&mut ibuf, $m + $n)?;
+        $prepare
+        QpSolver {
+            n: $n,
+            m: $m,
+            settings: $settings,
+            hinv,
+            g: $g,
+            w,
+            zunc,
+            z: $z,
+            work,
+            lf,
+            df,
+            mu,
+            mustar,
+            tmp,
+            wv,
+            rhs,
+            fwd,
+            active,
+            side,
+            pos: $pos,
+            count: 0,
+            fwd_valid: 0,
+            ptol: S::from_f64($settings.primal_tol),
+            dtol: S::from_f64($settings.dual_tol),
+            pivtol: S::from_f64($settings.pivot_tol),
+        }
+    }};
+}
+
 /// The first `len` entries of `buf`, which keeps the rest (`Dimension`
 /// if it is shorter: [`QpSolver::new`] checked the lengths before).
 fn take<'a, T>(buf: &mut &'a mut [T], len: usize) -> Result<&'a mut [T], QpError> {
@@ -233,61 +305,48 @@ impl<'w, S: QpScalar> QpSolver<'w, S> {
         if !h.iter().chain(g.iter()).all(|v| v.is_finite()) {
             return Err(QpError::NonFinite);
         }
-        let c = n + 1;
-        let mut buf = scalars;
-        let hinv = take(&mut buf, n * n)?;
-        let gs = take(&mut buf, m * n)?;
-        let w = take(&mut buf, m * n)?;
-        let zunc = take(&mut buf, n)?;
-        let z = take(&mut buf, n)?;
-        let work = take(&mut buf, n)?;
-        let lf = take(&mut buf, c * c)?;
-        let df = take(&mut buf, c)?;
-        let mu = take(&mut buf, c)?;
-        let mustar = take(&mut buf, c)?;
-        let tmp = take(&mut buf, c)?;
-        let wv = take(&mut buf, c)?;
-        let rhs = take(&mut buf, c)?;
-        let fwd = take(&mut buf, c)?;
-        let mut ibuf = indices;
-        let active = take(&mut ibuf, c)?;
-        let side = take(&mut ibuf, c)?;
-        let pos = take(&mut ibuf, m + n)?;
-        pos.fill(0);
-        z.fill(S::ZERO);
-        for (o, &v) in gs.iter_mut().zip(g) {
-            *o = v;
-        }
-        let mut s = QpSolver {
-            n,
-            m,
-            settings,
-            hinv,
-            g: gs,
-            w,
-            zunc,
-            z,
-            work,
-            lf,
-            df,
-            mu,
-            mustar,
-            tmp,
-            wv,
-            rhs,
-            fwd,
-            active,
-            side,
-            pos,
-            count: 0,
-            fwd_valid: 0,
-            ptol: S::from_f64(settings.primal_tol),
-            dtol: S::from_f64(settings.dual_tol),
-            pivtol: S::from_f64(settings.pivot_tol),
-        };
+        let mut s = carve!(n, m, settings, scalars, indices, |pos, z, gs| {
+            pos.fill(0);
+            z.fill(S::ZERO);
+            for (o, &v) in gs.iter_mut().zip(g) {
+                *o = v;
+            }
+        });
         s.factor_h(h)?;
         s.invert_h();
         s.transform_rows();
+        Ok(s)
+    }
+
+    /// Ends the borrow of the workspaces, keeping what is not in them (the
+    /// sizes, settings and active-set length), so that [`Self::resume`]
+    /// can take the same workspaces up again without a new set-up: for a
+    /// solver that owns its workspaces (`ActiveSetSolver`).
+    #[cfg_attr(not(feature = "mpc"), allow(dead_code))]
+    pub(crate) fn park(self) -> Parked {
+        Parked {
+            n: self.n,
+            m: self.m,
+            settings: self.settings,
+            count: self.count,
+            fwd_valid: self.fwd_valid,
+        }
+    }
+
+    /// The solver [`Self::park`] gave `parked` from, on the same
+    /// workspaces: `scalars` and `indices` must be the ones it borrowed,
+    /// unchanged since (its set-up and active set live there); other
+    /// contents give meaningless numbers (never a panic).
+    #[cfg_attr(not(feature = "mpc"), allow(dead_code))]
+    pub(crate) fn resume(
+        parked: Parked,
+        scalars: &'w mut [S],
+        indices: &'w mut [usize],
+    ) -> Result<Self, QpError> {
+        let (n, m, settings) = (parked.n, parked.m, parked.settings);
+        let mut s = carve!(n, m, settings, scalars, indices, |_pos, _z, _g| {});
+        s.count = parked.count;
+        s.fwd_valid = parked.fwd_valid;
         Ok(s)
     }
 
