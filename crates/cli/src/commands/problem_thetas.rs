@@ -46,8 +46,9 @@ fn rows_bytes(text_bytes: u64, rows: u64, p: usize, outputs: usize) -> f64 {
 /// # Errors
 /// The file cannot be read or is malformed (naming the file and the
 /// line); or its rows would take more than [`MAX_PARAMETER_ROWS_BYTES`]
-/// (from the file's size before it is read, then from its line count
-/// before it is parsed), with the estimate and what to do.
+/// (from the file's size before it is read, then from its rows, the lines
+/// that are not blank, before they are parsed), with the estimate and
+/// what to do.
 pub fn read_parameter_rows(path: &Path, p: usize, outputs: usize) -> anyhow::Result<NumberedRows> {
     let name = || path.display().to_string();
     let refuse = |what: String, bytes: f64| -> anyhow::Result<NumberedRows> {
