@@ -155,9 +155,10 @@ pub(crate) struct Parked {
 /// enclosing function), then `$prepare` with the active-position,
 /// primal-point and constraint-row slices bound to the three names, then
 /// the solver with no constraint active; the other contents untouched. A
-/// macro rather than a function so that [`QpSolver::new`] compiles to the
-/// code it did before [`QpSolver::resume`] shared it (the AVR firmware's
-/// checks for the pinned nightly's miscompilations, docs/avr-qp.md).
+/// macro rather than a function: [`QpSolver::new`] stays one straight
+/// body (with a shared function, the f32 firmware's `main`, where `new` is
+/// inlined, showed the pinned nightly's bug 2, a multiply's `r0` lost to
+/// an SREG save; docs/avr-qp.md, and the HIL tests' miscompile scan).
 macro_rules! carve {
     ($n:ident, $m:ident, $settings:ident, $scalars:expr, $indices:expr,
      |$pos:ident, $z:ident, $g:ident| $prepare:block) => {{
