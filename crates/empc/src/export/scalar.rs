@@ -5,11 +5,17 @@ use crate::error::EmpcError;
 pub use kestrel_core::formats::ExportScalar;
 
 /// `scalar.literal(v)`, a value the type cannot hold refused with the value
-/// and the type named.
+/// and the type named (and, for a value beyond Q15.16's range, how to go
+/// on).
 pub(crate) fn literal(scalar: ExportScalar, v: f64) -> Result<String, EmpcError> {
     scalar.literal(v).map_err(|e| {
+        let hint = if (scalar, e) == (ExportScalar::Q16, kestrel_core::Error::OutOfRange) {
+            "; scale the problem or use f32"
+        } else {
+            ""
+        };
         EmpcError::InvalidArgument(format!(
-            "the table value {v} cannot be written as {}: {e}; scale the problem or use f32",
+            "the table value {v} cannot be written as {}: {e}{hint}",
             scalar.rust_type()
         ))
     })
@@ -29,12 +35,14 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(
-            e.contains("40000") && e.contains("kestrel_core::Q16"),
+            e.contains("40000") && e.contains("kestrel_core::Q16") && e.contains("use f32"),
             "{e}"
         );
         let e = literal(ExportScalar::F32, f64::INFINITY)
             .unwrap_err()
             .to_string();
         assert!(e.contains("inf") && e.contains("f32"), "{e}");
+        // No advice to use f32 for a value no type can spell.
+        assert!(!e.contains("use f32"), "{e}");
     }
 }
