@@ -80,6 +80,7 @@ pub(crate) fn solve(
     // the working rows' conditioning (1e-11 at near-dependent slack rows),
     // and stepping by it again and again never converges.
     let mut stationary = false;
+    let mut passed: Vec<usize> = Vec::new();
     for _ in 0..max_iter {
         let grad = h * &z + q;
         let (p, lambda) = eqp_step(hinv, g, &working, &grad).ok_or(QpFailure::NotConverged)?;
@@ -103,23 +104,34 @@ pub(crate) fn solve(
                 }
             }
         }
-        // Step with the ratio test.
-        let mut alpha = 1.0;
-        let mut block = None;
-        for i in 0..m {
-            if working.contains(&i) {
-                continue;
-            }
-            let gp = g.row(i).dot(&p.transpose());
-            if gp > 1e-14 * (1.0 + pnorm) {
-                let slack = (w[i] - g.row(i).dot(&z.transpose())).max(0.0);
-                let t = slack / gp;
-                if t < alpha {
-                    alpha = t;
-                    block = Some(i);
+        // Step with the ratio test. A row that depends on the working
+        // rows cannot block a step in their null space (`g_i p` is then
+        // rounding); at a degenerate vertex, where it is active too, its
+        // rounding would win the test and make the working rows singular:
+        // such a row is passed over and the test repeated.
+        let (alpha, block) = loop {
+            let mut alpha = 1.0;
+            let mut block = None;
+            for i in 0..m {
+                if working.contains(&i) || passed.contains(&i) {
+                    continue;
+                }
+                let gp = g.row(i).dot(&p.transpose());
+                if gp > 1e-14 * (1.0 + pnorm) {
+                    let slack = (w[i] - g.row(i).dot(&z.transpose())).max(0.0);
+                    let t = slack / gp;
+                    if t < alpha {
+                        alpha = t;
+                        block = Some(i);
+                    }
                 }
             }
-        }
+            match block {
+                Some(i) if !independent(g, &working, i) => passed.push(i),
+                _ => break (alpha, block),
+            }
+        };
+        passed.clear();
         z += alpha * &p;
         match block {
             Some(i) => working.push(i),

@@ -151,3 +151,61 @@ fn explicit_solver_is_exact_and_takes_wide_tables() {
         assert!(checked > 500, "{name}: {checked}");
     }
 }
+
+/// The double integrator of `examples/double-integrator.json` (`kestrel
+/// c2d --ts 0.1`) with `kestrel mpc --horizon 12 --u-min -1 --u-max 1
+/// --state-min -5,-2 --state-max 5,2` (n = 12, m = 72, p = 3): `solve`
+/// once stopped with "the QP at theta = [...] did not converge". At that
+/// degenerate vertex a state row that depends on the working rows was
+/// also active, and its rounding (`g_i p` of 1e-13 on a zero slack) won
+/// the ratio test: the working rows became singular. The solution must
+/// hold the reported parameter, and at random parameters agree with two
+/// other solvers: kestrel-qp's dual active set (feasible or not, and `z`)
+/// everywhere, and clarabel wherever it converges at its tight tolerances
+/// (about half of these parameters; it stalls at the others, the reported
+/// one among them).
+#[test]
+fn degenerate_state_bounds_solve() {
+    let prob = load("noconverge-di12.mpqp.json");
+    let sol = solve(&prob, &Settings::default()).unwrap();
+    let reported = [1.0453093290100524, -1.5000110000000006, -1.0426529419463544];
+    let mut rng = Rng::new(11);
+    // The state bounds' box (the file's box is mostly infeasible: |x2| <= 10).
+    let (lb, ub) = ([-5.0, -2.0, -3.0], [5.0, 2.0, 3.0]);
+    let (mut feasible, mut infeasible, mut clarabel_checked) = (0, 0, 0);
+    for k in 0..3000 {
+        let theta = if k == 0 {
+            reported.to_vec()
+        } else {
+            common::box_point(&lb, &ub, &mut rng)
+        };
+        let region = sol.regions.iter().find(|r| r.contains(&theta, 1e-9));
+        let Some(want) = common::active_set_qp(&prob, &theta) else {
+            assert!(k > 0, "the reported parameter is feasible");
+            assert!(
+                sol.regions.iter().all(|r| !r.contains(&theta, -1e-6)),
+                "infeasible theta {theta:?} inside a region"
+            );
+            infeasible += 1;
+            continue;
+        };
+        let r = region.unwrap_or_else(|| panic!("no region contains {theta:?}"));
+        let z: Vec<f64> = r.z(&theta).iter().copied().collect();
+        assert!(
+            common::rel(&z, &want) < 1e-7,
+            "theta {theta:?}: region {z:?}, kestrel-qp {want:?}"
+        );
+        if let Ok(Some(x)) = common::clarabel_qp_checked(&prob, &theta) {
+            assert!(
+                common::law_at_least_as_good(&prob, &theta, &z, &x) || common::rel(&z, &x) < 1e-7,
+                "theta {theta:?}: region {z:?}, clarabel {x:?}"
+            );
+            clarabel_checked += 1;
+        }
+        feasible += 1;
+    }
+    assert!(
+        feasible > 2000 && infeasible > 100 && clarabel_checked > 1000,
+        "{feasible} {infeasible} {clarabel_checked}"
+    );
+}

@@ -52,6 +52,31 @@ pub fn clarabel_qp_checked(prob: &MpqpProblem, theta: &[f64]) -> Result<Option<V
     }
 }
 
+/// kestrel-qp's dual active-set solution of the QP at `theta` (a second
+/// algorithm, exact at its optimum), `None` if infeasible; panics on any
+/// other failure.
+#[allow(dead_code)] // not every test binary uses it
+pub fn active_set_qp(prob: &MpqpProblem, theta: &[f64]) -> Option<Vec<f64>> {
+    use kestrel_qp::parametric::ParametricQp;
+    use kestrel_qp::{QpError, QpSettings, Start};
+    let par = ParametricQp::from_mpqp(prob).unwrap();
+    let (ns, ni) = par.workspace_len();
+    let (mut scalars, mut indices) = (vec![0.0; ns], vec![0; ni]);
+    let mut qp = par
+        .solver::<f64>(QpSettings::default(), &mut scalars, &mut indices)
+        .unwrap();
+    let mut buf = par.buffers::<f64>();
+    par.fill(theta, &mut buf).unwrap();
+    match qp.solve(&buf.data(), Start::Cold) {
+        Ok(_) => {}
+        Err(QpError::Infeasible) => return None,
+        Err(e) => panic!("kestrel-qp at {theta:?}: {e:?}"),
+    }
+    let mut z = vec![0.0; par.n()];
+    qp.solution(&mut z).unwrap();
+    Some(z)
+}
+
 /// The QP's objective `1/2 z'Hz + (F'theta + f)'z` at `z` and the largest
 /// violation of `G z <= W + E theta` (0 when feasible).
 #[allow(dead_code)] // not every test binary uses it
