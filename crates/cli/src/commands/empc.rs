@@ -451,12 +451,17 @@ fn read_text(path: &std::path::Path) -> anyhow::Result<String> {
     std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))
 }
 
-fn read_tables(path: &std::path::Path) -> anyhow::Result<AnyTables> {
-    export::read_tables(&read_text(path)?).with_context(|| path.display().to_string())
+/// The tree tables of a solution file's `text` (read from `path`).
+fn read_tables(text: &str, path: &std::path::Path) -> anyhow::Result<AnyTables> {
+    export::read_tables(text).with_context(|| path.display().to_string())
 }
 
-fn read_compact(path: &std::path::Path) -> anyhow::Result<kestrel_empc::CompactTables<f64>> {
-    export::read_tables(&read_text(path)?).with_context(|| path.display().to_string())
+/// The compact tables of a solution file's `text` (read from `path`).
+fn read_compact(
+    text: &str,
+    path: &std::path::Path,
+) -> anyhow::Result<kestrel_empc::CompactTables<f64>> {
+    export::read_tables(text).with_context(|| path.display().to_string())
 }
 
 fn run_eval(a: EvalArgs) -> anyhow::Result<()> {
@@ -470,10 +475,10 @@ fn run_eval(a: EvalArgs) -> anyhow::Result<()> {
         ),
         Stored::Lists(tables) => eval_lists(&a, &tables),
         Stored::Tree if a.compact => {
-            let tables = read_compact(&a.solution)?;
+            let tables = read_compact(&text, &a.solution)?;
             eval_with(&a, &tables.tables())
         }
-        Stored::Tree => match read_tables(&a.solution)? {
+        Stored::Tree => match read_tables(&text, &a.solution)? {
             AnyTables::Narrow(t) => eval_with(&a, &t.tables()),
             AnyTables::Wide(t) => eval_with(&a, &t.tables()),
         },
@@ -553,9 +558,9 @@ fn run_export(a: ExportArgs) -> anyhow::Result<()> {
         return io::write_output(a.out.as_deref(), &src);
     }
     let src = if a.compact {
-        export::rust_source(&read_compact(&a.solution)?, scalar)
+        export::rust_source(&read_compact(&text, &a.solution)?, scalar)
     } else {
-        export::rust_source(&read_tables(&a.solution)?, scalar)
+        export::rust_source(&read_tables(&text, &a.solution)?, scalar)
     }
     .with_context(|| a.solution.display().to_string())?;
     io::write_output(a.out.as_deref(), &src)

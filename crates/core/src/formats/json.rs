@@ -47,6 +47,76 @@ pub fn parse_value(text: &str) -> Result<Value, FormatError> {
     }
 }
 
+/// Parses text into a JSON object keeping only the entries named in
+/// `keys`: the values under other keys are checked as JSON but never
+/// built, so a file whose bulk lies under a key the reader does not need
+/// (a solution's region list) costs its text, not a tree of values several
+/// times its size. Errors, and bare `NaN`/`Infinity` tokens, as in
+/// [`parse_object`]; of a key given twice the last value is kept.
+///
+/// ```
+/// use kestrel_core::formats::json;
+/// let text = r#"{"format": "x", "p": 2, "regions": [[1, 2], [3, 4]]}"#;
+/// let obj = json::parse_object_keys(text, &["format", "p"]).unwrap();
+/// assert_eq!(obj.len(), 2);
+/// assert!(obj.get("regions").is_none());
+/// assert!(json::parse_object_keys(r#"{"p": 2, "regions": [1,"#, &["p"]).is_err());
+/// ```
+pub fn parse_object_keys(text: &str, keys: &[&str]) -> Result<Object, FormatError> {
+    if !text.trim_start().starts_with('{') {
+        // Not an object (or not JSON): the whole parser names what it is.
+        return parse_object(text);
+    }
+    match keep_keys(text, keys) {
+        Ok(m) => Ok(m),
+        Err(e) => {
+            let quoted = quote_non_finite_tokens(text);
+            match keep_keys(&quoted, keys) {
+                Ok(m) if quoted != text => Ok(m),
+                _ => Err(FormatError::Json(e)),
+            }
+        }
+    }
+}
+
+/// The object of `text` with the entries `keys` only (the whole text read).
+fn keep_keys(text: &str, keys: &[&str]) -> Result<Object, serde_json::Error> {
+    use serde::de::DeserializeSeed;
+    let mut de = serde_json::Deserializer::from_str(text);
+    let obj = KeepKeys(keys).deserialize(&mut de)?;
+    de.end()?;
+    Ok(obj)
+}
+
+/// A JSON object reader that builds the values of the named keys only.
+struct KeepKeys<'k>(&'k [&'k str]);
+
+impl<'de> serde::de::DeserializeSeed<'de> for KeepKeys<'_> {
+    type Value = Object;
+    fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<Object, D::Error> {
+        d.deserialize_map(self)
+    }
+}
+
+impl<'de> serde::de::Visitor<'de> for KeepKeys<'_> {
+    type Value = Object;
+    fn expecting(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("a JSON object")
+    }
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<Object, A::Error> {
+        let mut out = Map::new();
+        while let Some(key) = map.next_key::<String>()? {
+            if self.0.contains(&key.as_str()) {
+                let v = map.next_value::<Value>()?;
+                out.insert(key, v);
+            } else {
+                map.next_value::<serde::de::IgnoredAny>()?;
+            }
+        }
+        Ok(out)
+    }
+}
+
 /// Replaces bare `NaN`, `Infinity` and `-Infinity` outside strings by quoted strings.
 fn quote_non_finite_tokens(text: &str) -> String {
     let mut out = String::with_capacity(text.len() + 16);
@@ -497,5 +567,85 @@ mod tests {
         assert!(text.contains("[1.0, 0.1]"), "{text}");
         let back = parse_object(&text).unwrap();
         assert_eq!(back, obj);
+    }
+
+    /// The whole parse with the other keys removed afterwards.
+    fn filtered(text: &str, keys: &[&str]) -> Result<Object, FormatError> {
+        let mut obj = parse_object(text)?;
+        obj.retain(|k, _| keys.contains(&k.as_str()));
+        Ok(obj)
+    }
+
+    #[test]
+    fn keys_only_parse_equals_the_filtered_whole_parse() {
+        let keys = ["format", "p", "tables"];
+        for text in [
+            r#"{"format": "f", "p": 3, "region_list": [{"a": [[1, 2]], "b": [NaN]}], "tables": {"x": [1.5, -2]}}"#,
+            r#"{"p": 1, "p": 2, "other": "a \"quoted\" NaN"}"#,
+            r#"{"tables": {"v": [Infinity, -Infinity]}, "skip": {"deep": [[[[]]]]}}"#,
+            r#"  {}  "#,
+        ] {
+            let got = parse_object_keys(text, &keys).unwrap();
+            assert_eq!(got, filtered(text, &keys).unwrap(), "{text}");
+            assert_eq!(
+                serde_json::to_string(&got).unwrap(),
+                serde_json::to_string(&filtered(text, &keys).unwrap()).unwrap(),
+                "key order: {text}"
+            );
+        }
+        // Errors in a skipped value, after the object, and what is not an object.
+        for text in [
+            r#"{"p": 1, "skip": [1, 2"#,
+            r#"{"p": 1, "skip": [1, 2,]}"#,
+            r#"{"p": 1} trailing"#,
+            r#"{"p": 1, "skip": tru}"#,
+        ] {
+            assert!(
+                matches!(parse_object_keys(text, &keys), Err(FormatError::Json(_))),
+                "{text}"
+            );
+            assert!(parse_object(text).is_err(), "{text}");
+        }
+        assert!(matches!(
+            parse_object_keys("[1]", &keys),
+            Err(FormatError::NotAnObject)
+        ));
+    }
+
+    /// JSON values of a few levels, numbers as the files hold them.
+    fn json_value() -> impl proptest::strategy::Strategy<Value = Value> {
+        use proptest::prelude::*;
+        let leaf = prop_oneof![
+            Just(Value::Null),
+            any::<bool>().prop_map(Value::from),
+            (-1e6f64..1e6).prop_map(Value::from),
+            "[a-z ]{0,6}".prop_map(Value::from),
+        ];
+        leaf.prop_recursive(3, 24, 4, |inner| {
+            prop_oneof![
+                proptest::collection::vec(inner.clone(), 0..4).prop_map(Value::from),
+                proptest::collection::vec(("[a-c]", inner), 0..4)
+                    .prop_map(|kv| Value::Object(kv.into_iter().collect())),
+            ]
+        })
+    }
+
+    proptest::proptest! {
+        /// For every object the keys-only parse keeps exactly the kept keys'
+        /// values of the whole parse, compact or pretty.
+        #[test]
+        fn keys_only_parse_law(
+            entries in proptest::collection::vec(("[a-e]", json_value()), 0..6),
+            pretty in proptest::bool::ANY,
+        ) {
+            let obj: Object = entries.into_iter().collect();
+            let text = if pretty {
+                serde_json::to_string_pretty(&obj).unwrap()
+            } else {
+                serde_json::to_string(&obj).unwrap()
+            };
+            let keys = ["a", "c"];
+            proptest::prop_assert_eq!(parse_object_keys(&text, &keys).unwrap(), filtered(&text, &keys).unwrap());
+        }
     }
 }

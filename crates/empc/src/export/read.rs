@@ -43,6 +43,10 @@ fn typed_index_rows<X: ExportIndex>(
     Ok(out)
 }
 
+/// The keys the tree readers use; the rest of a solution file (its region
+/// list above all, most of a large file) is checked as JSON, never built.
+const TREE_KEYS: &[&str] = &["format", "p", "outputs", "tables"];
+
 /// `p` and `outputs` of a solution file.
 fn read_sizes(obj: &Object) -> Result<(usize, usize), EmpcError> {
     json::check_format(obj, FORMAT)?;
@@ -126,7 +130,7 @@ fn read_common<X: ExportIndex>(
 /// ([`TableFormat::Narrow`] or [`TableFormat::Wide`]) and checks every
 /// index; an error if the file holds the other index width.
 pub(super) fn read_tree<X: ExportIndex>(text: &str) -> Result<OwnedTables<f64, X>, EmpcError> {
-    let obj = json::parse_object(text)?;
+    let obj = json::parse_object_keys(text, TREE_KEYS)?;
     let (p, k) = read_sizes(&obj)?;
     let t = tables_object(&obj, "tables", "written by `kestrel empc solve`")?;
     let found = tree_format(t)?;
@@ -199,7 +203,7 @@ fn tree_format(t: &Object) -> Result<TableFormat, EmpcError> {
 /// Reads the single tree of a solution file in the index width it was
 /// written in (`tables.index` `"u32"`: wide, else narrow) and checks every index.
 pub(super) fn read_any(text: &str) -> Result<AnyTables, EmpcError> {
-    let obj = json::parse_object(text)?;
+    let obj = json::parse_object_keys(text, TREE_KEYS)?;
     let (p, k) = read_sizes(&obj)?;
     let t = tables_object(&obj, "tables", "written by `kestrel empc solve`")?;
     Ok(match tree_format(t)? {
@@ -213,7 +217,7 @@ pub(super) fn read_any(text: &str) -> Result<AnyTables, EmpcError> {
 /// [`TableFormat::Compact`] if it has `compact_tables` (written by `kestrel
 /// empc solve --compact`).
 pub fn table_formats(text: &str) -> Result<Vec<TableFormat>, EmpcError> {
-    let obj = json::parse_object(text)?;
+    let obj = json::parse_object_keys(text, &["format", "tables", "compact_tables"])?;
     json::check_format(&obj, FORMAT)?;
     let mut out = Vec::with_capacity(2);
     if let Some(t) = obj.get("tables").and_then(Value::as_object) {
@@ -228,7 +232,7 @@ pub fn table_formats(text: &str) -> Result<Vec<TableFormat>, EmpcError> {
 /// Reads the compact format of a solution file (`compact_tables`) and
 /// checks every index (`check_compact_tables`).
 pub(super) fn read_compact(text: &str) -> Result<CompactTables<f64>, EmpcError> {
-    let obj = json::parse_object(text)?;
+    let obj = json::parse_object_keys(text, &["format", "p", "outputs", "compact_tables"])?;
     let (p, k) = read_sizes(&obj)?;
     let pre = "compact_tables";
     let t = tables_object(
