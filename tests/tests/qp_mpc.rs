@@ -433,3 +433,109 @@ fn larger_half_box_worst_point_takes_the_certified_count() {
     let info = qp.solve(&buf.data(), Start::Cold).unwrap();
     assert_eq!(info.iterations, 15);
 }
+
+/// A double integrator (0.1 s, `|u| <= 1`) with hard state bounds, on a
+/// parameter box of which about half is infeasible (`|x| <= 5`, `|r| <=
+/// 3`): kestrel-qp must find the QP infeasible exactly where clarabel
+/// does, never stop at its iteration limit, and equal clarabel elsewhere.
+/// Found by a user-style sweep (`kestrel mpc --state-max ...`): the
+/// singular step took a null-vector entry that is zero in exact arithmetic
+/// (a bound the dependent row does not involve) for a negative rate, and
+/// moved the multipliers by 1e15 instead of reporting infeasibility: over
+/// 18 such problems (horizons 6, 10, 14; state, output, rate bounds) 1,963
+/// of 72,000 parameters ended at the iteration limit and 35 infeasible ones
+/// returned a solution.
+#[test]
+fn infeasible_parameters_are_found_not_iterated() {
+    use kestrel_core::{Matrix, StateSpace};
+    use kestrel_mpc::{Bounds, MpcError, MpcProblem, MpcSettings, Terminal};
+    use kestrel_qp::QpError;
+    let model = StateSpace::new(
+        Matrix::from_rows([[1.0, 0.1], [0.0, 1.0]]),
+        Matrix::from_rows([[0.005], [0.1]]),
+        Matrix::from_rows([[1.0, 0.0]]),
+        Matrix::from_rows([[0.0]]),
+        0.1,
+    );
+    let inf = f64::INFINITY;
+    // (horizon, terminal, state bounds): `kestrel mpc --terminal q1
+    // --state-max 5,1` at N = 6 and 10, `--state-min -5,-2 --state-max 5,2`
+    // (LQ terminal) at N = 14.
+    let cases = [
+        (6, Terminal::StageWeight, [-inf, -inf], [5.0, 1.0]),
+        (10, Terminal::StageWeight, [-inf, -inf], [5.0, 1.0]),
+        (14, Terminal::Lq, [-5.0, -2.0], [5.0, 2.0]),
+    ];
+    for (horizon, terminal, lo, hi) in cases {
+        let settings = MpcSettings {
+            horizon,
+            terminal,
+            state_bound: 5.0,
+            reference_bound: 3.0,
+            input_bounds: Some(Bounds::new(
+                DVector::from_element(1, -1.0),
+                DVector::from_element(1, 1.0),
+            )),
+            state_bounds: Some(Bounds::new(
+                DVector::from_column_slice(&lo),
+                DVector::from_column_slice(&hi),
+            )),
+            ..MpcSettings::default()
+        };
+        let p = MpcProblem::build(&model, &settings).unwrap().to_mpqp();
+        let par = ParametricQp::from_mpqp(&p).unwrap();
+        let (ns, ni) = par.workspace_len();
+        let (mut s, mut ix) = (vec![0.0; ns], vec![0; ni]);
+        let mut qp = par.solver(QpSettings::default(), &mut s, &mut ix).unwrap();
+        let mut reference = ReferenceSolver::new(
+            &p,
+            RefSettings {
+                tolerance: 1e-11,
+                max_iter: 400,
+                ..RefSettings::default()
+            },
+        )
+        .unwrap();
+        let mut buf = par.buffers::<f64>();
+        let mut rng = SplitMix64::seed_from_u64(5);
+        let count = samples(2000);
+        let (mut feasible, mut infeasible, mut skipped) = (0, 0, 0);
+        for _ in 0..count {
+            let theta = DVector::from_iterator(
+                p.p(),
+                (0..p.p())
+                    .map(|j| p.theta_lb[j] + (p.theta_ub[j] - p.theta_lb[j]) * rng.random::<f64>()),
+            );
+            par.fill(theta.as_slice(), &mut buf).unwrap();
+            let got = qp.solve(&buf.data(), Start::Cold);
+            assert!(
+                !matches!(got, Err(QpError::IterationLimit)),
+                "N = {horizon}: iteration limit at {theta:?}"
+            );
+            match reference.solve(&theta) {
+                Err(MpcError::Infeasible) => {
+                    assert_eq!(
+                        got.map(|_| ()),
+                        Err(QpError::Infeasible),
+                        "N = {horizon}: clarabel finds {theta:?} infeasible"
+                    );
+                    infeasible += 1;
+                }
+                Ok(r) if r.polished => {
+                    assert!(got.is_ok(), "N = {horizon}: {got:?} at {theta:?}");
+                    let mut z = vec![0.0; par.n()];
+                    qp.solution(&mut z).unwrap();
+                    let dev = relative(&z, r.z.as_slice());
+                    assert!(dev <= 1e-8, "N = {horizon}: {theta:?}: {dev:e}");
+                    feasible += 1;
+                }
+                // clarabel short of its tolerances: no verdict to compare.
+                _ => skipped += 1,
+            }
+        }
+        assert!(
+            feasible * 5 > count && infeasible * 5 > count && skipped * 20 < count,
+            "N = {horizon}: {feasible} feasible, {infeasible} infeasible, {skipped} skipped"
+        );
+    }
+}

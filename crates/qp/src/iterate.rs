@@ -259,8 +259,18 @@ impl<S: QpScalar> QpSolver<'_, S> {
             d -= l * v;
         }
         self.lf.put(k * c + k, S::ONE);
-        self.df
-            .put(k, if d > self.pivtol * diag { d } else { S::ZERO });
+        // With `n` independent constraints active they span every
+        // direction, so the entering one depends on them whatever the
+        // rounding of `d` (on an ill-conditioned `M` it can pass the test
+        // and give multipliers of 1e15 that never settle).
+        self.df.put(
+            k,
+            if k < self.n && d > self.pivtol * diag {
+                d
+            } else {
+                S::ZERO
+            },
+        );
         let r = self.value(j, self.zunc) - b;
         self.rhs.put(k, r);
         self.active.put(k, j);
@@ -370,6 +380,17 @@ impl<S: QpScalar> QpSolver<'_, S> {
         } else {
             S::ONE
         };
+        // A rate counts as negative beyond the null vector's rounding: an
+        // entry that is zero in exact arithmetic (a bound the dependent
+        // row does not involve) would otherwise block at a step of 1e15.
+        let mut pmax = S::ZERO;
+        for &t in self.tmp.iter().take(k) {
+            let a = if t < S::ZERO { -t } else { t };
+            if a > pmax {
+                pmax = a;
+            }
+        }
+        let floor = self.dtol * pmax;
         let mut best: Option<(usize, S)> = None;
         for i in 0..last {
             if self.is_equality(i) {
@@ -381,7 +402,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
                 -S::ONE
             };
             let rate = si * sk * self.tmp.at(i);
-            if rate < S::ZERO {
+            if rate < -floor {
                 let tau = (si * self.mu.at(i)) / (-rate);
                 if best.is_none_or(|(_, t)| tau < t) {
                     best = Some((i, tau));

@@ -1,6 +1,6 @@
 //! The floating-point operation model of kestrel-qp's solver (the code of
-//! `crates/qp/src/iterate.rs` as of commit b6d3af5: iterations in `z` with
-//! `H^-1` and `w_j = H^-1 g_j` from the set-up). One add, subtract,
+//! `crates/qp/src/iterate.rs`: iterations in `z` with `H^-1` and `w_j =
+//! H^-1 g_j` from the set-up, the singular step with its rounding floor). One add, subtract,
 //! multiply or divide is one flop (a multiplication by a side's `+-1`
 //! included), a multiply-add two; comparisons, negations and copies are
 //! free: every arithmetic operator the solver's code executes, as a
@@ -63,10 +63,10 @@ pub(super) fn add(n: u64, k: u64, row: bool, rows_active: u64) -> u64 {
 }
 
 /// The singular step with `k` active (the last dependent): the null vector
-/// `L^-T e_k` (`k (k - 1)`), the rate of each of the `free` non-equality
-/// positions before the last (2) and the ratio of each of the `blocking`
-/// ones with a negative rate (2), the multiplier update `3 k` (the
-/// removal is [`remove`]).
+/// `L^-T e_k` (`k (k - 1)`), its rounding floor `dual_tol * max |p|` (1),
+/// the rate of each of the `free` non-equality positions before the last
+/// (2) and the ratio of each of the `blocking` ones with a negative rate
+/// (2), the multiplier update `3 k` (the removal is [`remove`]).
 pub(super) fn singular(k: u64, free: u64, blocking: u64) -> u64 {
-    k * k.saturating_sub(1) + 2 * free + 2 * blocking + 3 * k
+    k * k.saturating_sub(1) + 1 + 2 * free + 2 * blocking + 3 * k
 }

@@ -235,9 +235,14 @@ impl Model {
     }
 
     /// Whether constraint `j` entering after `active` (independent) gets a
-    /// zero pivot: the solver's test `d > pivot_tol * diag` fails for the
-    /// Schur complement `d = diag - t' M^-1 t`, `diag = g_j' H^-1 g_j`.
+    /// zero pivot: `n` constraints are active already, or the solver's test
+    /// `d > pivot_tol * diag` fails for the Schur complement `d = diag - t'
+    /// M^-1 t`, `diag = g_j' H^-1 g_j`.
     pub fn dependent(&self, active: &[(usize, u8)], j: usize) -> bool {
+        if active.len() >= self.n {
+            // The solver's rule: `n` independent constraints span everything.
+            return true;
+        }
         let diag = self.mm[(j, j)];
         if active.is_empty() {
             return diag.partial_cmp(&(self.settings.pivot_tol * diag)) != Some(Ordering::Greater);

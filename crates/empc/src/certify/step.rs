@@ -394,7 +394,7 @@ fn singular_step(
     let cands: Vec<(usize, f64)> = (0..last)
         .filter(|&i| node.active[i].1 & EQUALITY == 0)
         .map(|i| (i, sign(node.active[i].1) * sk * pv[i]))
-        .filter(|&(_, rate)| rate < -1e-12 * pmax)
+        .filter(|&(_, rate)| rate < -model.settings.dual_tol * pmax)
         .collect();
     if cands.is_empty() {
         out.push(Outcome::Leaf(node, Status::Infeasible));

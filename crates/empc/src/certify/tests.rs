@@ -9,7 +9,7 @@ fn small_cases() {
     assert_eq!(add(4, 0, false, 0), 2);
     assert_eq!(add(4, 2, true, 1), 8 * 3 + 4 + 6 + 2);
     assert_eq!(preamble(4), 32);
-    assert_eq!(singular(2, 1, 1), 2 + 2 + 2 + 6);
+    assert_eq!(singular(2, 1, 1), 2 + 1 + 2 + 2 + 6);
     assert_eq!(mustar(3, 1), 18 - 1);
     assert_eq!(mustar(2, 5), 4);
     assert_eq!(blocking(2, 1) + dual_step(2), 5 + 6);
