@@ -12,7 +12,9 @@ pub struct DareSettings {
     pub max_iterations: usize,
     /// The doubling stops when `||H_{k+1} - H_k||_F <= tolerance ||H_{k+1}||_F`,
     /// or when the quadratic convergence predicts that the next relative
-    /// increment (`delta_k^3 / delta_{k-1}^2`) is below it. Default 1e-15.
+    /// increment (`delta_k^3 / delta_{k-1}^2`) is below it; a solve stopped
+    /// by the prediction that then fails (residual, stability) is redone
+    /// without it. Default 1e-15.
     pub tolerance: f64,
     /// Newton refinement runs when the relative residual exceeds this. Default 1e-13.
     pub refine_above: f64,
@@ -211,20 +213,6 @@ pub fn dare_with(
         });
     }
 
-    let sda = sda(&a_t, &g, &q_t, settings);
-    let (x, iterations, growth) = match sda {
-        Some(v) => v,
-        None => {
-            return Err(diagnose(
-                &a_t,
-                b,
-                &q_t,
-                settings,
-                "the doubling iteration diverged or stagnated",
-            ));
-        }
-    };
-
     let problem = Problem {
         a,
         b,
@@ -232,6 +220,51 @@ pub fn dare_with(
         r: &r,
         s,
     };
+    let reduced = Reduced {
+        a_t: &a_t,
+        q_t: &q_t,
+    };
+    // The doubling may stop one step early where its quadratic convergence
+    // predicts the next increment below the tolerance. Before a mode close
+    // to the unit circle takes hold the increments can pause (1e-6 at the
+    // third step, then grow a hundredfold), and the prediction then stops
+    // at an `X` that does not stabilise: that solve is redone to the end.
+    let mut sda_result = sda(&a_t, &g, &q_t, settings, true);
+    loop {
+        let Some((x, iterations, growth, predicted)) = sda_result else {
+            return Err(diagnose(
+                &a_t,
+                b,
+                &q_t,
+                settings,
+                "the doubling iteration diverged or stagnated",
+            ));
+        };
+        match finish(&problem, &reduced, x, iterations, growth, settings) {
+            Err(_) if predicted => sda_result = sda(&a_t, &g, &q_t, settings, false),
+            done => return done,
+        }
+    }
+}
+
+/// `Ã` and `Q̃` of the problem without its cross term (the PBH tests').
+struct Reduced<'a> {
+    a_t: &'a DMatrix<f64>,
+    q_t: &'a DMatrix<f64>,
+}
+
+/// Steps 3 and 4 of [`dare_with`] on the doubling's `x`: Newton refinement,
+/// the residual, the closed loop's stability and the detectability test.
+fn finish(
+    problem: &Problem<'_>,
+    reduced: &Reduced<'_>,
+    x: DMatrix<f64>,
+    iterations: usize,
+    growth: f64,
+    settings: &DareSettings,
+) -> Result<DareSolution, KalmanError> {
+    let (a, b) = (problem.a, problem.b);
+    let (a_t, q_t) = (reduced.a_t, reduced.q_t);
     let mut best = problem.evaluate(x);
     let mut refinements = 0;
     while best.residual > settings.refine_above && refinements < settings.max_refinements {
@@ -252,9 +285,9 @@ pub fn dare_with(
     if !best.residual.is_finite() || best.residual > settings.accept_residual {
         if !best.residual.is_finite() {
             return Err(diagnose(
-                &a_t,
+                a_t,
                 b,
-                &q_t,
+                q_t,
                 settings,
                 "the solution is not finite",
             ));
@@ -262,7 +295,7 @@ pub fn dare_with(
         // A residual far from zero usually has a structural cause (a mode
         // the input cannot move or the weight cannot see): name it if the
         // PBH tests find one, else report the convergence failure.
-        if let Some(e) = pbh(&a_t, b, &q_t, settings.pbh_tolerance, true, true) {
+        if let Some(e) = pbh(a_t, b, q_t, settings.pbh_tolerance, true, true) {
             return Err(e);
         }
         return Err(KalmanError::NotConverged {
@@ -279,9 +312,9 @@ pub fn dare_with(
     let rho = eig.iter().map(|z| z.norm()).fold(0.0, f64::max);
     if rho.is_nan() || rho >= 1.0 {
         return Err(diagnose(
-            &a_t,
+            a_t,
             b,
-            &q_t,
+            q_t,
             settings,
             &format!(
                 "the closed loop A - BK has spectral radius {} >= 1",
@@ -294,7 +327,7 @@ pub fn dare_with(
         DetectabilityCheck::OnGrowth => growth.is_nan() || growth > settings.growth_limit,
         DetectabilityCheck::Never => false,
     };
-    if run_pbh && let Some(e) = pbh(&a_t, b, &q_t, settings.pbh_tolerance, false, true) {
+    if run_pbh && let Some(e) = pbh(a_t, b, q_t, settings.pbh_tolerance, false, true) {
         return Err(e);
     }
     Ok(DareSolution {
@@ -400,13 +433,16 @@ pub(crate) fn stein_smith(
     None
 }
 
-/// The doubling iteration; `None` when it breaks down or does not converge.
+/// The doubling iteration: `H_k`, the iterations, the growth of `G_k` and
+/// whether it stopped by the predicted increment (only when `predict`);
+/// `None` when it breaks down or does not converge.
 fn sda(
     a0: &DMatrix<f64>,
     g0: &DMatrix<f64>,
     h0: &DMatrix<f64>,
     settings: &DareSettings,
-) -> Option<(DMatrix<f64>, usize, f64)> {
+    predict: bool,
+) -> Option<(DMatrix<f64>, usize, f64, bool)> {
     let n = a0.nrows();
     let mut a = a0.clone();
     let mut g = g0.clone();
@@ -449,7 +485,7 @@ fn sda(
         // saves the last doubling step (the residual is checked afterwards
         // and refined by Newton steps if it is not small enough).
         let delta = dn / hn.max(f64::MIN_POSITIVE);
-        let predicted = if previous_delta > 0.0 && delta < 1e-3 {
+        let predicted = if predict && previous_delta > 0.0 && delta < 1e-3 {
             delta * delta * (delta / (previous_delta * previous_delta))
         } else {
             f64::INFINITY
@@ -459,7 +495,7 @@ fn sda(
             // (G and A of the last step are not needed: stop before them.)
             let g0 = g0.norm();
             let growth = if g0 > 0.0 { g.norm() / g0 } else { 0.0 };
-            return Some((h, it, growth));
+            return Some((h, it, growth, dn > settings.tolerance * hn));
         }
         // Y3 = W^-1 G A';  G += A W^-1 G A'
         g.mul_to(&at, &mut t);

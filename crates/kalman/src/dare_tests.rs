@@ -472,3 +472,72 @@ fn names_the_mode_when_the_doubling_stops_short() {
         e => panic!("{e}"),
     }
 }
+
+/// The doubling's increments can pause before a mode near the unit circle
+/// takes hold. Here (a random 4-state model with eigenvalues 1.29 and 1.05,
+/// `Q = C'C`, `R = 1e-4`: `kestrel mpc`'s LQ terminal weight in a user-style
+/// sweep) the third relative increment is 4e-6, the quadratic prediction
+/// stopped the doubling there, and its `X` left the closed loop unstable
+/// (spectral radius 1.07): "did not converge: relative residual 2.961e-7".
+/// Such a stop is redone to the end.
+#[test]
+fn a_paused_doubling_is_not_stopped_by_the_prediction() {
+    let a = DMatrix::from_row_slice(
+        4,
+        4,
+        &[
+            0.8801132723714749,
+            -0.3742347766603492,
+            0.14873726020085914,
+            0.17873337510208245,
+            -0.036790726754440596,
+            0.27327971223062897,
+            -0.10708606130477433,
+            -0.06842464170108235,
+            0.30262992743557954,
+            0.20206027395302045,
+            0.3855995411990977,
+            -0.38379590127738955,
+            -0.16470009983050113,
+            -0.7596535128225951,
+            -0.4777349383333481,
+            1.164517101104344,
+        ],
+    );
+    let b = DMatrix::from_column_slice(
+        4,
+        1,
+        &[
+            -0.10663881857944421,
+            0.5957362861802241,
+            0.00978701212961773,
+            -0.17667720635769904,
+        ],
+    );
+    let c = DMatrix::from_row_slice(
+        1,
+        4,
+        &[
+            -0.7133906300134584,
+            0.3770646187017394,
+            0.3671625953860221,
+            1.6579373095121808,
+        ],
+    );
+    let p = crate::testutil::Problem {
+        q: c.transpose() * &c,
+        r: dmatrix![1e-4],
+        a,
+        b,
+        s: None,
+    };
+    let sol = dare(&p.a, &p.b, &p.q, &p.r, None).unwrap();
+    assert!(sol.residual < 1e-12, "residual {:.2e}", sol.residual);
+    assert!(sol.closed_loop_eigenvalues.iter().all(|z| z.norm() < 1.0));
+    let x_ref = reference_dare(&p);
+    let err = (&sol.x - &x_ref).norm() / x_ref.norm();
+    assert!(
+        err < 1e-9,
+        "relative difference {err:.2e} from the reference"
+    );
+}
