@@ -56,8 +56,17 @@ pub(crate) fn check_hessian(h: &DMatrix<f64>) -> Result<(), MpcError> {
     let (min, max) = (eig.min(), eig.max());
     let floor = 1e-12 * max.abs().max(f64::MIN_POSITIVE);
     if min.is_nan() || min <= floor || max <= 0.0 {
+        let what = if min > 0.0 && max.is_finite() {
+            // Positive, but below the rounding of the largest: as good as
+            // singular to any solver.
+            format!(
+                "the condensed Hessian H (numerically: its largest eigenvalue is {max:.3e}, and the smallest must exceed 1e-12 of it; a larger input weight Q2 or a shorter horizon)"
+            )
+        } else {
+            "the condensed Hessian H (add input weight Q2 or output weight Q1 on every input direction)".into()
+        };
         return Err(MpcError::NotPositiveDefinite {
-            what: "the condensed Hessian H (add input weight Q2 or output weight Q1 on every input direction)".into(),
+            what,
             kind: "",
             min_eigenvalue: min,
         });

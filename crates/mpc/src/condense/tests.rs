@@ -493,6 +493,39 @@ fn bad_designs_are_clear_errors() {
         "{e}"
     );
     assert!(e.to_string().contains("Hessian H"));
+    // Positive definite in exact arithmetic but not numerically: y = x,
+    // x+ = 3 x + u over 14 steps puts 3^26 / 1e-4 between the largest and
+    // smallest eigenvalues. The message says why a positive smallest
+    // eigenvalue is refused, with the largest as computed here.
+    let unstable = SsModel::new(
+        0.1,
+        DMatrix::from_element(1, 1, 3.0),
+        DMatrix::from_element(1, 1, 1.0),
+        DMatrix::from_element(1, 1, 1.0),
+        DMatrix::zeros(1, 1),
+    )
+    .unwrap();
+    let s = MpcSettings {
+        horizon: 14,
+        q2: Weight::Scalar(1e-4),
+        terminal: Terminal::StageWeight,
+        ..MpcSettings::default()
+    };
+    let e = MpcProblem::build(&unstable, &s).unwrap_err();
+    let MpcError::NotPositiveDefinite { min_eigenvalue, .. } = &e else {
+        panic!("{e}");
+    };
+    // The output weight sees every move, so the smallest eigenvalue is at
+    // least the input weight; the largest at least H's first diagonal
+    // entry, the first move's sum of 9^j over the 14 outputs it moves.
+    let first_move: f64 = (0..14).map(|j| 9f64.powi(j)).sum();
+    assert!(*min_eigenvalue >= 0.5e-4, "{e}");
+    assert!(first_move > 1e12 * min_eigenvalue);
+    let text = e.to_string();
+    assert!(
+        text.contains("largest eigenvalue") && text.contains("shorter horizon"),
+        "{text}"
+    );
     // Blocking that does not fit the horizon; zero horizon.
     let s = MpcSettings {
         blocking: Some(Blocking::new(vec![1, 1]).unwrap()),
