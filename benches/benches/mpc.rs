@@ -9,9 +9,10 @@
 //!
 //! Beside it, the exact online solver at the same parameters: kestrel-qp's
 //! `ActiveSetSolver` as kestrel-mpc's law calls it (`solve_into`: fill the
-//! data, solve, copy `z`; owned workspaces kept between calls) and a
-//! `QpSolver` kept on workspaces of the caller's (`fill`, `solve`,
-//! `solution`), both cold, so their ratio is the owned solver's overhead.
+//! data, solve, refine, copy `z`; owned workspaces kept between calls) and
+//! a `QpSolver` kept on workspaces of the caller's (`fill`, `solve`,
+//! `refine`, `solution`), both cold, so their ratio is the owned solver's
+//! overhead.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use kestrel_mpc::{ParametricQpSolver, QpSettings, ReferenceSolver};
@@ -78,6 +79,7 @@ fn solves(c: &mut Criterion) {
                         qp.fill(black_box(theta.as_slice()), &mut buf)
                             .expect("fill");
                         kept.solve(&buf.data(), Start::Cold).expect("solves");
+                        kept.refine(&buf.data()).expect("refines");
                         kept.solution(&mut z).expect("solution")
                     })
                 },

@@ -539,3 +539,108 @@ fn infeasible_parameters_are_found_not_iterated() {
         );
     }
 }
+
+/// An ill-conditioned problem (`cond(H)` 1.8e11): a random unstable
+/// 3-state model at 50 Hz, `kestrel mpc --horizon 12 --u-min -1 --u-max 1
+/// --du-max 0.3 --x-max 3 --r-max 2`. The iteration's `z` cancels large
+/// terms and misses clarabel's solution by up to 2e-5 (relative; 363 of
+/// 467 parameters beyond 1e-6); after `QpSolver::refine` by 1.7e-7, near
+/// the conditioning's limit (`eps cond(H)` is 4e-5) for either solver.
+#[test]
+fn refinement_recovers_the_accuracy_of_an_ill_conditioned_problem() {
+    use kestrel_mpc::{Bounds, MpcProblem, MpcSettings};
+    let model = SsModel::new(
+        0.02,
+        DMatrix::from_row_slice(
+            3,
+            3,
+            &[
+                1.9826633837700265,
+                -0.28344352213783314,
+                0.2530276564784919,
+                -0.987909075598904,
+                1.6021898587742123,
+                0.0017770412551262062,
+                0.011991458505025381,
+                0.8095348136019469,
+                0.3161803666211379,
+            ],
+        ),
+        DMatrix::from_column_slice(
+            3,
+            1,
+            &[
+                0.15845579885840674,
+                -0.3789694081209866,
+                -0.10437861741700112,
+            ],
+        ),
+        DMatrix::from_row_slice(
+            1,
+            3,
+            &[1.3197746936074055, -2.498647672997678, -1.023256619809514],
+        ),
+        DMatrix::zeros(1, 1),
+    )
+    .unwrap();
+    let one = |v: f64| DVector::from_element(1, v);
+    let settings = MpcSettings {
+        horizon: 12,
+        state_bound: 3.0,
+        reference_bound: 2.0,
+        input_bounds: Some(Bounds::new(one(-1.0), one(1.0))),
+        du_bounds: Some(Bounds::new(one(-0.3), one(0.3))),
+        ..MpcSettings::default()
+    };
+    let p = MpcProblem::build(&model, &settings).unwrap().to_mpqp();
+    let par = ParametricQp::from_mpqp(&p).unwrap();
+    let (ns, ni) = par.workspace_len();
+    let (mut s, mut ix) = (vec![0.0; ns], vec![0; ni]);
+    let mut qp = par.solver(QpSettings::default(), &mut s, &mut ix).unwrap();
+    let mut reference = ReferenceSolver::new(
+        &p,
+        RefSettings {
+            tolerance: 1e-11,
+            max_iter: 400,
+            ..RefSettings::default()
+        },
+    )
+    .unwrap();
+    let mut buf = par.buffers::<f64>();
+    let mut rng = SplitMix64::seed_from_u64(7);
+    let (mut compared, mut missed_before, mut worst_before, mut worst) = (0, 0, 0.0_f64, 0.0_f64);
+    for _ in 0..samples(500) {
+        let theta = DVector::from_iterator(
+            p.p(),
+            (0..p.p())
+                .map(|j| p.theta_lb[j] + (p.theta_ub[j] - p.theta_lb[j]) * rng.random::<f64>()),
+        );
+        par.fill(theta.as_slice(), &mut buf).unwrap();
+        if qp.solve(&buf.data(), Start::Cold).is_err() {
+            continue;
+        }
+        let (mut z0, mut z) = (vec![0.0; par.n()], vec![0.0; par.n()]);
+        qp.solution(&mut z0).unwrap();
+        qp.refine(&buf.data()).unwrap();
+        qp.solution(&mut z).unwrap();
+        let Ok(r) = reference.solve(&theta) else {
+            continue;
+        };
+        if !r.polished {
+            continue;
+        }
+        let before = relative(&z0, r.z.as_slice());
+        worst_before = worst_before.max(before);
+        missed_before += usize::from(before > 1e-6);
+        worst = worst.max(relative(&z, r.z.as_slice()));
+        compared += 1;
+    }
+    eprintln!(
+        "{compared} compared: worst relative deviation {worst_before:.1e} before refinement ({missed_before} beyond 1e-6), {worst:.1e} after"
+    );
+    assert!(
+        compared > 250 && missed_before > 50,
+        "{compared} {missed_before}"
+    );
+    assert!(worst < 1e-6, "{worst:e}");
+}

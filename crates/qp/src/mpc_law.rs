@@ -157,8 +157,10 @@ impl ActiveSetSolver {
         } else {
             self.start
         };
+        let data = self.buffers.data();
         let info = solver
-            .solve(&self.buffers.data(), start)
+            .solve(&data, start)
+            .and_then(|info| solver.refine(&data).map(|()| info))
             .and_then(|info| solver.solution(z).map(|()| info));
         self.parked = solver.park();
         let info = info?;
@@ -359,6 +361,7 @@ mod tests {
             match want {
                 Ok(info) => {
                     got.unwrap();
+                    kept.refine(&buf.data()).unwrap();
                     kept.solution(&mut z_kept).unwrap();
                     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
                     assert_eq!(bits(&z), bits(&z_kept), "{k}");

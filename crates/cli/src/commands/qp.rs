@@ -186,7 +186,8 @@ fn solve_rows<S: QpScalar>(
             anyhow::anyhow!("{}: {e}{hint}", line())
         })?;
         solver
-            .solution(&mut z)
+            .refine(&buf.data())
+            .and_then(|()| solver.solution(&mut z))
             .map_err(|e| anyhow::anyhow!("{}: {e}", line()))?;
         out.push(Solved {
             z: z.iter().map(|v| v.to_f64()).collect(),
