@@ -82,6 +82,16 @@ fn transformed(p: &MpqpProblem, seed: u64) -> MpqpProblem {
     out
 }
 
+/// clarabel (kestrel-mpc's reference solver) at tight tolerances.
+fn tight_reference(p: &MpqpProblem) -> ReferenceSolver {
+    let settings = RefSettings {
+        tolerance: 1e-11,
+        max_iter: 400,
+        ..RefSettings::default()
+    };
+    ReferenceSolver::new(p, settings).unwrap()
+}
+
 fn relative(a: &[f64], b: &[f64]) -> f64 {
     let scale = 1.0 + b.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
     a.iter()
@@ -97,12 +107,7 @@ fn check(name: &str, p: &MpqpProblem, count: usize, explicit: bool) {
     let (ns, ni) = par.workspace_len();
     let (mut s, mut ix) = (vec![0.0; ns], vec![0; ni]);
     let mut qp = par.solver(QpSettings::default(), &mut s, &mut ix).unwrap();
-    let settings = RefSettings {
-        tolerance: 1e-11,
-        max_iter: 400,
-        ..RefSettings::default()
-    };
-    let mut reference = ReferenceSolver::new(p, settings).unwrap();
+    let mut reference = tight_reference(p);
     let law = explicit.then(|| solve_mpqp(p, &Settings::default()).unwrap());
     let mut rng = SplitMix64::seed_from_u64(24);
     let (mut worst_ref, mut worst_law, mut unpolished) = (0.0_f64, 0.0_f64, 0usize);
@@ -487,15 +492,7 @@ fn infeasible_parameters_are_found_not_iterated() {
         let (ns, ni) = par.workspace_len();
         let (mut s, mut ix) = (vec![0.0; ns], vec![0; ni]);
         let mut qp = par.solver(QpSettings::default(), &mut s, &mut ix).unwrap();
-        let mut reference = ReferenceSolver::new(
-            &p,
-            RefSettings {
-                tolerance: 1e-11,
-                max_iter: 400,
-                ..RefSettings::default()
-            },
-        )
-        .unwrap();
+        let mut reference = tight_reference(&p);
         let mut buf = par.buffers::<f64>();
         let mut rng = SplitMix64::seed_from_u64(5);
         let count = samples(2000);
@@ -597,15 +594,7 @@ fn refinement_recovers_the_accuracy_of_an_ill_conditioned_problem() {
     let (ns, ni) = par.workspace_len();
     let (mut s, mut ix) = (vec![0.0; ns], vec![0; ni]);
     let mut qp = par.solver(QpSettings::default(), &mut s, &mut ix).unwrap();
-    let mut reference = ReferenceSolver::new(
-        &p,
-        RefSettings {
-            tolerance: 1e-11,
-            max_iter: 400,
-            ..RefSettings::default()
-        },
-    )
-    .unwrap();
+    let mut reference = tight_reference(&p);
     let mut buf = par.buffers::<f64>();
     let mut rng = SplitMix64::seed_from_u64(7);
     let (mut compared, mut missed_before, mut worst_before, mut worst) = (0, 0, 0.0_f64, 0.0_f64);

@@ -141,6 +141,7 @@ impl<S: QpScalar> QpSolver<'_, S> {
             for p in 0..k {
                 let d = self.tmp.at(p);
                 let j = self.active.at(p);
+                // `wvec(j)` by fields, as in `primal` (and for its reason).
                 let w = if j < m {
                     self.w.get(j * n..(j + 1) * n)
                 } else {
@@ -322,8 +323,8 @@ impl<S: QpScalar> QpSolver<'_, S> {
         self.lf.put(k * c + k, S::ONE);
         // With `n` independent constraints active they span every
         // direction, so the entering one depends on them whatever the
-        // rounding of `d` (on an ill-conditioned `M` it can pass the test
-        // and give multipliers of 1e15 that never settle).
+        // rounding of `d` (in f32 on ill-conditioned problems the rounding
+        // passed the test: docs/qp.md, "Problems beyond the tricopter's").
         self.df.put(
             k,
             if k < self.n && d > self.pivtol * diag {
