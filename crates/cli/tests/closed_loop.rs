@@ -204,9 +204,11 @@ fn model_file_offset_free_and_bad_input() {
         &bad.display().to_string(),
     ]);
     assert!(
-        !ok && err.contains("4 pulse inputs and 3 rate outputs"),
+        !ok && err.contains("4 pulse inputs and 3 rate outputs") && err.contains("kestrel mpc"),
         "{err}"
     );
+    // The refusal comes first: no note on reading its channels as motors.
+    assert!(!err.contains("note:"), "{err}");
     let (ok, _, err) = kestrel(&["closed-loop", "--controller", "fgm", "--iterations", "0"]);
     assert!(!ok && err.contains("--iterations"), "{err}");
     let (ok, _, err) = kestrel(&["closed-loop", "--controller", "pid", "--offset-free"]);

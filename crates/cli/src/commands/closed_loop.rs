@@ -348,6 +348,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let model = match &args.model {
         Some(p) => {
             let m = SsModel::read(p).with_context(|| format!("{}", p.display()))?;
+            // Refused before any note on how its channels would be read.
+            if m.nu() != 4 || m.ny() != 3 {
+                bail!(
+                    "{}: the closed loop flies the tricopter simulator, so the design model must have 4 pulse inputs and 3 rate outputs (motors 1-3 and the tail servo; p, q, r), found {} inputs and {} outputs; for another plant, build its problem with `kestrel mpc` and solve it with `kestrel qp solve`, `kestrel fgm solve` or `kestrel empc solve`",
+                    p.display(),
+                    m.nu(),
+                    m.ny()
+                );
+            }
             super::tricopter_names::note_if_not_the_tricopter(&m, p, "the closed loop");
             m
         }
@@ -364,13 +373,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         model
     };
-    if model.nu() != 4 || model.ny() != 3 {
-        bail!(
-            "the design model must have 4 pulse inputs and 3 rate outputs, found {} inputs and {} outputs",
-            model.nu(),
-            model.ny()
-        );
-    }
     let mut run = if args.noise {
         RunSettings::noisy()
     } else {
