@@ -82,6 +82,14 @@ fn transformed(p: &MpqpProblem, seed: u64) -> MpqpProblem {
     out
 }
 
+/// A uniform point of the parameter box of `p`.
+fn box_point(p: &MpqpProblem, rng: &mut SplitMix64) -> DVector<f64> {
+    DVector::from_iterator(
+        p.p(),
+        (0..p.p()).map(|j| p.theta_lb[j] + (p.theta_ub[j] - p.theta_lb[j]) * rng.random::<f64>()),
+    )
+}
+
 /// clarabel (kestrel-mpc's reference solver) at tight tolerances.
 fn tight_reference(p: &MpqpProblem) -> ReferenceSolver {
     let settings = RefSettings {
@@ -113,11 +121,7 @@ fn check(name: &str, p: &MpqpProblem, count: usize, explicit: bool) {
     let (mut worst_ref, mut worst_law, mut unpolished) = (0.0_f64, 0.0_f64, 0usize);
     let (mut max_cold, mut max_warm) = (0usize, 0usize);
     for _ in 0..count {
-        let theta = DVector::from_iterator(
-            p.p(),
-            (0..p.p())
-                .map(|j| p.theta_lb[j] + (p.theta_ub[j] - p.theta_lb[j]) * rng.random::<f64>()),
-        );
+        let theta = box_point(p, &mut rng);
         let (z, cold) = solve(&mut qp, &par, &theta, Start::Cold);
         max_cold = max_cold.max(cold);
         let r = reference.solve(&theta).unwrap();
@@ -244,11 +248,7 @@ fn f32_deviation(p: &MpqpProblem, count: usize) -> f64 {
     let mut rng = SplitMix64::seed_from_u64(32);
     let mut worst = 0.0_f64;
     for _ in 0..count {
-        let theta = DVector::from_iterator(
-            p.p(),
-            (0..p.p())
-                .map(|j| p.theta_lb[j] + (p.theta_ub[j] - p.theta_lb[j]) * rng.random::<f64>()),
-        );
+        let theta = box_point(p, &mut rng);
         let (z, _) = solve(&mut qp, &par, &theta, Start::Cold);
         // The f32 data: the f64 solver's inputs rounded.
         par.fill(theta.as_slice(), &mut buf32).unwrap();
@@ -498,11 +498,7 @@ fn infeasible_parameters_are_found_not_iterated() {
         let count = samples(2000);
         let (mut feasible, mut infeasible, mut skipped) = (0, 0, 0);
         for _ in 0..count {
-            let theta = DVector::from_iterator(
-                p.p(),
-                (0..p.p())
-                    .map(|j| p.theta_lb[j] + (p.theta_ub[j] - p.theta_lb[j]) * rng.random::<f64>()),
-            );
+            let theta = box_point(&p, &mut rng);
             par.fill(theta.as_slice(), &mut buf).unwrap();
             let got = qp.solve(&buf.data(), Start::Cold);
             assert!(
@@ -599,11 +595,7 @@ fn refinement_recovers_the_accuracy_of_an_ill_conditioned_problem() {
     let mut rng = SplitMix64::seed_from_u64(7);
     let (mut compared, mut missed_before, mut worst_before, mut worst) = (0, 0, 0.0_f64, 0.0_f64);
     for _ in 0..samples(500) {
-        let theta = DVector::from_iterator(
-            p.p(),
-            (0..p.p())
-                .map(|j| p.theta_lb[j] + (p.theta_ub[j] - p.theta_lb[j]) * rng.random::<f64>()),
-        );
+        let theta = box_point(&p, &mut rng);
         par.fill(theta.as_slice(), &mut buf).unwrap();
         if qp.solve(&buf.data(), Start::Cold).is_err() {
             continue;
