@@ -451,16 +451,9 @@ fn read_text(path: &std::path::Path) -> anyhow::Result<String> {
     std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))
 }
 
-/// The tree tables of a solution file's `text` (read from `path`).
-fn read_tables(text: &str, path: &std::path::Path) -> anyhow::Result<AnyTables> {
-    export::read_tables(text).with_context(|| path.display().to_string())
-}
-
-/// The compact tables of a solution file's `text` (read from `path`).
-fn read_compact(
-    text: &str,
-    path: &std::path::Path,
-) -> anyhow::Result<kestrel_empc::CompactTables<f64>> {
+/// The tables of a solution file's `text` (read from `path`) in the
+/// format `T` ([`export::ExportTables`]).
+fn read_tables<T: export::ExportTables>(text: &str, path: &std::path::Path) -> anyhow::Result<T> {
     export::read_tables(text).with_context(|| path.display().to_string())
 }
 
@@ -475,10 +468,10 @@ fn run_eval(a: EvalArgs) -> anyhow::Result<()> {
         ),
         Stored::Lists(tables) => eval_lists(&a, &tables),
         Stored::Tree if a.compact => {
-            let tables = read_compact(&text, &a.solution)?;
+            let tables: kestrel_empc::CompactTables<f64> = read_tables(&text, &a.solution)?;
             eval_with(&a, &tables.tables())
         }
-        Stored::Tree => match read_tables(&text, &a.solution)? {
+        Stored::Tree => match read_tables::<AnyTables>(&text, &a.solution)? {
             AnyTables::Narrow(t) => eval_with(&a, &t.tables()),
             AnyTables::Wide(t) => eval_with(&a, &t.tables()),
         },
@@ -558,9 +551,12 @@ fn run_export(a: ExportArgs) -> anyhow::Result<()> {
         return io::write_output(a.out.as_deref(), &src);
     }
     let src = if a.compact {
-        export::rust_source(&read_compact(&text, &a.solution)?, scalar)
+        export::rust_source(
+            &read_tables::<kestrel_empc::CompactTables<f64>>(&text, &a.solution)?,
+            scalar,
+        )
     } else {
-        export::rust_source(&read_tables(&text, &a.solution)?, scalar)
+        export::rust_source(&read_tables::<AnyTables>(&text, &a.solution)?, scalar)
     }
     .with_context(|| a.solution.display().to_string())?;
     io::write_output(a.out.as_deref(), &src)
